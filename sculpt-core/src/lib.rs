@@ -1,0 +1,11 @@
+//! # sculpt-core
+//!
+//! The pure geometry core of Wandsculpt: no I/O, threads of its own, GPU or async.
+//!
+//! It will hold the NURBS kernel (evaluation, derivatives, knots, point inversion,
+//! fitting), the multiresolution UV vector map with strokes, Jordan classification and
+//! trimming, tessellation into mesh sinks, the document with undo, file formats as bytes
+//! in and out, and the interaction state machine that turns wand events into edits.
+#![warn(missing_docs)]
+
+pub mod tolerance;
