@@ -8,4 +8,8 @@
 //! in and out, and the interaction state machine that turns wand events into edits.
 #![warn(missing_docs)]
 
+pub mod error;
+pub mod mesh;
 pub mod tolerance;
+
+pub use error::{Error, Result};

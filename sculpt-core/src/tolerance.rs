@@ -94,7 +94,9 @@ impl<T: Near> Near for Vec<T> {
 
 impl<A: Near, B: Near> Near for (A, B) {
     fn max_abs_diff(&self, other: &Self) -> f64 {
-        self.0.max_abs_diff(&other.0).max(self.1.max_abs_diff(&other.1))
+        self.0
+            .max_abs_diff(&other.0)
+            .max(self.1.max_abs_diff(&other.1))
     }
 }
 

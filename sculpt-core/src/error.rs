@@ -1,0 +1,43 @@
+//! The one error type of `sculpt-core`.
+
+use thiserror::Error;
+
+/// Everything that can go wrong in `sculpt-core`.
+///
+/// Each module adds its variants in its own block; callers match on the variant, and
+/// each error is handled exactly once (reported, or turned into a fallback).
+#[derive(Debug, Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum Error {
+    // ---- NURBS kernel (knots, curves, surfaces, fitting, inversion) ----
+    /// A knot vector is malformed.
+    #[error("invalid knot vector: {0}")]
+    InvalidKnots(String),
+    // ---- end NURBS kernel ----
+
+    // ---- sculpting (UV maps, strokes, trimming, documents, formats) ----
+    /// A stroke was rejected; the reason says why.
+    #[error("stroke rejected: {0}")]
+    StrokeRejected(String),
+    // ---- end sculpting ----
+
+    // ---- operator event log ----
+    /// An operator event log line could not be read.
+    #[error("operator log line {line}: {reason}")]
+    OpLog {
+        /// 1-based line number.
+        line: usize,
+        /// What was wrong.
+        reason: String,
+    },
+    // ---- end operator event log ----
+
+    // ---- interaction ----
+    /// The interaction state machine refused an input.
+    #[error("interaction: {0}")]
+    Interaction(String),
+    // ---- end interaction ----
+}
+
+/// `Result` with [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;
