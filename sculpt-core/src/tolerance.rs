@@ -21,6 +21,12 @@ pub fn near(a: f64, b: f64, tol: f64) -> bool {
     (a - b).abs() <= tol
 }
 
+/// True when a difference `d` is within tolerance `t`; a NaN difference never is.
+#[inline]
+pub fn within(d: f64, t: f64) -> bool {
+    d <= t
+}
+
 /// Asserts that two values are within a tolerance of each other.
 ///
 /// Works on anything that implements [`Near`]: `f64`, `f32`, arrays and slices of
@@ -40,7 +46,7 @@ macro_rules! assert_near {
     ($left:expr, $right:expr, $tol:expr, $($msg:tt)+) => {{
         let (l, r, t) = (&$left, &$right, $tol as f64);
         let d = $crate::tolerance::Near::max_abs_diff(l, r);
-        if !(d <= t) {
+        if !$crate::tolerance::within(d, t) {
             panic!(
                 "assert_near failed: {} vs {}\n  left:  {:?}\n  right: {:?}\n  max |diff| = {:e} > tol {:e}\n  {}",
                 stringify!($left), stringify!($right), l, r, d, t, format!($($msg)+)
