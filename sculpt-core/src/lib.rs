@@ -10,6 +10,7 @@
 
 pub mod error;
 pub mod mesh;
+pub mod oplog;
 pub mod tolerance;
 
 pub use error::{Error, Result};
