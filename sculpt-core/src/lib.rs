@@ -11,6 +11,7 @@
 pub mod error;
 pub mod mesh;
 pub mod nurbs;
+pub mod oplog;
 pub mod tolerance;
 
 pub use error::{Error, Result};
