@@ -658,6 +658,37 @@ mod tests {
     }
 
     #[test]
+    fn angular_index_of_difficulty_by_hand() {
+        // Wand at the origin pointing down -Z; a 10 cm target 1 m along -Z and 1 m to
+        // the side: α = 45°, D = √2 m, ω = 2 atan(0.05 / √2).
+        let at = |t: f64, p: DVec3| Sample {
+            t,
+            p,
+            q: DQuat::IDENTITY,
+            run: 0,
+        };
+        let start = at(0.0, DVec3::ZERO);
+        let end = at(1.0, DVec3::new(0.9, 0.0, -0.9));
+        let f = fitts(
+            &start,
+            &end,
+            Some((0.5, DVec3::new(1.0, 0.0, -1.0), 0.1)),
+            None,
+        );
+        let alpha = std::f64::consts::FRAC_PI_4;
+        let omega = 2.0 * (0.05 / 2f64.sqrt()).atan();
+        assert_near!(f.amplitude, 2f64.sqrt(), 1e-12);
+        assert_near!(f.amplitude_rad, alpha, 1e-12);
+        assert_near!(f.width_rad.unwrap(), omega, 1e-12);
+        assert_near!(f.id_angular.unwrap(), (alpha / omega + 1.0).log2(), 1e-12);
+        assert_near!(f.id.unwrap(), (2f64.sqrt() / 0.1 + 1.0).log2(), 1e-12);
+        // No target and no default width: amplitude only, no ID.
+        let f = fitts(&start, &end, None, None);
+        assert_near!(f.amplitude, 0.9 * 2f64.sqrt(), 1e-12);
+        assert_eq!((f.id, f.id_angular), (None, None));
+    }
+
+    #[test]
     fn config_validation() {
         assert!(ExtractConfig::default().validate().is_ok());
         let bad = ExtractConfig {

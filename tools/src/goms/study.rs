@@ -596,6 +596,13 @@ mod tests {
         assert_eq!(back, m);
     }
 
+    proptest::proptest! {
+        #[test]
+        fn manifest_parser_never_panics(s in "[a-z\\[\\]=\"'\n 0-9.]{0,120}") {
+            let _ = Manifest::parse(&s);
+        }
+    }
+
     #[test]
     fn manifest_errors() {
         assert!(
