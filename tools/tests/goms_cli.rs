@@ -178,6 +178,13 @@ fn malformed_inputs_give_clear_errors() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("line 3"));
 
+    // With --skip-bad the bad log is left out, with a warning, and the report is written.
+    let out = tools(&["goms", "analyze", study.to_str().unwrap(), "--skip-bad"]);
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("left out"));
+    let report = std::fs::read_to_string(study.join("report/report.md")).unwrap();
+    assert!(report.contains("left out") && report.contains("line 3"));
+
     let klm = dir.path().join("m.klm");
     std::fs::write(&klm, "P K\nP Q\n").unwrap();
     let out = tools(&["goms", "klm", klm.to_str().unwrap()]);

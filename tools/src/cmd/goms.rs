@@ -177,6 +177,9 @@ struct AnalyzeArgs {
     /// Trials to draw Gantt and speed plots for: `first`, `all`, or PARTICIPANT/METHOD/TRIAL.
     #[arg(long, default_value = "first")]
     trace: String,
+    /// Leave out logs that do not decode (listed as warnings) instead of failing.
+    #[arg(long)]
+    skip_bad: bool,
 }
 
 #[derive(Debug, Args)]
@@ -354,7 +357,7 @@ fn rel(base: &Path, p: &Path) -> String {
 fn analyze(a: AnalyzeArgs) -> Result<()> {
     let cfg = a.thresholds.config()?;
     let out = a.out.clone().unwrap_or_else(|| a.dir.join("report"));
-    let input = g::read_study(&a.dir, Some(&out))?;
+    let input = g::read_study(&a.dir, Some(&out), a.skip_bad)?;
     let manifest = input.manifest.as_ref();
     let trials = g::extract_all(&input.logs, &cfg);
     let rows = study::tally_trials(&trials);
