@@ -347,3 +347,34 @@ fn study_mode_end_to_end() {
     let s2 = csv(&again.join("summary.csv"));
     assert_eq!(s2[1..3], summary[1..3]);
 }
+
+#[test]
+fn repeated_trial_numbers_are_flagged() {
+    let dir = tempfile::tempdir().unwrap();
+    let h =
+        "{\"format\":\"wandsculpt-oplog\",\"version\":1,\"participant\":\"P1\",\"method\":\"m\"}\n";
+    let trial = |t: f64| {
+        format!(
+            "{{\"t\":{t},\"ev\":\"trial_start\",\"trial\":1}}\n{{\"t\":{},\"ev\":\"button\",\"id\":0,\"down\":true}}\n{{\"t\":{},\"ev\":\"button\",\"id\":0,\"down\":false}}\n{{\"t\":{},\"ev\":\"trial_end\",\"trial\":1}}\n",
+            t + 0.5,
+            t + 0.6,
+            t + 1.0
+        )
+    };
+    std::fs::write(
+        dir.path().join("a.oplog"),
+        format!("{h}{}{}", trial(0.0), trial(2.0)),
+    )
+    .unwrap();
+    let out = tools(&[
+        "goms",
+        "analyze",
+        dir.path().to_str().unwrap(),
+        "--no-plots",
+    ]);
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("trial 1 more than once"));
+    // Both trials' presses land in trial 1: Table 1 shows 2 K for the one trial.
+    let summary = csv(&dir.path().join("report/summary.csv"));
+    assert_eq!(summary[1][..4], ["operations", "m", "2.00", "2.00"]);
+}

@@ -360,6 +360,16 @@ fn analyze(a: AnalyzeArgs) -> Result<()> {
     let input = g::read_study(&a.dir, Some(&out), a.skip_bad)?;
     let manifest = input.manifest.as_ref();
     let trials = g::extract_all(&input.logs, &cfg);
+    let mut warnings = input.warnings.clone();
+    let mut seen = std::collections::BTreeSet::new();
+    for t in &trials {
+        if !seen.insert((&t.participant, &t.method, t.trial)) {
+            warnings.push(format!(
+                "{} / {} has trial {} more than once; its operators are added up as one trial",
+                t.participant, t.method, t.trial
+            ));
+        }
+    }
     let rows = study::tally_trials(&trials);
     let analysis = g::aggregate_with(
         &rows,
@@ -411,7 +421,7 @@ fn analyze(a: AnalyzeArgs) -> Result<()> {
         title: manifest
             .and_then(|m| m.name.clone())
             .unwrap_or_else(|| "GOMS study report".into()),
-        warnings: input.warnings.clone(),
+        warnings: warnings.clone(),
         constants: a.klm.describe(),
         plots,
         ..Default::default()
@@ -459,7 +469,7 @@ fn analyze(a: AnalyzeArgs) -> Result<()> {
         cx.appendix = md;
     }
     write(&out.join("report.md"), &report::markdown(&analysis, &cx))?;
-    for w in &input.warnings {
+    for w in &warnings {
         eprintln!("warning: {w}");
     }
     println!(
