@@ -5,6 +5,9 @@ use std::process::{Command, Output};
 
 use sculpt_core::assert_near;
 
+/// Sums and ratios of a few two-decimal numbers agree to this.
+const TABLE_EPS: f64 = 1e-9;
+
 fn tools(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_sculpt-tools"))
         .args(args)
@@ -50,6 +53,8 @@ fn golden_paper_tables_and_percentages() {
         &data("paper-tables-1-2.csv"),
         "--out",
         out.to_str().unwrap(),
+        "--klm",
+        "Multi-resolution sculpting=builtin:multires-sculpting",
     ]);
     // Table 1 and Table 2, cell by cell, as the paper prints them.
     let summary = csv(&out.join("summary.csv"));
@@ -81,7 +86,7 @@ fn golden_paper_tables_and_percentages() {
     for (row, (table, method, cells)) in summary[1..].iter().zip(want) {
         assert_eq!((row[0].as_str(), row[1].as_str()), (table, method));
         let got: Vec<f64> = row[2..].iter().map(|x| x.parse().unwrap()).collect();
-        assert_near!(got.as_slice(), cells.as_slice(), 1e-9);
+        assert_near!(got.as_slice(), cells.as_slice(), TABLE_EPS);
     }
     assert_eq!(summary.len(), 7);
 
@@ -99,10 +104,10 @@ fn golden_paper_tables_and_percentages() {
     let ops_tr = pct("Trimming modeling", "operations");
     let t_ms = pct("Multi-surface modeling", "time_s");
     let t_tr = pct("Trimming modeling", "time_s");
-    assert_near!(ops_ms, 100.0 * 12.8 / 165.4, 1e-9);
-    assert_near!(ops_tr, 100.0 * 12.8 / 35.6, 1e-9);
-    assert_near!(t_ms, 100.0 * 12.01 / 100.62, 1e-9);
-    assert_near!(t_tr, 100.0 * 12.01 / 30.53, 1e-9);
+    assert_near!(ops_ms, 100.0 * 12.8 / 165.4, TABLE_EPS);
+    assert_near!(ops_tr, 100.0 * 12.8 / 35.6, TABLE_EPS);
+    assert_near!(t_ms, 100.0 * 12.01 / 100.62, TABLE_EPS);
+    assert_near!(t_tr, 100.0 * 12.01 / 30.53, TABLE_EPS);
     // The paper prints percentages truncated to two decimals: 7.73 % and 39.33 % are
     // reproduced exactly that way.
     let trunc = |x: f64| (x * 100.0 + 1e-9).floor() / 100.0;
@@ -117,6 +122,12 @@ fn golden_paper_tables_and_percentages() {
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(report.contains("7.74 % (7.73)"), "{report}");
     assert!(report.contains("39.34 % (39.33)"));
+    // KLM (3 P, 7 K, 2 M: 7.96 s) next to the measured 12.01 s.
+    assert!(
+        report
+            .contains("| Multi-resolution sculpting | builtin:multires-sculpting | 7.96 | 12.01 |"),
+        "{report}"
+    );
     for f in [
         "operations_by_method",
         "time_by_method",
@@ -177,6 +188,13 @@ fn malformed_inputs_give_clear_errors() {
     let out = tools(&["goms", "analyze", study.to_str().unwrap()]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("line 3"));
+
+    // With --skip-bad the bad log is left out, with a warning, and the report is written.
+    let out = tools(&["goms", "analyze", study.to_str().unwrap(), "--skip-bad"]);
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("left out"));
+    let report = std::fs::read_to_string(study.join("report/report.md")).unwrap();
+    assert!(report.contains("left out") && report.contains("line 3"));
 
     let klm = dir.path().join("m.klm");
     std::fs::write(&klm, "P K\nP Q\n").unwrap();
@@ -336,4 +354,35 @@ fn study_mode_end_to_end() {
     ]);
     let s2 = csv(&again.join("summary.csv"));
     assert_eq!(s2[1..3], summary[1..3]);
+}
+
+#[test]
+fn repeated_trial_numbers_are_flagged() {
+    let dir = tempfile::tempdir().unwrap();
+    let h =
+        "{\"format\":\"wandsculpt-oplog\",\"version\":1,\"participant\":\"P1\",\"method\":\"m\"}\n";
+    let trial = |t: f64| {
+        format!(
+            "{{\"t\":{t},\"ev\":\"trial_start\",\"trial\":1}}\n{{\"t\":{},\"ev\":\"button\",\"id\":0,\"down\":true}}\n{{\"t\":{},\"ev\":\"button\",\"id\":0,\"down\":false}}\n{{\"t\":{},\"ev\":\"trial_end\",\"trial\":1}}\n",
+            t + 0.5,
+            t + 0.6,
+            t + 1.0
+        )
+    };
+    std::fs::write(
+        dir.path().join("a.oplog"),
+        format!("{h}{}{}", trial(0.0), trial(2.0)),
+    )
+    .unwrap();
+    let out = tools(&[
+        "goms",
+        "analyze",
+        dir.path().to_str().unwrap(),
+        "--no-plots",
+    ]);
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("trial 1 more than once"));
+    // Both trials' presses land in trial 1: Table 1 shows 2 K for the one trial.
+    let summary = csv(&dir.path().join("report/summary.csv"));
+    assert_eq!(summary[1][..4], ["operations", "m", "2.00", "2.00"]);
 }

@@ -177,6 +177,9 @@ struct AnalyzeArgs {
     /// Trials to draw Gantt and speed plots for: `first`, `all`, or PARTICIPANT/METHOD/TRIAL.
     #[arg(long, default_value = "first")]
     trace: String,
+    /// Leave out logs that do not decode (listed as warnings) instead of failing.
+    #[arg(long)]
+    skip_bad: bool,
 }
 
 #[derive(Debug, Args)]
@@ -196,6 +199,12 @@ struct SummarizeArgs {
     /// Report title.
     #[arg(long)]
     title: Option<String>,
+    /// KLM prediction to show next to a method's measured time: METHOD=builtin:<id> or
+    /// METHOD=path/to/method.klm (repeatable).
+    #[arg(long, value_name = "METHOD=SOURCE")]
+    klm: Vec<String>,
+    #[command(flatten)]
+    klm_constants: KlmConstants,
     #[command(flatten)]
     stats: StatArgs,
 }
@@ -354,9 +363,19 @@ fn rel(base: &Path, p: &Path) -> String {
 fn analyze(a: AnalyzeArgs) -> Result<()> {
     let cfg = a.thresholds.config()?;
     let out = a.out.clone().unwrap_or_else(|| a.dir.join("report"));
-    let input = g::read_study(&a.dir, Some(&out))?;
+    let input = g::read_study(&a.dir, Some(&out), a.skip_bad)?;
     let manifest = input.manifest.as_ref();
     let trials = g::extract_all(&input.logs, &cfg);
+    let mut warnings = input.warnings.clone();
+    let mut seen = std::collections::BTreeSet::new();
+    for t in &trials {
+        if !seen.insert((&t.participant, &t.method, t.trial)) {
+            warnings.push(format!(
+                "{} / {} has trial {} more than once; its operators are added up as one trial",
+                t.participant, t.method, t.trial
+            ));
+        }
+    }
     let rows = study::tally_trials(&trials);
     let analysis = g::aggregate_with(
         &rows,
@@ -408,7 +427,7 @@ fn analyze(a: AnalyzeArgs) -> Result<()> {
         title: manifest
             .and_then(|m| m.name.clone())
             .unwrap_or_else(|| "GOMS study report".into()),
-        warnings: input.warnings.clone(),
+        warnings: warnings.clone(),
         constants: a.klm.describe(),
         plots,
         ..Default::default()
@@ -439,14 +458,7 @@ fn analyze(a: AnalyzeArgs) -> Result<()> {
     if let Some(m) = manifest {
         for spec in &m.methods {
             if let Some(src) = &spec.klm {
-                let text = klm_text(src, &a.dir)?;
-                let method =
-                    klm::parse_method(&text).with_context(|| format!("KLM method {src}"))?;
-                cx.klm.push(KlmLine {
-                    method: spec.id.clone(),
-                    source: src.clone(),
-                    prediction: klm::predict(&method.steps, &a.klm.constants()),
-                });
+                cx.klm.push(klm_line(&spec.id, src, &a.dir, &a.klm)?);
             }
         }
     }
@@ -456,7 +468,7 @@ fn analyze(a: AnalyzeArgs) -> Result<()> {
         cx.appendix = md;
     }
     write(&out.join("report.md"), &report::markdown(&analysis, &cx))?;
-    for w in &input.warnings {
+    for w in &warnings {
         eprintln!("warning: {w}");
     }
     println!(
@@ -492,6 +504,13 @@ fn summarize(a: SummarizeArgs) -> Result<()> {
         a.stats.boot(),
     );
     let plots = write_common(&a.out, &rows, &analysis, a.stats.no_plots)?;
+    let mut klm_lines = Vec::new();
+    for spec in &a.klm {
+        let (method, src) = spec
+            .split_once('=')
+            .with_context(|| format!("--klm wants METHOD=SOURCE, got {spec:?}"))?;
+        klm_lines.push(klm_line(method, src, Path::new("."), &a.klm_constants)?);
+    }
     let cx = ReportContext {
         title: a
             .title
@@ -504,11 +523,8 @@ fn summarize(a: SummarizeArgs) -> Result<()> {
                 a.stats.bootstrap, a.stats.seed
             ),
         ],
-        constants: KlmConstants {
-            mental: MentalConstant::Cmn,
-            typist: Typist::Average,
-        }
-        .describe(),
+        constants: a.klm_constants.describe(),
+        klm: klm_lines,
         plots,
         ..Default::default()
     };
@@ -527,6 +543,17 @@ fn klm_text(src: &str, base: &Path) -> Result<String> {
     }
     let p = base.join(src);
     std::fs::read_to_string(&p).with_context(|| format!("cannot read KLM method {}", p.display()))
+}
+
+/// The KLM prediction of one method for the report.
+fn klm_line(method: &str, src: &str, base: &Path, c: &KlmConstants) -> Result<KlmLine> {
+    let text = klm_text(src, base)?;
+    let m = klm::parse_method(&text).with_context(|| format!("KLM method {src}"))?;
+    Ok(KlmLine {
+        method: method.to_owned(),
+        source: src.to_owned(),
+        prediction: klm::predict(&m.steps, &c.constants()),
+    })
 }
 
 fn klm_cmd(a: KlmArgs) -> Result<()> {

@@ -574,6 +574,7 @@ mod tests {
     use super::*;
     use sculpt_core::assert_near;
     use sculpt_core::oplog::{OpEvent, OpLogHeader};
+    use sculpt_core::tolerance::{EXACT_EPS, POINT_EPS};
 
     fn log(events: Vec<(f64, EventKind)>) -> OpLog {
         OpLog {
@@ -612,7 +613,7 @@ mod tests {
         };
         let t = &extract(&l, &bb, "p", "m")[0];
         assert_eq!((t.count(OpKind::B), t.count(OpKind::K)), (4, 0));
-        assert_near!(t.ops[0].duration(), 0.05, 1e-12);
+        assert_near!(t.ops[0].duration(), 0.05, EXACT_EPS);
     }
 
     #[test]
@@ -641,11 +642,13 @@ mod tests {
         );
         let p = t.ops.iter().find(|o| o.op == OpKind::P).unwrap();
         let f = p.fitts.unwrap();
-        assert_near!(f.amplitude, 0.5, 1e-9);
-        assert_near!(f.id.unwrap(), (0.5f64 / 0.05 + 1.0).log2(), 1e-9);
-        // Onset and offset within a smoothing width of the true 1.5 s and 2.5 s.
-        assert_near!(p.t_start, 1.5, 0.06);
-        assert_near!(p.t_end, 2.5, 0.06);
+        assert_near!(f.amplitude, 0.5, POINT_EPS);
+        assert_near!(f.id.unwrap(), (0.5f64 / 0.05 + 1.0).log2(), EXACT_EPS);
+        // Onset and offset within a smoothing width (2.4 σ = 0.06 s) of the true 1.5 s
+        // and 2.5 s.
+        let smear = 2.4 * ExtractConfig::default().smooth_sigma_s;
+        assert_near!(p.t_start, 1.5, smear);
+        assert_near!(p.t_end, 2.5, smear);
     }
 
     #[test]
@@ -655,6 +658,41 @@ mod tests {
         ev.extend((0..50).map(|i| (1.0 + i as f64 * 0.01, pose(0.4))));
         let t = &extract(&log(ev), &ExtractConfig::default(), "p", "m")[0];
         assert_eq!(t.count(OpKind::P), 0);
+    }
+
+    #[test]
+    fn angular_index_of_difficulty_by_hand() {
+        // Wand at the origin pointing down -Z; a 10 cm target 1 m along -Z and 1 m to
+        // the side: α = 45°, D = √2 m, ω = 2 atan(0.05 / √2).
+        let at = |t: f64, p: DVec3| Sample {
+            t,
+            p,
+            q: DQuat::IDENTITY,
+            run: 0,
+        };
+        let start = at(0.0, DVec3::ZERO);
+        let end = at(1.0, DVec3::new(0.9, 0.0, -0.9));
+        let f = fitts(
+            &start,
+            &end,
+            Some((0.5, DVec3::new(1.0, 0.0, -1.0), 0.1)),
+            None,
+        );
+        let alpha = std::f64::consts::FRAC_PI_4;
+        let omega = 2.0 * (0.05 / 2f64.sqrt()).atan();
+        assert_near!(f.amplitude, 2f64.sqrt(), EXACT_EPS);
+        assert_near!(f.amplitude_rad, alpha, EXACT_EPS);
+        assert_near!(f.width_rad.unwrap(), omega, EXACT_EPS);
+        assert_near!(
+            f.id_angular.unwrap(),
+            (alpha / omega + 1.0).log2(),
+            EXACT_EPS
+        );
+        assert_near!(f.id.unwrap(), (2f64.sqrt() / 0.1 + 1.0).log2(), EXACT_EPS);
+        // No target and no default width: amplitude only, no ID.
+        let f = fitts(&start, &end, None, None);
+        assert_near!(f.amplitude, 0.9 * 2f64.sqrt(), EXACT_EPS);
+        assert_eq!((f.id, f.id_angular), (None, None));
     }
 
     #[test]

@@ -79,8 +79,9 @@ fn find_logs(dir: &Path, skip: Option<&Path>, out: &mut Vec<PathBuf>, depth: usi
 }
 
 /// Reads a study directory: the sessions of `study.toml`, or every `*.oplog` file
-/// below it (except under `skip`, the output directory).
-pub fn read_study(dir: &Path, skip: Option<&Path>) -> Result<StudyInput> {
+/// below it (except under `skip`, the output directory). A log that does not decode is
+/// an error, or with `skip_bad` a warning and left out.
+pub fn read_study(dir: &Path, skip: Option<&Path>, skip_bad: bool) -> Result<StudyInput> {
     if !dir.is_dir() {
         bail!("{} is not a directory", dir.display());
     }
@@ -110,7 +111,14 @@ pub fn read_study(dir: &Path, skip: Option<&Path>) -> Result<StudyInput> {
         sessions.extend(paths.into_iter().map(|p| (p, None)));
     }
     for (path, who) in sessions {
-        let log = load_log(&path)?;
+        let log = match load_log(&path) {
+            Ok(log) => log,
+            Err(e) if skip_bad => {
+                input.warnings.push(format!("left out: {e:#}"));
+                continue;
+            }
+            Err(e) => return Err(e),
+        };
         if log.truncated_tail {
             input.warnings.push(format!(
                 "{}: the last line was cut short and was dropped",

@@ -145,19 +145,23 @@ pub fn paired(a: &[f64], b: &[f64]) -> Option<Paired> {
 mod tests {
     use super::*;
     use sculpt_core::assert_near;
+    use sculpt_core::tolerance::EXACT_EPS;
+
+    /// Printed statistical tables give 6 significant digits.
+    const TABLE_EPS: f64 = 1e-5;
 
     #[test]
     fn describe_by_hand() {
         // 2, 4, 4, 4, 5, 5, 7, 9: mean 5, sum of squares 32, SD sqrt(32/7).
         let xs = [2.0, 4.0, 4.0, 4.0, 5.0, 5.0, 7.0, 9.0];
         let d = describe(&xs, Bootstrap::default()).unwrap();
-        assert_near!(d.mean, 5.0, 1e-12);
-        assert_near!(d.sd.unwrap(), (32.0f64 / 7.0).sqrt(), 1e-12);
+        assert_near!(d.mean, 5.0, EXACT_EPS);
+        assert_near!(d.sd.unwrap(), (32.0f64 / 7.0).sqrt(), EXACT_EPS);
         // t(0.975, 7) = 2.364624 (tables).
         let h = 2.364_624 * (32.0f64 / 7.0).sqrt() / 8f64.sqrt();
         let (lo, hi) = d.ci_t.unwrap();
-        assert_near!(lo, 5.0 - h, 1e-5);
-        assert_near!(hi, 5.0 + h, 1e-5);
+        assert_near!(lo, 5.0 - h, TABLE_EPS);
+        assert_near!(hi, 5.0 + h, TABLE_EPS);
         let (blo, bhi) = d.ci_boot.unwrap();
         assert!(blo < 5.0 && bhi > 5.0 && blo >= 2.0 && bhi <= 9.0);
         // Same seed, same interval.
@@ -169,8 +173,8 @@ mod tests {
 
     #[test]
     fn t_critical_values() {
-        assert_near!(t_crit95(4).unwrap(), 2.776_445, 1e-5);
-        assert_near!(t_crit95(1).unwrap(), 12.706_2, 1e-3);
+        assert_near!(t_crit95(4).unwrap(), 2.776_445, TABLE_EPS);
+        assert_near!(t_crit95(1).unwrap(), 12.706_2, 100.0 * TABLE_EPS);
         assert!(t_crit95(0).is_none());
     }
 
@@ -185,10 +189,10 @@ mod tests {
     fn paired_by_hand() {
         // Differences 1, 2, 3: mean 2, SD 1, t = 2 / (1/sqrt 3) = 3.4641, df 2, p = 0.0742.
         let p = paired(&[11.0, 12.0, 13.0], &[10.0, 10.0, 10.0]).unwrap();
-        assert_near!(p.mean_diff, 2.0, 1e-12);
-        assert_near!(p.t.unwrap(), 2.0 * 3f64.sqrt(), 1e-12);
+        assert_near!(p.mean_diff, 2.0, EXACT_EPS);
+        assert_near!(p.t.unwrap(), 2.0 * 3f64.sqrt(), EXACT_EPS);
         assert_eq!(p.df, 2);
-        assert_near!(p.p.unwrap(), 0.074_180, 1e-4);
+        assert_near!(p.p.unwrap(), 0.074_180, TABLE_EPS);
         // Constant differences: no t.
         let c = paired(&[2.0, 3.0], &[1.0, 2.0]).unwrap();
         assert_eq!((c.t, c.p), (None, None));

@@ -503,6 +503,7 @@ pub fn aggregate(
 mod tests {
     use super::*;
     use sculpt_core::assert_near;
+    use sculpt_core::tolerance::EXACT_EPS;
 
     fn row(p: &str, m: &str, trial: u32, op: &str, count: f64, time: f64) -> TallyRow {
         TallyRow {
@@ -537,17 +538,17 @@ mod tests {
         let ma = &a.methods[0];
         assert_eq!((ma.label.as_str(), ma.trials), ("A", 3));
         // p1: P mean 3, M mean 0.5; p2: P 5, M 0.
-        assert_near!(ma.count[0].mean, 4.0, 1e-12);
-        assert_near!(ma.count[1].mean, 0.25, 1e-12);
-        assert_near!(ma.total_count.mean, (3.5 + 5.0) / 2.0, 1e-12);
+        assert_near!(ma.count[0].mean, 4.0, EXACT_EPS);
+        assert_near!(ma.count[1].mean, 0.25, EXACT_EPS);
+        assert_near!(ma.total_count.mean, (3.5 + 5.0) / 2.0, EXACT_EPS);
         // Pooled P duration: (2 + 4 + 6) / (2 + 4 + 5).
-        assert_near!(ma.op_duration[0].unwrap(), 12.0 / 11.0, 1e-12);
+        assert_near!(ma.op_duration[0].unwrap(), 12.0 / 11.0, EXACT_EPS);
         let c = a
             .comparisons
             .iter()
             .find(|c| c.method == "b" && c.against == "a" && c.measure == Measure::Operations)
             .unwrap();
-        assert_near!(c.percent.unwrap(), 100.0 * 1.5 / 4.25, 1e-12);
+        assert_near!(c.percent.unwrap(), 100.0 * 1.5 / 4.25, EXACT_EPS);
         assert_eq!(c.paired.unwrap().n, 2);
     }
 
@@ -594,6 +595,13 @@ mod tests {
         }
         let back = Manifest::parse(&m.to_toml().unwrap()).unwrap();
         assert_eq!(back, m);
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn manifest_parser_never_panics(s in "[a-z\\[\\]=\"'\n 0-9.]{0,120}") {
+            let _ = Manifest::parse(&s);
+        }
     }
 
     #[test]

@@ -279,6 +279,10 @@ mod tests {
             assert_eq!(trials.len(), 1);
             let t = &trials[0];
             let (k, p, m) = (t.count(OpKind::K), t.count(OpKind::P), t.count(OpKind::M));
+            eprintln!(
+                "seed {seed}: K {k}/{} P {p}/{} M {m}/{} (found/truth)",
+                truth.k, truth.p, truth.m
+            );
             assert_eq!(k, truth.k, "seed {seed}: K exact");
             assert!(
                 p.abs_diff(truth.p) <= 1,
