@@ -346,3 +346,43 @@ fn missing_bodies_and_buttons_only_sources() {
     assert_eq!(w.status, TrackingStatus::Tracking);
     assert_eq!(w.buttons, 0b10);
 }
+
+#[test]
+fn readme_config_example_parses() {
+    // Keeps the README's documented config honest.
+    let readme = include_str!("../../README.md");
+    let section = readme
+        .split("### Config file (TOML)")
+        .nth(1)
+        .expect("README config section");
+    let block = section
+        .split("```toml")
+        .nth(1)
+        .unwrap()
+        .split("```")
+        .next()
+        .unwrap();
+    let cfg = TrackingConfig::from_toml_str(block).unwrap();
+    assert_eq!(cfg.sources.len(), 2);
+    assert_eq!(cfg.calibration.tips.len(), 1);
+    // Z-up tracker, 1 m up -> display y = 1 m (then 2 m back).
+    assert_near!(
+        cfg.calibration
+            .point_in_world(DVec3::new(0.0, 0.0, 1000.0))
+            .to_array(),
+        [0.0, 1.0, -2.0],
+        1e-12
+    );
+}
+
+#[test]
+fn readme_serial_examples_decode() {
+    let readme = include_str!("../../README.md");
+    let mut n = 0;
+    for line in readme.lines().filter(|l| l.starts_with("$WAND,1")) {
+        let rec = line.split("\\r\\n").next().unwrap();
+        tracking::serial::parse_serial(rec.as_bytes()).unwrap();
+        n += 1;
+    }
+    assert_eq!(n, 2);
+}

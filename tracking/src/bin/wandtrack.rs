@@ -82,7 +82,8 @@ enum Cmd {
     /// Re-send a pose log's DTrack records byte for byte with their original timing.
     Play {
         /// The pose log.
-        log: PathBuf,
+        #[arg(value_name = "LOG")]
+        input: PathBuf,
         /// Playback speed: 1 = real time, 0 = as fast as possible.
         #[arg(long, default_value_t = 1.0)]
         speed: f64,
@@ -253,7 +254,11 @@ async fn main() -> Result<()> {
             }
             Ok(())
         }
-        Cmd::Play { log, speed, out } => {
+        Cmd::Play {
+            input: log,
+            speed,
+            out,
+        } => {
             let l = PoseLog::read(&log)?;
             for e in &l.corrupt {
                 eprintln!("{}: {e}", log.display());
@@ -342,5 +347,14 @@ async fn main() -> Result<()> {
             println!("[calibration]\n{}", toml::to_string(&f.calibration)?);
             Ok(())
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn cli_is_well_formed() {
+        use clap::CommandFactory;
+        super::Cli::command().debug_assert();
     }
 }
