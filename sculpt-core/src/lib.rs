@@ -10,6 +10,7 @@
 
 pub mod error;
 pub mod mesh;
+pub mod sculpt;
 pub mod tolerance;
 
 pub use error::{Error, Result};
