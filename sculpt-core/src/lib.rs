@@ -9,6 +9,7 @@
 #![warn(missing_docs)]
 
 pub mod error;
+pub mod formats;
 pub mod mesh;
 pub mod sculpt;
 pub mod tolerance;
