@@ -13,6 +13,24 @@ pub enum Error {
     /// A knot vector is malformed.
     #[error("invalid knot vector: {0}")]
     InvalidKnots(String),
+    /// A degree is zero or above [`crate::nurbs::MAX_DEGREE`].
+    #[error("invalid degree: {0}")]
+    InvalidDegree(String),
+    /// The control net does not match the knot vectors (counts, ragged rows, NaN).
+    #[error("invalid control net: {0}")]
+    InvalidControlNet(String),
+    /// A weight is missing, not finite or not positive.
+    #[error("invalid weights: {0}")]
+    InvalidWeights(String),
+    /// A parameter (knot to insert, constructor argument) is out of range or not finite.
+    #[error("invalid parameter: {0}")]
+    InvalidParameter(String),
+    /// A fit could not be computed (too few points, singular system, NaN data).
+    #[error("fit failed: {0}")]
+    FitFailed(String),
+    /// A curve or surface JSON document could not be read.
+    #[error("invalid NURBS JSON: {0}")]
+    Json(String),
     // ---- end NURBS kernel ----
 
     // ---- sculpting (UV maps, strokes, trimming, documents, formats) ----

@@ -11,6 +11,7 @@
 pub mod error;
 pub mod formats;
 pub mod mesh;
+pub mod nurbs;
 pub mod sculpt;
 pub mod tolerance;
 

@@ -424,7 +424,7 @@ pub fn read(bytes: &[u8]) -> Result<IgesModel> {
         };
         let int = |i: usize| -> Result<usize> {
             let x = num(i)?;
-            if x < 0.0 || x > 1e7 || x.fract() != 0.0 {
+            if !(0.0..=1e7).contains(&x) || x.fract() != 0.0 {
                 return Err(e(format!(
                     "entity {kind} at {de}: parameter {i} is not a count"
                 )));
