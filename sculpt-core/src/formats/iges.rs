@@ -434,7 +434,7 @@ pub fn read(bytes: &[u8]) -> Result<IgesModel> {
         match kind {
             128 => {
                 let (k1, k2, m1, m2) = (int(1)?, int(2)?, int(3)?, int(4)?);
-                let polynomial = int(8)? == 1;
+                let polynomial = int(7)? == 1;
                 let (nu, nv) = (k1 + 1, k2 + 1);
                 let (nku, nkv) = (nu + m1 + 1, nv + m2 + 1);
                 let need = 10 + nku + nkv + 4 * nu * nv + 4;

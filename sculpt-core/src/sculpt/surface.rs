@@ -29,6 +29,20 @@ impl<F: Fn(DVec2) -> SurfacePoint> ParamSurface for F {
     }
 }
 
+impl ParamSurface for crate::nurbs::NurbsSurface {
+    /// Maps the normalised square onto the knot domain; derivatives scale by the
+    /// domain's extent (chain rule).
+    fn eval(&self, uv: DVec2) -> SurfacePoint {
+        let ((u0, u1), (v0, v1)) = (self.domain_u(), self.domain_v());
+        let d = self.derivatives(u0 + uv.x * (u1 - u0), v0 + uv.y * (v1 - v0));
+        SurfacePoint {
+            p: d.point,
+            du: d.du * (u1 - u0),
+            dv: d.dv * (v1 - v0),
+        }
+    }
+}
+
 /// Clamps a parameter into the unit square (NaN becomes 0.5).
 pub fn clamp_uv(uv: DVec2) -> DVec2 {
     let c = |x: f64| {

@@ -141,6 +141,11 @@ impl TargetTessellation {
         &self.hidden
     }
 
+    /// Triangles in the current mesh of this target.
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.iter().sum()
+    }
+
     /// The level of detail.
     pub fn detail(&self) -> Detail {
         self.detail
