@@ -350,6 +350,18 @@ impl Document {
         stats
     }
 
+    /// The number of patches a full tessellation at `detail` writes (for progress).
+    pub fn patch_count(&self, detail: Detail) -> usize {
+        self.targets
+            .iter()
+            .map(|t| {
+                let ext = extent(&t.surface);
+                let n = super::uvmap::base_grid(&ext, ext.diagonal() * detail.chord_fraction());
+                (n * n) as usize
+            })
+            .sum()
+    }
+
     /// The whole sculpted mesh at `detail`, freshly tessellated.
     pub fn mesh(&self, detail: Detail) -> PatchMesh {
         let mut mesh = PatchMesh::new();
@@ -619,9 +631,4 @@ impl Document {
             + 1;
         Ok(doc)
     }
-}
-
-/// The size of a target for stroke validation (bounding-box diagonal of samples).
-pub fn target_size(surface: &dyn ParamSurface) -> f64 {
-    extent(surface).diagonal()
 }

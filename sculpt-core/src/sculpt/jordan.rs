@@ -127,6 +127,7 @@ pub struct Region {
     contours: Vec<Vec<DVec2>>,
     segments: Vec<[DVec2; 2]>,
     bands: Vec<Vec<u32>>,
+    bounds: Option<Rect>,
 }
 
 impl Region {
@@ -153,10 +154,15 @@ impl Region {
                 band.push(k as u32);
             }
         }
+        let bounds = segments.iter().fold(None, |acc: Option<Rect>, s| {
+            let r = Rect::of_segment(s[0], s[1]);
+            Some(acc.map_or(r, |a| Rect::new(a.min.min(r.min), a.max.max(r.max))))
+        });
         Self {
             contours,
             segments,
             bands,
+            bounds,
         }
     }
 
@@ -208,6 +214,9 @@ impl Region {
     /// Classifies a node rectangle: boundary when an edge meets it, otherwise interior
     /// or exterior by the location of its centre.
     pub fn classify(&self, rect: Rect) -> NodeClass {
+        if !self.bounds.is_some_and(|b| b.touches(&rect)) {
+            return NodeClass::Exterior;
+        }
         let (lo, hi) = (band_of(rect.min.y), band_of(rect.max.y));
         for band in &self.bands[lo..=hi] {
             for &k in band {

@@ -35,7 +35,7 @@
 //! ```
 
 use super::jordan::{Rect, Region, signed_area};
-use super::surface::{ParamSurface, extent, normal_at, project, project_seeded};
+use super::surface::{ParamSurface, extent_sampled, normal_at, project, project_seeded};
 use crate::error::{Error, Result};
 use glam::{DVec2, DVec3};
 use i_overlay::core::fill_rule::FillRule;
@@ -297,7 +297,7 @@ impl Stroke {
         {
             return Err(Error::StrokeRejected(format!("sample {k} is not finite")));
         }
-        let ext = extent(surface);
+        let ext = extent_sampled(surface, 8);
         if tool.width > ext.diagonal() {
             return Err(Error::StrokeRejected(format!(
                 "tool width {} m is larger than the surface ({} m across)",

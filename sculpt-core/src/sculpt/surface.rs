@@ -63,7 +63,12 @@ pub fn clamp_uv(uv: DVec2) -> DVec2 {
 /// patch. Never NaN.
 pub fn normal_at(surface: &dyn ParamSurface, uv: DVec2) -> DVec3 {
     let uv = clamp_uv(uv);
-    let sp = surface.eval(uv);
+    normal_from(surface, uv, &surface.eval(uv))
+}
+
+/// [`normal_at`] when `sp = surface.eval(uv)` is already known (saves an evaluation
+/// except at degenerate points).
+pub fn normal_from(surface: &dyn ParamSurface, uv: DVec2, sp: &SurfacePoint) -> DVec3 {
     let n = sp.du.cross(sp.dv);
     let scale = (sp.du.length() * sp.dv.length()).max(f64::MIN_POSITIVE);
     if n.is_finite() && n.length() > 1e-9 * scale && n.length() > 0.0 {
@@ -182,7 +187,7 @@ pub struct SurfaceExtent {
     pub closed_u: bool,
     /// Closed in v: the edges v = 0 and v = 1 coincide.
     pub closed_v: bool,
-    /// Largest second difference of a 33 x 33 sample grid, per unit parameter squared
+    /// Largest second difference of the sample grid, per unit parameter squared
     /// (an estimate of max |S_uu|, |S_vv|), used to choose the base grid.
     pub curvature: f64,
 }
@@ -194,9 +199,17 @@ impl SurfaceExtent {
     }
 }
 
-/// Samples a surface to find its extent, closedness and curvature bound.
+/// Samples a surface on a 33 x 33 grid to find its extent, closedness and curvature
+/// bound.
 pub fn extent(surface: &dyn ParamSurface) -> SurfaceExtent {
-    const N: usize = 32;
+    extent_sampled(surface, 32)
+}
+
+/// [`extent`] from an `(n + 1) x (n + 1)` sample grid (`n >= 2`).
+pub fn extent_sampled(surface: &dyn ParamSurface, n: usize) -> SurfaceExtent {
+    let n = n.max(2);
+    #[allow(non_snake_case)]
+    let N = n;
     let h = 1.0 / N as f64;
     let mut grid = vec![DVec3::ZERO; (N + 1) * (N + 1)];
     let (mut min, mut max) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));

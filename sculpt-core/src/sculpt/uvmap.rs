@@ -246,6 +246,9 @@ impl UvMap {
     /// The finest level among the leaves of `root` that touch one of its sides
     /// (0 = u-min, 1 = u-max, 2 = v-min, 3 = v-max).
     pub fn side_level(&self, root: u32, side: u8) -> u8 {
+        if self.nodes[root as usize].children.is_none() {
+            return self.nodes[root as usize].level;
+        }
         let r = self.nodes[root as usize].rect;
         self.leaves_of(root)
             .into_iter()
