@@ -37,6 +37,25 @@ pub enum Error {
     /// A stroke was rejected; the reason says why.
     #[error("stroke rejected: {0}")]
     StrokeRejected(String),
+    /// A mesh or CAD file could not be read or written; the reason says where and why.
+    #[error("{format}: {reason}")]
+    Format {
+        /// The file format (OBJ, STL, glTF, IGES).
+        format: &'static str,
+        /// What was wrong.
+        reason: String,
+    },
+    /// A document or scene file was rejected; the reason says where and why.
+    #[error("document: {0}")]
+    Document(String),
+    /// A document operation named a target or stroke that does not exist.
+    #[error("no such {kind} {id}")]
+    NotFound {
+        /// "target" or "stroke".
+        kind: &'static str,
+        /// The id asked for.
+        id: u64,
+    },
     // ---- end sculpting ----
 
     // ---- operator event log ----

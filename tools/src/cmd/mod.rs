@@ -1,3 +1,5 @@
 //! One module per `sculpt-tools` subcommand.
 
+pub mod export;
 pub mod goms;
+pub mod mesh;

@@ -1,0 +1,48 @@
+//! `sculpt-tools export`: write a scene's NURBS surfaces as IGES 5.3 (targets as trimmed
+//! surfaces, entity 144; stroke surfaces as entity 128).
+
+use super::mesh::load_scene;
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use indicatif::ProgressBar;
+use sculpt_core::formats::iges;
+use std::path::PathBuf;
+
+/// Arguments of `export`.
+#[derive(Debug, Args)]
+pub struct ExportArgs {
+    /// Scene or document file (wandsculpt-document JSON).
+    #[arg(long)]
+    pub scene: PathBuf,
+    /// Output file: `.igs` or `.iges`.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Runs `export`.
+pub fn run(args: ExportArgs) -> Result<()> {
+    let ext = args
+        .out
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    if !matches!(ext.as_deref(), Some("igs" | "iges")) {
+        bail!("--out must end in .igs or .iges: {}", args.out.display());
+    }
+    let doc = load_scene(&args.scene)?;
+    let bar = ProgressBar::new_spinner();
+    bar.set_message("building trimmed surfaces");
+    let surfaces = doc.iges_surfaces();
+    bar.set_message("writing IGES");
+    let bytes = iges::write(&surfaces);
+    bar.finish_and_clear();
+    std::fs::write(&args.out, &bytes).with_context(|| format!("writing {}", args.out.display()))?;
+    let trimmed = surfaces.iter().filter(|s| s.faces.is_some()).count();
+    println!(
+        "{}: {} surfaces ({} trimmed), {} bytes",
+        args.out.display(),
+        surfaces.len(),
+        trimmed,
+        bytes.len()
+    );
+    Ok(())
+}
