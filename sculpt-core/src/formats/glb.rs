@@ -67,10 +67,10 @@ pub fn write(mesh: &WeldedMesh) -> Vec<u8> {
         ]
     });
     let mut json_bytes = serde_json::to_vec(&doc).unwrap_or_default();
-    while json_bytes.len() % 4 != 0 {
+    while !json_bytes.len().is_multiple_of(4) {
         json_bytes.push(b' ');
     }
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let total = 12 + 8 + json_bytes.len() + 8 + bin.len();
@@ -197,7 +197,7 @@ pub fn read(bytes: &[u8]) -> Result<WeldedMesh> {
         Some(5121) => 1,
         _ => return Err(e("unsupported index type")),
     };
-    if count % 3 != 0 || count.saturating_mul(size) > bin.len() {
+    if !count.is_multiple_of(3) || count.saturating_mul(size) > bin.len() {
         return Err(e("bad index count"));
     }
     let mut idx = Vec::with_capacity(count);

@@ -387,7 +387,7 @@ pub fn read(bytes: &[u8]) -> Result<IgesModel> {
             other => return Err(e(format!("line {}: unknown section {other:?}", ln + 1))),
         }
     }
-    if dir.len() % 2 != 0 {
+    if !dir.len().is_multiple_of(2) {
         return Err(e("odd number of directory entry lines".into()));
     }
     let mut model = IgesModel::default();
