@@ -193,7 +193,7 @@ pub async fn pump_dtrack<R: AsyncRead + Unpin>(
     let mut decoder = DTrackDecoder::new(opts.limits).keep_raw(hub.is_recording());
     let mut buf = vec![0u8; READ_BUF];
     let mut last_frame = Instant::now();
-    hub.set_connected(src, true, hub.now());
+    hub.connection_opened(src);
     let end = loop {
         let left = opts.read_timeout.saturating_sub(last_frame.elapsed());
         let n = match tokio::time::timeout(left, reader.read(&mut buf)).await {
@@ -214,7 +214,7 @@ pub async fn pump_dtrack<R: AsyncRead + Unpin>(
     if decoder.reset() {
         tracing::debug!("stream ended mid-frame; partial frame dropped");
     }
-    hub.set_connected(src, false, hub.now());
+    hub.connection_closed(src, hub.now());
     end
 }
 
@@ -337,7 +337,7 @@ pub async fn pump_serial<R: AsyncRead + Unpin>(
     let mut buf = vec![0u8; 4096];
     let mut raw = Vec::new();
     let mut last = Instant::now();
-    hub.set_connected(src, true, hub.now());
+    hub.connection_opened(src);
     let end = loop {
         let left = opts.read_timeout.saturating_sub(last.elapsed());
         let n = match tokio::time::timeout(left, reader.read(&mut buf)).await {
@@ -366,7 +366,7 @@ pub async fn pump_serial<R: AsyncRead + Unpin>(
             }
         });
     };
-    hub.set_connected(src, false, hub.now());
+    hub.connection_closed(src, hub.now());
     end
 }
 

@@ -386,3 +386,35 @@ fn readme_serial_examples_decode() {
     }
     assert_eq!(n, 2);
 }
+
+#[test]
+fn pivot_calibration_finds_the_tip() {
+    use tracking::calibration::fit_tip;
+    let tip = DVec3::new(0.01, -0.02, -0.15);
+    let pivot = DVec3::new(0.3, 1.1, -0.4);
+    let poses: Vec<(DVec3, DQuat)> = (0..12)
+        .map(|i| {
+            let a = i as f64 * 0.5;
+            let q = DQuat::from_euler(
+                glam::EulerRot::YXZ,
+                a.sin() * 0.8,
+                a.cos() * 0.5,
+                0.2 * a.sin(),
+            );
+            (pivot - q * tip, q)
+        })
+        .collect();
+    let f = fit_tip(&poses).unwrap();
+    assert_near!(f.tip_in_body_m.to_array(), tip.to_array(), 1e-9);
+    assert_near!(f.pivot_in_world_m.to_array(), pivot.to_array(), 1e-9);
+    assert!(f.rms_residual_m < 1e-9);
+    // One rotation axis only cannot pin the tip down along that axis.
+    let flat: Vec<(DVec3, DQuat)> = (0..8)
+        .map(|i| {
+            let q = DQuat::from_rotation_y(i as f64 * 0.3);
+            (pivot - q * tip, q)
+        })
+        .collect();
+    assert!(fit_tip(&flat).is_err());
+    assert!(fit_tip(&poses[..2]).is_err());
+}

@@ -96,6 +96,19 @@ enum Cmd {
         /// The pose log.
         log: PathBuf,
     },
+    /// Pivot calibration: fit a device's tip offset from a pose log recorded while its
+    /// tip was held on one point and the device turned; prints the `tips` entry.
+    Pivot {
+        /// The pose log.
+        #[arg(value_name = "LOG")]
+        input: PathBuf,
+        /// The device, e.g. `wand0` or `body1`.
+        #[arg(long, default_value = "wand0")]
+        device: String,
+        /// Tracking config whose calibration maps tracker to display (default: mm to m).
+        #[arg(long)]
+        config: Option<PathBuf>,
+    },
     /// Fit a tracker-to-display calibration from point pairs and print it as TOML.
     Calibrate {
         /// CSV, one pair per line: `tx,ty,tz,wx,wy,wz` (tracker mm, display m);
@@ -301,6 +314,53 @@ async fn main() -> Result<()> {
             if !l.corrupt.is_empty() || !bad.is_empty() {
                 std::process::exit(1);
             }
+            Ok(())
+        }
+        Cmd::Pivot {
+            input,
+            device,
+            config,
+        } => {
+            let calibration = match config {
+                Some(p) => TrackingConfig::load(&p)?.calibration,
+                None => Calibration::default(),
+            };
+            let id: tracking::DeviceId = device.parse()?;
+            let (frames, bad) = PoseLog::read(&input)?.frames();
+            for e in &bad {
+                eprintln!("{}: {e}", input.display());
+            }
+            let marker_only = Calibration {
+                tips: Default::default(),
+                ..calibration
+            };
+            let mut poses = Vec::new();
+            for f in &frames {
+                let pose = match id {
+                    tracking::DeviceId::Body(b) => f.body(b).map(|b| b.pose),
+                    tracking::DeviceId::Wand(w) => {
+                        f.wand(w).filter(|w| w.is_tracked()).map(|w| w.pose)
+                    }
+                };
+                if let Some(wp) = pose.and_then(|p| marker_only.pose_in_world(id, &p)) {
+                    poses.push((wp.position_m, wp.orientation));
+                }
+            }
+            let f = tracking::calibration::fit_tip(&poses)?;
+            let t = f.tip_in_body_m;
+            println!(
+                "# {} poses, rms residual {:.3} mm, max {:.3} mm; pivot at {:.4} {:.4} {:.4} m",
+                poses.len(),
+                f.rms_residual_m * 1e3,
+                f.max_residual_m * 1e3,
+                f.pivot_in_world_m.x,
+                f.pivot_in_world_m.y,
+                f.pivot_in_world_m.z
+            );
+            println!(
+                "[calibration.tips]\n{device} = [{:.6}, {:.6}, {:.6}]",
+                t.x, t.y, t.z
+            );
             Ok(())
         }
         Cmd::Calibrate {
