@@ -370,6 +370,20 @@ pub async fn pump_serial<R: AsyncRead + Unpin>(
     end
 }
 
+/// Sleeps until `t / speed` after `start` (no sleep for a non-positive, infinite or
+/// absurdly small speed whose deadline would overflow).
+async fn pace(start: tokio::time::Instant, t: Duration, speed: f64) {
+    if !(speed.is_finite() && speed > 0.0) {
+        return;
+    }
+    let at = Duration::try_from_secs_f64(t.as_secs_f64() / speed)
+        .ok()
+        .and_then(|d| start.checked_add(d));
+    if let Some(at) = at {
+        tokio::time::sleep_until(at).await;
+    }
+}
+
 /// Writes `(time, bytes)` items to a stream, each at its time divided by `speed` after
 /// the start (`speed <= 0` or infinite: as fast as possible). Returns bytes written.
 pub async fn send_paced<W: AsyncWrite + Unpin>(
@@ -380,9 +394,7 @@ pub async fn send_paced<W: AsyncWrite + Unpin>(
     let start = tokio::time::Instant::now();
     let mut total = 0;
     for (t, bytes) in items {
-        if speed.is_finite() && speed > 0.0 {
-            tokio::time::sleep_until(start + t.div_f64(speed)).await;
-        }
+        pace(start, t, speed).await;
         w.write_all(&bytes).await?;
         total += bytes.len() as u64;
     }
@@ -400,9 +412,7 @@ pub async fn send_paced_udp(
     let start = tokio::time::Instant::now();
     let mut total = 0;
     for (t, bytes) in items {
-        if speed.is_finite() && speed > 0.0 {
-            tokio::time::sleep_until(start + t.div_f64(speed)).await;
-        }
+        pace(start, t, speed).await;
         sock.send_to(&bytes, target).await?;
         total += bytes.len() as u64;
     }

@@ -144,6 +144,9 @@ async fn emit(
     out: &Output,
     source: &str,
 ) -> Result<()> {
+    if speed.is_nan() || speed.is_infinite() || speed < 0.0 {
+        bail!("--speed must be a finite number >= 0 (0: as fast as possible)");
+    }
     if let Some(path) = &out.log {
         let mut w = tracking::poselog::PoseLogWriter::create(path, &PoseLogHeader::new(source))?;
         for (t, bytes) in &items {
