@@ -455,7 +455,11 @@ impl Hub {
                 frame,
                 DeviceId::Body(b.id),
                 b.quality,
-                PoseReport::Tracked(b.pose),
+                if b.quality >= 0.0 {
+                    PoseReport::Tracked(b.pose)
+                } else {
+                    PoseReport::Untracked
+                },
                 None,
             );
         }

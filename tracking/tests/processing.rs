@@ -418,3 +418,27 @@ fn pivot_calibration_finds_the_tip() {
     assert!(fit_tip(&flat).is_err());
     assert!(fit_tip(&poses[..2]).is_err());
 }
+
+#[test]
+fn a_body_with_negative_quality_is_lost_not_moved() {
+    let hub = Hub::new(&config());
+    let src = hub.add_source("t");
+    let head = hub.watch(DeviceId::Body(0));
+    let mut f = Frame::new(1);
+    f.bodies.push(tracking::Body {
+        id: 0,
+        quality: 1.0,
+        pose: Pose::from_position_mm(DVec3::X * 10.0),
+    });
+    hub.apply_frame(src, &f);
+    let mut g = Frame::new(2);
+    g.bodies.push(tracking::Body {
+        id: 0,
+        quality: -1.0,
+        pose: Pose::from_position_mm(DVec3::X * 99.0),
+    });
+    hub.apply_frame(src, &g);
+    let s = head.borrow().clone();
+    assert_eq!(s.status, TrackingStatus::Lost);
+    assert_near!(s.pose.unwrap().position_m.x, 0.01, 1e-12);
+}
