@@ -87,25 +87,28 @@ impl Drop for Running {
 /// when `record` is set. Binding errors are returned; later I/O errors are retried.
 pub async fn start(config: &TrackingConfig) -> Result<Running> {
     config.validate()?;
-    let hub = Hub::new(config);
-    if let Some(path) = &config.record {
-        let mut header = PoseLogHeader::new(
-            config
-                .sources
-                .iter()
-                .map(SourceConfig::describe)
-                .collect::<Vec<_>>()
-                .join(", "),
-        );
-        header.config = serde_json::to_value(config)?;
-        header.calibration = serde_json::to_value(&config.calibration)?;
-        hub.set_recorder(PoseLogWriter::create(path, &header)?);
-    }
-    start_with_hub(hub, config).await
+    start_with_hub(Hub::new(config), config).await
 }
 
-/// Like [`start`], onto an existing hub.
+/// Like [`start`], onto an existing hub: subscribe to its events (and watch devices)
+/// first, then start, and no early event is missed.
 pub async fn start_with_hub(hub: Hub, config: &TrackingConfig) -> Result<Running> {
+    config.validate()?;
+    if let Some(path) = &config.record {
+        if !hub.is_recording() {
+            let mut header = PoseLogHeader::new(
+                config
+                    .sources
+                    .iter()
+                    .map(SourceConfig::describe)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            );
+            header.config = serde_json::to_value(config)?;
+            header.calibration = serde_json::to_value(&config.calibration)?;
+            hub.set_recorder(PoseLogWriter::create(path, &header)?);
+        }
+    }
     let opts = TransportOptions::from(config);
     let mut running = Running {
         hub: hub.clone(),

@@ -149,3 +149,52 @@ fn pivot_from_a_recorded_log() {
     let want = tip.to_array();
     sculpt_core::assert_near!(got.as_slice(), want.as_slice(), 1e-3);
 }
+
+#[test]
+fn listen_prints_events_and_records() {
+    use glam::DVec3;
+    use std::io::BufRead;
+    use tracking::sim::{Script, SimConfig, Simulator};
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("t.toml");
+    std::fs::write(&cfg, "[[source]]\nkind = \"udp\"\naddr = \"127.0.0.1:0\"\n").unwrap();
+    let log = dir.path().join("rec.wslog");
+    let mut child = wandtrack()
+        .arg("listen")
+        .arg("--config")
+        .arg(&cfg)
+        .arg("--record")
+        .arg(&log)
+        .args(["--seconds", "3", "--every-ms", "0"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut err = std::io::BufReader::new(child.stderr.take().unwrap());
+    let mut line = String::new();
+    err.read_line(&mut line).unwrap();
+    let addr: std::net::SocketAddr = line
+        .split("(bound ")
+        .nth(1)
+        .and_then(|s| s.trim().trim_end_matches(')').parse().ok())
+        .unwrap_or_else(|| panic!("no bound address in {line:?}"));
+    let script = Script::new(DVec3::ZERO).click(2, 0.05).hold(0.05);
+    let sock = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let mut sent = Vec::new();
+    for f in Simulator::new(&script, SimConfig::default()).unwrap() {
+        let mut b = Vec::new();
+        tracking::dtrack::encode_frame(&f, &mut b);
+        sock.send_to(&b, addr).unwrap();
+        sent.push(b);
+    }
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success());
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("\"Button\"") && stdout.contains("\"button\":2"),
+        "{stdout}"
+    );
+    let rec = PoseLog::read(&log).unwrap();
+    let logged: Vec<Vec<u8>> = rec.records.iter().map(|r| r.bytes.clone()).collect();
+    assert_eq!(logged, sent);
+}

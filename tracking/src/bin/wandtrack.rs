@@ -13,7 +13,7 @@ use tracking::calibration::{Calibration, FitOptions, fit};
 use tracking::config::TrackingConfig;
 use tracking::poselog::{PoseLog, PoseLogHeader, RecordKind};
 use tracking::sim::{Script, SimConfig, Simulator};
-use tracking::transport::{frames_as_items, send_paced, send_paced_udp, start};
+use tracking::transport::{frames_as_items, send_paced, send_paced_udp};
 
 #[derive(Parser)]
 #[command(name = "wandtrack", version, about = "Wandsculpt tracking toolbox")]
@@ -238,7 +238,10 @@ async fn main() -> Result<()> {
             if cfg.sources.is_empty() {
                 bail!("{}: no [[source]] configured", config.display());
             }
-            let running = start(&cfg).await?;
+            // Subscribe before any source starts, so no early event is missed.
+            let hub = tracking::hub::Hub::new(&cfg);
+            let mut events = hub.subscribe();
+            let running = tracking::transport::start_with_hub(hub, &cfg).await?;
             for (s, a) in cfg.sources.iter().zip(&running.local_addrs) {
                 eprintln!(
                     "source {} {}",
@@ -246,7 +249,6 @@ async fn main() -> Result<()> {
                     a.map(|a| format!("(bound {a})")).unwrap_or_default()
                 );
             }
-            let mut events = running.hub.subscribe();
             let mut tick = tokio::time::interval(Duration::from_millis(every_ms.max(1)));
             let deadline = tokio::time::sleep(
                 seconds.map_or(Duration::from_secs(u64::MAX / 4), Duration::from_secs_f64),
