@@ -290,6 +290,73 @@ pub fn fit(pairs: &[(DVec3, DVec3)], options: &FitOptions) -> Result<Fit> {
     })
 }
 
+/// A fitted tip offset (pivot calibration) and how well it fits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TipFit {
+    /// The tip in body axes, metres (what goes in [`Calibration::tips`]).
+    pub tip_in_body_m: DVec3,
+    /// The fixed point the tip pivoted about, metres in the display frame.
+    pub pivot_in_world_m: DVec3,
+    /// Root-mean-square distance of each pose's tip from the pivot, m.
+    pub rms_residual_m: f64,
+    /// Largest such distance, m.
+    pub max_residual_m: f64,
+}
+
+/// Pivot calibration: the wand's tip is held on a fixed point while the wand is
+/// turned; every pose `(p_i, R_i)` (display frame, metres) then satisfies
+/// `R_i · tip + p_i = pivot`. Stacking `[R_i  −I] · [tip; pivot] = −p_i` gives a
+/// 3n × 6 linear least-squares problem, solved by SVD. Needs ≥ 3 poses whose rotations
+/// differ about at least two axes; otherwise the system is degenerate and this errors.
+pub fn fit_tip(poses: &[(DVec3, DQuat)]) -> Result<TipFit> {
+    let bad = |s: &str| Err(TrackingError::Calibration(s.to_string()));
+    if poses.len() < 3 {
+        return bad("pivot calibration needs at least 3 poses");
+    }
+    if poses
+        .iter()
+        .any(|(p, q)| !p.is_finite() || !q.is_finite() || q.length() < 1e-6)
+    {
+        return bad("poses must be finite with non-zero quaternions");
+    }
+    let n = poses.len();
+    let mut a = nalgebra::DMatrix::<f64>::zeros(3 * n, 6);
+    let mut b = nalgebra::DVector::<f64>::zeros(3 * n);
+    for (i, (p, q)) in poses.iter().enumerate() {
+        let r = DMat3::from_quat(q.normalize());
+        for row in 0..3 {
+            for col in 0..3 {
+                a[(3 * i + row, col)] = r.col(col)[row];
+            }
+            a[(3 * i + row, 3 + row)] = -1.0;
+            b[3 * i + row] = -p[row];
+        }
+    }
+    let svd = a.svd(true, true);
+    let smax = svd.singular_values.max();
+    let smin = svd.singular_values.min();
+    if !smax.is_finite() || smax <= 0.0 || smin < 1e-6 * smax {
+        return bad("poses are degenerate: turn the wand about two or more axes");
+    }
+    let x = svd
+        .solve(&b, 1e-12 * smax)
+        .map_err(|e| TrackingError::Calibration(e.to_string()))?;
+    let tip = DVec3::new(x[0], x[1], x[2]);
+    let pivot = DVec3::new(x[3], x[4], x[5]);
+    let residuals: Vec<f64> = poses
+        .iter()
+        .map(|(p, q)| (q.normalize() * tip + *p).distance(pivot))
+        .collect();
+    let rms_residual_m = (residuals.iter().map(|r| r * r).sum::<f64>() / n as f64).sqrt();
+    let max_residual_m = residuals.iter().copied().fold(0.0, f64::max);
+    Ok(TipFit {
+        tip_in_body_m: tip,
+        pivot_in_world_m: pivot,
+        rms_residual_m,
+        max_residual_m,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -175,6 +175,7 @@ struct Source {
     last_frame: Option<u64>,
     last_accept: Duration,
     bodies: BTreeSet<u32>,
+    active: usize,
 }
 
 #[derive(Debug)]
@@ -259,6 +260,7 @@ impl Hub {
             last_frame: None,
             last_accept: Duration::ZERO,
             bodies: BTreeSet::new(),
+            active: 0,
         });
         SourceId(m.sources.len() - 1)
     }
@@ -334,21 +336,50 @@ impl Hub {
         }
     }
 
-    /// Marks a source (dis)connected; on disconnect its devices become `Disconnected`.
+    /// Marks a connectionless source (UDP) as receiving or gone quiet; when gone, its
+    /// devices become `Disconnected`.
     pub fn set_connected(&self, source: SourceId, connected: bool, time: Duration) {
+        let active = self.lock().sources.get(source.0).map_or(0, |s| s.active);
+        if connected && active == 0 {
+            self.connection_opened(source);
+        } else if !connected && active > 0 {
+            self.close_all(source, time);
+        }
+    }
+
+    /// A stream connection of `source` opened (several may be open at once).
+    pub fn connection_opened(&self, source: SourceId) {
+        let mut m = self.lock();
+        if let Some(s) = m.sources.get_mut(source.0) {
+            s.active += 1;
+            s.stats.connected = true;
+            s.stats.connections += 1;
+            s.last_frame = None;
+        }
+    }
+
+    /// A stream connection of `source` closed; when none is left, its devices become
+    /// `Disconnected`.
+    pub fn connection_closed(&self, source: SourceId, time: Duration) {
+        let last = {
+            let mut m = self.lock();
+            m.sources.get_mut(source.0).is_some_and(|s| {
+                s.active = s.active.saturating_sub(1);
+                s.active == 0
+            })
+        };
+        if last {
+            self.close_all(source, time);
+        }
+    }
+
+    fn close_all(&self, source: SourceId, time: Duration) {
         let mut m = self.lock();
         let Some(s) = m.sources.get_mut(source.0) else {
             return;
         };
-        if s.stats.connected == connected {
-            return;
-        }
-        s.stats.connected = connected;
-        if connected {
-            s.stats.connections += 1;
-            s.last_frame = None;
-            return;
-        }
+        s.active = 0;
+        s.stats.connected = false;
         s.bodies.clear();
         for d in m.devices.values_mut() {
             if d.state.source == source && d.state.status != TrackingStatus::Disconnected {
@@ -408,7 +439,8 @@ impl Hub {
         src.last_frame = Some(frame.number);
         src.last_accept = time;
         src.stats.frames += 1;
-        if !src.stats.connected {
+        if src.active == 0 {
+            src.active = 1;
             src.stats.connected = true;
             src.stats.connections += 1;
         }
@@ -423,7 +455,11 @@ impl Hub {
                 frame,
                 DeviceId::Body(b.id),
                 b.quality,
-                PoseReport::Tracked(b.pose),
+                if b.quality >= 0.0 {
+                    PoseReport::Tracked(b.pose)
+                } else {
+                    PoseReport::Untracked
+                },
                 None,
             );
         }

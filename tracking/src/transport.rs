@@ -87,25 +87,28 @@ impl Drop for Running {
 /// when `record` is set. Binding errors are returned; later I/O errors are retried.
 pub async fn start(config: &TrackingConfig) -> Result<Running> {
     config.validate()?;
-    let hub = Hub::new(config);
-    if let Some(path) = &config.record {
-        let mut header = PoseLogHeader::new(
-            config
-                .sources
-                .iter()
-                .map(SourceConfig::describe)
-                .collect::<Vec<_>>()
-                .join(", "),
-        );
-        header.config = serde_json::to_value(config)?;
-        header.calibration = serde_json::to_value(&config.calibration)?;
-        hub.set_recorder(PoseLogWriter::create(path, &header)?);
-    }
-    start_with_hub(hub, config).await
+    start_with_hub(Hub::new(config), config).await
 }
 
-/// Like [`start`], onto an existing hub.
+/// Like [`start`], onto an existing hub: subscribe to its events (and watch devices)
+/// first, then start, and no early event is missed.
 pub async fn start_with_hub(hub: Hub, config: &TrackingConfig) -> Result<Running> {
+    config.validate()?;
+    if let Some(path) = &config.record {
+        if !hub.is_recording() {
+            let mut header = PoseLogHeader::new(
+                config
+                    .sources
+                    .iter()
+                    .map(SourceConfig::describe)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            );
+            header.config = serde_json::to_value(config)?;
+            header.calibration = serde_json::to_value(&config.calibration)?;
+            hub.set_recorder(PoseLogWriter::create(path, &header)?);
+        }
+    }
     let opts = TransportOptions::from(config);
     let mut running = Running {
         hub: hub.clone(),
@@ -193,7 +196,7 @@ pub async fn pump_dtrack<R: AsyncRead + Unpin>(
     let mut decoder = DTrackDecoder::new(opts.limits).keep_raw(hub.is_recording());
     let mut buf = vec![0u8; READ_BUF];
     let mut last_frame = Instant::now();
-    hub.set_connected(src, true, hub.now());
+    hub.connection_opened(src);
     let end = loop {
         let left = opts.read_timeout.saturating_sub(last_frame.elapsed());
         let n = match tokio::time::timeout(left, reader.read(&mut buf)).await {
@@ -214,7 +217,7 @@ pub async fn pump_dtrack<R: AsyncRead + Unpin>(
     if decoder.reset() {
         tracing::debug!("stream ended mid-frame; partial frame dropped");
     }
-    hub.set_connected(src, false, hub.now());
+    hub.connection_closed(src, hub.now());
     end
 }
 
@@ -337,7 +340,7 @@ pub async fn pump_serial<R: AsyncRead + Unpin>(
     let mut buf = vec![0u8; 4096];
     let mut raw = Vec::new();
     let mut last = Instant::now();
-    hub.set_connected(src, true, hub.now());
+    hub.connection_opened(src);
     let end = loop {
         let left = opts.read_timeout.saturating_sub(last.elapsed());
         let n = match tokio::time::timeout(left, reader.read(&mut buf)).await {
@@ -366,8 +369,22 @@ pub async fn pump_serial<R: AsyncRead + Unpin>(
             }
         });
     };
-    hub.set_connected(src, false, hub.now());
+    hub.connection_closed(src, hub.now());
     end
+}
+
+/// Sleeps until `t / speed` after `start` (no sleep for a non-positive, infinite or
+/// absurdly small speed whose deadline would overflow).
+async fn pace(start: tokio::time::Instant, t: Duration, speed: f64) {
+    if !(speed.is_finite() && speed > 0.0) {
+        return;
+    }
+    let at = Duration::try_from_secs_f64(t.as_secs_f64() / speed)
+        .ok()
+        .and_then(|d| start.checked_add(d));
+    if let Some(at) = at {
+        tokio::time::sleep_until(at).await;
+    }
 }
 
 /// Writes `(time, bytes)` items to a stream, each at its time divided by `speed` after
@@ -380,9 +397,7 @@ pub async fn send_paced<W: AsyncWrite + Unpin>(
     let start = tokio::time::Instant::now();
     let mut total = 0;
     for (t, bytes) in items {
-        if speed.is_finite() && speed > 0.0 {
-            tokio::time::sleep_until(start + t.div_f64(speed)).await;
-        }
+        pace(start, t, speed).await;
         w.write_all(&bytes).await?;
         total += bytes.len() as u64;
     }
@@ -400,9 +415,7 @@ pub async fn send_paced_udp(
     let start = tokio::time::Instant::now();
     let mut total = 0;
     for (t, bytes) in items {
-        if speed.is_finite() && speed > 0.0 {
-            tokio::time::sleep_until(start + t.div_f64(speed)).await;
-        }
+        pace(start, t, speed).await;
         sock.send_to(&bytes, target).await?;
         total += bytes.len() as u64;
     }

@@ -102,3 +102,99 @@ fn calibrate_from_csv() {
     let t = cal["calibration"]["translation_m"].as_array().unwrap();
     assert!((t[2].as_float().unwrap() + 2.0).abs() < 1e-9, "{text}");
 }
+
+#[test]
+fn pivot_from_a_recorded_log() {
+    use glam::{DQuat, DVec3};
+    use tracking::poselog::PoseLogHeader;
+    use tracking::sim::{Script, SimConfig, Simulator};
+    // The simulated wand's tip (0, 0, -0.12) stays on a point while it turns.
+    let tip = DVec3::new(0.0, 0.0, -0.12);
+    let pivot = DVec3::new(0.2, 1.0, -0.3);
+    let q0 = DQuat::IDENTITY;
+    let mut script = Script::new(pivot - q0 * tip);
+    for i in 1..10 {
+        let a = i as f64 * 0.6;
+        let q = DQuat::from_euler(glam::EulerRot::YXZ, a.sin() * 0.7, a.cos() * 0.4, 0.0);
+        script = script.move_to_pose(pivot - q * tip, q, 0.05);
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("pivot.wslog");
+    let file = std::fs::File::create(&log).unwrap();
+    Simulator::new(
+        &script,
+        SimConfig {
+            rate_hz: 60.0,
+            ..SimConfig::exact()
+        },
+    )
+    .unwrap()
+    .write_pose_log(file, &PoseLogHeader::new("pivot"))
+    .unwrap();
+    let out = wandtrack().arg("pivot").arg(&log).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let table: toml::Table = toml::from_str(&text).unwrap();
+    let got: Vec<f64> = table["calibration"]["tips"]["wand0"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_float().unwrap())
+        .collect();
+    // Wire rounding (µm, 1e-6 in the matrix) and slerp between keyframes are far below a millimetre.
+    let want = tip.to_array();
+    sculpt_core::assert_near!(got.as_slice(), want.as_slice(), 1e-3);
+}
+
+#[test]
+fn listen_prints_events_and_records() {
+    use glam::DVec3;
+    use std::io::BufRead;
+    use tracking::sim::{Script, SimConfig, Simulator};
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("t.toml");
+    std::fs::write(&cfg, "[[source]]\nkind = \"udp\"\naddr = \"127.0.0.1:0\"\n").unwrap();
+    let log = dir.path().join("rec.wslog");
+    let mut child = wandtrack()
+        .arg("listen")
+        .arg("--config")
+        .arg(&cfg)
+        .arg("--record")
+        .arg(&log)
+        .args(["--seconds", "3", "--every-ms", "0"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut err = std::io::BufReader::new(child.stderr.take().unwrap());
+    let mut line = String::new();
+    err.read_line(&mut line).unwrap();
+    let addr: std::net::SocketAddr = line
+        .split("(bound ")
+        .nth(1)
+        .and_then(|s| s.trim().trim_end_matches(')').parse().ok())
+        .unwrap_or_else(|| panic!("no bound address in {line:?}"));
+    let script = Script::new(DVec3::ZERO).click(2, 0.05).hold(0.05);
+    let sock = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let mut sent = Vec::new();
+    for f in Simulator::new(&script, SimConfig::default()).unwrap() {
+        let mut b = Vec::new();
+        tracking::dtrack::encode_frame(&f, &mut b);
+        sock.send_to(&b, addr).unwrap();
+        sent.push(b);
+    }
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success());
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("\"Button\"") && stdout.contains("\"button\":2"),
+        "{stdout}"
+    );
+    let rec = PoseLog::read(&log).unwrap();
+    let logged: Vec<Vec<u8>> = rec.records.iter().map(|r| r.bytes.clone()).collect();
+    assert_eq!(logged, sent);
+}

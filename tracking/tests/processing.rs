@@ -386,3 +386,59 @@ fn readme_serial_examples_decode() {
     }
     assert_eq!(n, 2);
 }
+
+#[test]
+fn pivot_calibration_finds_the_tip() {
+    use tracking::calibration::fit_tip;
+    let tip = DVec3::new(0.01, -0.02, -0.15);
+    let pivot = DVec3::new(0.3, 1.1, -0.4);
+    let poses: Vec<(DVec3, DQuat)> = (0..12)
+        .map(|i| {
+            let a = i as f64 * 0.5;
+            let q = DQuat::from_euler(
+                glam::EulerRot::YXZ,
+                a.sin() * 0.8,
+                a.cos() * 0.5,
+                0.2 * a.sin(),
+            );
+            (pivot - q * tip, q)
+        })
+        .collect();
+    let f = fit_tip(&poses).unwrap();
+    assert_near!(f.tip_in_body_m.to_array(), tip.to_array(), 1e-9);
+    assert_near!(f.pivot_in_world_m.to_array(), pivot.to_array(), 1e-9);
+    assert!(f.rms_residual_m < 1e-9);
+    // One rotation axis only cannot pin the tip down along that axis.
+    let flat: Vec<(DVec3, DQuat)> = (0..8)
+        .map(|i| {
+            let q = DQuat::from_rotation_y(i as f64 * 0.3);
+            (pivot - q * tip, q)
+        })
+        .collect();
+    assert!(fit_tip(&flat).is_err());
+    assert!(fit_tip(&poses[..2]).is_err());
+}
+
+#[test]
+fn a_body_with_negative_quality_is_lost_not_moved() {
+    let hub = Hub::new(&config());
+    let src = hub.add_source("t");
+    let head = hub.watch(DeviceId::Body(0));
+    let mut f = Frame::new(1);
+    f.bodies.push(tracking::Body {
+        id: 0,
+        quality: 1.0,
+        pose: Pose::from_position_mm(DVec3::X * 10.0),
+    });
+    hub.apply_frame(src, &f);
+    let mut g = Frame::new(2);
+    g.bodies.push(tracking::Body {
+        id: 0,
+        quality: -1.0,
+        pose: Pose::from_position_mm(DVec3::X * 99.0),
+    });
+    hub.apply_frame(src, &g);
+    let s = head.borrow().clone();
+    assert_eq!(s.status, TrackingStatus::Lost);
+    assert_near!(s.pose.unwrap().position_m.x, 0.01, 1e-12);
+}

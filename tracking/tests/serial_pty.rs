@@ -136,7 +136,15 @@ async fn serial_wand_over_a_pty_with_line_noise() {
         }
     }
     assert_eq!(edges, vec![(0, true), (0, false)]);
-    let stats = running.hub.source_stats(running.sources[0]).unwrap();
+    // The last bad line may still be in flight when record 4 lands: wait for it.
+    let deadline = std::time::Instant::now() + Duration::from_secs(20);
+    let stats = loop {
+        let stats = running.hub.source_stats(running.sources[0]).unwrap();
+        if stats.bad_frames >= 4 || std::time::Instant::now() > deadline {
+            break stats;
+        }
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    };
     assert_eq!(stats.frames, 4);
     assert_eq!(stats.bad_frames, 4, "four bad-checksum lines");
 }

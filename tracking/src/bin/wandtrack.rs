@@ -13,7 +13,7 @@ use tracking::calibration::{Calibration, FitOptions, fit};
 use tracking::config::TrackingConfig;
 use tracking::poselog::{PoseLog, PoseLogHeader, RecordKind};
 use tracking::sim::{Script, SimConfig, Simulator};
-use tracking::transport::{frames_as_items, send_paced, send_paced_udp, start};
+use tracking::transport::{frames_as_items, send_paced, send_paced_udp};
 
 #[derive(Parser)]
 #[command(name = "wandtrack", version, about = "Wandsculpt tracking toolbox")]
@@ -96,6 +96,19 @@ enum Cmd {
         /// The pose log.
         log: PathBuf,
     },
+    /// Pivot calibration: fit a device's tip offset from a pose log recorded while its
+    /// tip was held on one point and the device turned; prints the `tips` entry.
+    Pivot {
+        /// The pose log.
+        #[arg(value_name = "LOG")]
+        input: PathBuf,
+        /// The device, e.g. `wand0` or `body1`.
+        #[arg(long, default_value = "wand0")]
+        device: String,
+        /// Tracking config whose calibration maps tracker to display (default: mm to m).
+        #[arg(long)]
+        config: Option<PathBuf>,
+    },
     /// Fit a tracker-to-display calibration from point pairs and print it as TOML.
     Calibrate {
         /// CSV, one pair per line: `tx,ty,tz,wx,wy,wz` (tracker mm, display m);
@@ -131,6 +144,9 @@ async fn emit(
     out: &Output,
     source: &str,
 ) -> Result<()> {
+    if speed.is_nan() || speed.is_infinite() || speed < 0.0 {
+        bail!("--speed must be a finite number >= 0 (0: as fast as possible)");
+    }
     if let Some(path) = &out.log {
         let mut w = tracking::poselog::PoseLogWriter::create(path, &PoseLogHeader::new(source))?;
         for (t, bytes) in &items {
@@ -222,7 +238,10 @@ async fn main() -> Result<()> {
             if cfg.sources.is_empty() {
                 bail!("{}: no [[source]] configured", config.display());
             }
-            let running = start(&cfg).await?;
+            // Subscribe before any source starts, so no early event is missed.
+            let hub = tracking::hub::Hub::new(&cfg);
+            let mut events = hub.subscribe();
+            let running = tracking::transport::start_with_hub(hub, &cfg).await?;
             for (s, a) in cfg.sources.iter().zip(&running.local_addrs) {
                 eprintln!(
                     "source {} {}",
@@ -230,7 +249,6 @@ async fn main() -> Result<()> {
                     a.map(|a| format!("(bound {a})")).unwrap_or_default()
                 );
             }
-            let mut events = running.hub.subscribe();
             let mut tick = tokio::time::interval(Duration::from_millis(every_ms.max(1)));
             let deadline = tokio::time::sleep(
                 seconds.map_or(Duration::from_secs(u64::MAX / 4), Duration::from_secs_f64),
@@ -301,6 +319,53 @@ async fn main() -> Result<()> {
             if !l.corrupt.is_empty() || !bad.is_empty() {
                 std::process::exit(1);
             }
+            Ok(())
+        }
+        Cmd::Pivot {
+            input,
+            device,
+            config,
+        } => {
+            let calibration = match config {
+                Some(p) => TrackingConfig::load(&p)?.calibration,
+                None => Calibration::default(),
+            };
+            let id: tracking::DeviceId = device.parse()?;
+            let (frames, bad) = PoseLog::read(&input)?.frames();
+            for e in &bad {
+                eprintln!("{}: {e}", input.display());
+            }
+            let marker_only = Calibration {
+                tips: Default::default(),
+                ..calibration
+            };
+            let mut poses = Vec::new();
+            for f in &frames {
+                let pose = match id {
+                    tracking::DeviceId::Body(b) => f.body(b).map(|b| b.pose),
+                    tracking::DeviceId::Wand(w) => {
+                        f.wand(w).filter(|w| w.is_tracked()).map(|w| w.pose)
+                    }
+                };
+                if let Some(wp) = pose.and_then(|p| marker_only.pose_in_world(id, &p)) {
+                    poses.push((wp.position_m, wp.orientation));
+                }
+            }
+            let f = tracking::calibration::fit_tip(&poses)?;
+            let t = f.tip_in_body_m;
+            println!(
+                "# {} poses, rms residual {:.3} mm, max {:.3} mm; pivot at {:.4} {:.4} {:.4} m",
+                poses.len(),
+                f.rms_residual_m * 1e3,
+                f.max_residual_m * 1e3,
+                f.pivot_in_world_m.x,
+                f.pivot_in_world_m.y,
+                f.pivot_in_world_m.z
+            );
+            println!(
+                "[calibration.tips]\n{device} = [{:.6}, {:.6}, {:.6}]",
+                t.x, t.y, t.z
+            );
             Ok(())
         }
         Cmd::Calibrate {
