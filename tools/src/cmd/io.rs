@@ -122,3 +122,39 @@ pub fn finish_output(mut out: Box<dyn Write>, name: Option<&PathBuf>) -> Result<
         None => "<stdout>: cannot write".to_string(),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn parse<const N: usize>(text: &str) -> Result<Vec<[f64; N]>> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("in.csv");
+        std::fs::write(&path, text).unwrap();
+        read_rows::<N>(&path, "x,y,z")
+    }
+
+    #[test]
+    fn header_comments_and_blank_lines() {
+        let rows = parse::<3>("x,y,z\n# c\n\n1,2,3\n 4 , 5 ,6 \n").unwrap();
+        assert_eq!(rows, vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]);
+        let err = parse::<3>("1,2,3\nx,y,z\n").unwrap_err().to_string();
+        assert!(err.contains(":2: 'x' is not a number"), "{err}");
+    }
+
+    proptest! {
+        /// Any text gives rows of finite numbers or a one-line error naming a line.
+        #[test]
+        fn csv_reader_never_panics(text in "[-0-9.,eEnaif# \\n]{0,120}") {
+            match parse::<3>(&text) {
+                Ok(rows) => prop_assert!(rows.iter().flatten().all(|v| v.is_finite())),
+                Err(e) => {
+                    let msg = format!("{e:#}");
+                    prop_assert!(!msg.contains('\n'));
+                    prop_assert!(msg.contains("in.csv:"));
+                }
+            }
+        }
+    }
+}
