@@ -1,16 +1,27 @@
 //! # sculpt-tools
 //!
-//! The Wandsculpt command-line tools, one subcommand per module under `cmd/`:
+//! The Wandsculpt command-line tools. Each subcommand lives in its own module under
+//! `cmd/`; adding one means a module, one variant of `Command` and one match arm.
 //!
-//! - `mesh --scene S.json [--depth interactive|final] --out X.{obj,stl,glb}`: tessellate
-//!   a sculpted scene and write the mesh;
-//! - `export --scene S.json --out X.igs`: write its NURBS surfaces as IGES 5.3;
-//! - `goms ...`: the GOMS / KLM timing-study harness (see the README's `goms` section).
+//! - `sculpt-tools eval --surface S.json --uv UV.csv`: surface points `x,y,z` for the
+//!   parameters `u,v` of each line.
+//! - `sculpt-tools project --surface S.json --points P.csv`: the closest surface point of
+//!   each query `x,y,z`, as `u,v,x,y,z,distance`.
+//! - `sculpt-tools mesh --scene S.json [--depth interactive|final] --out X.{obj,stl,glb}`:
+//!   tessellate a sculpted scene and write the mesh.
+//! - `sculpt-tools export --scene S.json --out X.igs`: its NURBS surfaces as IGES 5.3.
+//! - `sculpt-tools goms ...`: the GOMS / KLM timing-study harness.
+//!
+//! Input files may be `-` for stdin; `--out FILE` writes to a file instead of stdout.
+//! Any bad input ends with one line on stderr naming the file and line, and exit code 1.
 //!
 //! ```text
+//! sculpt-tools project --surface patch.json --points queries.csv --out answers.csv
 //! sculpt-tools mesh --scene tests/data/scenes/sphere-overlaps.json --depth final --out sphere.stl
 //! sculpt-tools goms klm builtin:multires-sculpting
 //! ```
+
+use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
@@ -25,8 +36,14 @@ struct Cli {
     command: Command,
 }
 
+/// The subcommands.
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Evaluate a NURBS surface at parameters: reads `u,v` lines, prints `x,y,z`.
+    Eval(cmd::eval::Args),
+    /// Closest points on a NURBS surface: reads `x,y,z` lines, prints
+    /// `u,v,x,y,z,distance`.
+    Project(cmd::project::Args),
     /// Tessellate a scene and write the sculpted mesh (OBJ, STL or GLB).
     Mesh(cmd::mesh::MeshArgs),
     /// Write a scene's NURBS surfaces as IGES 5.3 (trimmed surfaces, entity 144).
@@ -35,17 +52,21 @@ enum Command {
     Goms(cmd::goms::GomsArgs),
 }
 
-fn main() -> std::process::ExitCode {
+fn main() -> ExitCode {
     let result = match Cli::parse().command {
+        Command::Eval(args) => cmd::eval::run(&args),
+        Command::Project(args) => cmd::project::run(&args),
         Command::Mesh(args) => cmd::mesh::run(args),
         Command::Export(args) => cmd::export::run(args),
         Command::Goms(args) => cmd::goms::run(args),
     };
     match result {
-        Ok(()) => std::process::ExitCode::SUCCESS,
+        Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("sculpt-tools: error: {e:#}");
-            std::process::ExitCode::FAILURE
+            // One line: the context chain joined with ": ", newlines flattened.
+            let msg = format!("{e:#}").replace('\n', " ");
+            eprintln!("sculpt-tools: {msg}");
+            ExitCode::FAILURE
         }
     }
 }

@@ -258,11 +258,27 @@ impl KnotVector {
 
     #[inline(always)]
     fn basis_impl(&self, p: usize, span: usize, u: f64) -> Basis {
+        self.triangle(p, span, u)[0]
+    }
+
+    /// The triangular scheme of A2.2 (eq. 2.5) on span `s`: returns the non-zero basis
+    /// functions of degrees `p`, `p - 1` and `p - 2` (each starting at index 0; the
+    /// degree-0 function is `[1]`; a negative degree is all zeros).
+    #[inline(always)]
+    fn triangle(&self, p: usize, span: usize, u: f64) -> [Basis; 3] {
         let k = &self.knots;
         let mut n = [0.0; MAX_ORDER];
         let mut left = [0.0; MAX_ORDER];
         let mut right = [0.0; MAX_ORDER];
+        let mut n_pm1 = [0.0; MAX_ORDER];
+        let mut n_pm2 = [0.0; MAX_ORDER];
         n[0] = 1.0;
+        if p == 1 {
+            n_pm1[0] = 1.0;
+        }
+        if p == 2 {
+            n_pm2[0] = 1.0;
+        }
         for j in 1..=p {
             left[j] = u - k[span + 1 - j];
             right[j] = k[span + j] - u;
@@ -273,8 +289,13 @@ impl KnotVector {
                 saved = left[j - r] * temp;
             }
             n[j] = saved;
+            if j + 2 == p {
+                n_pm2 = n;
+            } else if j + 1 == p {
+                n_pm1 = n;
+            }
         }
-        n
+        [n, n_pm1, n_pm2]
     }
 
     /// The basis functions and their first and second derivatives on span `s`: row `k`
@@ -297,35 +318,7 @@ impl KnotVector {
 
     #[inline(always)]
     fn basis_ders2_impl(&self, p: usize, span: usize, u: f64) -> BasisDers {
-        let k = &self.knots;
-        let mut n = [0.0; MAX_ORDER];
-        let mut left = [0.0; MAX_ORDER];
-        let mut right = [0.0; MAX_ORDER];
-        let mut n_pm1 = [0.0; MAX_ORDER];
-        let mut n_pm2 = [0.0; MAX_ORDER];
-        n[0] = 1.0;
-        if p == 1 {
-            n_pm1[0] = 1.0;
-        }
-        for j in 1..=p {
-            left[j] = u - k[span + 1 - j];
-            right[j] = k[span + j] - u;
-            let mut saved = 0.0;
-            for r in 0..j {
-                let temp = n[r] / (right[r + 1] + left[j - r]);
-                n[r] = saved + right[r + 1] * temp;
-                saved = left[j - r] * temp;
-            }
-            n[j] = saved;
-            if j + 2 == p {
-                n_pm2 = n;
-            } else if j + 1 == p {
-                n_pm1 = n;
-            }
-        }
-        if p == 2 {
-            n_pm2[0] = 1.0;
-        }
+        let [n, n_pm1, n_pm2] = self.triangle(p, span, u);
         let d1 = differentiate(&n_pm1, &self.inv_p, span, p);
         let d2 = if p >= 2 {
             let d1_lower = differentiate(&n_pm2, &self.inv_pm1, span, p - 1);

@@ -1,5 +1,7 @@
 //! One module per `sculpt-tools` subcommand.
 
+pub mod eval;
 pub mod export;
 pub mod goms;
 pub mod mesh;
+pub mod project;
