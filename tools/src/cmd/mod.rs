@@ -1,7 +1,8 @@
-//! One module per `sculpt-tools` subcommand.
+//! The subcommands, one module each, and the input/output helpers they share.
 
 pub mod eval;
 pub mod export;
 pub mod goms;
+pub mod io;
 pub mod mesh;
 pub mod project;
