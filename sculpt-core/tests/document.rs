@@ -46,6 +46,17 @@ fn line(a: DVec3, b: DVec3) -> Vec<(f64, DVec3)> {
         .collect()
 }
 
+/// Applies a straight stroke from `a` to `b`.
+fn stroke(doc: &mut Document, t: u64, a: DVec3, b: DVec3, mode: Mode) -> sculpt_core::Result<u64> {
+    doc.apply_stroke(
+        t,
+        StrokeInput {
+            samples: line(a, b),
+            tool: tool(mode),
+        },
+    )
+}
+
 fn mesh_of(doc: &Document, detail: Detail) -> PatchMesh {
     doc.mesh(detail)
 }
@@ -102,12 +113,12 @@ fn undo_redo_back_to_the_start_and_incremental_equals_fresh() {
     assert_eq!(live, two, "redo restores everything");
     // A new stroke clears the redo stack.
     doc.undo();
-    doc.apply_stroke(
+    stroke(
+        &mut doc,
         t,
-        StrokeInput {
-            samples: line(DVec3::new(0.2, 0.7, 0.0), DVec3::new(0.8, 0.7, 0.0)),
-            tool: tool(Mode::Carve),
-        },
+        DVec3::new(0.2, 0.7, 0.0),
+        DVec3::new(0.8, 0.7, 0.0),
+        Mode::Carve,
     )
     .unwrap();
     assert!(!doc.can_redo());
@@ -117,12 +128,12 @@ fn undo_redo_back_to_the_start_and_incremental_equals_fresh() {
 fn json_round_trip_and_bad_files() {
     let mut doc = Document::new();
     let t = doc.add_target("plane", plane());
-    doc.apply_stroke(
+    stroke(
+        &mut doc,
         t,
-        StrokeInput {
-            samples: line(DVec3::new(0.2, 0.3, 0.0), DVec3::new(0.8, 0.3, 0.0)),
-            tool: tool(Mode::Carve),
-        },
+        DVec3::new(0.2, 0.3, 0.0),
+        DVec3::new(0.8, 0.3, 0.0),
+        Mode::Carve,
     )
     .unwrap();
     let bytes = doc.to_json();
@@ -161,12 +172,12 @@ fn json_round_trip_and_bad_files() {
 fn exports_read_back() {
     let mut doc = Document::new();
     let t = doc.add_target("plane", plane());
-    doc.apply_stroke(
+    stroke(
+        &mut doc,
         t,
-        StrokeInput {
-            samples: line(DVec3::new(0.2, 0.3, 0.0), DVec3::new(0.8, 0.3, 0.0)),
-            tool: tool(Mode::Carve),
-        },
+        DVec3::new(0.2, 0.3, 0.0),
+        DVec3::new(0.8, 0.3, 0.0),
+        Mode::Carve,
     )
     .unwrap();
     let welded = doc.mesh(Detail::Final).welded(1e-7);
