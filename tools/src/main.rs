@@ -1,18 +1,24 @@
 //! # sculpt-tools
 //!
-//! The Wandsculpt command-line tools, one subcommand per module under `cmd/`:
+//! The Wandsculpt command-line tools. Each subcommand lives in its own module under
+//! `cmd/`; adding one means a module, one variant of [`Command`] and one match arm.
 //!
-//! - `mesh --scene S.json [--depth interactive|final] --out X.{obj,stl,glb}`: tessellate
-//!   a sculpted scene and write the mesh;
-//! - `export --scene S.json --out X.igs`: write its NURBS surfaces as IGES 5.3.
+//! - `sculpt-tools eval --surface S.json --uv UV.csv`: surface points `x,y,z` for the
+//!   parameters `u,v` of each line.
+//! - `sculpt-tools project --surface S.json --points P.csv`: the closest surface point of
+//!   each query `x,y,z`, as `u,v,x,y,z,distance`.
+//! - `sculpt-tools mesh --scene S.json [--depth interactive|final] --out X.{obj,stl,glb}`:
+//!   tessellate a sculpted scene and write the mesh.
+//! - `sculpt-tools export --scene S.json --out X.igs`: its NURBS surfaces as IGES 5.3.
 //!
-//! ```text
-//! sculpt-tools mesh --scene tests/data/scenes/sphere-overlaps.json --depth final --out sphere.stl
-//! ```
+//! Input files may be `-` for stdin; `--out FILE` writes to a file instead of stdout.
+//! Any bad input ends with one line on stderr naming the file and line, and exit code 1.
 
-mod cmd;
+use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+
+mod cmd;
 
 /// The Wandsculpt command-line tools.
 #[derive(Debug, Parser)]
@@ -22,17 +28,35 @@ struct Cli {
     command: Command,
 }
 
+/// The subcommands.
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Evaluate a NURBS surface at parameters: reads `u,v` lines, prints `x,y,z`.
+    Eval(cmd::eval::Args),
+    /// Closest points on a NURBS surface: reads `x,y,z` lines, prints
+    /// `u,v,x,y,z,distance`.
+    Project(cmd::project::Args),
     /// Tessellate a scene and write the sculpted mesh (OBJ, STL or GLB).
     Mesh(cmd::mesh::MeshArgs),
     /// Write a scene's NURBS surfaces as IGES 5.3 (trimmed surfaces, entity 144).
     Export(cmd::export::ExportArgs),
 }
 
-fn main() -> anyhow::Result<()> {
-    match Cli::parse().command {
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Eval(args) => cmd::eval::run(&args),
+        Command::Project(args) => cmd::project::run(&args),
         Command::Mesh(args) => cmd::mesh::run(args),
         Command::Export(args) => cmd::export::run(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            // One line: the context chain joined with ": ", newlines flattened.
+            let msg = format!("{e:#}").replace('\n', " ");
+            eprintln!("sculpt-tools: {msg}");
+            ExitCode::FAILURE
+        }
     }
 }

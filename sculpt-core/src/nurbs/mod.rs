@@ -9,6 +9,10 @@
 //!   A3.6 + A4.4), normals and fundamental forms. Parameters outside the domain are
 //!   clamped to it. Evaluation never allocates.
 //! - Knot insertion and refinement (A5.1, A5.3, A5.4) in [`refine`].
+//! - Constructors ([`construct`]): plane, bilinear patch, exact rational arcs, circles,
+//!   spheres, tori and cylinders, revolution (A7.1, A8.1) and extrusion.
+//! - Fitting ([`fit`]): grid interpolation (A9.4), grid least squares (A9.7 style),
+//!   scattered-point approximation (least squares / minimum-norm pseudo-inverse).
 //! - [`SurfaceInverter`]: closest points / point inversion (eqs. 6.5 to 6.7), correct on
 //!   domain edges, corners, seams and poles; see [`invert`] for the method.
 //!
@@ -60,14 +64,16 @@
 //! # Ok::<(), sculpt_core::Error>(())
 //! ```
 
+pub mod construct;
 pub mod curve;
+pub mod fit;
 pub mod invert;
 pub mod knots;
 pub mod refine;
 pub mod surface;
 
 pub use curve::{CurveDerivs, NurbsCurve};
-pub use invert::{Projection, SurfaceInverter};
+pub use invert::{CurveProjection, Projection, SurfaceInverter};
 pub use knots::{KnotVector, MAX_DEGREE};
 pub use refine::Direction;
 pub use surface::{FundamentalForms, NurbsSurface, SurfaceDerivs};

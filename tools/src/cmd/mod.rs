@@ -1,3 +1,7 @@
-//! One module per subcommand.
+//! The subcommands, one module each, and the input/output helpers they share.
+
+pub mod eval;
 pub mod export;
+pub mod io;
 pub mod mesh;
+pub mod project;
