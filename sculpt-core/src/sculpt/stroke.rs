@@ -130,6 +130,7 @@ pub enum Mode {
 
 /// The chisel.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Tool {
     /// Cross-section.
     pub profile: Profile,

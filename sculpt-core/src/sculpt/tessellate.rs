@@ -418,16 +418,7 @@ impl TargetTessellation {
         for v in cdt.vertices() {
             let p = v.position();
             let uv = super::surface::clamp_uv(DVec2::new(p.x, p.y));
-            let (s, n, h) = *cache
-                .entry((uv.x.to_bits(), uv.y.to_bits()))
-                .or_insert_with(|| {
-                    let sp = surface.eval(uv);
-                    (
-                        sp.p,
-                        normal_from(surface, uv, &sp),
-                        height(strokes, uv, sp.p),
-                    )
-                });
+            let (s, n, h) = evaluate(cache, surface, strokes, uv);
             let on_rim = rims.contains(&(p.x.to_bits(), p.y.to_bits()));
             let h = if on_rim { 0.0 } else { h };
             let pos = s + n * h;
@@ -487,16 +478,7 @@ impl TargetTessellation {
             .iter()
             .map(|(p, _)| {
                 let uv = *p;
-                let (s, n, h) = *cache
-                    .entry((uv.x.to_bits(), uv.y.to_bits()))
-                    .or_insert_with(|| {
-                        let sp = surface.eval(uv);
-                        (
-                            sp.p,
-                            normal_from(surface, uv, &sp),
-                            height(strokes, uv, sp.p),
-                        )
-                    });
+                let (s, n, h) = evaluate(cache, surface, strokes, uv);
                 (s + n * h, n, uv)
             })
             .collect();
@@ -519,6 +501,25 @@ impl TargetTessellation {
         sink.end_patch();
         2
     }
+}
+
+/// `S(uv)`, the normal and the combined displacement, through the pass's cache.
+fn evaluate(
+    cache: &mut EvalCache,
+    surface: &dyn ParamSurface,
+    strokes: &[StrokeRef<'_>],
+    uv: DVec2,
+) -> (DVec3, DVec3, f64) {
+    *cache
+        .entry((uv.x.to_bits(), uv.y.to_bits()))
+        .or_insert_with(|| {
+            let sp = surface.eval(uv);
+            (
+                sp.p,
+                normal_from(surface, uv, &sp),
+                height(strokes, uv, sp.p),
+            )
+        })
 }
 
 /// The combined displacement along the normal at `p = S(uv)`: strokes in order, carving

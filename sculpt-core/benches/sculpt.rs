@@ -1,0 +1,136 @@
+//! Sculpting benches (issue 3 targets):
+//! - `stroke_interactive`: one 200-sample stroke on a bicubic 16 x 16 target at
+//!   interactive depth, including the incremental re-tessellation (target <= 2 ms);
+//! - `scene4_final`: final-depth tessellation of the mask-face scene (target <= 100 ms).
+//!
+//! Run: `cargo bench -p sculpt-core --bench sculpt`. Triangle counts and memory per
+//! stroke are printed once at start-up.
+
+use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
+use glam::DVec3;
+use sculpt_core::mesh::PatchMesh;
+use sculpt_core::nurbs::NurbsSurface;
+use sculpt_core::sculpt::document::Document;
+use sculpt_core::sculpt::stroke::{Mode, Profile, StrokeInput, Tool};
+use sculpt_core::sculpt::tessellate::Detail;
+use std::hint::black_box;
+use std::time::Duration;
+
+fn bicubic_16() -> NurbsSurface {
+    let n = 16;
+    let knots = {
+        let mut k = vec![0.0; 4];
+        k.extend((1..n - 3).map(|i| i as f64 / (n - 3) as f64));
+        k.extend([1.0; 4]);
+        k
+    };
+    let cps = (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| {
+                    let (x, y) = (i as f64 / (n - 1) as f64, j as f64 / (n - 1) as f64);
+                    DVec3::new(x, y, 0.05 * (3.0 * x).sin() * (2.0 * y).cos())
+                })
+                .collect()
+        })
+        .collect();
+    NurbsSurface::new(3, 3, knots.clone(), knots, cps, None).expect("valid surface")
+}
+
+fn stroke_200() -> StrokeInput {
+    let samples = (0..200)
+        .map(|k| {
+            let s = k as f64 / 199.0;
+            let (x, y) = (0.15 + 0.7 * s, 0.5 + 0.2 * (3.0 * s).sin());
+            (
+                k as f64 / 90.0,
+                DVec3::new(x, y, 0.05 * (3.0 * x).sin() * (2.0 * y).cos() + 0.002),
+            )
+        })
+        .collect();
+    StrokeInput {
+        samples,
+        tool: Tool {
+            profile: Profile::V,
+            width: 0.04,
+            depth: 0.01,
+            mode: Mode::Carve,
+            taper: 0.03,
+        },
+    }
+}
+
+fn scene4() -> Document {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../tests/data/scenes/mask-face.json"
+    );
+    Document::from_json(&std::fs::read(path).expect("scene file")).expect("scene loads")
+}
+
+fn report() {
+    let mut doc = Document::new();
+    let t = doc.add_target("bicubic", bicubic_16());
+    for detail in [Detail::Interactive, Detail::Final] {
+        let mut d = doc.clone();
+        let mut sink = PatchMesh::new();
+        let before = d.tessellate(detail, &mut sink).triangles_total;
+        let mem_before = d.memory_bytes();
+        d.apply_stroke(t, stroke_200()).expect("stroke applies");
+        let after = d.tessellate(detail, &mut sink);
+        println!(
+            "bicubic 16x16, one 200-sample stroke, {detail:?}: {} -> {} triangles ({} rewritten in {} patches), derived memory +{} KiB",
+            before,
+            after.triangles_total,
+            after.triangles_written,
+            after.patches_written,
+            (d.memory_bytes() - mem_before) / 1024
+        );
+    }
+    let mut doc = scene4();
+    for detail in [Detail::Interactive, Detail::Final] {
+        let stats = doc.tessellate(detail, &mut PatchMesh::new());
+        println!(
+            "scene 4 (mask face, {} strokes), {detail:?}: {} triangles, derived memory {} KiB ({} KiB per stroke)",
+            doc.strokes().len(),
+            stats.triangles_total,
+            doc.memory_bytes() / 1024,
+            doc.memory_bytes() / 1024 / doc.strokes().len().max(1)
+        );
+    }
+}
+
+fn benches(c: &mut Criterion) {
+    report();
+    let mut base = Document::new();
+    let target = base.add_target("bicubic", bicubic_16());
+    let mut base_sink = PatchMesh::new();
+    base.tessellate(Detail::Interactive, &mut base_sink);
+    let input = stroke_200();
+    c.bench_function("stroke_interactive", |b| {
+        b.iter_batched(
+            || (base.clone(), base_sink.clone()),
+            |(mut doc, mut sink)| {
+                doc.apply_stroke(target, input.clone())
+                    .expect("stroke applies");
+                black_box(doc.tessellate(Detail::Interactive, &mut sink));
+                (doc, sink)
+            },
+            BatchSize::LargeInput,
+        )
+    });
+    let doc = scene4();
+    c.bench_function("scene4_final", |b| {
+        b.iter(|| black_box(doc.mesh(Detail::Final)))
+    });
+}
+
+criterion_group! {
+    name = sculpt;
+    config = Criterion::default()
+        .sample_size(20)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(3));
+    targets = benches
+}
+criterion_main!(sculpt);

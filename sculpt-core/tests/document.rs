@@ -1,0 +1,242 @@
+//! The document API: undo/redo back to the start, incremental tessellation equal to a
+//! fresh one, JSON round trips, clear errors for bad files, and bad strokes that never
+//! panic, never put NaN in a mesh and never corrupt the document (proptest).
+
+use glam::DVec3;
+use proptest::prelude::*;
+use sculpt_core::Error;
+use sculpt_core::formats::{MeshFormat, iges};
+use sculpt_core::mesh::PatchMesh;
+use sculpt_core::nurbs::NurbsSurface;
+use sculpt_core::sculpt::document::Document;
+use sculpt_core::sculpt::stroke::{Mode, Profile, StrokeInput, Tool};
+use sculpt_core::sculpt::tessellate::Detail;
+
+fn plane() -> NurbsSurface {
+    NurbsSurface::new(
+        1,
+        1,
+        vec![0.0, 0.0, 1.0, 1.0],
+        vec![0.0, 0.0, 1.0, 1.0],
+        vec![
+            vec![DVec3::ZERO, DVec3::Y],
+            vec![DVec3::X, DVec3::new(1.0, 1.0, 0.0)],
+        ],
+        None,
+    )
+    .unwrap()
+}
+
+fn tool(mode: Mode) -> Tool {
+    Tool {
+        profile: Profile::V,
+        width: 0.06,
+        depth: 0.01,
+        mode,
+        taper: 0.03,
+    }
+}
+
+fn line(a: DVec3, b: DVec3) -> Vec<(f64, DVec3)> {
+    (0..60)
+        .map(|i| {
+            let t = i as f64 / 59.0;
+            (t, a.lerp(b, t))
+        })
+        .collect()
+}
+
+/// Applies a straight stroke from `a` to `b`.
+fn stroke(doc: &mut Document, t: u64, a: DVec3, b: DVec3, mode: Mode) -> sculpt_core::Result<u64> {
+    doc.apply_stroke(
+        t,
+        StrokeInput {
+            samples: line(a, b),
+            tool: tool(mode),
+        },
+    )
+}
+
+fn mesh_of(doc: &Document, detail: Detail) -> PatchMesh {
+    doc.mesh(detail)
+}
+
+#[test]
+fn undo_redo_back_to_the_start_and_incremental_equals_fresh() {
+    let mut doc = Document::new();
+    let t = doc.add_target("plane", plane());
+    let mut live = PatchMesh::new();
+    doc.tessellate(Detail::Interactive, &mut live);
+    let empty = mesh_of(&doc, Detail::Interactive);
+    let a = doc
+        .apply_stroke(
+            t,
+            StrokeInput {
+                samples: line(DVec3::new(0.2, 0.3, 0.0), DVec3::new(0.8, 0.3, 0.0)),
+                tool: tool(Mode::Carve),
+            },
+        )
+        .unwrap();
+    doc.tessellate(Detail::Interactive, &mut live);
+    let one = mesh_of(&doc, Detail::Interactive);
+    assert_eq!(live, one, "incremental after one stroke");
+    let b = doc
+        .apply_stroke(
+            t,
+            StrokeInput {
+                samples: line(DVec3::new(0.5, 0.1, 0.0), DVec3::new(0.5, 0.9, 0.0)),
+                tool: tool(Mode::Emboss),
+            },
+        )
+        .unwrap();
+    assert!(b > a);
+    doc.tessellate(Detail::Interactive, &mut live);
+    let two = mesh_of(&doc, Detail::Interactive);
+    assert_eq!(live, two);
+    assert!(doc.undo());
+    doc.tessellate(Detail::Interactive, &mut live);
+    assert_eq!(live, one, "undo restores the mesh");
+    assert!(doc.undo());
+    doc.tessellate(Detail::Interactive, &mut live);
+    assert_eq!(live, empty);
+    assert!(doc.undo(), "undo the target too");
+    doc.tessellate(Detail::Interactive, &mut live);
+    assert_eq!(
+        live.triangle_count(),
+        0,
+        "target's patches removed from the sink"
+    );
+    assert!(!doc.undo());
+    assert!(doc.redo() && doc.redo() && doc.redo());
+    assert!(!doc.redo());
+    doc.tessellate(Detail::Interactive, &mut live);
+    assert_eq!(live, two, "redo restores everything");
+    // A new stroke clears the redo stack.
+    doc.undo();
+    stroke(
+        &mut doc,
+        t,
+        DVec3::new(0.2, 0.7, 0.0),
+        DVec3::new(0.8, 0.7, 0.0),
+        Mode::Carve,
+    )
+    .unwrap();
+    assert!(!doc.can_redo());
+}
+
+#[test]
+fn json_round_trip_and_bad_files() {
+    let mut doc = Document::new();
+    let t = doc.add_target("plane", plane());
+    stroke(
+        &mut doc,
+        t,
+        DVec3::new(0.2, 0.3, 0.0),
+        DVec3::new(0.8, 0.3, 0.0),
+        Mode::Carve,
+    )
+    .unwrap();
+    let bytes = doc.to_json();
+    let back = Document::from_json(&bytes).unwrap();
+    assert_eq!(back.strokes(), doc.strokes());
+    assert_eq!(back.targets(), doc.targets());
+    assert_eq!(back.mesh(Detail::Final), doc.mesh(Detail::Final));
+    let text = String::from_utf8(bytes).unwrap();
+    let expect_err = |t: &str, needle: &str| {
+        let e = Document::from_json(t.as_bytes()).unwrap_err();
+        assert!(matches!(e, Error::Document(_)), "{e:?}");
+        assert!(
+            e.to_string().contains(needle),
+            "{e} should mention {needle}"
+        );
+    };
+    expect_err(
+        &text.replace("\"version\": 1", "\"version\": 2"),
+        "unsupported version",
+    );
+    expect_err(
+        &text.replace("wandsculpt-document", "something-else"),
+        "format",
+    );
+    expect_err(
+        &text.replace("\"target\": 1", "\"target\": 7"),
+        "no such target 7",
+    );
+    expect_err(&text.replace("\"width\"", "\"widht\""), "unknown field");
+    expect_err(&text.replace("\"depth\": 0.01", "\"depth\": -1.0"), "depth");
+    expect_err(&text[..text.len() / 2], "not a JSON object");
+    expect_err("[]", "not a JSON object");
+}
+
+#[test]
+fn exports_read_back() {
+    let mut doc = Document::new();
+    let t = doc.add_target("plane", plane());
+    stroke(
+        &mut doc,
+        t,
+        DVec3::new(0.2, 0.3, 0.0),
+        DVec3::new(0.8, 0.3, 0.0),
+        Mode::Carve,
+    )
+    .unwrap();
+    let welded = doc.mesh(Detail::Final).welded(1e-7);
+    for f in [MeshFormat::Obj, MeshFormat::Stl, MeshFormat::Glb] {
+        let back = f.read(&f.write(&welded)).unwrap();
+        assert_eq!(back.triangles.len(), welded.triangles.len(), "{f:?}");
+        // Same geometry: welding the read-back mesh gives the same topology.
+        let (v, tr) = (back.vertices, back.triangles);
+        let rewelded = sculpt_core::mesh::weld(&v, &tr, 1e-7);
+        assert_eq!(rewelded.vertices.len(), welded.vertices.len(), "{f:?}");
+    }
+    let model = iges::read(&iges::write(&doc.iges_surfaces())).unwrap();
+    // The target (trimmed by one hole) and one stroke surface.
+    assert_eq!(model.surfaces.len(), 2);
+    assert_eq!(model.trimmed, vec![(0, 2)]);
+}
+
+fn arb_point() -> impl Strategy<Value = DVec3> {
+    prop_oneof![
+        8 => (-0.5..1.5f64, -0.5..1.5f64, -0.2..0.2f64).prop_map(|(x, y, z)| DVec3::new(x, y, z)),
+        1 => Just(DVec3::new(f64::NAN, 0.5, 0.0)),
+        1 => Just(DVec3::new(0.5, 0.5, 50.0)),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+    #[test]
+    fn bad_strokes_never_corrupt_the_document(
+        pts in proptest::collection::vec(arb_point(), 0..40),
+        width in prop_oneof![Just(-1.0), Just(0.0), Just(f64::NAN), Just(10.0), 0.005..0.3f64],
+        depth in prop_oneof![Just(0.0), Just(f64::INFINITY), 0.001..0.05f64],
+        taper in prop_oneof![Just(0.0), Just(-0.1), 0.0..0.2f64],
+        emboss in any::<bool>(),
+        u in any::<bool>(),
+    ) {
+        let mut doc = Document::new();
+        let t = doc.add_target("plane", plane());
+        doc.apply_stroke(t, StrokeInput { samples: line(DVec3::new(0.2, 0.5, 0.0), DVec3::new(0.8, 0.5, 0.0)), tool: tool(Mode::Carve) }).unwrap();
+        let before_json = doc.to_json();
+        let mut live = PatchMesh::new();
+        doc.tessellate(Detail::Interactive, &mut live);
+        let samples = pts.iter().enumerate().map(|(i, p)| (i as f64, *p)).collect();
+        let tool = Tool {
+            profile: if u { Profile::U } else { Profile::V },
+            width, depth, taper,
+            mode: if emboss { Mode::Emboss } else { Mode::Carve },
+        };
+        match doc.apply_stroke(t, StrokeInput { samples, tool }) {
+            Ok(_) => prop_assert_eq!(doc.strokes().len(), 2),
+            Err(e) => {
+                prop_assert!(matches!(e, Error::StrokeRejected(_)), "{e:?}");
+                prop_assert_eq!(doc.to_json(), before_json);
+            }
+        }
+        doc.tessellate(Detail::Interactive, &mut live);
+        let (verts, tris) = live.merged();
+        prop_assert!(verts.iter().all(|v| v.position.iter().chain(&v.normal).all(|x| x.is_finite())));
+        prop_assert!(tris.iter().all(|t| t.iter().all(|&i| (i as usize) < verts.len())));
+        prop_assert_eq!(live, doc.mesh(Detail::Interactive));
+    }
+}
