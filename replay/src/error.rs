@@ -1,0 +1,32 @@
+//! The one error type of the `replay` library.
+
+use thiserror::Error;
+
+/// Everything that can go wrong while importing, converting or replaying a session.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// The `.tilt` container (16-byte header and zip archive) is malformed.
+    #[error("not a readable .tilt file: {0}")]
+    TiltContainer(String),
+    /// The `data.sketch` stream inside a `.tilt` file is malformed.
+    #[error("malformed data.sketch at byte {offset}: {reason}")]
+    TiltSketch {
+        /// Byte offset in `data.sketch` where the problem was found.
+        offset: usize,
+        /// What was wrong.
+        reason: String,
+    },
+    /// A file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file involved.
+        path: String,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// `Result` with [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;

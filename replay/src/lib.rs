@@ -1,0 +1,18 @@
+//! # replay
+//!
+//! Deterministic replay of recorded tracking sessions through the live Wandsculpt
+//! pipeline, tracking-server emulation, and import of real Open Brush recordings.
+//!
+//! - [`tilt`]: a total reader (and writer) for Open Brush / Tilt Brush `.tilt` sketches.
+//!
+//! ```
+//! // Reading a .tilt file: bytes in, strokes out, or a clear error.
+//! let err = replay::tilt::read_tilt(b"not a tilt file").unwrap_err();
+//! assert!(err.to_string().contains("16-byte header"));
+//! ```
+#![warn(missing_docs)]
+
+pub mod error;
+pub mod tilt;
+
+pub use error::{Error, Result};
