@@ -17,6 +17,9 @@ pub enum Error {
         /// What was wrong.
         reason: String,
     },
+    /// Import options or the sketch cannot make a wand track.
+    #[error("import: {0}")]
+    Import(String),
     /// A file could not be read or written.
     #[error("{path}: {source}")]
     Io {

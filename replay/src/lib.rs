@@ -4,6 +4,7 @@
 //! pipeline, tracking-server emulation, and import of real Open Brush recordings.
 //!
 //! - [`tilt`]: a total reader (and writer) for Open Brush / Tilt Brush `.tilt` sketches.
+//! - [`import`]: Open Brush strokes as wand motion placed on a target surface.
 //!
 //! ```
 //! // Reading a .tilt file: bytes in, strokes out, or a clear error.
@@ -13,6 +14,7 @@
 #![warn(missing_docs)]
 
 pub mod error;
+pub mod import;
 pub mod tilt;
 
 pub use error::{Error, Result};
