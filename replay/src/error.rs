@@ -20,6 +20,9 @@ pub enum Error {
     /// Import options or the sketch cannot make a wand track.
     #[error("import: {0}")]
     Import(String),
+    /// A serve endpoint is malformed, or could not be reached or bound.
+    #[error("serve: {0}")]
+    Endpoint(String),
     /// A file could not be read or written.
     #[error("{path}: {source}")]
     Io {

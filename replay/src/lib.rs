@@ -5,6 +5,7 @@
 //!
 //! - [`tilt`]: a total reader (and writer) for Open Brush / Tilt Brush `.tilt` sketches.
 //! - [`import`]: Open Brush strokes as wand motion placed on a target surface.
+//! - [`serve`]: tracking-server emulation (a log's raw bytes over TCP or serial, timed).
 //!
 //! ```
 //! // Reading a .tilt file: bytes in, strokes out, or a clear error.
@@ -15,6 +16,7 @@
 
 pub mod error;
 pub mod import;
+pub mod serve;
 pub mod tilt;
 
 pub use error::{Error, Result};
