@@ -5,6 +5,7 @@
 //!
 //! - [`tilt`]: a total reader (and writer) for Open Brush / Tilt Brush `.tilt` sketches.
 //! - [`import`]: Open Brush strokes as wand motion placed on a target surface.
+//! - [`check`]: `--check EXPECTED.json` comparisons with a readable diff.
 //! - [`serve`]: tracking-server emulation (a log's raw bytes over TCP or serial, timed).
 //!
 //! ```
@@ -14,6 +15,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod check;
 pub mod error;
 pub mod import;
 pub mod serve;
