@@ -23,6 +23,9 @@ pub enum Error {
     /// A serve endpoint is malformed, or could not be reached or bound.
     #[error("serve: {0}")]
     Endpoint(String),
+    /// The tracking layer reported an error.
+    #[error("tracking: {0}")]
+    Tracking(String),
     /// A file could not be read or written.
     #[error("{path}: {source}")]
     Io {

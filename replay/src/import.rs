@@ -32,10 +32,19 @@
 //! assert_eq!(track.strokes.len(), 1);
 //! ```
 
+use std::io::Write;
+use std::time::Duration;
+
 use glam::{DQuat, DVec3};
 use serde::Serialize;
+use tracking::poselog::{PoseLogHeader, PoseLogWriter};
+use tracking::{Body, Frame, Pose, Wand};
 
 use crate::error::{Error, Result};
+
+/// Where the head target is held in imported sessions (display metres): 0.6 m in
+/// front of the default surface at eye height.
+pub const DEFAULT_HEAD_M: DVec3 = DVec3::new(0.0, 1.6, 0.6);
 use crate::tilt::Sketch;
 
 /// A surface the sketch is laid onto.
@@ -62,6 +71,48 @@ impl Target for Plane {
         }
         let s = (self.origin - p).dot(self.normal) / denom;
         Some((p + dir * s, self.normal))
+    }
+}
+
+/// Centre of the app's default surface (display frame metres).
+pub const SURFACE_CENTER: DVec3 = DVec3::new(0.0, 1.17, -0.1);
+
+/// The point of the app's default surface over display `(x, y)`: the gently curved
+/// 1 m x 0.6 m sheet `z = c.z - 0.25 (2 u^2 + v^2)` with `u = x - c.x` (metres) and
+/// `v = (y - c.y) / 0.6`, centred at [`SURFACE_CENTER`], facing the viewer (+z).
+pub fn default_surface_point(x: f64, y: f64) -> DVec3 {
+    let u = x - SURFACE_CENTER.x;
+    let v = (y - SURFACE_CENTER.y) / 0.6;
+    DVec3::new(x, y, SURFACE_CENTER.z - 0.25 * (2.0 * u * u + v * v))
+}
+
+/// The app's default surface as a [`Target`] (see [`default_surface_point`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct DefaultSurface;
+
+impl Target for DefaultSurface {
+    fn hit(&self, p: DVec3, dir: DVec3) -> Option<(DVec3, DVec3)> {
+        if dir.z.abs() < 0.3 {
+            return None;
+        }
+        // The sheet is a height field over (x, y) with slopes below 0.6 on its extent:
+        // fixed-point iteration on the distance along `dir` converges.
+        let mut s = 0.0;
+        for _ in 0..50 {
+            let q = p + dir * s;
+            let next = (default_surface_point(q.x, q.y).z - p.z) / dir.z;
+            if (next - s).abs() < 1e-13 {
+                s = next;
+                break;
+            }
+            s = next;
+        }
+        let q = p + dir * s;
+        let on = default_surface_point(q.x, q.y);
+        let u = on.x - SURFACE_CENTER.x;
+        let v = (on.y - SURFACE_CENTER.y) / 0.6;
+        let normal = DVec3::new(u, 0.5 * v / 0.6, 1.0).normalize();
+        (on.is_finite() && (on - q).length() < 1e-9).then_some((on, normal))
     }
 }
 
@@ -444,6 +495,59 @@ pub fn wand_track(
         scale,
         skipped_empty,
     })
+}
+
+impl Track {
+    /// The track as tracker frames, with the default calibration (display metres =
+    /// tracker millimetres / 1000): the wand as Flystick `wand_id` with six buttons, and
+    /// the head as body 0 held still at `head_m` (none: no head target).
+    pub fn frames(&self, wand_id: u32, head_m: Option<DVec3>) -> Vec<Frame> {
+        self.samples
+            .iter()
+            .enumerate()
+            .map(|(n, s)| {
+                let mut f = Frame::new(n as u64 + 1);
+                f.tracker_time = Some(s.t);
+                f.receive_time = Duration::from_secs_f64(s.t);
+                if let Some(h) = head_m {
+                    f.calibrated_bodies = Some(1);
+                    f.bodies.push(Body {
+                        id: 0,
+                        quality: 1.0,
+                        pose: Pose::from_position_mm(h * 1000.0),
+                    });
+                }
+                f.calibrated_wands = Some(1);
+                let mut wand = Wand::tracked(
+                    wand_id,
+                    Pose::from_quat(s.position_m * 1000.0, s.orientation),
+                );
+                wand.buttons = u64::from(s.buttons);
+                f.wands.push(wand);
+                f
+            })
+            .collect()
+    }
+
+    /// Writes the track as a pose log; the header's `config` records `options`.
+    pub fn write_pose_log<W: Write>(
+        &self,
+        w: W,
+        source: &str,
+        options: &ImportOptions,
+    ) -> Result<W> {
+        let track = |e: tracking::TrackingError| Error::Tracking(e.to_string());
+        let header = PoseLogHeader {
+            source: source.to_string(),
+            config: serde_json::json!({ "tilt2poselog": options }),
+            ..PoseLogHeader::default()
+        };
+        let mut log = PoseLogWriter::new(w, &header).map_err(track)?;
+        for f in self.frames(0, Some(DEFAULT_HEAD_M)) {
+            log.write_frame(&f).map_err(track)?;
+        }
+        Ok(log.into_inner())
+    }
 }
 
 /// Position and rotation of a placed stroke at session time `t` (linear in time

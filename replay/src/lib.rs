@@ -7,6 +7,7 @@
 //! - [`import`]: Open Brush strokes as wand motion placed on a target surface.
 //! - [`check`]: `--check EXPECTED.json` comparisons with a readable diff.
 //! - [`serve`]: tracking-server emulation (a log's raw bytes over TCP or serial, timed).
+//! - [`sessions`]: the generator of the shipped sessions in `tests/data/sessions/`.
 //!
 //! ```
 //! // Reading a .tilt file: bytes in, strokes out, or a clear error.
@@ -19,6 +20,7 @@ pub mod check;
 pub mod error;
 pub mod import;
 pub mod serve;
+pub mod sessions;
 pub mod tilt;
 
 pub use error::{Error, Result};
