@@ -9,7 +9,10 @@
 #![warn(missing_docs)]
 
 pub mod error;
+pub mod formats;
 pub mod mesh;
+pub mod nurbs;
+pub mod sculpt;
 pub mod tolerance;
 
 pub use error::{Error, Result};

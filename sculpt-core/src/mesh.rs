@@ -122,6 +122,171 @@ impl PatchMesh {
     }
 }
 
+/// A mesh with coincident vertices merged, for export and topology checks.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct WeldedMesh {
+    /// Unique vertices (the first vertex seen at each position keeps its normal and uv).
+    pub vertices: Vec<MeshVertex>,
+    /// Triangles; those that collapsed to a line or point are dropped.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// The edge topology of a welded mesh.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct EdgeReport {
+    /// Undirected edges.
+    pub edges: usize,
+    /// Edges used by one triangle only (holes and cracks).
+    pub boundary: usize,
+    /// Edges used by three or more triangles.
+    pub non_manifold: usize,
+    /// Interior edges whose two triangles run it the same way (flipped orientation).
+    pub misoriented: usize,
+}
+
+impl EdgeReport {
+    /// Every edge shared by exactly two triangles, consistently oriented.
+    pub fn is_watertight(&self) -> bool {
+        self.boundary == 0 && self.non_manifold == 0 && self.misoriented == 0
+    }
+}
+
+impl PatchMesh {
+    /// Merges vertices closer than `tol` (a grid hash with neighbour lookup) and drops
+    /// triangles that collapse.
+    pub fn welded(&self, tol: f32) -> WeldedMesh {
+        let (verts, tris) = self.merged();
+        weld(&verts, &tris, tol)
+    }
+
+    /// The nearest hit of the ray `origin + t dir` (`t > 0`) with any triangle
+    /// (Moller-Trumbore), as `t`.
+    pub fn first_hit(&self, origin: [f64; 3], dir: [f64; 3]) -> Option<f64> {
+        let mut best: Option<f64> = None;
+        for patch in self.patches.values() {
+            for t in &patch.triangles {
+                let p = t.map(|i| {
+                    let v = patch.vertices[i as usize].position;
+                    [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])]
+                });
+                if let Some(d) = ray_triangle(origin, dir, p) {
+                    if best.is_none_or(|b| d < b) {
+                        best = Some(d);
+                    }
+                }
+            }
+        }
+        best
+    }
+}
+
+/// Merges vertices of an indexed mesh closer than `tol`, dropping collapsed triangles.
+pub fn weld(verts: &[MeshVertex], tris: &[[u32; 3]], tol: f32) -> WeldedMesh {
+    use std::collections::HashMap;
+    let tol = tol.max(f32::MIN_POSITIVE);
+    let cell = |p: [f32; 3]| p.map(|x| (x / tol).floor() as i64);
+    let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+    let mut out = WeldedMesh::default();
+    let mut remap = Vec::with_capacity(verts.len());
+    for v in verts {
+        let c = cell(v.position);
+        let mut found = None;
+        'search: for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    if let Some(list) = grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) {
+                        for &k in list {
+                            let q = out.vertices[k as usize].position;
+                            let d2: f32 = (0..3).map(|i| (q[i] - v.position[i]).powi(2)).sum();
+                            if d2 <= tol * tol {
+                                found = Some(k);
+                                break 'search;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let k = found.unwrap_or_else(|| {
+            out.vertices.push(*v);
+            let k = (out.vertices.len() - 1) as u32;
+            grid.entry(c).or_default().push(k);
+            k
+        });
+        remap.push(k);
+    }
+    for t in tris {
+        let [a, b, c] = t.map(|i| remap[i as usize]);
+        if a != b && b != c && a != c {
+            out.triangles.push([a, b, c]);
+        }
+    }
+    out
+}
+
+impl WeldedMesh {
+    /// Counts boundary, non-manifold and misoriented edges.
+    pub fn edge_report(&self) -> EdgeReport {
+        use std::collections::HashMap;
+        // (min, max) -> (uses, directed uses from min to max)
+        let mut edges: HashMap<(u32, u32), (u32, u32)> = HashMap::new();
+        for t in &self.triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                let e = edges.entry((a.min(b), a.max(b))).or_default();
+                e.0 += 1;
+                if a < b {
+                    e.1 += 1;
+                }
+            }
+        }
+        let mut r = EdgeReport {
+            edges: edges.len(),
+            ..Default::default()
+        };
+        for (uses, forward) in edges.values() {
+            match uses {
+                1 => r.boundary += 1,
+                2 if *forward != 1 => r.misoriented += 1,
+                2 => {}
+                _ => r.non_manifold += 1,
+            }
+        }
+        r
+    }
+}
+
+fn ray_triangle(o: [f64; 3], d: [f64; 3], p: [[f64; 3]; 3]) -> Option<f64> {
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let (e1, e2) = (sub(p[1], p[0]), sub(p[2], p[0]));
+    let h = cross(d, e2);
+    let a = dot(e1, h);
+    if a.abs() < 1e-18 {
+        return None;
+    }
+    let f = 1.0 / a;
+    let s = sub(o, p[0]);
+    let u = f * dot(s, h);
+    if !(-1e-9..=1.0 + 1e-9).contains(&u) {
+        return None;
+    }
+    let q = cross(s, e1);
+    let v = f * dot(d, q);
+    if v < -1e-9 || u + v > 1.0 + 1e-9 {
+        return None;
+    }
+    let t = f * dot(e2, q);
+    (t > 1e-12).then_some(t)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,0 +1,574 @@
+//! IGES 5.3 export of NURBS surfaces: rational B-spline surfaces (entity 128), and
+//! trimmed surfaces (entity 144) whose boundaries are curves on the surface (entity 142)
+//! given by parameter-space B-spline curves (entity 126).
+//!
+//! The file has the five fixed-column sections (Start, Global, Directory Entry,
+//! Parameter Data, Terminate), 80 columns per line, units metres. A sculpted target is
+//! written as one 144 per visible face (the domain minus the strokes' footprints), each
+//! with its outer loop and holes as degree-1 parameter-space curves; stroke surfaces are
+//! written as plain 128 entities. [`read`] parses the entities back for checking.
+//!
+//! ```
+//! use glam::DVec3;
+//! use sculpt_core::formats::iges::{self, IgesSurface, NurbsPatch};
+//! let patch = NurbsPatch {
+//!     degree_u: 1, degree_v: 1,
+//!     knots_u: vec![0.0, 0.0, 1.0, 1.0], knots_v: vec![0.0, 0.0, 1.0, 1.0],
+//!     control_points: vec![vec![DVec3::ZERO, DVec3::Y], vec![DVec3::X, DVec3::ONE]],
+//!     weights: None,
+//! };
+//! let bytes = iges::write(&[IgesSurface { name: "plane".into(), patch: patch.clone(), faces: None }]);
+//! let model = iges::read(&bytes).unwrap();
+//! assert_eq!(model.surfaces[0], patch);
+//! ```
+
+use super::err;
+use crate::Result;
+use glam::{DVec2, DVec3};
+
+/// A NURBS surface in the kernel's JSON layout: `control_points[i][j]` with `i` along u.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NurbsPatch {
+    /// Degree in u.
+    pub degree_u: usize,
+    /// Degree in v.
+    pub degree_v: usize,
+    /// Clamped knot vector in u.
+    pub knots_u: Vec<f64>,
+    /// Clamped knot vector in v.
+    pub knots_v: Vec<f64>,
+    /// Control net, `[i][j]`.
+    pub control_points: Vec<Vec<DVec3>>,
+    /// Weights `[i][j]`; `None` means all 1 (polynomial).
+    pub weights: Option<Vec<Vec<f64>>>,
+}
+
+impl NurbsPatch {
+    /// The parameter domain `[(u0, v0), (u1, v1)]` of the clamped knots.
+    pub fn domain(&self) -> (DVec2, DVec2) {
+        let (p, q) = (self.degree_u, self.degree_v);
+        let ku = |i: usize| self.knots_u.get(i).copied().unwrap_or(0.0);
+        let kv = |i: usize| self.knots_v.get(i).copied().unwrap_or(0.0);
+        (
+            DVec2::new(ku(p), kv(q)),
+            DVec2::new(
+                ku(self.knots_u.len().saturating_sub(p + 1)),
+                kv(self.knots_v.len().saturating_sub(q + 1)),
+            ),
+        )
+    }
+}
+
+/// One visible face of a trimmed surface, in normalised `[0, 1]^2` parameters.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Face {
+    /// Outer loop (counter-clockwise).
+    pub outer: Vec<DVec2>,
+    /// Holes (clockwise).
+    pub holes: Vec<Vec<DVec2>>,
+}
+
+/// A surface to export: untrimmed when `faces` is `None`, otherwise one entity 144 per
+/// face.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IgesSurface {
+    /// Entity label (up to 8 characters are written).
+    pub name: String,
+    /// The surface.
+    pub patch: NurbsPatch,
+    /// Visible faces, or `None` for the whole surface.
+    pub faces: Option<Vec<Face>>,
+}
+
+/// What [`read`] found.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct IgesModel {
+    /// Every entity 128, in file order.
+    pub surfaces: Vec<NurbsPatch>,
+    /// For every entity 144: the index in `surfaces` of its base surface and its number
+    /// of boundary loops (outer plus holes).
+    pub trimmed: Vec<(usize, usize)>,
+    /// For every entity 126: its control points (x, y, z).
+    pub curves: Vec<Vec<DVec3>>,
+}
+
+struct Entity {
+    kind: u32,
+    form: u32,
+    dependent: bool,
+    label: String,
+    params: Vec<String>,
+}
+
+fn real(x: f64) -> String {
+    let x = if x.is_finite() { x } else { 0.0 };
+    format!("{x:E}")
+}
+
+fn patch_params(p: &NurbsPatch, out: &mut Vec<String>) {
+    let (nu, nv) = (
+        p.control_points.len(),
+        p.control_points.first().map_or(0, Vec::len),
+    );
+    let rational = p.weights.is_some();
+    out.extend(
+        [
+            128,
+            nu as i64 - 1,
+            nv as i64 - 1,
+            p.degree_u as i64,
+            p.degree_v as i64,
+            0,
+            0,
+        ]
+        .iter()
+        .map(i64::to_string),
+    );
+    out.push(if rational { "0" } else { "1" }.into());
+    out.extend(["0".into(), "0".into()]);
+    out.extend(p.knots_u.iter().map(|&k| real(k)));
+    out.extend(p.knots_v.iter().map(|&k| real(k)));
+    for j in 0..nv {
+        for i in 0..nu {
+            let w = p
+                .weights
+                .as_ref()
+                .and_then(|w| w.get(i)?.get(j).copied())
+                .unwrap_or(1.0);
+            out.push(real(w));
+        }
+    }
+    for j in 0..nv {
+        for i in 0..nu {
+            let c = p.control_points[i].get(j).copied().unwrap_or_default();
+            out.extend([real(c.x), real(c.y), real(c.z)]);
+        }
+    }
+    let (lo, hi) = p.domain();
+    out.extend([real(lo.x), real(hi.x), real(lo.y), real(hi.y)]);
+}
+
+fn loop_params(points: &[DVec2], out: &mut Vec<String>) {
+    // A closed degree-1 B-spline through the loop's points (first repeated last).
+    let mut pts = points.to_vec();
+    if let Some(&first) = points.first() {
+        pts.push(first);
+    }
+    let k = pts.len() - 1;
+    out.extend([
+        "126".into(),
+        k.to_string(),
+        "1".into(),
+        "1".into(),
+        "1".into(),
+        "1".into(),
+        "0".into(),
+    ]);
+    out.push(real(0.0));
+    for t in 0..=k {
+        out.push(real(t as f64));
+    }
+    out.push(real(k as f64));
+    out.extend((0..=k).map(|_| real(1.0)));
+    for p in &pts {
+        out.extend([real(p.x), real(p.y), real(0.0)]);
+    }
+    out.extend([real(0.0), real(k as f64), real(0.0), real(0.0), real(1.0)]);
+}
+
+/// Writes an IGES 5.3 file with the given surfaces.
+pub fn write(surfaces: &[IgesSurface]) -> Vec<u8> {
+    let mut entities: Vec<Entity> = Vec::new();
+    let de = |index: usize| (2 * index + 1).to_string();
+    for s in surfaces {
+        let label: String = s
+            .name
+            .chars()
+            .filter(|c| c.is_ascii_graphic())
+            .take(8)
+            .collect();
+        let mut params = Vec::new();
+        patch_params(&s.patch, &mut params);
+        let surface_index = entities.len();
+        entities.push(Entity {
+            kind: 128,
+            form: 0,
+            dependent: s.faces.is_some(),
+            label: label.clone(),
+            params,
+        });
+        let (lo, hi) = s.patch.domain();
+        for face in s.faces.iter().flatten() {
+            let mut boundaries = Vec::new();
+            for lp in std::iter::once(&face.outer).chain(&face.holes) {
+                if lp.len() < 3 {
+                    continue;
+                }
+                let in_domain: Vec<DVec2> = lp.iter().map(|q| lo + *q * (hi - lo)).collect();
+                let mut cparams = Vec::new();
+                loop_params(&in_domain, &mut cparams);
+                entities.push(Entity {
+                    kind: 126,
+                    form: 0,
+                    dependent: true,
+                    label: "TRIMUV".into(),
+                    params: cparams,
+                });
+                let curve = entities.len() - 1;
+                let params = vec![
+                    "142".into(),
+                    "0".into(),
+                    de(surface_index),
+                    de(curve),
+                    "0".into(),
+                    "1".into(),
+                ];
+                entities.push(Entity {
+                    kind: 142,
+                    form: 0,
+                    dependent: true,
+                    label: "TRIMLOOP".into(),
+                    params,
+                });
+                boundaries.push(entities.len() - 1);
+            }
+            if boundaries.is_empty() {
+                continue;
+            }
+            let mut params = vec![
+                "144".into(),
+                de(surface_index),
+                "1".into(),
+                (boundaries.len() - 1).to_string(),
+            ];
+            params.extend(boundaries.iter().map(|&b| de(b)));
+            entities.push(Entity {
+                kind: 144,
+                form: 0,
+                dependent: false,
+                label: label.clone(),
+                params,
+            });
+        }
+    }
+    let mut lines: Vec<String> = Vec::new();
+    let push = |lines: &mut Vec<String>, body: &str, section: char, seq: usize| {
+        lines.push(format!("{body:<72}{section}{seq:>7}"));
+    };
+    let start = [
+        "Wandsculpt sculpted NURBS surfaces (IGES 5.3).",
+        "Trimmed surfaces are entity 144 with parameter-space loops (126/142).",
+    ];
+    for (k, s) in start.iter().enumerate() {
+        push(&mut lines, s, 'S', k + 1);
+    }
+    let h = |s: &str| format!("{}H{}", s.len(), s);
+    let global = [
+        h(","),
+        h(";"),
+        h("wandsculpt"),
+        h("sculpture.igs"),
+        h("Wandsculpt sculpt-core"),
+        h(env!("CARGO_PKG_VERSION")),
+        "32".into(),
+        "38".into(),
+        "6".into(),
+        "308".into(),
+        "15".into(),
+        h("wandsculpt"),
+        "1.".into(),
+        "6".into(),
+        h("M"),
+        "1".into(),
+        "1.".into(),
+        h("20260101.000000"),
+        "1.E-9".into(),
+        "1000.".into(),
+        h("wandsculpt"),
+        h("wandsculpt"),
+        "11".into(),
+        "0".into(),
+        h("20260101.000000"),
+    ];
+    let global_lines = pack(&global.join(","), 72);
+    let ng = global_lines.len();
+    for (k, body) in global_lines.iter().enumerate() {
+        let body = if k + 1 == ng {
+            format!("{body};")
+        } else {
+            body.clone()
+        };
+        push(&mut lines, &body, 'G', k + 1);
+    }
+    // Parameter data first (to know the line pointers), then directory entries.
+    let mut pdata: Vec<String> = Vec::new();
+    let mut pointers = Vec::new();
+    for (i, e) in entities.iter().enumerate() {
+        let text = format!("{};", e.params.join(","));
+        let body = pack(&text, 64);
+        pointers.push((pdata.len() + 1, body.len()));
+        for b in body {
+            pdata.push(format!("{b:<64} {:>7}", 2 * i + 1));
+        }
+    }
+    for (i, e) in entities.iter().enumerate() {
+        let status = if e.dependent { "00010000" } else { "00000000" };
+        let l1 = format!(
+            "{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}",
+            e.kind, pointers[i].0, 0, 0, 0, 0, 0, 0, status
+        );
+        let l2 = format!(
+            "{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}",
+            e.kind, 0, 0, pointers[i].1, e.form, "", "", e.label, 0
+        );
+        push(&mut lines, &l1, 'D', 2 * i + 1);
+        push(&mut lines, &l2, 'D', 2 * i + 2);
+    }
+    for (k, body) in pdata.iter().enumerate() {
+        push(&mut lines, body, 'P', k + 1);
+    }
+    let term = format!(
+        "S{:>7}G{:>7}D{:>7}P{:>7}",
+        start.len(),
+        ng,
+        2 * entities.len(),
+        pdata.len()
+    );
+    push(&mut lines, &term, 'T', 1);
+    let mut out = lines.join("\n");
+    out.push('\n');
+    out.into_bytes()
+}
+
+/// Splits free-format text into lines of at most `width` columns, breaking after a
+/// delimiter so that no number is split.
+fn pack(text: &str, width: usize) -> Vec<String> {
+    let mut lines = Vec::new();
+    let mut cur = String::new();
+    for token in text.split_inclusive([',', ';']) {
+        if cur.len() + token.len() > width && !cur.is_empty() {
+            lines.push(std::mem::take(&mut cur));
+        }
+        cur.push_str(token);
+    }
+    if !cur.is_empty() {
+        lines.push(cur);
+    }
+    lines
+}
+
+/// Reads the surfaces and trimming structure back from IGES text.
+pub fn read(bytes: &[u8]) -> Result<IgesModel> {
+    let e = |r: String| err("IGES", r);
+    let text = std::str::from_utf8(bytes).map_err(|x| e(format!("not ASCII text: {x}")))?;
+    let mut dir: Vec<&str> = Vec::new();
+    let mut params: std::collections::BTreeMap<usize, String> = Default::default();
+    for (ln, line) in text.lines().enumerate() {
+        let line = line.trim_end_matches('\r');
+        if line.len() < 73 || !line.is_char_boundary(72) || !line.is_char_boundary(73) {
+            if line.trim().is_empty() {
+                continue;
+            }
+            return Err(e(format!("line {}: shorter than 73 columns", ln + 1)));
+        }
+        match &line[72..73] {
+            "D" => dir.push(line),
+            "P" => {
+                let de: usize = line
+                    .get(64..72)
+                    .and_then(|s| s.trim().parse().ok())
+                    .ok_or_else(|| e(format!("line {}: bad directory pointer", ln + 1)))?;
+                params
+                    .entry(de)
+                    .or_default()
+                    .push_str(line[..64].trim_end());
+            }
+            "S" | "G" | "T" => {}
+            other => return Err(e(format!("line {}: unknown section {other:?}", ln + 1))),
+        }
+    }
+    if dir.len() % 2 != 0 {
+        return Err(e("odd number of directory entry lines".into()));
+    }
+    let mut model = IgesModel::default();
+    let mut surface_at_de = std::collections::HashMap::new();
+    let mut pending_144 = Vec::new();
+    for (k, pair) in dir.chunks(2).enumerate() {
+        let de = 2 * k + 1;
+        let kind: u32 = pair[0]
+            .get(0..8)
+            .and_then(|s| s.trim().parse().ok())
+            .ok_or_else(|| e(format!("directory entry {de}: bad type")))?;
+        let p = params
+            .get(&de)
+            .ok_or_else(|| e(format!("directory entry {de}: no parameter data")))?;
+        let toks: Vec<&str> = p
+            .trim_end_matches(';')
+            .split([',', ';'])
+            .map(str::trim)
+            .collect();
+        if toks.first().and_then(|t| t.parse::<u32>().ok()) != Some(kind) {
+            return Err(e(format!(
+                "directory entry {de}: parameter data is for another entity"
+            )));
+        }
+        let num = |i: usize| -> Result<f64> {
+            toks.get(i)
+                .and_then(|t| t.replace('D', "E").parse::<f64>().ok())
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| {
+                    e(format!(
+                        "entity {kind} at {de}: parameter {i} missing or not a number"
+                    ))
+                })
+        };
+        let int = |i: usize| -> Result<usize> {
+            let x = num(i)?;
+            if !(0.0..=1e7).contains(&x) || x.fract() != 0.0 {
+                return Err(e(format!(
+                    "entity {kind} at {de}: parameter {i} is not a count"
+                )));
+            }
+            Ok(x as usize)
+        };
+        match kind {
+            128 => {
+                let (k1, k2, m1, m2) = (int(1)?, int(2)?, int(3)?, int(4)?);
+                let polynomial = int(7)? == 1;
+                let (nu, nv) = (k1 + 1, k2 + 1);
+                let (nku, nkv) = (nu + m1 + 1, nv + m2 + 1);
+                let need = 10 + nku + nkv + 4 * nu * nv + 4;
+                if toks.len() < need {
+                    return Err(e(format!(
+                        "entity 128 at {de}: {} parameters, {need} needed",
+                        toks.len()
+                    )));
+                }
+                let mut at = 10;
+                let mut take = |n: usize| -> Result<Vec<f64>> {
+                    let v = (at..at + n).map(num).collect::<Result<Vec<f64>>>()?;
+                    at += n;
+                    Ok(v)
+                };
+                let knots_u = take(nku)?;
+                let knots_v = take(nkv)?;
+                let w = take(nu * nv)?;
+                let c = take(3 * nu * nv)?;
+                let control_points = (0..nu)
+                    .map(|i| {
+                        (0..nv)
+                            .map(|j| {
+                                let o = 3 * (j * nu + i);
+                                DVec3::new(c[o], c[o + 1], c[o + 2])
+                            })
+                            .collect()
+                    })
+                    .collect();
+                let weights = (!polynomial).then(|| {
+                    (0..nu)
+                        .map(|i| (0..nv).map(|j| w[j * nu + i]).collect())
+                        .collect()
+                });
+                surface_at_de.insert(de, model.surfaces.len());
+                model.surfaces.push(NurbsPatch {
+                    degree_u: m1,
+                    degree_v: m2,
+                    knots_u,
+                    knots_v,
+                    control_points,
+                    weights,
+                });
+            }
+            126 => {
+                let (k, m) = (int(1)?, int(2)?);
+                let at = 7 + k + m + 2 + k + 1;
+                let pts = (0..=k)
+                    .map(|i| {
+                        Ok(DVec3::new(
+                            num(at + 3 * i)?,
+                            num(at + 3 * i + 1)?,
+                            num(at + 3 * i + 2)?,
+                        ))
+                    })
+                    .collect::<Result<Vec<_>>>()?;
+                model.curves.push(pts);
+            }
+            144 => {
+                let (pts, n1, n2) = (int(1)?, int(2)?, int(3)?);
+                pending_144.push((de, pts, n1 + n2));
+            }
+            _ => {}
+        }
+    }
+    for (de, pts, loops) in pending_144 {
+        let s = surface_at_de.get(&pts).ok_or_else(|| {
+            e(format!(
+                "entity 144 at {de}: base surface {pts} is not an entity 128"
+            ))
+        })?;
+        model.trimmed.push((*s, loops));
+    }
+    Ok(model)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn patch() -> NurbsPatch {
+        NurbsPatch {
+            degree_u: 2,
+            degree_v: 1,
+            knots_u: vec![0.0, 0.0, 0.0, 1.0, 1.0, 1.0],
+            knots_v: vec![0.0, 0.0, 2.0, 2.0],
+            control_points: vec![
+                vec![DVec3::new(0.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0)],
+                vec![DVec3::new(0.5, 0.0, 0.3), DVec3::new(0.5, 1.0, 0.3)],
+                vec![
+                    DVec3::new(1.0, 0.0, 0.0),
+                    DVec3::new(1.0, 1.0, 0.123456789012345),
+                ],
+            ],
+            weights: Some(vec![vec![1.0, 1.0], vec![0.5, 0.7], vec![1.0, 1.0]]),
+        }
+    }
+
+    #[test]
+    fn trimmed_surface_round_trip() {
+        let sq = |c: f64, h: f64| {
+            vec![
+                DVec2::new(c - h, c - h),
+                DVec2::new(c + h, c - h),
+                DVec2::new(c + h, c + h),
+                DVec2::new(c - h, c + h),
+            ]
+        };
+        let face = Face {
+            outer: sq(0.5, 0.5),
+            holes: vec![sq(0.5, 0.1).into_iter().rev().collect()],
+        };
+        let bytes = write(&[IgesSurface {
+            name: "target-with-a-long-name".into(),
+            patch: patch(),
+            faces: Some(vec![face]),
+        }]);
+        let text = std::str::from_utf8(&bytes).unwrap();
+        assert!(text.lines().all(|l| l.len() == 80), "80 columns");
+        let m = read(&bytes).unwrap();
+        assert_eq!(m.surfaces, vec![patch()]);
+        assert_eq!(m.trimmed, vec![(0, 2)]);
+        // Loops are mapped into the surface's own parameter range (v in [0, 2]).
+        assert_eq!(m.curves[1][0], DVec3::new(0.4, 1.2, 0.0));
+    }
+
+    proptest! {
+        #[test]
+        fn damaged_files_never_panic(cut in 0usize..3000, flip in 0usize..3000, val in 32u8..127) {
+            let mut bytes = write(&[IgesSurface { name: "p".into(), patch: patch(), faces: None }]);
+            if flip < bytes.len() { bytes[flip] = val; }
+            bytes.truncate(cut);
+            let _ = read(&bytes);
+        }
+    }
+}

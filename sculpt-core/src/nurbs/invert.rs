@@ -1,0 +1,738 @@
+//! Point inversion and closest points on surfaces (P&T section 6.1, eqs. 6.5 to 6.7).
+//!
+//! # How it works
+//!
+//! [`SurfaceInverter`] is built once per surface (`surface.inverter()`), and answers any
+//! number of queries without re-tessellating:
+//!
+//! 1. **Cached bounding hierarchy.** The surface is split into Bezier patches (knot
+//!    refinement, P&T A5.4), each patch is subdivided by de Casteljau into a few
+//!    sub-patches, and each sub-patch ("leaf") keeps the axis-aligned box of its
+//!    control points. Weights are positive, so the box contains the sub-patch
+//!    (convex-hull property). A binary tree over the leaf grid holds the unions.
+//! 2. **Branch and bound.** A query walks the tree nearest box first and skips every box
+//!    farther than the best distance found so far, so only leaves that *could* hold a
+//!    closer point are examined.
+//! 3. **Bounded Newton per leaf.** In each examined leaf, Newton's method on
+//!    `f(u,v) = |S(u,v) - P|^2 / 2` (the system of eq. 6.5 with the Jacobian of eq. 6.6,
+//!    update eq. 6.7) runs inside the leaf's parameter box. When a step wants to leave
+//!    the box, the variable that hits the bound is fixed there (an active set) and the
+//!    iteration continues along the boundary curve, so minima on the edge of the
+//!    domain, and corners, are found exactly. A halving line search keeps every step
+//!    descending, and an indefinite Hessian is shifted to positive definite.
+//! 4. **Polish.** A last Newton run on the whole domain starts from the best leaf answer;
+//!    in closed directions (the seam of a sphere or torus) it wraps around instead of
+//!    stopping at the seam.
+//!
+//! Stopping rules are P&T's: point coincidence `|S - P| <= POINT_EPS` (criterion 1),
+//! zero cosine `|S_u . (S - P)| <= COSINE_EPS |S_u| |S - P|` and the same for `v`
+//! (criterion 2, on the directions not held at a bound), and a parameter step that
+//! moves the point by less than `POINT_EPS` (criterion 3).
+//!
+//! Poles (an edge collapsed to a point, where `S_u` or `S_v` vanishes) need nothing
+//! special: a vanishing derivative satisfies its cosine test, and the shifted Hessian
+//! keeps the step finite.
+
+// The book's algorithms index arrays by span offsets; keeping its loops keeps the
+// code checkable against the book.
+#![allow(clippy::needless_range_loop)]
+
+use glam::{DVec2, DVec3, DVec4};
+
+use super::surface::NurbsSurface;
+use crate::tolerance::{COSINE_EPS, POINT_EPS};
+
+/// Newton iterations per run before giving up.
+const MAX_ITERS: u32 = 40;
+/// Step halvings in the line search.
+const MAX_HALVINGS: u32 = 30;
+
+/// The answer to a closest-point query.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Projection {
+    /// The parameter `(u, v)` of the closest point found.
+    pub uv: DVec2,
+    /// `S(u, v)`.
+    pub point: DVec3,
+    /// `|S(u, v) - P|`.
+    pub distance: f64,
+    /// Newton iterations spent on this query (all runs together).
+    pub iterations: u32,
+    /// True when the final Newton run stopped by one of P&T's criteria (rather than by
+    /// the iteration cap or a stalled line search).
+    pub converged: bool,
+    /// True when `uv` lies on an edge of the domain that is not a seam.
+    pub on_boundary: bool,
+}
+
+/// A Newton run's result.
+#[derive(Debug, Clone, Copy)]
+struct Candidate {
+    uv: DVec2,
+    point: DVec3,
+    dist2: f64,
+    iters: u32,
+    converged: bool,
+}
+
+/// A sub-patch: its parameter box.
+#[derive(Debug, Clone, Copy)]
+struct Leaf {
+    uv_lo: DVec2,
+    uv_hi: DVec2,
+}
+
+impl Leaf {
+    fn center(&self) -> DVec2 {
+        (self.uv_lo + self.uv_hi) * 0.5
+    }
+}
+
+/// A tree node: a box; either two children or one leaf.
+#[derive(Debug, Clone, Copy)]
+struct Node {
+    lo: DVec3,
+    hi: DVec3,
+    /// Left child, or the leaf index when `right == u32::MAX`.
+    left: u32,
+    right: u32,
+}
+
+/// Cached acceleration structure for closest-point queries on one surface.
+///
+/// Owns a copy of the surface, so it can be stored next to it freely.
+#[derive(Debug, Clone)]
+pub struct SurfaceInverter {
+    surface: NurbsSurface,
+    nodes: Vec<Node>,
+    leaves: Vec<Leaf>,
+    domain_lo: DVec2,
+    domain_hi: DVec2,
+    closed: [bool; 2],
+}
+
+fn box_dist2(p: DVec3, lo: DVec3, hi: DVec3) -> f64 {
+    let d = (lo - p).max(p - hi).max(DVec3::ZERO);
+    d.length_squared()
+}
+
+/// Splits a Bezier polygon at `t` (de Casteljau), returning both halves.
+fn split_bezier(pts: &[DVec4], t: f64) -> (Vec<DVec4>, Vec<DVec4>) {
+    let n = pts.len();
+    let mut work = pts.to_vec();
+    let mut left = Vec::with_capacity(n);
+    let mut right = vec![DVec4::ZERO; n];
+    left.push(work[0]);
+    right[n - 1] = work[n - 1];
+    for r in 1..n {
+        for i in 0..n - r {
+            work[i] = work[i] * (1.0 - t) + work[i + 1] * t;
+        }
+        left.push(work[0]);
+        right[n - 1 - r] = work[n - 1 - r];
+    }
+    (left, right)
+}
+
+/// Splits a Bezier polygon into `pieces` equal parameter pieces.
+fn split_uniform(pts: &[DVec4], pieces: usize) -> Vec<Vec<DVec4>> {
+    let mut out = Vec::with_capacity(pieces);
+    let mut rest = pts.to_vec();
+    for k in 0..pieces - 1 {
+        let t = 1.0 / (pieces - k) as f64;
+        let (a, b) = split_bezier(&rest, t);
+        out.push(a);
+        rest = b;
+    }
+    out.push(rest);
+    out
+}
+
+/// Subdivides a `(p+1) x (q+1)` Bezier patch (row-major, `i` along `u`) into
+/// `su x sv` pieces; returns them indexed `[a * sv + c]`, each row-major.
+fn split_patch(patch: &[DVec4], p1: usize, q1: usize, su: usize, sv: usize) -> Vec<Vec<DVec4>> {
+    // Split along u: each column j is a polygon of p1 points.
+    let cols: Vec<Vec<Vec<DVec4>>> = (0..q1)
+        .map(|j| {
+            let col: Vec<DVec4> = (0..p1).map(|i| patch[i * q1 + j]).collect();
+            split_uniform(&col, su)
+        })
+        .collect();
+    let mut out = Vec::with_capacity(su * sv);
+    for a in 0..su {
+        // Strip a: p1 rows, each row of q1 points.
+        let rows: Vec<Vec<Vec<DVec4>>> = (0..p1)
+            .map(|i| {
+                let row: Vec<DVec4> = (0..q1).map(|j| cols[j][a][i]).collect();
+                split_uniform(&row, sv)
+            })
+            .collect();
+        for c in 0..sv {
+            let mut piece = Vec::with_capacity(p1 * q1);
+            for row in &rows {
+                piece.extend_from_slice(&row[c]);
+            }
+            out.push(piece);
+        }
+    }
+    out
+}
+
+/// The non-empty knot spans `(index, start, end)` of a Bezier-form knot vector.
+fn spans(knots: &[f64], p: usize, n: usize) -> Vec<(usize, f64, f64)> {
+    (p..=n)
+        .filter(|&k| knots[k] < knots[k + 1])
+        .map(|k| (k, knots[k], knots[k + 1]))
+        .collect()
+}
+
+impl NurbsSurface {
+    /// Builds the cached closest-point structure for this surface.
+    pub fn inverter(&self) -> SurfaceInverter {
+        SurfaceInverter::new(self)
+    }
+}
+
+impl SurfaceInverter {
+    /// Builds the bounding hierarchy (see the module docs). Cost: one knot refinement
+    /// and a de Casteljau subdivision; a few microseconds for a bicubic 6x6 patch.
+    pub fn new(surface: &NurbsSurface) -> Self {
+        let (u0, u1) = surface.domain_u();
+        let (v0, v1) = surface.domain_v();
+        let mut inv = Self {
+            surface: surface.clone(),
+            nodes: Vec::new(),
+            leaves: Vec::new(),
+            domain_lo: DVec2::new(u0, v0),
+            domain_hi: DVec2::new(u1, v1),
+            closed: [surface.is_closed_u(), surface.is_closed_v()],
+        };
+        inv.build();
+        inv
+    }
+
+    /// The surface this inverter answers for.
+    pub fn surface(&self) -> &NurbsSurface {
+        &self.surface
+    }
+
+    /// Number of leaf sub-patches in the hierarchy.
+    pub fn leaf_count(&self) -> usize {
+        self.leaves.len()
+    }
+
+    fn build(&mut self) {
+        let s = &self.surface;
+        let (p, q) = (s.degree_u(), s.degree_v());
+        // Bezier form cannot fail for a valid surface: every insertion stays within
+        // multiplicity p. Should it ever fail, fall back to one leaf per original span
+        // bounded by the whole control net (still correct, only slower).
+        let Ok(bz) = s.to_bezier_form() else {
+            let (lo, hi) = s.control_bounds();
+            self.leaves.push(Leaf {
+                uv_lo: self.domain_lo,
+                uv_hi: self.domain_hi,
+            });
+            self.nodes.push(Node {
+                lo,
+                hi,
+                left: 0,
+                right: u32::MAX,
+            });
+            return;
+        };
+        let (n_u, n_v) = (bz.count_u(), bz.count_v());
+        let spans_u = spans(bz.knots_u().knots(), p, n_u - 1);
+        let spans_v = spans(bz.knots_v().knots(), q, n_v - 1);
+        let pw = bz.homogeneous();
+        let cart = |i: usize, j: usize| {
+            let h = pw[i * n_v + j];
+            h.truncate() / h.w
+        };
+        // Control-polygon lengths of each span, the longest over the other direction:
+        // they bound the arc length of the iso-curves in that span.
+        let len_u: Vec<f64> = spans_u
+            .iter()
+            .map(|&(ku, _, _)| {
+                (0..n_v)
+                    .map(|j| {
+                        (ku - p..ku)
+                            .map(|i| cart(i + 1, j).distance(cart(i, j)))
+                            .sum::<f64>()
+                    })
+                    .fold(0.0, f64::max)
+            })
+            .collect();
+        let len_v: Vec<f64> = spans_v
+            .iter()
+            .map(|&(kv, _, _)| {
+                (0..n_u)
+                    .map(|i| {
+                        (kv - q..kv)
+                            .map(|j| cart(i, j + 1).distance(cart(i, j)))
+                            .sum::<f64>()
+                    })
+                    .fold(0.0, f64::max)
+            })
+            .collect();
+        // Split every span into pieces no longer than a target length (a fraction of
+        // the surface size), at most 8 per span, keeping the tree modest for big nets.
+        let total_len = len_u.iter().sum::<f64>().max(len_v.iter().sum::<f64>());
+        let mut target = total_len / 16.0;
+        let pieces_of = |len: &[f64], target: f64| -> Vec<usize> {
+            len.iter()
+                .map(|&l| {
+                    if target > 0.0 {
+                        ((l / target).ceil() as usize).clamp(1, 8)
+                    } else {
+                        1
+                    }
+                })
+                .collect()
+        };
+        let (mut su, mut sv) = (pieces_of(&len_u, target), pieces_of(&len_v, target));
+        while su.iter().sum::<usize>() * sv.iter().sum::<usize>() > 16_384 && target > 0.0 {
+            target *= 2.0;
+            su = pieces_of(&len_u, target);
+            sv = pieces_of(&len_v, target);
+        }
+        let offsets = |s: &[usize]| -> Vec<usize> {
+            s.iter()
+                .scan(0, |acc, &x| {
+                    let o = *acc;
+                    *acc += x;
+                    Some(o)
+                })
+                .collect()
+        };
+        let (off_u, off_v) = (offsets(&su), offsets(&sv));
+        let (lu, lv): (usize, usize) = (su.iter().sum(), sv.iter().sum());
+        let mut leaf_boxes = vec![(DVec3::ZERO, DVec3::ZERO); lu * lv];
+        let mut leaf_uv = vec![(DVec2::ZERO, DVec2::ZERO); lu * lv];
+        for (a, &(ku, ua, ub)) in spans_u.iter().enumerate() {
+            for (c, &(kv, va, vb)) in spans_v.iter().enumerate() {
+                let mut patch = Vec::with_capacity((p + 1) * (q + 1));
+                for i in ku - p..=ku {
+                    for j in kv - q..=kv {
+                        patch.push(pw[i * n_v + j]);
+                    }
+                }
+                let pieces = split_patch(&patch, p + 1, q + 1, su[a], sv[c]);
+                for sa in 0..su[a] {
+                    for sc in 0..sv[c] {
+                        let piece = &pieces[sa * sv[c] + sc];
+                        let mut lo = DVec3::splat(f64::INFINITY);
+                        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+                        for h in piece {
+                            let c3 = h.truncate() / h.w;
+                            lo = lo.min(c3);
+                            hi = hi.max(c3);
+                        }
+                        let (gi, gj) = (off_u[a] + sa, off_v[c] + sc);
+                        // Exact span ends, so edge leaves meet the domain edge exactly.
+                        let lerp = |x: f64, y: f64, t: usize, n: usize| {
+                            if t == n {
+                                y
+                            } else {
+                                x + (y - x) * t as f64 / n as f64
+                            }
+                        };
+                        let fu = |t: usize| lerp(ua, ub, t, su[a]);
+                        let fv = |t: usize| lerp(va, vb, t, sv[c]);
+                        leaf_uv[gi * lv + gj] = (
+                            DVec2::new(fu(sa), fv(sc)),
+                            DVec2::new(fu(sa + 1), fv(sc + 1)),
+                        );
+                        leaf_boxes[gi * lv + gj] = (lo, hi);
+                    }
+                }
+            }
+        }
+        self.leaves = leaf_uv
+            .iter()
+            .map(|&(uv_lo, uv_hi)| Leaf { uv_lo, uv_hi })
+            .collect();
+        self.nodes.reserve(2 * lu * lv);
+        self.build_node(&leaf_boxes, lv, 0, lu, 0, lv);
+    }
+
+    /// Builds the node for leaf-grid rows `i0..i1`, columns `j0..j1`; returns its index.
+    fn build_node(
+        &mut self,
+        boxes: &[(DVec3, DVec3)],
+        lv: usize,
+        i0: usize,
+        i1: usize,
+        j0: usize,
+        j1: usize,
+    ) -> u32 {
+        let idx = self.nodes.len() as u32;
+        if i1 - i0 == 1 && j1 - j0 == 1 {
+            let leaf = i0 * lv + j0;
+            let (lo, hi) = boxes[leaf];
+            self.nodes.push(Node {
+                lo,
+                hi,
+                left: leaf as u32,
+                right: u32::MAX,
+            });
+            return idx;
+        }
+        self.nodes.push(Node {
+            lo: DVec3::ZERO,
+            hi: DVec3::ZERO,
+            left: 0,
+            right: 0,
+        });
+        let (l, r) = if i1 - i0 >= j1 - j0 {
+            let im = (i0 + i1) / 2;
+            (
+                self.build_node(boxes, lv, i0, im, j0, j1),
+                self.build_node(boxes, lv, im, i1, j0, j1),
+            )
+        } else {
+            let jm = (j0 + j1) / 2;
+            (
+                self.build_node(boxes, lv, i0, i1, j0, jm),
+                self.build_node(boxes, lv, i0, i1, jm, j1),
+            )
+        };
+        let (ln, rn) = (self.nodes[l as usize], self.nodes[r as usize]);
+        self.nodes[idx as usize] = Node {
+            lo: ln.lo.min(rn.lo),
+            hi: ln.hi.max(rn.hi),
+            left: l,
+            right: r,
+        };
+        idx
+    }
+
+    /// The closest point of the surface to `p` (global: branch and bound over the
+    /// cached hierarchy, then Newton; see the module docs).
+    ///
+    /// A non-finite `p` gives `distance = f64::INFINITY`, `converged = false` and the
+    /// domain's first corner: never NaN.
+    pub fn closest_point(&self, p: DVec3) -> Projection {
+        if !p.is_finite() {
+            return self.invalid_query();
+        }
+        let best = self.search(p, None);
+        self.finish(p, best)
+    }
+
+    /// Like [`Self::closest_point`], but first runs Newton from `seed_uv` (for example
+    /// the previous sample of a stroke). The seed's answer bounds the search, so most of
+    /// the hierarchy is skipped; the result is still the global closest point.
+    pub fn closest_point_from(&self, p: DVec3, seed_uv: DVec2) -> Projection {
+        if !p.is_finite() {
+            return self.invalid_query();
+        }
+        let seed = if seed_uv.is_finite() {
+            self.newton(p, seed_uv, self.domain_lo, self.domain_hi, self.closed)
+        } else {
+            self.newton(
+                p,
+                (self.domain_lo + self.domain_hi) * 0.5,
+                self.domain_lo,
+                self.domain_hi,
+                self.closed,
+            )
+        };
+        let best = self.search(p, Some(seed));
+        self.finish(p, best)
+    }
+
+    /// Local Newton only, from `seed_uv`, on the whole domain (wrapping in closed
+    /// directions): the fast path for tracking a point that moves a little. It finds a
+    /// local minimum of the distance, which need not be the global one.
+    pub fn newton_from(&self, p: DVec3, seed_uv: DVec2) -> Projection {
+        if !p.is_finite() || !seed_uv.is_finite() {
+            return self.invalid_query();
+        }
+        let c = self.newton(p, seed_uv, self.domain_lo, self.domain_hi, self.closed);
+        self.to_projection(c)
+    }
+
+    /// Closest points for many query points, in parallel (rayon) when the `parallel`
+    /// feature is on (the default). Output order matches input order.
+    pub fn closest_points(&self, points: &[DVec3]) -> Vec<Projection> {
+        #[cfg(feature = "parallel")]
+        {
+            use rayon::prelude::*;
+            points
+                .par_iter()
+                .with_min_len(64)
+                .map(|&p| self.closest_point(p))
+                .collect()
+        }
+        #[cfg(not(feature = "parallel"))]
+        {
+            points.iter().map(|&p| self.closest_point(p)).collect()
+        }
+    }
+
+    /// Closest points for consecutive samples of a stroke: each query is seeded with the
+    /// previous answer ([`Self::closest_point_from`]).
+    pub fn closest_points_along(&self, points: &[DVec3]) -> Vec<Projection> {
+        let mut out: Vec<Projection> = Vec::with_capacity(points.len());
+        for &p in points {
+            let pr = match out.last() {
+                Some(prev) if prev.distance.is_finite() => self.closest_point_from(p, prev.uv),
+                _ => self.closest_point(p),
+            };
+            out.push(pr);
+        }
+        out
+    }
+
+    fn invalid_query(&self) -> Projection {
+        let uv = self.domain_lo;
+        Projection {
+            uv,
+            point: self.surface.point_uv(uv),
+            distance: f64::INFINITY,
+            iterations: 0,
+            converged: false,
+            on_boundary: true,
+        }
+    }
+
+    fn to_projection(&self, c: Candidate) -> Projection {
+        let eps = 1e-12 * (self.domain_hi - self.domain_lo);
+        let on = |k: usize| {
+            !self.closed[k]
+                && (c.uv[k] <= self.domain_lo[k] + eps[k] || c.uv[k] >= self.domain_hi[k] - eps[k])
+        };
+        Projection {
+            uv: c.uv,
+            point: c.point,
+            distance: c.dist2.sqrt(),
+            iterations: c.iters,
+            converged: c.converged,
+            on_boundary: on(0) || on(1),
+        }
+    }
+
+    /// Polishes the best leaf answer on the whole domain and converts it.
+    fn finish(&self, p: DVec3, best: Candidate) -> Projection {
+        let polished = self.newton(p, best.uv, self.domain_lo, self.domain_hi, self.closed);
+        let mut out = if polished.dist2 <= best.dist2 {
+            polished
+        } else {
+            best
+        };
+        out.iters = best.iters + polished.iters;
+        self.to_projection(out)
+    }
+
+    /// Branch and bound over the hierarchy; `best` is an optional starting answer.
+    fn search(&self, p: DVec3, start: Option<Candidate>) -> Candidate {
+        let mut best = start.unwrap_or(Candidate {
+            uv: self.domain_lo,
+            point: DVec3::ZERO,
+            dist2: f64::INFINITY,
+            iters: 0,
+            converged: false,
+        });
+        let mut iters = best.iters;
+        let mut stack = [0u32; 128];
+        let mut top = 1usize;
+        stack[0] = 0;
+        while top > 0 {
+            top -= 1;
+            let node = self.nodes[stack[top] as usize];
+            if box_dist2(p, node.lo, node.hi) >= best.dist2 {
+                continue;
+            }
+            if node.right == u32::MAX {
+                let leaf = self.leaves[node.left as usize];
+                let c = self.newton(p, leaf.center(), leaf.uv_lo, leaf.uv_hi, [false; 2]);
+                iters += c.iters;
+                if c.dist2 < best.dist2 {
+                    best = c;
+                }
+                // Leaves on an edge of the domain also search that edge by itself: a
+                // minimum on the boundary curve is then found even when the leaf's
+                // interior holds another local minimum.
+                for (k, at_hi) in [(0, false), (0, true), (1, false), (1, true)] {
+                    if !self.edge_leaf(&leaf, k, at_hi) {
+                        continue;
+                    }
+                    let (mut lo, mut hi) = (leaf.uv_lo, leaf.uv_hi);
+                    if at_hi {
+                        lo[k] = hi[k];
+                    } else {
+                        hi[k] = lo[k];
+                    }
+                    let c = self.newton(p, (lo + hi) * 0.5, lo, hi, [false; 2]);
+                    iters += c.iters;
+                    if c.dist2 < best.dist2 {
+                        best = c;
+                    }
+                }
+                continue;
+            }
+            let (l, r) = (
+                self.nodes[node.left as usize],
+                self.nodes[node.right as usize],
+            );
+            let dl = box_dist2(p, l.lo, l.hi);
+            let dr = box_dist2(p, r.lo, r.hi);
+            // Push the farther child first so the nearer one is examined first.
+            let (first, second) = if dl <= dr {
+                (node.right, node.left)
+            } else {
+                (node.left, node.right)
+            };
+            if top + 2 <= stack.len() {
+                stack[top] = first;
+                stack[top + 1] = second;
+                top += 2;
+            }
+        }
+        best.iters = iters;
+        best
+    }
+
+    /// True when the leaf's side `at_hi` in direction `k` lies on a domain edge that is
+    /// not a seam.
+    #[inline]
+    fn edge_leaf(&self, leaf: &Leaf, k: usize, at_hi: bool) -> bool {
+        !self.closed[k]
+            && if at_hi {
+                leaf.uv_hi[k] >= self.domain_hi[k]
+            } else {
+                leaf.uv_lo[k] <= self.domain_lo[k]
+            }
+    }
+
+    /// Bounded Newton with an active set (see the module docs).
+    fn newton(&self, p: DVec3, start: DVec2, lo: DVec2, hi: DVec2, wrap: [bool; 2]) -> Candidate {
+        let s = &self.surface;
+        let mut uv = start.clamp(lo, hi);
+        let mut d = s.derivatives(uv.x, uv.y);
+        let mut r = d.point - p;
+        let mut f = r.length_squared();
+        let mut iters = 0;
+        let mut converged = false;
+        loop {
+            if f.sqrt() <= POINT_EPS {
+                converged = true;
+                break;
+            }
+            let g = DVec2::new(d.du.dot(r), d.dv.dot(r));
+            let mut free = [true; 2];
+            for k in 0..2 {
+                if !wrap[k] && ((uv[k] <= lo[k] && g[k] > 0.0) || (uv[k] >= hi[k] && g[k] < 0.0)) {
+                    free[k] = false;
+                }
+            }
+            let rl = f.sqrt();
+            let lens = [d.du.length(), d.dv.length()];
+            // Zero cosine, or a tangential residual below POINT_EPS (when |S - P| is
+            // small the cosine cannot be resolved further, but the point is exact).
+            let cos_small = move |k: usize, tol: f64| {
+                g[k].abs() <= tol * lens[k] * rl || g[k].abs() <= 1e-3 * POINT_EPS * lens[k]
+            };
+            if (0..2).all(|k| !free[k] || cos_small(k, COSINE_EPS)) {
+                converged = true;
+                break;
+            }
+            if iters >= MAX_ITERS {
+                break;
+            }
+            iters += 1;
+            let h00 = d.du.dot(d.du) + d.duu.dot(r);
+            let h01 = d.du.dot(d.dv) + d.duv.dot(r);
+            let h11 = d.dv.dot(d.dv) + d.dvv.dot(r);
+            let step = match free {
+                [true, true] => newton_step_2(h00, h01, h11, g),
+                [true, false] => DVec2::new(newton_step_1(h00, d.du.length_squared(), g.x), 0.0),
+                [false, true] => DVec2::new(0.0, newton_step_1(h11, d.dv.length_squared(), g.y)),
+                [false, false] => DVec2::ZERO,
+            };
+            // Rounding noise of f: r = S - P loses the digits of |S| and |P|.
+            let noise =
+                8.0 * f64::EPSILON * rl * (p.abs().max_element() + d.point.abs().max_element());
+            let mut t = 1.0;
+            let mut accepted = false;
+            for _ in 0..MAX_HALVINGS {
+                let mut cand = uv + step * t;
+                for k in 0..2 {
+                    cand[k] = if wrap[k] {
+                        lo[k] + (cand[k] - lo[k]).rem_euclid(hi[k] - lo[k])
+                    } else {
+                        cand[k].clamp(lo[k], hi[k])
+                    };
+                }
+                let dc = s.derivatives(cand.x, cand.y);
+                let rc = dc.point - p;
+                let fc = rc.length_squared();
+                // Accept descent, and changes within rounding noise of f (near the
+                // minimum f stops resolving the last digits while g still improves).
+                if cand == uv {
+                    break;
+                }
+                if fc <= f + noise {
+                    let moved = (dc.point - d.point).length();
+                    uv = cand;
+                    d = dc;
+                    r = rc;
+                    f = fc;
+                    accepted = true;
+                    if moved <= POINT_EPS && t == 1.0 {
+                        converged = true;
+                    }
+                    break;
+                }
+                t *= 0.5;
+            }
+            if converged {
+                break;
+            }
+            if !accepted {
+                // No descent left: a numerical minimum. Accept it if the cosines are
+                // small to a looser tolerance.
+                converged = (0..2).all(|k| !free[k] || cos_small(k, 1e-6));
+                break;
+            }
+        }
+        Candidate {
+            uv,
+            point: d.point,
+            dist2: f,
+            iters,
+            converged,
+        }
+    }
+}
+
+/// The 2x2 Newton step `-H^{-1} g`, with `H` shifted to positive definite if needed.
+#[inline]
+fn newton_step_2(h00: f64, h01: f64, h11: f64, g: DVec2) -> DVec2 {
+    let tr = h00 + h11;
+    let disc = ((h00 - h11) * (h00 - h11) + 4.0 * h01 * h01).sqrt();
+    let lmin = 0.5 * (tr - disc);
+    let lmax = 0.5 * (tr + disc);
+    let mut shift = 0.0;
+    if lmin.is_nan() || lmin <= 1e-12 * lmax.abs() {
+        shift = -lmin + 1e-6 * lmax.abs().max(1e-300);
+    }
+    let (a, b, c) = (h00 + shift, h01, h11 + shift);
+    let det = a * c - b * b;
+    if det.is_nan() || det <= 0.0 || !det.is_finite() {
+        return DVec2::ZERO;
+    }
+    DVec2::new(-(c * g.x - b * g.y) / det, -(a * g.y - b * g.x) / det)
+}
+
+/// The 1D Newton step `-g / h`, falling back to Gauss-Newton when `h <= 0`.
+#[inline]
+fn newton_step_1(h: f64, jtj: f64, g: f64) -> f64 {
+    let den = if h > 1e-12 * jtj { h } else { jtj.max(h.abs()) };
+    if den > 0.0 && den.is_finite() {
+        -g / den
+    } else {
+        0.0
+    }
+}

@@ -1,0 +1,627 @@
+//! The document: target surfaces and the strokes applied to them, in order, with undo
+//! and redo of every step back to the start, a versioned JSON file format, tessellation
+//! into [`MeshSink`]s and export.
+//!
+//! This is the API the interaction state machine and `replay` call:
+//!
+//! ```
+//! use glam::DVec3;
+//! use sculpt_core::mesh::PatchMesh;
+//! use sculpt_core::nurbs::NurbsSurface;
+//! use sculpt_core::sculpt::document::Document;
+//! use sculpt_core::sculpt::stroke::{Mode, Profile, StrokeInput, Tool};
+//! use sculpt_core::sculpt::tessellate::Detail;
+//!
+//! // A flat 1 m square target.
+//! let plane = NurbsSurface::new(1, 1, vec![0.0, 0.0, 1.0, 1.0], vec![0.0, 0.0, 1.0, 1.0],
+//!     vec![vec![DVec3::ZERO, DVec3::Y], vec![DVec3::X, DVec3::new(1.0, 1.0, 0.0)]], None)?;
+//! let mut doc = Document::new();
+//! let target = doc.add_target("plane", plane);
+//! let tool = Tool { profile: Profile::V, width: 0.05, depth: 0.01, mode: Mode::Carve, taper: 0.02 };
+//! let samples = (0..=50).map(|i| (i as f64 / 100.0, DVec3::new(0.2 + 0.012 * i as f64, 0.5, 0.001))).collect();
+//! let stroke = doc.apply_stroke(target, StrokeInput { samples, tool })?;
+//!
+//! let mut gpu_like = PatchMesh::new(); // vr-app passes its GPU-buffer sink here
+//! let stats = doc.tessellate(Detail::Interactive, &mut gpu_like);
+//! assert!(stats.triangles_total > 0);
+//!
+//! doc.undo();                          // the groove disappears ...
+//! assert_eq!(doc.strokes().len(), 0);
+//! doc.redo();                          // ... and comes back
+//! assert_eq!(doc.strokes()[0].id, stroke);
+//!
+//! let bytes = doc.to_json();
+//! let again = Document::from_json(&bytes)?;
+//! assert_eq!(again.strokes().len(), 1);
+//! # Ok::<(), sculpt_core::Error>(())
+//! ```
+//!
+//! # File format (`wandsculpt-document`, version 1)
+//!
+//! ```json
+//! {
+//!   "format": "wandsculpt-document",
+//!   "version": 1,
+//!   "description": "optional free text",
+//!   "targets": [
+//!     {"id": 1, "name": "patch", "surface": {"degree_u": 3, "degree_v": 3, "knots_u": [..],
+//!      "knots_v": [..], "control_points": [[[x, y, z], ..], ..], "weights": [[..]]}}
+//!   ],
+//!   "strokes": [
+//!     {"id": 2, "target": 1,
+//!      "tool": {"profile": "v", "width": 0.03, "depth": 0.008, "mode": "carve", "taper": 0.02},
+//!      "samples": [[t, x, y, z], ..]}
+//!   ]
+//! }
+//! ```
+//!
+//! Surfaces use the kernel's schema ([`crate::nurbs`]). `profile` is `"v"`, `"u"` or
+//! `{"custom": [[x, f], ..]}`; `mode` is `"carve"` or `"emboss"`; `taper` is optional
+//! (default 0). Samples are wand positions in metres with their time in seconds. Ids are
+//! unique positive integers; a stroke names a target listed before it. Unknown fields,
+//! other versions, duplicate ids, dangling targets and strokes that the sculpting rules
+//! reject are errors that say which entry is wrong. Scene files are documents.
+
+use super::jordan::Rect;
+use super::stroke::{Mode, Stroke, StrokeInput, Tool};
+use super::surface::{ParamSurface, extent, normal_at};
+use super::tessellate::{Detail, StrokeRef, TargetTessellation, TessStats};
+use crate::error::{Error, Result};
+use crate::formats::iges::{Face, IgesSurface, NurbsPatch};
+use crate::mesh::{MeshSink, PatchMesh};
+use crate::nurbs::NurbsSurface;
+use glam::{DVec2, DVec3};
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+
+/// The format tag of document files.
+pub const FORMAT: &str = "wandsculpt-document";
+/// The document format version this build writes and reads.
+pub const VERSION: u32 = 1;
+/// Largest document accepted by [`Document::from_json`], bytes.
+pub const MAX_DOCUMENT_BYTES: usize = 256 << 20;
+
+/// Identifies a target surface in a document.
+pub type TargetId = u64;
+/// Identifies a stroke in a document.
+pub type StrokeId = u64;
+
+/// A target surface.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TargetRecord {
+    /// Its id.
+    pub id: TargetId,
+    /// A name for people.
+    pub name: String,
+    /// The NURBS surface (never modified by sculpting).
+    pub surface: NurbsSurface,
+}
+
+/// A stroke as the user made it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StrokeRecord {
+    /// Its id.
+    pub id: StrokeId,
+    /// The target it was applied to.
+    pub target: TargetId,
+    /// The wand samples and tool.
+    pub input: StrokeInput,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+enum Step {
+    Target(TargetRecord),
+    Stroke(StrokeRecord),
+}
+
+/// Targets, strokes, history and the derived sculpting state.
+#[derive(Debug, Clone, Default)]
+pub struct Document {
+    targets: Vec<TargetRecord>,
+    strokes: Vec<StrokeRecord>,
+    redo: Vec<Step>,
+    next_id: u64,
+    built: HashMap<StrokeId, Stroke>,
+    views: HashMap<(TargetId, Detail), TargetTessellation>,
+    /// Areas changed since the last tessellation, per target and detail
+    /// (`None` inside: the whole target).
+    dirty: HashMap<(TargetId, Detail), Option<Rect>>,
+    /// Targets removed since the last tessellation at each detail, with their patches.
+    removed: Vec<(Detail, Vec<u64>)>,
+}
+
+/// How far (metres) a wand sample may be from the target and still count as on it:
+/// twice the tool width, but at least 5 % of the target's size.
+pub fn snap_distance(tool: &Tool, target_size: f64) -> f64 {
+    (2.0 * tool.width).max(0.05 * target_size)
+}
+
+impl Document {
+    /// An empty document.
+    pub fn new() -> Self {
+        Self {
+            next_id: 1,
+            ..Self::default()
+        }
+    }
+
+    /// The targets, in order.
+    pub fn targets(&self) -> &[TargetRecord] {
+        &self.targets
+    }
+
+    /// The strokes, in the order they were applied.
+    pub fn strokes(&self) -> &[StrokeRecord] {
+        &self.strokes
+    }
+
+    /// The projected stroke of a stroke id.
+    pub fn stroke(&self, id: StrokeId) -> Option<&Stroke> {
+        self.built.get(&id)
+    }
+
+    /// Adds a target surface (undoable) and returns its id.
+    pub fn add_target(&mut self, name: &str, surface: NurbsSurface) -> TargetId {
+        let id = self.fresh_id();
+        self.redo.clear();
+        self.push_target(TargetRecord {
+            id,
+            name: name.to_string(),
+            surface,
+        });
+        id
+    }
+
+    /// Projects and applies a stroke to a target (undoable). A stroke the rules reject
+    /// (see [`Stroke::build`]) leaves the document unchanged and says why.
+    pub fn apply_stroke(&mut self, target: TargetId, input: StrokeInput) -> Result<StrokeId> {
+        let record = StrokeRecord {
+            id: self.next_id.max(1),
+            target,
+            input,
+        };
+        self.push_stroke(record.clone())?;
+        self.next_id = record.id + 1;
+        self.redo.clear();
+        Ok(record.id)
+    }
+
+    /// Undoes the last step; false when there is nothing to undo.
+    pub fn undo(&mut self) -> bool {
+        let last_stroke = self.strokes.last().map(|s| s.id);
+        let last_target = self.targets.last().map(|t| t.id);
+        // Steps are strictly ordered by id: undo whichever came last.
+        let step = match (last_stroke, last_target) {
+            (Some(s), Some(t)) if s > t => self.pop_stroke(),
+            (Some(_), None) => self.pop_stroke(),
+            (_, Some(_)) => self.pop_target(),
+            (None, None) => None,
+        };
+        match step {
+            Some(step) => {
+                self.redo.push(step);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Redoes the last undone step; false when there is nothing to redo.
+    pub fn redo(&mut self) -> bool {
+        match self.redo.pop() {
+            Some(Step::Target(t)) => {
+                self.push_target(t);
+                true
+            }
+            Some(Step::Stroke(s)) => {
+                // It was valid when first applied and nothing under it changed.
+                self.push_stroke(s).is_ok()
+            }
+            None => false,
+        }
+    }
+
+    /// True when [`Self::undo`] would do something.
+    pub fn can_undo(&self) -> bool {
+        !self.targets.is_empty()
+    }
+
+    /// True when [`Self::redo`] would do something.
+    pub fn can_redo(&self) -> bool {
+        !self.redo.is_empty()
+    }
+
+    fn fresh_id(&mut self) -> u64 {
+        let id = self.next_id.max(1);
+        self.next_id = id + 1;
+        id
+    }
+
+    fn push_target(&mut self, t: TargetRecord) {
+        for detail in [Detail::Interactive, Detail::Final] {
+            self.dirty.insert((t.id, detail), None);
+        }
+        self.next_id = self.next_id.max(t.id + 1);
+        self.targets.push(t);
+    }
+
+    fn pop_target(&mut self) -> Option<Step> {
+        let t = self.targets.pop()?;
+        for detail in [Detail::Interactive, Detail::Final] {
+            self.dirty.remove(&(t.id, detail));
+            if let Some(view) = self.views.remove(&(t.id, detail)) {
+                let n = view.map().n();
+                self.removed
+                    .push((detail, (0..n * n).map(|r| view.patch_key(r)).collect()));
+            }
+        }
+        Some(Step::Target(t))
+    }
+
+    fn push_stroke(&mut self, record: StrokeRecord) -> Result<()> {
+        if self.strokes.iter().any(|s| s.id == record.id) {
+            return Err(Error::Document(format!(
+                "duplicate stroke id {}",
+                record.id
+            )));
+        }
+        let target =
+            self.targets
+                .iter()
+                .find(|t| t.id == record.target)
+                .ok_or(Error::NotFound {
+                    kind: "target",
+                    id: record.target,
+                })?;
+        let snap = snap_distance(&record.input.tool, target.surface.size());
+        let stroke = Stroke::build(&target.surface, &record.input, snap)?;
+        self.mark_dirty(record.target, stroke.bounds);
+        self.built.insert(record.id, stroke);
+        self.next_id = self.next_id.max(record.id + 1);
+        self.strokes.push(record);
+        Ok(())
+    }
+
+    fn pop_stroke(&mut self) -> Option<Step> {
+        let s = self.strokes.pop()?;
+        if let Some(stroke) = self.built.remove(&s.id) {
+            self.mark_dirty(s.target, stroke.bounds);
+        }
+        Some(Step::Stroke(s))
+    }
+
+    fn mark_dirty(&mut self, target: TargetId, area: Rect) {
+        for detail in [Detail::Interactive, Detail::Final] {
+            let entry = self.dirty.entry((target, detail)).or_insert(Some(area));
+            if let Some(r) = entry {
+                *r = Rect::new(r.min.min(area.min), r.max.max(area.max));
+            }
+        }
+    }
+
+    /// The strokes on one target, in order, as the tessellator takes them.
+    pub fn strokes_on(&self, target: TargetId) -> Vec<StrokeRef<'_>> {
+        self.strokes
+            .iter()
+            .filter(|s| s.target == target)
+            .filter_map(|s| self.built.get(&s.id).map(|b| (s.id, b)))
+            .collect()
+    }
+
+    /// Brings `sink` up to date at `detail`: the first call writes every patch, later
+    /// calls only the patches changed since (strokes applied, undone or redone; targets
+    /// added or removed). Use one sink per detail.
+    pub fn tessellate(&mut self, detail: Detail, sink: &mut dyn MeshSink) -> TessStats {
+        let mut stats = TessStats::default();
+        self.removed.retain(|(d, keys)| {
+            if *d == detail {
+                for &k in keys {
+                    sink.remove_patch(k);
+                }
+                false
+            } else {
+                true
+            }
+        });
+        for (k, t) in self.targets.iter().enumerate() {
+            let key = (t.id, detail);
+            let changed = self.dirty.remove(&key);
+            let fresh = !self.views.contains_key(&key);
+            if !fresh && changed.is_none() {
+                stats.triangles_total += self.views[&key].triangle_count();
+                continue;
+            }
+            let view = self
+                .views
+                .entry(key)
+                .or_insert_with(|| TargetTessellation::new(&t.surface, k as u32, detail));
+            let strokes: Vec<StrokeRef<'_>> = self
+                .strokes
+                .iter()
+                .filter(|s| s.target == t.id)
+                .filter_map(|s| self.built.get(&s.id).map(|b| (s.id, b)))
+                .collect();
+            let area = if fresh { None } else { changed.flatten() };
+            let s = view.update(&t.surface, &strokes, area, sink);
+            stats.patches_written += s.patches_written;
+            stats.triangles_written += s.triangles_written;
+            stats.triangles_total += s.triangles_total;
+        }
+        stats
+    }
+
+    /// The whole sculpted mesh at `detail`, freshly tessellated.
+    pub fn mesh(&self, detail: Detail) -> PatchMesh {
+        let mut mesh = PatchMesh::new();
+        for (k, t) in self.targets.iter().enumerate() {
+            let mut view = TargetTessellation::new(&t.surface, k as u32, detail);
+            view.update(&t.surface, &self.strokes_on(t.id), None, &mut mesh);
+        }
+        mesh
+    }
+
+    /// Memory held by the derived state (projected strokes, UV maps), bytes.
+    pub fn memory_bytes(&self) -> usize {
+        self.built.values().map(Stroke::memory_bytes).sum::<usize>()
+            + self
+                .views
+                .values()
+                .map(TargetTessellation::memory_bytes)
+                .sum::<usize>()
+    }
+
+    /// Every surface for IGES export: each target as trimmed faces (the domain minus
+    /// the strokes' footprints, entity 144) or whole (128) when untouched, and each
+    /// stroke surface as a B-spline surface (128) through its swept profile grid.
+    pub fn iges_surfaces(&self) -> Vec<IgesSurface> {
+        let mut out = Vec::new();
+        for t in &self.targets {
+            let strokes = self.strokes_on(t.id);
+            let patch = NurbsPatch {
+                degree_u: t.surface.degree_u(),
+                degree_v: t.surface.degree_v(),
+                knots_u: t.surface.knots_u().knots().to_vec(),
+                knots_v: t.surface.knots_v().knots().to_vec(),
+                control_points: t.surface.control_points(),
+                weights: t.surface.is_rational().then(|| t.surface.weights()),
+            };
+            let faces = (!strokes.is_empty()).then(|| {
+                let regions: Vec<_> = strokes.iter().map(|s| &s.1.footprint).collect();
+                visible_faces(&super::stroke::union(&regions))
+            });
+            out.push(IgesSurface {
+                name: t.name.clone(),
+                patch,
+                faces,
+            });
+            for (id, s) in &strokes {
+                out.push(IgesSurface {
+                    name: format!("stroke{id}"),
+                    patch: stroke_surface(&t.surface, s),
+                    faces: None,
+                });
+            }
+        }
+        out
+    }
+}
+
+/// The domain minus the hidden region, as faces with holes.
+fn visible_faces(hidden: &super::jordan::Region) -> Vec<Face> {
+    use i_overlay::core::fill_rule::FillRule;
+    use i_overlay::core::overlay_rule::OverlayRule;
+    use i_overlay::float::single::SingleFloatOverlay;
+    let square = vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+    let holes = super::stroke::region_to_contours(hidden);
+    let shapes = square.overlay_as::<i64>(&holes, OverlayRule::Difference, FillRule::NonZero);
+    let to = |c: &Vec<[f64; 2]>| c.iter().map(|p| DVec2::new(p[0], p[1])).collect::<Vec<_>>();
+    shapes
+        .iter()
+        .filter(|s| !s.is_empty())
+        .map(|s| Face {
+            outer: to(&s[0]),
+            holes: s[1..].iter().map(to).collect(),
+        })
+        .collect()
+}
+
+/// Fractions across the profile (-1 left rim, 0 centre, 1 right rim) of the stroke
+/// surface's control grid.
+const ACROSS: [f64; 9] = [-1.0, -0.75, -0.5, -0.25, 0.0, 0.25, 0.5, 0.75, 1.0];
+
+/// The stroke surface as a degree (1, 1) B-spline through the swept profile: `u` along
+/// the stroke, `v` across it; its rims lie on the target, its centre at the tool depth.
+pub fn stroke_surface(surface: &dyn ParamSurface, s: &Stroke) -> NurbsPatch {
+    let n = s.centre_uv.len();
+    let sign = match s.tool.mode {
+        Mode::Carve => -1.0,
+        Mode::Emboss => 1.0,
+    };
+    let control_points: Vec<Vec<DVec3>> = (0..n)
+        .map(|i| {
+            ACROSS
+                .iter()
+                .map(|&f| {
+                    let rim = if f < 0.0 {
+                        &s.rims_uv[0]
+                    } else {
+                        &s.rims_uv[1]
+                    };
+                    let uv = s.centre_uv[i].lerp(rim[i], f.abs());
+                    let p = surface.eval(uv).p;
+                    let d = if f.abs() == 1.0 {
+                        0.0
+                    } else {
+                        s.depth_at(uv, p)
+                    };
+                    p + normal_at(surface, uv) * (sign * d)
+                })
+                .collect()
+        })
+        .collect();
+    let clamped = |count: usize| {
+        let mut k = vec![0.0];
+        k.extend((0..count).map(|i| i as f64 / (count - 1) as f64));
+        k.push(1.0);
+        k
+    };
+    NurbsPatch {
+        degree_u: 1,
+        degree_v: 1,
+        knots_u: clamped(n),
+        knots_v: clamped(ACROSS.len()),
+        control_points,
+        weights: None,
+    }
+}
+
+// ---- JSON ----
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DocumentJson {
+    format: String,
+    version: u32,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    description: Option<String>,
+    targets: Vec<TargetJson>,
+    strokes: Vec<StrokeJson>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TargetJson {
+    id: u64,
+    name: String,
+    surface: NurbsSurface,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StrokeJson {
+    id: u64,
+    target: u64,
+    tool: Tool,
+    samples: Vec<[f64; 4]>,
+}
+
+#[derive(Deserialize)]
+struct Header {
+    format: Option<String>,
+    version: Option<serde_json::Value>,
+}
+
+impl Document {
+    /// The document as JSON bytes (format of the module docs). Undo history is not saved.
+    pub fn to_json(&self) -> Vec<u8> {
+        let doc = DocumentJson {
+            format: FORMAT.into(),
+            version: VERSION,
+            description: None,
+            targets: self
+                .targets
+                .iter()
+                .map(|t| TargetJson {
+                    id: t.id,
+                    name: t.name.clone(),
+                    surface: t.surface.clone(),
+                })
+                .collect(),
+            strokes: self
+                .strokes
+                .iter()
+                .map(|s| StrokeJson {
+                    id: s.id,
+                    target: s.target,
+                    tool: s.input.tool.clone(),
+                    samples: s
+                        .input
+                        .samples
+                        .iter()
+                        .map(|(t, p)| [*t, p.x, p.y, p.z])
+                        .collect(),
+                })
+                .collect(),
+        };
+        serde_json::to_vec_pretty(&doc).unwrap_or_default()
+    }
+
+    /// Reads a document, replaying every stroke; rejects bad files with a clear error.
+    pub fn from_json(bytes: &[u8]) -> Result<Self> {
+        if bytes.len() > MAX_DOCUMENT_BYTES {
+            return Err(Error::Document(format!(
+                "{} bytes is larger than the {MAX_DOCUMENT_BYTES}-byte limit",
+                bytes.len()
+            )));
+        }
+        let header: Header = serde_json::from_slice(bytes)
+            .map_err(|e| Error::Document(format!("not a JSON object: {e}")))?;
+        if header.format.as_deref() != Some(FORMAT) {
+            return Err(Error::Document(format!(
+                "\"format\" must be \"{FORMAT}\", found {:?}",
+                header.format
+            )));
+        }
+        match header.version.as_ref().and_then(serde_json::Value::as_u64) {
+            Some(v) if v == u64::from(VERSION) => {}
+            other => {
+                return Err(Error::Document(format!(
+                    "unsupported version {other:?} (this build reads version {VERSION})"
+                )));
+            }
+        }
+        let json: DocumentJson =
+            serde_json::from_slice(bytes).map_err(|e| Error::Document(e.to_string()))?;
+        let mut doc = Document::new();
+        for t in json.targets {
+            if t.id == 0 || doc.targets.iter().any(|o| o.id == t.id) {
+                return Err(Error::Document(format!(
+                    "target id {} is zero or repeated",
+                    t.id
+                )));
+            }
+            doc.push_target(TargetRecord {
+                id: t.id,
+                name: t.name,
+                surface: t.surface,
+            });
+        }
+        for s in json.strokes {
+            if s.id == 0 || doc.targets.iter().any(|t| t.id == s.id) {
+                return Err(Error::Document(format!(
+                    "stroke id {} is zero or repeated",
+                    s.id
+                )));
+            }
+            let input = StrokeInput {
+                samples: s
+                    .samples
+                    .iter()
+                    .map(|a| (a[0], DVec3::new(a[1], a[2], a[3])))
+                    .collect(),
+                tool: s.tool,
+            };
+            let id = s.id;
+            doc.push_stroke(StrokeRecord {
+                id,
+                target: s.target,
+                input,
+            })
+            .map_err(|e| Error::Document(format!("stroke {id}: {e}")))?;
+        }
+        doc.next_id = doc
+            .targets
+            .iter()
+            .map(|t| t.id)
+            .chain(doc.strokes.iter().map(|s| s.id))
+            .max()
+            .unwrap_or(0)
+            + 1;
+        Ok(doc)
+    }
+}
+
+/// The size of a target for stroke validation (bounding-box diagonal of samples).
+pub fn target_size(surface: &dyn ParamSurface) -> f64 {
+    extent(surface).diagonal()
+}

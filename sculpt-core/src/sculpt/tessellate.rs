@@ -1,0 +1,777 @@
+//! Tessellation of a sculpted target into a [`MeshSink`], crack-free and incremental.
+//!
+//! The target's UV square is cut into the root cells of its [`UvMap`]; each root cell is
+//! one output patch. A patch is a constrained Delaunay triangulation (spade) in UV of:
+//! - the corners of the quadtree leaves in the cell (exterior leaves draw the target;
+//!   boundary leaves are subdivided to the depth cap near every outline);
+//! - the **hidden-region outline** (the union of all stroke footprints on the target) as
+//!   constraint edges: boundary leaves are clipped exactly along it, so the trimmed target
+//!   and the stroke surfaces meet along one polyline, with no gap and no overlap;
+//! - each stroke's **centreline** as constraint edges, so a V groove's bottom is a mesh
+//!   edge at exactly the tool depth, and (for curved profiles and at final detail)
+//!   sample lines across the profile.
+//!
+//! Every vertex is placed at `S(uv) + h(uv) N(uv)`: `h = 0` on the target and along the
+//! outline, and inside footprints the strokes combine in order like real carving: carving
+//! lowers to `min(h, -depth)`, embossing raises to `max(h, height)`. Overlapping strokes
+//! therefore give the union of the removed (or added) volumes, and the deeper groove wins
+//! in an overlap. This is the paper's mutual trimming of overlapping stroke surfaces
+//! (sec. 4.3) done once, in the target's UV map, for any number of strokes.
+//!
+//! **No cracks.** Points on a cell side are a deterministic function of both neighbours:
+//! uniform at the finer side's leaf level, plus the crossings of outline and centreline
+//! segments with the side line, computed by one formula from the global segment list.
+//! Both cells therefore put identical vertices on their common side. For a surface closed
+//! in u or v the two seam sides are treated as neighbours.
+//!
+//! **Incremental.** Each patch's inputs are hashed; after an edit only patches whose hash
+//! changed are triangulated and written (the sink replaces them by key).
+
+use super::jordan::{NodeClass, Rect, Region};
+use super::stroke::{Mode, Stroke};
+use super::surface::{ParamSurface, SurfaceExtent, extent, normal_at};
+use super::uvmap::{UvMap, base_grid};
+use crate::mesh::{MeshSink, MeshVertex, PatchKey};
+use glam::{DVec2, DVec3};
+use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
+use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
+
+/// How finely boundary nodes are subdivided.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Detail {
+    /// Coarse, while a stroke is live.
+    Interactive,
+    /// Fine, for the finished render and for export.
+    Final,
+}
+
+impl Detail {
+    /// Quadtree levels below the root grid that boundary nodes reach.
+    pub fn cap(self) -> u8 {
+        match self {
+            Detail::Interactive => 2,
+            Detail::Final => 5,
+        }
+    }
+
+    /// Chord tolerance for the base grid, as a fraction of the surface's diagonal.
+    pub fn chord_fraction(self) -> f64 {
+        match self {
+            Detail::Interactive => 2e-3,
+            Detail::Final => 2e-4,
+        }
+    }
+
+    /// Profile sample fractions (of the half-width) inserted between centre and rim.
+    fn profile_lines(self, curved: bool) -> &'static [f64] {
+        match (self, curved) {
+            (Detail::Interactive, false) => &[],
+            (Detail::Interactive, true) => &[0.5],
+            (Detail::Final, false) => &[0.5],
+            (Detail::Final, true) => &[0.25, 0.5, 0.75, 0.9],
+        }
+    }
+}
+
+/// A stroke as the tessellator sees it: a stable id (for change detection) and the
+/// projected stroke.
+pub type StrokeRef<'a> = (u64, &'a Stroke);
+
+/// Figures from one tessellation pass.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct TessStats {
+    /// Patches triangulated and written in this pass.
+    pub patches_written: usize,
+    /// Triangles written in this pass.
+    pub triangles_written: usize,
+    /// Triangles in the whole current mesh.
+    pub triangles_total: usize,
+}
+
+/// The tessellation state of one target at one level of detail.
+#[derive(Debug, Clone)]
+pub struct TargetTessellation {
+    key: u32,
+    detail: Detail,
+    extent: SurfaceExtent,
+    map: UvMap,
+    hidden: Region,
+    signatures: Vec<Option<u64>>,
+    triangles: Vec<usize>,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Plain,
+    Rim,
+}
+
+/// Global constraint polylines of a target, indexed by root cell.
+struct Segments {
+    segs: Vec<([DVec2; 2], Kind)>,
+    by_root: Vec<Vec<u32>>,
+}
+
+impl TargetTessellation {
+    /// Starts the tessellation of a target (patch keys use `key` in their high bits).
+    pub fn new(surface: &dyn ParamSurface, key: u32, detail: Detail) -> Self {
+        let extent = extent(surface);
+        let n = base_grid(&extent, extent.diagonal() * detail.chord_fraction());
+        let map = UvMap::new(n);
+        Self {
+            key,
+            detail,
+            extent,
+            signatures: vec![None; (n * n) as usize],
+            triangles: vec![0; (n * n) as usize],
+            map,
+            hidden: Region::empty(),
+        }
+    }
+
+    /// The UV vector map.
+    pub fn map(&self) -> &UvMap {
+        &self.map
+    }
+
+    /// The union of all footprints (the region where the target is hidden).
+    pub fn hidden(&self) -> &Region {
+        &self.hidden
+    }
+
+    /// Triangles in the current mesh of this target.
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.iter().sum()
+    }
+
+    /// The level of detail.
+    pub fn detail(&self) -> Detail {
+        self.detail
+    }
+
+    /// The patch key of root cell `root`.
+    pub fn patch_key(&self, root: u32) -> PatchKey {
+        (u64::from(self.key) << 32) | u64::from(root)
+    }
+
+    /// Memory held by the map and bookkeeping, bytes (excluding the written mesh).
+    pub fn memory_bytes(&self) -> usize {
+        self.map.memory_bytes()
+            + self.hidden.segments().len() * 32
+            + self.signatures.len() * 16
+            + self.triangles.len() * 8
+    }
+
+    /// Brings the sink up to date with `strokes` (in application order): reclassifies
+    /// the UV map against the union of their footprints (only within `changed`, when
+    /// given, which must cover every footprint added or removed since the last call) and
+    /// rewrites the patches whose inputs changed.
+    pub fn update(
+        &mut self,
+        surface: &dyn ParamSurface,
+        strokes: &[StrokeRef<'_>],
+        changed: Option<Rect>,
+        sink: &mut dyn MeshSink,
+    ) -> TessStats {
+        let regions: Vec<&Region> = strokes.iter().map(|s| &s.1.footprint).collect();
+        self.hidden = super::stroke::union(&regions);
+        let area =
+            changed.map(|r| Rect::new(r.min - DVec2::splat(1e-9), r.max + DVec2::splat(1e-9)));
+        self.map.update(&self.hidden, area, self.detail.cap());
+        let segments = self.segments(strokes);
+        let n = self.map.n();
+        let mut stats = TessStats::default();
+        for root in 0..n * n {
+            let input = self.patch_input(root, strokes, &segments);
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            input.hash_into(&mut h);
+            for (id, s) in strokes {
+                if s.bounds.touches(&input.rect) {
+                    id.hash(&mut h);
+                }
+            }
+            let sig = h.finish();
+            if self.signatures[root as usize] == Some(sig) {
+                continue;
+            }
+            let tris = self.write_patch(surface, root, input, strokes, sink);
+            self.signatures[root as usize] = Some(sig);
+            self.triangles[root as usize] = tris;
+            stats.patches_written += 1;
+            stats.triangles_written += tris;
+        }
+        stats.triangles_total = self.triangles.iter().sum();
+        stats
+    }
+
+    fn segments(&self, strokes: &[StrokeRef<'_>]) -> Segments {
+        let mut segs: Vec<([DVec2; 2], Kind)> = self
+            .hidden
+            .segments()
+            .iter()
+            .map(|s| (*s, Kind::Rim))
+            .collect();
+        for (_, s) in strokes {
+            for w in s.centre_uv.windows(2) {
+                if w[0] != w[1] {
+                    segs.push(([w[0], w[1]], Kind::Plain));
+                }
+            }
+        }
+        let n = self.map.n();
+        let mut by_root = vec![Vec::new(); (n * n) as usize];
+        let cell = |x: f64| ((x * n as f64).floor().max(0.0) as u32).min(n - 1);
+        for (k, (s, _)) in segs.iter().enumerate() {
+            let r = Rect::of_segment(s[0], s[1]);
+            // A segment on a cell side belongs to both cells: widen by one cell.
+            let (i0, i1) = (
+                cell(r.min.x).saturating_sub(1),
+                (cell(r.max.x) + 1).min(n - 1),
+            );
+            let (j0, j1) = (
+                cell(r.min.y).saturating_sub(1),
+                (cell(r.max.y) + 1).min(n - 1),
+            );
+            for j in j0..=j1 {
+                for i in i0..=i1 {
+                    let root = self.map.root(i, j);
+                    if self.map.node(root).rect.meets_segment(s[0], s[1]) {
+                        by_root[root as usize].push(k as u32);
+                    }
+                }
+            }
+        }
+        Segments { segs, by_root }
+    }
+
+    /// The neighbour root across `side` (0 u-min, 1 u-max, 2 v-min, 3 v-max), wrapping
+    /// across the seam of a closed surface.
+    fn neighbour(&self, root: u32, side: u8) -> Option<(u32, u8)> {
+        let n = self.map.n();
+        let (i, j) = (root % n, root / n);
+        let (cu, cv) = (self.extent.closed_u, self.extent.closed_v);
+        let r = match side {
+            0 if i > 0 => (i - 1, j),
+            0 if cu => (n - 1, j),
+            1 if i + 1 < n => (i + 1, j),
+            1 if cu => (0, j),
+            2 if j > 0 => (i, j - 1),
+            2 if cv => (i, n - 1),
+            3 if j + 1 < n => (i, j + 1),
+            3 if cv => (i, 0),
+            _ => return None,
+        };
+        Some((self.map.root(r.0, r.1), side ^ 1))
+    }
+
+    fn patch_input(&self, root: u32, strokes: &[StrokeRef<'_>], segments: &Segments) -> PatchInput {
+        let rect = self.map.node(root).rect;
+        let mut input = PatchInput::new(rect);
+        // Sides: uniform at the finer neighbour's level, plus segment crossings.
+        for side in 0u8..4 {
+            let mut level = self.map.side_level(root, side);
+            let mut others: Vec<&[u32]> = vec![&segments.by_root[root as usize]];
+            if let Some((nb, nb_side)) = self.neighbour(root, side) {
+                level = level.max(self.map.side_level(nb, nb_side));
+                others.push(&segments.by_root[nb as usize]);
+            }
+            let (fixed, lo, hi, along_u) = match side {
+                0 => (rect.min.x, rect.min.y, rect.max.y, false),
+                1 => (rect.max.x, rect.min.y, rect.max.y, false),
+                2 => (rect.min.y, rect.min.x, rect.max.x, true),
+                _ => (rect.max.y, rect.min.x, rect.max.x, true),
+            };
+            let mut params = Vec::new();
+            let steps = 1u32 << level;
+            for k in 0..=steps {
+                params.push((
+                    lo + (hi - lo) * f64::from(k) / f64::from(steps),
+                    Kind::Plain,
+                ));
+            }
+            // The seam: the side of a closed surface takes the crossings of both copies.
+            let closed = if side < 2 {
+                self.extent.closed_u
+            } else {
+                self.extent.closed_v
+            };
+            let seam_shift = (closed && (fixed == 0.0 || fixed == 1.0)).then_some(1.0 - fixed);
+            for list in others {
+                for &k in list {
+                    let (s, kind) = segments.segs[k as usize];
+                    for line in std::iter::once(fixed).chain(seam_shift) {
+                        for p in side_crossings(s, line, along_u) {
+                            if p >= lo && p <= hi {
+                                params.push((p, kind));
+                            }
+                        }
+                    }
+                }
+            }
+            for (p, kind) in params {
+                let uv = if along_u {
+                    DVec2::new(p, fixed)
+                } else {
+                    DVec2::new(fixed, p)
+                };
+                input.point(uv, kind);
+            }
+        }
+        // Leaf corners inside the cell.
+        for (_, leaf) in self.map.leaves_of(root) {
+            let r = leaf.rect;
+            for c in [
+                r.min,
+                DVec2::new(r.max.x, r.min.y),
+                DVec2::new(r.min.x, r.max.y),
+                r.max,
+            ] {
+                if rect_strictly_contains(&rect, c) {
+                    input.point(c, Kind::Plain);
+                }
+            }
+            if leaf.class == NodeClass::Interior && leaf.level == 0 {
+                input.interior_hidden = true;
+            }
+        }
+        // Constraint segments clipped to the cell.
+        for &k in &segments.by_root[root as usize] {
+            let (s, kind) = segments.segs[k as usize];
+            if let Some((a, b)) = clip_segment(s, &rect) {
+                let ia = input.point(a, kind);
+                let ib = input.point(b, kind);
+                if ia != ib {
+                    input.constraints.push([ia, ib]);
+                }
+            }
+        }
+        // Profile sample lines inside footprints.
+        for (_, s) in strokes {
+            if !s.bounds.touches(&rect) {
+                continue;
+            }
+            let fracs = self.detail.profile_lines(s.tool.profile.is_curved());
+            for i in 0..s.centre_uv.len() {
+                for rim in &s.rims_uv {
+                    for &f in fracs {
+                        let uv = s.centre_uv[i].lerp(rim[i], f);
+                        if rect_strictly_contains(&rect, uv) {
+                            input.point(uv, Kind::Plain);
+                        }
+                    }
+                }
+            }
+        }
+        input
+    }
+
+    fn write_patch(
+        &self,
+        surface: &dyn ParamSurface,
+        root: u32,
+        input: PatchInput,
+        strokes: &[StrokeRef<'_>],
+        sink: &mut dyn MeshSink,
+    ) -> usize {
+        let mut cdt: ConstrainedDelaunayTriangulation<Point2<f64>> =
+            ConstrainedDelaunayTriangulation::bulk_load_cdt(
+                input
+                    .points
+                    .iter()
+                    .map(|(p, _)| Point2::new(p.x, p.y))
+                    .collect(),
+                Vec::new(),
+            )
+            .unwrap_or_default();
+        let handles: Vec<_> = cdt.fixed_vertices().collect();
+        // bulk_load_cdt keeps insertion order for distinct points (ours are distinct).
+        if handles.len() == input.points.len() {
+            for &[a, b] in &input.constraints {
+                cdt.add_constraint_and_split(handles[a], handles[b], |p| p);
+            }
+        }
+        let rims: std::collections::HashSet<(u64, u64)> = input
+            .points
+            .iter()
+            .filter(|(_, k)| *k == Kind::Rim)
+            .map(|(p, _)| (p.x.to_bits(), p.y.to_bits()))
+            .collect();
+        // Evaluate every vertex: S(uv) + h N(uv).
+        let mut verts: Vec<(DVec3, DVec3, DVec2, bool)> = Vec::with_capacity(cdt.num_vertices());
+        for v in cdt.vertices() {
+            let p = v.position();
+            let uv = super::surface::clamp_uv(DVec2::new(p.x, p.y));
+            let s = surface.eval(uv).p;
+            let n = normal_at(surface, uv);
+            let on_rim = rims.contains(&(p.x.to_bits(), p.y.to_bits()));
+            let h = if on_rim { 0.0 } else { height(strokes, uv, s) };
+            let pos = s + n * h;
+            let pos = if pos.is_finite() { pos } else { DVec3::ZERO };
+            verts.push((pos, n, uv, h != 0.0 || on_rim));
+        }
+        let mut tris = Vec::with_capacity(cdt.num_inner_faces());
+        for f in cdt.inner_faces() {
+            let [a, b, c] = f.vertices().map(|v| v.fix().index() as u32);
+            tris.push([a, b, c]);
+        }
+        // Normals of the sculpted part come from the mesh (area-weighted).
+        let mut acc = vec![DVec3::ZERO; verts.len()];
+        for t in &tris {
+            let [a, b, c] = t.map(|i| verts[i as usize].0);
+            let nrm = (b - a).cross(c - a);
+            for &i in t {
+                acc[i as usize] += nrm;
+            }
+        }
+        sink.begin_patch(self.patch_key(root));
+        for (i, (pos, n, uv, sculpted)) in verts.iter().enumerate() {
+            let normal = if *sculpted {
+                acc[i].try_normalize().unwrap_or(*n)
+            } else {
+                *n
+            };
+            sink.push_vertex(MeshVertex {
+                position: pos.as_vec3().to_array(),
+                normal: normal.as_vec3().to_array(),
+                uv: uv.as_vec2().to_array(),
+            });
+        }
+        for [a, b, c] in &tris {
+            sink.push_triangle(*a, *b, *c);
+        }
+        sink.end_patch();
+        tris.len()
+    }
+}
+
+/// The combined displacement along the normal at `p = S(uv)`: strokes in order, carving
+/// lowers to `min(h, -depth)`, embossing raises to `max(h, height)`.
+pub fn height(strokes: &[StrokeRef<'_>], uv: DVec2, p: DVec3) -> f64 {
+    let mut h: f64 = 0.0;
+    for (_, s) in strokes {
+        if !s.bounds.contains(uv) {
+            continue;
+        }
+        let d = s.depth_at(uv, p);
+        if d > 0.0 {
+            h = match s.tool.mode {
+                Mode::Carve => h.min(-d),
+                Mode::Emboss => h.max(d),
+            };
+        }
+    }
+    h
+}
+
+struct PatchInput {
+    rect: Rect,
+    points: Vec<(DVec2, Kind)>,
+    index: HashMap<(u64, u64), usize>,
+    constraints: Vec<[usize; 2]>,
+    interior_hidden: bool,
+}
+
+impl PatchInput {
+    fn new(rect: Rect) -> Self {
+        let mut me = Self {
+            rect,
+            points: Vec::new(),
+            index: HashMap::new(),
+            constraints: Vec::new(),
+            interior_hidden: false,
+        };
+        for c in [
+            rect.min,
+            DVec2::new(rect.max.x, rect.min.y),
+            DVec2::new(rect.min.x, rect.max.y),
+            rect.max,
+        ] {
+            me.point(c, Kind::Plain);
+        }
+        me
+    }
+
+    fn point(&mut self, p: DVec2, kind: Kind) -> usize {
+        let key = (p.x.to_bits(), p.y.to_bits());
+        if let Some(&i) = self.index.get(&key) {
+            if kind == Kind::Rim {
+                self.points[i].1 = Kind::Rim;
+            }
+            return i;
+        }
+        self.points.push((p, kind));
+        self.index.insert(key, self.points.len() - 1);
+        self.points.len() - 1
+    }
+
+    fn hash_into(&self, h: &mut impl Hasher) {
+        for (p, k) in &self.points {
+            p.x.to_bits().hash(h);
+            p.y.to_bits().hash(h);
+            (*k == Kind::Rim).hash(h);
+        }
+        self.constraints.hash(h);
+        self.interior_hidden.hash(h);
+    }
+}
+
+fn rect_strictly_contains(r: &Rect, p: DVec2) -> bool {
+    p.x > r.min.x && p.x < r.max.x && p.y > r.min.y && p.y < r.max.y
+}
+
+/// Where segment `s` meets the line `u = fixed` (or `v = fixed` when `along_u`): the
+/// other coordinate, computed from the segment's canonical (sorted) end order so that
+/// both cells sharing the line get the same bits. Ends lying on the line count too.
+fn side_crossings(s: [DVec2; 2], fixed: f64, along_u: bool) -> Vec<f64> {
+    let (mut a, mut b) = (s[0], s[1]);
+    if (b.x, b.y) < (a.x, a.y) {
+        std::mem::swap(&mut a, &mut b);
+    }
+    let (fa, fb, oa, ob) = if along_u {
+        (a.y, b.y, a.x, b.x)
+    } else {
+        (a.x, b.x, a.y, b.y)
+    };
+    let mut out = Vec::new();
+    if fa == fixed {
+        out.push(oa);
+    }
+    if fb == fixed {
+        out.push(ob);
+    }
+    if (fa < fixed && fb > fixed) || (fa > fixed && fb < fixed) {
+        out.push(oa + (ob - oa) * (fixed - fa) / (fb - fa));
+    }
+    out
+}
+
+/// The part of segment `s` inside the closed rectangle, with ends on the sides computed
+/// by [`side_crossings`] (so they match the side points exactly).
+fn clip_segment(s: [DVec2; 2], r: &Rect) -> Option<(DVec2, DVec2)> {
+    let d = s[1] - s[0];
+    let mut cuts: Vec<(f64, DVec2)> = Vec::new();
+    if r.contains(s[0]) {
+        cuts.push((0.0, s[0]));
+    }
+    if r.contains(s[1]) {
+        cuts.push((1.0, s[1]));
+    }
+    for (fixed, along_u, lo, hi) in [
+        (r.min.x, false, r.min.y, r.max.y),
+        (r.max.x, false, r.min.y, r.max.y),
+        (r.min.y, true, r.min.x, r.max.x),
+        (r.max.y, true, r.min.x, r.max.x),
+    ] {
+        for o in side_crossings(s, fixed, along_u) {
+            if o < lo || o > hi {
+                continue;
+            }
+            let p = if along_u {
+                DVec2::new(o, fixed)
+            } else {
+                DVec2::new(fixed, o)
+            };
+            let t = if d.length_squared() > 0.0 {
+                (p - s[0]).dot(d) / d.length_squared()
+            } else {
+                0.0
+            };
+            cuts.push((t, p));
+        }
+    }
+    if cuts.len() < 2 {
+        return None;
+    }
+    cuts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (a, b) = (cuts[0].1, cuts[cuts.len() - 1].1);
+    if a == b {
+        return None;
+    }
+    // A convex cell: the piece between the extreme cuts is inside.
+    Some((a, b))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::assert_near;
+    use crate::mesh::PatchMesh;
+    use crate::sculpt::stroke::{Profile, StrokeInput, Tool};
+    use crate::sculpt::surface::test_surfaces::{plane, sphere, wavy};
+
+    fn tool(mode: Mode, profile: Profile) -> Tool {
+        Tool {
+            profile,
+            width: 0.1,
+            depth: 0.02,
+            mode,
+            taper: 0.05,
+        }
+    }
+
+    fn stroke(s: &dyn ParamSurface, a: DVec3, b: DVec3, t: Tool) -> Stroke {
+        let samples = (0..40)
+            .map(|i| {
+                let f = i as f64 / 39.0;
+                (f, a.lerp(b, f))
+            })
+            .collect();
+        Stroke::build(s, &StrokeInput { samples, tool: t }, 0.2).unwrap()
+    }
+
+    /// Depth below the plane z = 0 of the first hit of a ray coming down at (x, y).
+    fn depth_at(mesh: &PatchMesh, x: f64, y: f64) -> f64 {
+        let t = mesh
+            .first_hit([x, y, 1.0], [0.0, 0.0, -1.0])
+            .expect("a hit");
+        t - 1.0
+    }
+
+    #[test]
+    fn carved_groove_on_a_plane_has_tool_depth_and_no_cracks() {
+        let s = plane(1.0);
+        let a = stroke(
+            &s,
+            DVec3::new(0.2, 0.5, 0.0),
+            DVec3::new(0.8, 0.5, 0.0),
+            tool(Mode::Carve, Profile::V),
+        );
+        for detail in [Detail::Interactive, Detail::Final] {
+            let mut tess = TargetTessellation::new(&s, 0, detail);
+            let mut mesh = PatchMesh::new();
+            tess.update(&s, &[(1, &a)], None, &mut mesh);
+            // Groove bottom at the tool depth, half depth half-way to the rim, flat outside.
+            assert_near!(depth_at(&mesh, 0.5, 0.5), 0.02, 1e-6);
+            assert_near!(depth_at(&mesh, 0.43, 0.5 + 0.025), 0.01, 1e-4);
+            assert_near!(depth_at(&mesh, 0.5, 0.6), 0.0, 1e-6);
+            assert_near!(depth_at(&mesh, 0.1, 0.1), 0.0, 1e-6);
+            // Crack-free: the only open edges are the outer border of the square.
+            let w = mesh.welded(1e-6);
+            let r = w.edge_report();
+            assert_eq!(r.non_manifold, 0);
+            assert_eq!(r.misoriented, 0);
+            let border: usize = w
+                .triangles
+                .iter()
+                .flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3])))
+                .filter(|&(a, b)| {
+                    let (p, q) = (
+                        w.vertices[a as usize].position,
+                        w.vertices[b as usize].position,
+                    );
+                    let on = |x: f32| x.abs() < 1e-6 || (x - 1.0).abs() < 1e-6;
+                    (on(p[0]) && p[0] == q[0]) || (on(p[1]) && p[1] == q[1])
+                })
+                .count();
+            assert_eq!(
+                r.boundary, border,
+                "{detail:?}: open edges inside the square"
+            );
+        }
+    }
+
+    #[test]
+    fn crossing_grooves_take_the_deeper_and_emboss_rises() {
+        let s = plane(1.0);
+        let a = stroke(
+            &s,
+            DVec3::new(0.2, 0.5, 0.0),
+            DVec3::new(0.8, 0.5, 0.0),
+            tool(Mode::Carve, Profile::V),
+        );
+        let mut deep = tool(Mode::Carve, Profile::U);
+        deep.depth = 0.03;
+        let b = stroke(
+            &s,
+            DVec3::new(0.5, 0.2, 0.0),
+            DVec3::new(0.5, 0.8, 0.0),
+            deep,
+        );
+        let c = stroke(
+            &s,
+            DVec3::new(0.2, 0.2, 0.0),
+            DVec3::new(0.4, 0.3, 0.0),
+            tool(Mode::Emboss, Profile::U),
+        );
+        let mut tess = TargetTessellation::new(&s, 0, Detail::Final);
+        let mut mesh = PatchMesh::new();
+        tess.update(&s, &[(1, &a), (2, &b), (3, &c)], None, &mut mesh);
+        assert_near!(depth_at(&mesh, 0.5, 0.5), 0.03, 1e-6);
+        // On a's axis, 0.03 from b's axis: b (U, r/w = 0.6) is 0.03 * 0.8 = 0.024 deep,
+        // a's V bottom is 0.02: the deeper wins.
+        assert_near!(depth_at(&mesh, 0.53, 0.5), 0.024, 5e-4);
+        assert_near!(depth_at(&mesh, 0.3, 0.25), -0.02, 5e-4);
+        assert_eq!(mesh.welded(1e-6).edge_report().non_manifold, 0);
+    }
+
+    #[test]
+    fn only_changed_patches_are_rewritten() {
+        let s = wavy(0.02);
+        let a = stroke(
+            &s,
+            DVec3::new(0.2, 0.2, 0.0),
+            DVec3::new(0.3, 0.2, 0.0),
+            tool(Mode::Carve, Profile::V),
+        );
+        let b = stroke(
+            &s,
+            DVec3::new(0.7, 0.7, 0.0),
+            DVec3::new(0.8, 0.7, 0.0),
+            tool(Mode::Carve, Profile::V),
+        );
+        let mut tess = TargetTessellation::new(&s, 0, Detail::Interactive);
+        let mut mesh = PatchMesh::new();
+        let first = tess.update(&s, &[(1, &a)], None, &mut mesh);
+        assert_eq!(
+            first.patches_written,
+            (tess.map().n() * tess.map().n()) as usize
+        );
+        let second = tess.update(&s, &[(1, &a), (2, &b)], Some(b.bounds), &mut mesh);
+        assert!(second.patches_written > 0 && second.patches_written < first.patches_written / 2);
+        // The incremental mesh equals a fresh one.
+        let mut fresh = PatchMesh::new();
+        TargetTessellation::new(&s, 0, Detail::Interactive).update(
+            &s,
+            &[(1, &a), (2, &b)],
+            None,
+            &mut fresh,
+        );
+        assert_eq!(mesh, fresh);
+    }
+
+    #[test]
+    fn carved_sphere_is_watertight() {
+        let s = sphere(1.0);
+        let t = Tool {
+            profile: Profile::V,
+            width: 0.3,
+            depth: 0.05,
+            mode: Mode::Carve,
+            taper: 0.1,
+        };
+        let a = stroke(
+            &s,
+            DVec3::new(-1.0, -0.3, 0.3),
+            DVec3::new(-0.2, -1.0, -0.2),
+            t.clone(),
+        );
+        let b = stroke(
+            &s,
+            DVec3::new(-0.6, -1.0, 0.3),
+            DVec3::new(-1.0, 0.1, -0.3),
+            t,
+        );
+        let mut tess = TargetTessellation::new(&s, 0, Detail::Final);
+        let mut mesh = PatchMesh::new();
+        tess.update(&s, &[(1, &a), (2, &b)], None, &mut mesh);
+        let r = mesh.welded(1e-6).edge_report();
+        assert!(r.is_watertight(), "{r:?}");
+        let (v, _) = mesh.merged();
+        assert!(
+            v.iter()
+                .all(|v| v.position.iter().chain(&v.normal).all(|x| x.is_finite()))
+        );
+    }
+}

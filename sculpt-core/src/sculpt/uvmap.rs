@@ -1,0 +1,322 @@
+//! The UV vector map: a quadtree of render nodes over the normalised parameter square.
+//!
+//! The map starts as an `n x n` grid of root nodes ([`base_grid`] picks `n` from the
+//! surface's size and curvature). Each node is classified against the region hidden by
+//! strokes ([`Region`]): exterior nodes are drawn, interior nodes are hidden, boundary
+//! nodes are subdivided down to a depth cap (coarse while a stroke is live, fine for the
+//! final render). New children start with their parent's classification, so merging a
+//! node's children restores the node as it was; [`UvMap::update`] returns an [`Edit`]
+//! that [`UvMap::restore`] undoes exactly.
+//!
+//! ```
+//! use glam::DVec2;
+//! use sculpt_core::sculpt::jordan::{NodeClass, Region};
+//! use sculpt_core::sculpt::uvmap::UvMap;
+//! let mut map = UvMap::new(4);
+//! let tri = vec![DVec2::new(0.1, 0.1), DVec2::new(0.9, 0.1), DVec2::new(0.5, 0.9)];
+//! let edit = map.update(&Region::new(vec![tri]), None, 3);
+//! assert!(map.leaves().any(|(_, n)| n.class == NodeClass::Interior));
+//! assert!(map.leaves().all(|(_, n)| n.class != NodeClass::Boundary || n.level == 3));
+//! map.restore(edit);
+//! assert_eq!(map.leaves().count(), 16);
+//! ```
+
+use super::jordan::{NodeClass, Rect, Region};
+use super::surface::SurfaceExtent;
+use glam::DVec2;
+
+/// Index of a node in the map's arena.
+pub type NodeId = u32;
+
+/// One quadtree node.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Node {
+    /// Depth below its root (roots are level 0).
+    pub level: u8,
+    /// Parameter rectangle.
+    pub rect: Rect,
+    /// Classification against the hidden region.
+    pub class: NodeClass,
+    /// First of four children (in the order SW, SE, NW, NE), if subdivided.
+    pub children: Option<NodeId>,
+    /// The root this node belongs to.
+    pub root: u32,
+}
+
+/// What an update changed, so that it can be undone.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Edit {
+    /// Nodes whose class changed, with the class before.
+    reclassified: Vec<(NodeId, NodeClass)>,
+    /// Nodes that were subdivided by the update (restore merges them).
+    subdivided: Vec<NodeId>,
+    /// Nodes that were merged by the update, with their former child block.
+    merged: Vec<(NodeId, NodeId)>,
+}
+
+impl Edit {
+    /// The roots this edit touched.
+    pub fn is_empty(&self) -> bool {
+        self.reclassified.is_empty() && self.subdivided.is_empty() && self.merged.is_empty()
+    }
+}
+
+/// The quadtree over `[0, 1]^2`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UvMap {
+    n: u32,
+    nodes: Vec<Node>,
+    free: Vec<NodeId>,
+}
+
+/// Chooses the base grid size `n` so that a flat quad of parameter size `1/n` deviates
+/// from the surface by at most `tol` (chord error `h^2 |S''| / 8`), between 2 and 64.
+pub fn base_grid(extent: &SurfaceExtent, tol: f64) -> u32 {
+    let tol = if tol > 0.0 { tol } else { 1e-3 };
+    let n = (extent.curvature / (8.0 * tol)).sqrt().ceil();
+    if n.is_finite() {
+        (n as u32).clamp(2, 64)
+    } else {
+        64
+    }
+}
+
+impl UvMap {
+    /// An unclassified (all exterior) `n x n` grid of roots.
+    pub fn new(n: u32) -> Self {
+        let n = n.clamp(1, 256);
+        let h = 1.0 / n as f64;
+        let mut nodes = Vec::with_capacity((n * n) as usize);
+        for j in 0..n {
+            for i in 0..n {
+                let min = DVec2::new(i as f64 * h, j as f64 * h);
+                let max = if i + 1 == n { 1.0 } else { (i + 1) as f64 * h };
+                let maxy = if j + 1 == n { 1.0 } else { (j + 1) as f64 * h };
+                nodes.push(Node {
+                    level: 0,
+                    rect: Rect::new(min, DVec2::new(max, maxy)),
+                    class: NodeClass::Exterior,
+                    children: None,
+                    root: j * n + i,
+                });
+            }
+        }
+        Self {
+            n,
+            nodes,
+            free: Vec::new(),
+        }
+    }
+
+    /// Roots per side.
+    pub fn n(&self) -> u32 {
+        self.n
+    }
+
+    /// A node.
+    pub fn node(&self, id: NodeId) -> &Node {
+        &self.nodes[id as usize]
+    }
+
+    /// The root node of grid cell `(i, j)`.
+    pub fn root(&self, i: u32, j: u32) -> NodeId {
+        j * self.n + i
+    }
+
+    /// Splits a leaf into four children that inherit its class.
+    pub fn subdivide(&mut self, id: NodeId) -> NodeId {
+        let parent = self.nodes[id as usize];
+        if let Some(c) = parent.children {
+            return c;
+        }
+        let (lo, hi) = (parent.rect.min, parent.rect.max);
+        let mid = (lo + hi) * 0.5;
+        let rects = [
+            Rect::new(lo, mid),
+            Rect::new(DVec2::new(mid.x, lo.y), DVec2::new(hi.x, mid.y)),
+            Rect::new(DVec2::new(lo.x, mid.y), DVec2::new(mid.x, hi.y)),
+            Rect::new(mid, hi),
+        ];
+        let first = match self.free.pop() {
+            Some(f) => f,
+            None => {
+                let f = self.nodes.len() as NodeId;
+                self.nodes.extend([parent; 4]);
+                f
+            }
+        };
+        for (k, rect) in rects.into_iter().enumerate() {
+            self.nodes[first as usize + k] = Node {
+                level: parent.level + 1,
+                rect,
+                class: parent.class,
+                children: None,
+                root: parent.root,
+            };
+        }
+        self.nodes[id as usize].children = Some(first);
+        first
+    }
+
+    /// Merges a node's children (recursively) back into it; returns the freed block.
+    pub fn merge(&mut self, id: NodeId) -> Option<NodeId> {
+        let first = self.nodes[id as usize].children.take()?;
+        for k in 0..4 {
+            self.merge(first + k);
+        }
+        self.free.push(first);
+        Some(first)
+    }
+
+    /// Reclassifies the roots whose rectangle meets `area` (all roots when `None`)
+    /// against `region`, subdividing boundary nodes down to level `cap` and merging nodes
+    /// that are no longer boundary. Returns the undo record.
+    pub fn update(&mut self, region: &Region, area: Option<Rect>, cap: u8) -> Edit {
+        let mut edit = Edit::default();
+        for r in 0..self.n * self.n {
+            if area.is_none_or(|a| a.touches(&self.nodes[r as usize].rect)) {
+                self.classify_node(r, region, cap, &mut edit);
+            }
+        }
+        edit
+    }
+
+    fn classify_node(&mut self, id: NodeId, region: &Region, cap: u8, edit: &mut Edit) {
+        let node = self.nodes[id as usize];
+        let class = region.classify(node.rect);
+        if class != node.class {
+            edit.reclassified.push((id, node.class));
+            self.nodes[id as usize].class = class;
+        }
+        let wants_children = class == NodeClass::Boundary && node.level < cap;
+        match (wants_children, node.children) {
+            (true, None) => {
+                let first = self.subdivide(id);
+                edit.subdivided.push(id);
+                for k in 0..4 {
+                    self.classify_node(first + k, region, cap, edit);
+                }
+            }
+            (true, Some(first)) => {
+                for k in 0..4 {
+                    self.classify_node(first + k, region, cap, edit);
+                }
+            }
+            (false, Some(_)) => {
+                // Keep the children's records for restore: detach instead of freeing.
+                let first = self.nodes[id as usize].children.take().unwrap_or_default();
+                edit.merged.push((id, first));
+            }
+            (false, None) => {}
+        }
+    }
+
+    /// Undoes an [`Edit`], restoring every node touched to its state before the update.
+    pub fn restore(&mut self, edit: Edit) {
+        for &(id, first) in edit.merged.iter().rev() {
+            self.nodes[id as usize].children = Some(first);
+        }
+        for &id in edit.subdivided.iter().rev() {
+            self.merge(id);
+        }
+        for &(id, class) in edit.reclassified.iter().rev() {
+            self.nodes[id as usize].class = class;
+        }
+    }
+
+    /// All leaves, root by root.
+    pub fn leaves(&self) -> impl Iterator<Item = (NodeId, &Node)> + '_ {
+        (0..self.n * self.n).flat_map(move |r| self.leaves_of(r))
+    }
+
+    /// The leaves under one root.
+    pub fn leaves_of(&self, root: u32) -> Vec<(NodeId, &Node)> {
+        let mut out = Vec::new();
+        let mut stack = vec![root];
+        while let Some(id) = stack.pop() {
+            let node = &self.nodes[id as usize];
+            match node.children {
+                Some(c) => stack.extend((0..4).rev().map(|k| c + k)),
+                None => out.push((id, node)),
+            }
+        }
+        out
+    }
+
+    /// The finest level among the leaves of `root` that touch one of its sides
+    /// (0 = u-min, 1 = u-max, 2 = v-min, 3 = v-max).
+    pub fn side_level(&self, root: u32, side: u8) -> u8 {
+        let r = self.nodes[root as usize].rect;
+        self.leaves_of(root)
+            .into_iter()
+            .filter(|(_, n)| match side {
+                0 => n.rect.min.x == r.min.x,
+                1 => n.rect.max.x == r.max.x,
+                2 => n.rect.min.y == r.min.y,
+                _ => n.rect.max.y == r.max.y,
+            })
+            .map(|(_, n)| n.level)
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// Memory held by the node arena, bytes.
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.capacity() * std::mem::size_of::<Node>()
+            + self.free.capacity() * std::mem::size_of::<NodeId>()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn disc(c: DVec2, r: f64) -> Vec<DVec2> {
+        (0..64)
+            .map(|i| {
+                let a = i as f64 / 64.0 * std::f64::consts::TAU;
+                c + DVec2::new(a.cos(), a.sin()) * r
+            })
+            .collect()
+    }
+
+    #[test]
+    fn boundary_leaves_reach_the_cap_and_restore_is_exact() {
+        let mut map = UvMap::new(4);
+        let before = map.clone();
+        let e1 = map.update(&Region::new(vec![disc(DVec2::splat(0.5), 0.3)]), None, 4);
+        let after_first = map.clone();
+        for (_, n) in map.leaves() {
+            if n.class == NodeClass::Boundary {
+                assert_eq!(n.level, 4);
+            }
+        }
+        let e2 = map.update(
+            &Region::new(vec![
+                disc(DVec2::splat(0.5), 0.3),
+                disc(DVec2::splat(0.2), 0.1),
+            ]),
+            None,
+            4,
+        );
+        map.restore(e2);
+        assert_eq!(
+            map.leaves().map(|(_, n)| *n).collect::<Vec<_>>(),
+            after_first.leaves().map(|(_, n)| *n).collect::<Vec<_>>()
+        );
+        map.restore(e1);
+        assert_eq!(
+            map.leaves().map(|(_, n)| *n).collect::<Vec<_>>(),
+            before.leaves().map(|(_, n)| *n).collect::<Vec<_>>()
+        );
+    }
+
+    #[test]
+    fn interior_nodes_are_not_subdivided() {
+        let mut map = UvMap::new(8);
+        map.update(&Region::new(vec![disc(DVec2::splat(0.5), 0.45)]), None, 3);
+        let interior_root = map.node(map.root(4, 4));
+        assert_eq!(interior_root.class, NodeClass::Interior);
+        assert!(interior_root.children.is_none());
+    }
+}

@@ -1,0 +1,241 @@
+//! Surface point inversion against dense brute force, counted separately for answers
+//! inside the domain and on its boundary (the case other libraries get wrong).
+
+use glam::{DVec2, DVec3};
+use sculpt_core::nurbs::{NurbsSurface, SurfaceInverter};
+
+/// SplitMix64: a tiny deterministic generator so the test needs no extra crates.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn range(&mut self, a: f64, b: f64) -> f64 {
+        a + (b - a) * self.next()
+    }
+}
+
+/// A random wavy surface: degrees 2 or 3, 4..=7 control points per direction, random
+/// interior knots, heights in [-0.35, 0.35], and (for odd seeds) random weights.
+fn random_surface(rng: &mut Rng, rational: bool) -> NurbsSurface {
+    let p = if rng.next() < 0.5 { 2 } else { 3 };
+    let q = if rng.next() < 0.5 { 2 } else { 3 };
+    let nu = p + 1 + (rng.next() * 4.0) as usize;
+    let nv = q + 1 + (rng.next() * 4.0) as usize;
+    let knots = |rng: &mut Rng, deg: usize, n: usize| {
+        let mut inner: Vec<f64> = (0..n - deg - 1).map(|_| rng.range(0.05, 0.95)).collect();
+        inner.sort_by(f64::total_cmp);
+        let mut k = vec![0.0; deg + 1];
+        k.extend(inner);
+        k.extend(vec![1.0; deg + 1]);
+        k
+    };
+    let ku = knots(rng, p, nu);
+    let kv = knots(rng, q, nv);
+    let pts: Vec<Vec<DVec3>> = (0..nu)
+        .map(|i| {
+            (0..nv)
+                .map(|j| {
+                    DVec3::new(
+                        i as f64 / (nu - 1) as f64 + rng.range(-0.05, 0.05),
+                        j as f64 / (nv - 1) as f64 + rng.range(-0.05, 0.05),
+                        rng.range(-0.35, 0.35),
+                    )
+                })
+                .collect()
+        })
+        .collect();
+    let w = rational.then(|| {
+        (0..nu)
+            .map(|_| (0..nv).map(|_| rng.range(0.5, 2.0)).collect())
+            .collect()
+    });
+    NurbsSurface::new(p, q, ku, kv, pts, w).expect("valid random surface")
+}
+
+/// Brute force: a dense grid, then three rounds of zooming in around the best few
+/// samples. Every candidate is a true surface point, so the result is an upper bound
+/// of the true distance.
+fn brute_force(s: &NurbsSurface, p: DVec3) -> (f64, DVec2) {
+    let (u0, u1) = s.domain_u();
+    let (v0, v1) = s.domain_v();
+    let n = 120;
+    let mut cands: Vec<(f64, DVec2)> = Vec::with_capacity((n + 1) * (n + 1));
+    for i in 0..=n {
+        for j in 0..=n {
+            let uv = DVec2::new(
+                u0 + (u1 - u0) * i as f64 / n as f64,
+                v0 + (v1 - v0) * j as f64 / n as f64,
+            );
+            cands.push((s.point_uv(uv).distance(p), uv));
+        }
+    }
+    cands.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut best = cands[0];
+    let mut h = DVec2::new((u1 - u0) / n as f64, (v1 - v0) / n as f64);
+    let mut seeds: Vec<DVec2> = cands.iter().take(6).map(|c| c.1).collect();
+    for _ in 0..4 {
+        let mut next: Vec<(f64, DVec2)> = Vec::new();
+        for c in &seeds {
+            let m = 16;
+            for i in 0..=m {
+                for j in 0..=m {
+                    let uv = DVec2::new(
+                        (c.x - h.x + 2.0 * h.x * i as f64 / m as f64).clamp(u0, u1),
+                        (c.y - h.y + 2.0 * h.y * j as f64 / m as f64).clamp(v0, v1),
+                    );
+                    next.push((s.point_uv(uv).distance(p), uv));
+                }
+            }
+        }
+        next.sort_by(|a, b| a.0.total_cmp(&b.0));
+        if next[0].0 < best.0 {
+            best = next[0];
+        }
+        seeds = next.iter().take(3).map(|c| c.1).collect();
+        h /= 8.0;
+    }
+    best
+}
+
+fn is_boundary(s: &NurbsSurface, uv: DVec2) -> bool {
+    let (u0, u1) = s.domain_u();
+    let (v0, v1) = s.domain_v();
+    let e = 1e-9;
+    uv.x <= u0 + e || uv.x >= u1 - e || uv.y <= v0 + e || uv.y >= v1 - e
+}
+
+fn check_answer(s: &NurbsSurface, inv: &SurfaceInverter, p: DVec3, stats: &mut [usize; 2]) {
+    let got = inv.closest_point(p);
+    let (bf, bf_uv) = brute_force(s, p);
+    // The answer is a real surface point at the reported distance.
+    assert!(
+        (s.point_uv(got.uv) - got.point).length() <= 1e-12,
+        "point is S(uv)"
+    );
+    assert!((got.point.distance(p) - got.distance).abs() <= 1e-12);
+    assert!(
+        got.distance <= bf + 1e-9,
+        "p = {p:?}: distance {} worse than brute force {} (got uv {:?}, brute uv {:?}, converged {})",
+        got.distance,
+        bf,
+        got.uv,
+        bf_uv,
+        got.converged
+    );
+    stats[usize::from(is_boundary(s, bf_uv))] += 1;
+    assert!(got.converged, "p = {p:?} did not converge: {got:?}");
+}
+
+#[test]
+fn random_surfaces_match_brute_force_inside_and_on_the_boundary() {
+    let mut rng = Rng(0x5EED_0001);
+    let mut stats = [0usize; 2]; // [interior, boundary]
+    for k in 0..40 {
+        let s = random_surface(&mut rng, k % 2 == 1);
+        let inv = s.inverter();
+        for t in 0..24 {
+            let p = if t % 2 == 0 {
+                // Anywhere around the patch: many of these project onto an edge.
+                DVec3::new(
+                    rng.range(-0.6, 1.6),
+                    rng.range(-0.6, 1.6),
+                    rng.range(-0.8, 0.8),
+                )
+            } else {
+                // Off the surface along its normal: mostly interior answers.
+                let uv = DVec2::new(rng.next(), rng.next());
+                s.point_uv(uv) + s.normal(uv.x, uv.y) * rng.range(-0.3, 0.3)
+            };
+            check_answer(&s, &inv, p, &mut stats);
+        }
+    }
+    eprintln!(
+        "interior answers: {}, boundary answers: {}",
+        stats[0], stats[1]
+    );
+    assert!(stats[0] >= 100, "too few interior cases: {stats:?}");
+    assert!(stats[1] >= 100, "too few boundary cases: {stats:?}");
+}
+
+#[test]
+fn far_points_match_brute_force() {
+    let mut rng = Rng(0x5EED_0002);
+    let mut stats = [0usize; 2];
+    for k in 0..6 {
+        let s = random_surface(&mut rng, k % 2 == 0);
+        let inv = s.inverter();
+        for _ in 0..8 {
+            let dir = DVec3::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            );
+            let p = DVec3::new(0.5, 0.5, 0.0) + dir.normalize() * rng.range(20.0, 1000.0);
+            check_answer(&s, &inv, p, &mut stats);
+        }
+    }
+}
+
+#[test]
+fn points_on_the_surface_invert_to_their_parameter() {
+    let mut rng = Rng(0x5EED_0003);
+    for k in 0..10 {
+        let s = random_surface(&mut rng, k % 2 == 0);
+        let inv = s.inverter();
+        for _ in 0..20 {
+            let uv = DVec2::new(rng.next(), rng.next());
+            let p = s.point_uv(uv);
+            let got = inv.closest_point(p);
+            assert!(got.distance <= 1e-9, "{got:?}");
+            assert!(got.converged);
+        }
+    }
+}
+
+#[test]
+fn seeded_queries_along_a_stroke_match_unseeded() {
+    let mut rng = Rng(0x5EED_0004);
+    let s = random_surface(&mut rng, true);
+    let inv = s.inverter();
+    // A stroke sweeping across the patch and beyond its edges, 2 cm above it.
+    let pts: Vec<DVec3> = (0..200)
+        .map(|i| {
+            let t = i as f64 / 199.0;
+            let uv = DVec2::new(-0.2 + 1.4 * t, 0.5 + 0.4 * (6.0 * t).sin());
+            let q = s.point_uv(uv.clamp(DVec2::ZERO, DVec2::ONE));
+            q + DVec3::new(uv.x - uv.x.clamp(0.0, 1.0), 0.0, 0.02)
+        })
+        .collect();
+    let along = inv.closest_points_along(&pts);
+    let batch = inv.closest_points(&pts);
+    for ((a, b), p) in along.iter().zip(&batch).zip(&pts) {
+        assert!(
+            a.distance <= b.distance + 1e-9 && b.distance <= a.distance + 1e-9,
+            "{p:?}: {a:?} vs {b:?}"
+        );
+        let single = inv.closest_point(*p);
+        assert_eq!(single, *b, "batch equals single queries");
+    }
+}
+
+#[test]
+fn non_finite_queries_are_safe() {
+    let mut rng = Rng(7);
+    let s = random_surface(&mut rng, false);
+    let inv = s.inverter();
+    for p in [DVec3::NAN, DVec3::new(f64::INFINITY, 0.0, 0.0)] {
+        let got = inv.closest_point(p);
+        assert!(!got.converged);
+        assert_eq!(got.distance, f64::INFINITY);
+        assert!(got.point.is_finite() && got.uv.is_finite());
+        let got = inv.closest_point_from(p, DVec2::splat(0.5));
+        assert!(got.point.is_finite() && !got.converged);
+    }
+    let got = inv.closest_point_from(DVec3::ONE, DVec2::NAN);
+    assert!(got.point.is_finite() && got.distance.is_finite());
+}
