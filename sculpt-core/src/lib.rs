@@ -12,6 +12,7 @@ pub mod error;
 pub mod formats;
 pub mod mesh;
 pub mod nurbs;
+pub mod oplog;
 pub mod sculpt;
 pub mod tolerance;
 

@@ -1,9 +1,42 @@
 //! # sculpt-tools
 //!
-//! The Wandsculpt command-line tools.
-//! Not built yet: running it says so and exits non-zero.
+//! The Wandsculpt command-line tools. Today: the GOMS / KLM timing-study harness
+//! (`sculpt-tools goms ...`); see the README's `goms` section.
+//!
+//! ```text
+//! sculpt-tools goms klm builtin:multires-sculpting
+//! sculpt-tools goms analyze my-study/ --sensitivity
+//! ```
+
+use clap::{Parser, Subcommand};
+
+mod cmd;
+mod goms;
+
+/// The Wandsculpt command-line tools.
+#[derive(Debug, Parser)]
+#[command(name = "sculpt-tools", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// GOMS / KLM timing studies: operator extraction, KLM predictions, study reports.
+    Goms(cmd::goms::GomsArgs),
+}
 
 fn main() -> std::process::ExitCode {
-    eprintln!("sculpt-tools: not available in this build yet (see the open kernel issue)");
-    std::process::ExitCode::FAILURE
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Goms(args) => cmd::goms::run(args),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("sculpt-tools: error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
 }

@@ -1,0 +1,3 @@
+//! One module per `sculpt-tools` subcommand.
+
+pub mod goms;
