@@ -26,6 +26,12 @@ pub enum Error {
     /// The tracking layer reported an error.
     #[error("tracking: {0}")]
     Tracking(String),
+    /// The replay configuration is invalid.
+    #[error("config: {0}")]
+    Config(String),
+    /// A base scene or session could not be used.
+    #[error("{0}")]
+    Session(String),
     /// A file could not be read or written.
     #[error("{path}: {source}")]
     Io {

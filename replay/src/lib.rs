@@ -17,6 +17,8 @@
 #![warn(missing_docs)]
 
 pub mod check;
+pub mod config;
+pub mod driver;
 pub mod error;
 pub mod import;
 pub mod serve;

@@ -25,12 +25,15 @@ struct Cli {
 enum Command {
     /// GOMS / KLM timing studies: operator extraction, KLM predictions, study reports.
     Goms(cmd::goms::GomsArgs),
+    /// Convert an Open Brush `.tilt` recording into a pose log (replay input).
+    Tilt2poselog(cmd::tilt2poselog::Tilt2PoselogArgs),
 }
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Goms(args) => cmd::goms::run(args),
+        Command::Tilt2poselog(args) => cmd::tilt2poselog::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -84,8 +84,8 @@ fn parse_range(s: &str) -> Result<(usize, usize), String> {
 
 /// Runs the conversion.
 pub fn run(args: Tilt2PoselogArgs) -> Result<()> {
-    let bytes = std::fs::read(&args.input)
-        .with_context(|| format!("reading {}", args.input.display()))?;
+    let bytes =
+        std::fs::read(&args.input).with_context(|| format!("reading {}", args.input.display()))?;
     let tilt = replay::tilt::read_tilt(&bytes)
         .with_context(|| format!("{} is not a valid .tilt file", args.input.display()))?;
     let mut placement = Placement::default();
