@@ -21,6 +21,8 @@ pub mod config;
 pub mod driver;
 pub mod error;
 pub mod import;
+pub mod output;
+pub mod pipeline;
 pub mod serve;
 pub mod sessions;
 pub mod tilt;
