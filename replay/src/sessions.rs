@@ -214,6 +214,11 @@ pub fn catalogue() -> Vec<SessionSpec> {
             hover: 0.05,
         }
         .occlude(0.2);
+        // The sculptor holds still while the cameras lose the wand.
+        let s = Sculptor {
+            script: s.script.hold(0.25),
+            hover: 0.05,
+        };
         let s = Sculptor {
             script: s
                 .script
