@@ -220,7 +220,7 @@ impl NurbsCurve {
         let u = self.knots.clamp(u);
         let p = self.degree();
         let s = self.knots.find_span(u);
-        let nd = self.knots.basis_ders(s, u, 2);
+        let nd = self.knots.basis_ders2(s, u);
         let mut a = [DVec4::ZERO; 3];
         for (k, ak) in a.iter_mut().enumerate() {
             for j in 0..=p {

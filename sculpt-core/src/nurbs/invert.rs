@@ -7,27 +7,36 @@
 //!
 //! 1. **Cached bounding hierarchy.** The surface is split into Bezier patches (knot
 //!    refinement, P&T A5.4), each patch is subdivided by de Casteljau into a few
-//!    sub-patches, and each sub-patch ("leaf") keeps the axis-aligned box of its
-//!    control points. Weights are positive, so the box contains the sub-patch
+//!    sub-patches (about 8 per surface length, at most 8 per span), and each sub-patch
+//!    ("leaf") keeps the axis-aligned box of its control points and a thin oriented box
+//!    in a frame fitted to it. Weights are positive, so the boxes contain the sub-patch
 //!    (convex-hull property). A binary tree over the leaf grid holds the unions.
 //! 2. **Branch and bound.** A query walks the tree nearest box first and skips every box
 //!    farther than the best distance found so far, so only leaves that *could* hold a
 //!    closer point are examined.
-//! 3. **Bounded Newton per leaf.** In each examined leaf, Newton's method on
+//! 3. **Exclusion test.** A leaf whose derivative cone shows that `(S - P) . S_u` (or
+//!    `. S_v`) cannot vanish inside it holds no stationary point and is skipped (see
+//!    `Leaf`); the domain corners are always candidates.
+//! 4. **Bounded Newton per leaf.** In each remaining leaf, Newton's method on
 //!    `f(u,v) = |S(u,v) - P|^2 / 2` (the system of eq. 6.5 with the Jacobian of eq. 6.6,
 //!    update eq. 6.7) runs inside the leaf's parameter box. When a step wants to leave
 //!    the box, the variable that hits the bound is fixed there (an active set) and the
 //!    iteration continues along the boundary curve, so minima on the edge of the
 //!    domain, and corners, are found exactly. A halving line search keeps every step
 //!    descending, and an indefinite Hessian is shifted to positive definite.
-//! 4. **Polish.** A last Newton run on the whole domain starts from the best leaf answer;
+//!    The start is the nearest point of the bilinear patch through the leaf's corners.
+//!    Leaves on a domain edge also run Newton along that edge alone, so a boundary
+//!    minimum is found even when the leaf's interior holds another local minimum.
+//! 5. **Polish.** A last Newton run on the whole domain starts from the best leaf answer;
 //!    in closed directions (the seam of a sphere or torus) it wraps around instead of
 //!    stopping at the seam.
 //!
 //! Stopping rules are P&T's: point coincidence `|S - P| <= POINT_EPS` (criterion 1),
 //! zero cosine `|S_u . (S - P)| <= COSINE_EPS |S_u| |S - P|` and the same for `v`
-//! (criterion 2, on the directions not held at a bound), and a parameter step that
-//! moves the point by less than `POINT_EPS` (criterion 3).
+//! (criterion 2, on the directions not held at a bound; also met when the tangential
+//! residual `|S_u . (S - P)| / |S_u|` is below `POINT_EPS / 1000`, where `|S - P|` is too
+//! small for the cosine to resolve), and a full Newton step that moves the point by
+//! less than `POINT_EPS` (criterion 3).
 //!
 //! Poles (an edge collapsed to a point, where `S_u` or `S_v` vanishes) need nothing
 //! special: a vanishing derivative satisfies its cosine test, and the shifted Hessian
@@ -73,19 +82,175 @@ struct Candidate {
     dist2: f64,
     iters: u32,
     converged: bool,
+    /// The run ended on a bound of its box that lies inside the domain (a leaf edge):
+    /// a constrained answer of the leaf, not a stationary point of the surface.
+    on_leaf_edge: bool,
 }
 
-/// A sub-patch: its parameter box.
+/// A sub-patch: its parameter box and boxes bounding the directions of its partial
+/// derivatives.
+///
+/// For positive weights the derivative of a rational Bezier curve is a non-negative
+/// combination of the differences `P_j - P_i`, `i < j`, of its control points
+/// (Sederberg and Wang's rational hodograph: `B'_j B_i - B'_i B_j >= 0` for `j > i`).
+/// In a patch the row "control points" along `u` lie in the boxes of the rows, so `S_u`
+/// is a non-negative combination of vectors in `du` (the union of the differences of the
+/// row boxes), and likewise `S_v` with `dv`. If `(S - P) . d` has one sign for every
+/// `S` in the leaf box and `d` in `du`, then `f_u` never vanishes in the leaf: it holds
+/// no stationary point, and no minimum on a side where `u` is free.
+///
+/// Everything is kept in a local orthonormal frame `(t1, t2, n)` fitted to the leaf (its
+/// mean `u` direction and normal), where the control points make a thin oriented box
+/// `obb`: a much tighter distance bound than the axis-aligned box of the tree nodes.
 #[derive(Debug, Clone, Copy)]
 struct Leaf {
     uv_lo: DVec2,
     uv_hi: DVec2,
+    frame: [DVec3; 3],
+    obb: (DVec3, DVec3),
+    du: (DVec3, DVec3),
+    dv: (DVec3, DVec3),
+    /// Corner points `S(lo, lo), S(hi, lo), S(lo, hi), S(hi, hi)` (Bezier corners).
+    corners: [DVec3; 4],
 }
 
 impl Leaf {
-    fn center(&self) -> DVec2 {
-        (self.uv_lo + self.uv_hi) * 0.5
+    /// A Newton start for `p`: the parameter of the nearest point of the bilinear patch
+    /// through the leaf's corners (three Gauss-Newton steps, no surface evaluation).
+    #[inline]
+    fn estimate(&self, p: DVec3) -> DVec2 {
+        let [c00, c10, c01, c11] = self.corners;
+        let mut st = DVec2::splat(0.5);
+        for _ in 0..3 {
+            let (s, t) = (st.x, st.y);
+            let b = c00 * ((1.0 - s) * (1.0 - t))
+                + c10 * (s * (1.0 - t))
+                + c01 * ((1.0 - s) * t)
+                + c11 * (s * t);
+            let bs = (c10 - c00) * (1.0 - t) + (c11 - c01) * t;
+            let bt = (c01 - c00) * (1.0 - s) + (c11 - c10) * s;
+            let r = b - p;
+            let (a, m, c) = (bs.dot(bs), bs.dot(bt), bt.dot(bt));
+            let det = a * c - m * m;
+            if det <= 1e-14 * (a * c) || det.is_nan() {
+                break;
+            }
+            let (g0, g1) = (bs.dot(r), bt.dot(r));
+            st -= DVec2::new((c * g0 - m * g1) / det, (a * g1 - m * g0) / det);
+            st = st.clamp(DVec2::ZERO, DVec2::ONE);
+        }
+        self.uv_lo + st * (self.uv_hi - self.uv_lo)
     }
+
+    /// A leaf that excludes nothing: world frame, box `[lo, hi]`.
+    fn whole(uv_lo: DVec2, uv_hi: DVec2, lo: DVec3, hi: DVec3) -> Self {
+        // A box of all differences contains zero: the sign test never fires.
+        let all = (lo - hi, hi - lo);
+        let c = (lo + hi) * 0.5;
+        Leaf {
+            uv_lo,
+            uv_hi,
+            frame: [DVec3::X, DVec3::Y, DVec3::Z],
+            obb: (lo, hi),
+            du: all,
+            dv: all,
+            corners: [c; 4],
+        }
+    }
+
+    /// The leaf of a `p1 x q1` Bezier piece (row-major, homogeneous), with the
+    /// axis-aligned box of its control points.
+    fn from_piece(
+        piece: &[DVec4],
+        p1: usize,
+        q1: usize,
+        uv_lo: DVec2,
+        uv_hi: DVec2,
+    ) -> (Self, (DVec3, DVec3)) {
+        let cart: Vec<DVec3> = piece.iter().map(|h| h.truncate() / h.w).collect();
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for c in &cart {
+            lo = lo.min(*c);
+            hi = hi.max(*c);
+        }
+        let at = |i: usize, j: usize| cart[i * q1 + j];
+        let (pl, ql) = (p1 - 1, q1 - 1);
+        let tu = at(pl, 0) + at(pl, ql) - at(0, 0) - at(0, ql);
+        let tv = at(0, ql) + at(pl, ql) - at(0, 0) - at(pl, 0);
+        let n = tu.cross(tv);
+        let frame = match (tu.try_normalize(), n.try_normalize()) {
+            (Some(t1), Some(n)) => [t1, n.cross(t1), n],
+            _ => [DVec3::X, DVec3::Y, DVec3::Z],
+        };
+        let local: Vec<DVec3> = cart.iter().map(|c| to_frame(&frame, *c)).collect();
+        let mut olo = DVec3::splat(f64::INFINITY);
+        let mut ohi = DVec3::splat(f64::NEG_INFINITY);
+        for c in &local {
+            olo = olo.min(*c);
+            ohi = ohi.max(*c);
+        }
+        let leaf = Leaf {
+            uv_lo,
+            uv_hi,
+            frame,
+            obb: (olo, ohi),
+            du: difference_box(&group_boxes(&local, p1, q1, true)),
+            dv: difference_box(&group_boxes(&local, p1, q1, false)),
+            corners: [at(0, 0), at(pl, 0), at(0, ql), at(pl, ql)],
+        };
+        (leaf, (lo, hi))
+    }
+}
+
+#[inline]
+fn to_frame(frame: &[DVec3; 3], x: DVec3) -> DVec3 {
+    DVec3::new(frame[0].dot(x), frame[1].dot(x), frame[2].dot(x))
+}
+
+/// True when `r . d` has one strict sign for all `r` in `[r_lo, r_hi]`, `d` in `[d.0, d.1]`
+/// (interval arithmetic).
+#[inline]
+fn sign_is_fixed(r_lo: DVec3, r_hi: DVec3, d: (DVec3, DVec3)) -> bool {
+    let (a, b, c, e) = (r_lo * d.0, r_lo * d.1, r_hi * d.0, r_hi * d.1);
+    let lo = a.min(b).min(c.min(e));
+    let hi = a.max(b).max(c.max(e));
+    lo.element_sum() > 0.0 || hi.element_sum() < 0.0
+}
+
+/// The box of all differences `P_j - P_i`, `i < j`, of points in consecutive groups
+/// (`groups[i]` is the box of group `i`).
+fn difference_box(groups: &[(DVec3, DVec3)]) -> (DVec3, DVec3) {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for i in 0..groups.len() {
+        for j in i + 1..groups.len() {
+            lo = lo.min(groups[j].0 - groups[i].1);
+            hi = hi.max(groups[j].1 - groups[i].0);
+        }
+    }
+    (lo, hi)
+}
+
+/// The boxes of the rows (`along_u`) or columns of a row-major `p1 x q1` patch.
+fn group_boxes(piece: &[DVec3], p1: usize, q1: usize, along_u: bool) -> Vec<(DVec3, DVec3)> {
+    let (outer, inner) = if along_u { (p1, q1) } else { (q1, p1) };
+    (0..outer)
+        .map(|a| {
+            let mut lo = DVec3::splat(f64::INFINITY);
+            let mut hi = DVec3::splat(f64::NEG_INFINITY);
+            for b in 0..inner {
+                let c = if along_u {
+                    piece[a * q1 + b]
+                } else {
+                    piece[b * q1 + a]
+                };
+                lo = lo.min(c);
+                hi = hi.max(c);
+            }
+            (lo, hi)
+        })
+        .collect()
 }
 
 /// A tree node: a box; either two children or one leaf.
@@ -109,6 +274,8 @@ pub struct SurfaceInverter {
     domain_lo: DVec2,
     domain_hi: DVec2,
     closed: [bool; 2],
+    /// The four domain corners and their points.
+    corners: [(DVec2, DVec3); 4],
 }
 
 fn box_dist2(p: DVec3, lo: DVec3, hi: DVec3) -> f64 {
@@ -206,6 +373,8 @@ impl SurfaceInverter {
             domain_lo: DVec2::new(u0, v0),
             domain_hi: DVec2::new(u1, v1),
             closed: [surface.is_closed_u(), surface.is_closed_v()],
+            corners: [(u0, v0), (u0, v1), (u1, v0), (u1, v1)]
+                .map(|(u, v)| (DVec2::new(u, v), surface.point(u, v))),
         };
         inv.build();
         inv
@@ -229,10 +398,8 @@ impl SurfaceInverter {
         // bounded by the whole control net (still correct, only slower).
         let Ok(bz) = s.to_bezier_form() else {
             let (lo, hi) = s.control_bounds();
-            self.leaves.push(Leaf {
-                uv_lo: self.domain_lo,
-                uv_hi: self.domain_hi,
-            });
+            self.leaves
+                .push(Leaf::whole(self.domain_lo, self.domain_hi, lo, hi));
             self.nodes.push(Node {
                 lo,
                 hi,
@@ -278,7 +445,7 @@ impl SurfaceInverter {
         // Split every span into pieces no longer than a target length (a fraction of
         // the surface size), at most 8 per span, keeping the tree modest for big nets.
         let total_len = len_u.iter().sum::<f64>().max(len_v.iter().sum::<f64>());
-        let mut target = total_len / 16.0;
+        let mut target = total_len / 8.0;
         let pieces_of = |len: &[f64], target: f64| -> Vec<usize> {
             len.iter()
                 .map(|&l| {
@@ -308,7 +475,11 @@ impl SurfaceInverter {
         let (off_u, off_v) = (offsets(&su), offsets(&sv));
         let (lu, lv): (usize, usize) = (su.iter().sum(), sv.iter().sum());
         let mut leaf_boxes = vec![(DVec3::ZERO, DVec3::ZERO); lu * lv];
-        let mut leaf_uv = vec![(DVec2::ZERO, DVec2::ZERO); lu * lv];
+        let mut leaf_data = Vec::new();
+        leaf_data.resize(
+            lu * lv,
+            Leaf::whole(DVec2::ZERO, DVec2::ZERO, DVec3::ZERO, DVec3::ZERO),
+        );
         for (a, &(ku, ua, ub)) in spans_u.iter().enumerate() {
             for (c, &(kv, va, vb)) in spans_v.iter().enumerate() {
                 let mut patch = Vec::with_capacity((p + 1) * (q + 1));
@@ -321,13 +492,6 @@ impl SurfaceInverter {
                 for sa in 0..su[a] {
                     for sc in 0..sv[c] {
                         let piece = &pieces[sa * sv[c] + sc];
-                        let mut lo = DVec3::splat(f64::INFINITY);
-                        let mut hi = DVec3::splat(f64::NEG_INFINITY);
-                        for h in piece {
-                            let c3 = h.truncate() / h.w;
-                            lo = lo.min(c3);
-                            hi = hi.max(c3);
-                        }
                         let (gi, gj) = (off_u[a] + sa, off_v[c] + sc);
                         // Exact span ends, so edge leaves meet the domain edge exactly.
                         let lerp = |x: f64, y: f64, t: usize, n: usize| {
@@ -339,19 +503,16 @@ impl SurfaceInverter {
                         };
                         let fu = |t: usize| lerp(ua, ub, t, su[a]);
                         let fv = |t: usize| lerp(va, vb, t, sv[c]);
-                        leaf_uv[gi * lv + gj] = (
-                            DVec2::new(fu(sa), fv(sc)),
-                            DVec2::new(fu(sa + 1), fv(sc + 1)),
-                        );
-                        leaf_boxes[gi * lv + gj] = (lo, hi);
+                        let uv_lo = DVec2::new(fu(sa), fv(sc));
+                        let uv_hi = DVec2::new(fu(sa + 1), fv(sc + 1));
+                        let (leaf, aabb) = Leaf::from_piece(piece, p + 1, q + 1, uv_lo, uv_hi);
+                        leaf_data[gi * lv + gj] = leaf;
+                        leaf_boxes[gi * lv + gj] = aabb;
                     }
                 }
             }
         }
-        self.leaves = leaf_uv
-            .iter()
-            .map(|&(uv_lo, uv_hi)| Leaf { uv_lo, uv_hi })
-            .collect();
+        self.leaves = leaf_data;
         self.nodes.reserve(2 * lu * lv);
         self.build_node(&leaf_boxes, lv, 0, lu, 0, lv);
     }
@@ -515,8 +676,14 @@ impl SurfaceInverter {
 
     /// Polishes the best leaf answer on the whole domain and converts it.
     fn finish(&self, p: DVec3, best: Candidate) -> Projection {
+        if best.converged && !best.on_leaf_edge && !self.closed[0] && !self.closed[1] {
+            // Already a converged answer of the whole-domain problem.
+            return self.to_projection(best);
+        }
         let polished = self.newton(p, best.uv, self.domain_lo, self.domain_hi, self.closed);
-        let mut out = if polished.dist2 <= best.dist2 {
+        // Rounding: the polish evaluates with the derivative routine, which can differ
+        // from the point routine in the last digit.
+        let mut out = if polished.dist2 <= best.dist2 * (1.0 + 1e-12) {
             polished
         } else {
             best
@@ -527,13 +694,29 @@ impl SurfaceInverter {
 
     /// Branch and bound over the hierarchy; `best` is an optional starting answer.
     fn search(&self, p: DVec3, start: Option<Candidate>) -> Candidate {
+        // The domain corners are candidates of their own (a minimum there need not be
+        // a stationary point of any leaf), and they make a cheap first bound.
         let mut best = start.unwrap_or(Candidate {
             uv: self.domain_lo,
             point: DVec3::ZERO,
             dist2: f64::INFINITY,
             iters: 0,
             converged: false,
+            on_leaf_edge: true,
         });
+        for &(uv, point) in &self.corners {
+            let dist2 = point.distance_squared(p);
+            if dist2 < best.dist2 {
+                best = Candidate {
+                    uv,
+                    point,
+                    dist2,
+                    iters: best.iters,
+                    converged: false,
+                    on_leaf_edge: true,
+                };
+            }
+        }
         let mut iters = best.iters;
         let mut stack = [0u32; 128];
         let mut top = 1usize;
@@ -545,17 +728,38 @@ impl SurfaceInverter {
                 continue;
             }
             if node.right == u32::MAX {
-                let leaf = self.leaves[node.left as usize];
-                let c = self.newton(p, leaf.center(), leaf.uv_lo, leaf.uv_hi, [false; 2]);
-                iters += c.iters;
-                if c.dist2 < best.dist2 {
-                    best = c;
+                let leaf = &self.leaves[node.left as usize];
+                let p_local = to_frame(&leaf.frame, p);
+                if box_dist2(p_local, leaf.obb.0, leaf.obb.1) >= best.dist2 {
+                    continue;
+                }
+                let (r_lo, r_hi) = (leaf.obb.0 - p_local, leaf.obb.1 - p_local);
+                let fixed_u = sign_is_fixed(r_lo, r_hi, leaf.du);
+                let fixed_v = sign_is_fixed(r_lo, r_hi, leaf.dv);
+                let mut interior_uv = None;
+                let start = leaf.estimate(p);
+                if !fixed_u && !fixed_v {
+                    let c = self.newton(p, start, leaf.uv_lo, leaf.uv_hi, [false; 2]);
+                    iters += c.iters;
+                    if c.converged {
+                        interior_uv = Some(c.uv);
+                    }
+                    if c.dist2 < best.dist2 {
+                        best = c;
+                    }
                 }
                 // Leaves on an edge of the domain also search that edge by itself: a
                 // minimum on the boundary curve is then found even when the leaf's
                 // interior holds another local minimum.
                 for (k, at_hi) in [(0, false), (0, true), (1, false), (1, true)] {
-                    if !self.edge_leaf(&leaf, k, at_hi) {
+                    // Along a side u = const only v moves, so f_v must vanish there.
+                    let fixed = if k == 0 { fixed_v } else { fixed_u };
+                    if fixed || !self.edge_leaf(leaf, k, at_hi) {
+                        continue;
+                    }
+                    // The interior run already converged onto this very edge.
+                    let edge_value = if at_hi { leaf.uv_hi[k] } else { leaf.uv_lo[k] };
+                    if interior_uv.is_some_and(|uv| uv[k] == edge_value) {
                         continue;
                     }
                     let (mut lo, mut hi) = (leaf.uv_lo, leaf.uv_hi);
@@ -564,7 +768,7 @@ impl SurfaceInverter {
                     } else {
                         hi[k] = lo[k];
                     }
-                    let c = self.newton(p, (lo + hi) * 0.5, lo, hi, [false; 2]);
+                    let c = self.newton(p, start, lo, hi, [false; 2]);
                     iters += c.iters;
                     if c.dist2 < best.dist2 {
                         best = c;
@@ -645,47 +849,73 @@ impl SurfaceInverter {
             let h00 = d.du.dot(d.du) + d.duu.dot(r);
             let h01 = d.du.dot(d.dv) + d.duv.dot(r);
             let h11 = d.dv.dot(d.dv) + d.dvv.dot(r);
-            let step = match free {
+            let newton = match free {
                 [true, true] => newton_step_2(h00, h01, h11, g),
                 [true, false] => DVec2::new(newton_step_1(h00, d.du.length_squared(), g.x), 0.0),
                 [false, true] => DVec2::new(0.0, newton_step_1(h11, d.dv.length_squared(), g.y)),
                 [false, false] => DVec2::ZERO,
             };
+            // The fallback when the projected Newton step does not descend (it can turn
+            // uphill where a bound cuts it): the gradient scaled by the Hessian diagonal.
+            let scaled = |k: usize, h: f64, jtj: f64| {
+                let den = h.max(jtj);
+                if free[k] && den > 0.0 {
+                    -g[k] / den
+                } else {
+                    0.0
+                }
+            };
+            let gradient = DVec2::new(
+                scaled(0, h00, d.du.length_squared()),
+                scaled(1, h11, d.dv.length_squared()),
+            );
+            let project = |c: DVec2| {
+                let mut c = c;
+                for k in 0..2 {
+                    c[k] = if wrap[k] {
+                        lo[k] + (c[k] - lo[k]).rem_euclid(hi[k] - lo[k])
+                    } else {
+                        c[k].clamp(lo[k], hi[k])
+                    };
+                }
+                c
+            };
             // Rounding noise of f: r = S - P loses the digits of |S| and |P|.
             let noise =
                 8.0 * f64::EPSILON * rl * (p.abs().max_element() + d.point.abs().max_element());
-            let mut t = 1.0;
             let mut accepted = false;
-            for _ in 0..MAX_HALVINGS {
-                let mut cand = uv + step * t;
-                for k in 0..2 {
-                    cand[k] = if wrap[k] {
-                        lo[k] + (cand[k] - lo[k]).rem_euclid(hi[k] - lo[k])
-                    } else {
-                        cand[k].clamp(lo[k], hi[k])
-                    };
+            for (attempt, step) in [newton, gradient].into_iter().enumerate() {
+                if attempt == 0 && !wrap[0] && !wrap[1] && g.dot(project(uv + step) - uv) >= 0.0 {
+                    continue;
                 }
-                let dc = s.derivatives(cand.x, cand.y);
-                let rc = dc.point - p;
-                let fc = rc.length_squared();
-                // Accept descent, and changes within rounding noise of f (near the
-                // minimum f stops resolving the last digits while g still improves).
-                if cand == uv {
-                    break;
-                }
-                if fc <= f + noise {
-                    let moved = (dc.point - d.point).length();
-                    uv = cand;
-                    d = dc;
-                    r = rc;
-                    f = fc;
-                    accepted = true;
-                    if moved <= POINT_EPS && t == 1.0 {
-                        converged = true;
+                let mut t = 1.0;
+                for _ in 0..MAX_HALVINGS {
+                    let cand = project(uv + step * t);
+                    if cand == uv {
+                        break;
                     }
+                    let dc = s.derivatives(cand.x, cand.y);
+                    let rc = dc.point - p;
+                    let fc = rc.length_squared();
+                    // Accept descent, and changes within rounding noise of f (near the
+                    // minimum f stops resolving the last digits while g still improves).
+                    if fc <= f + noise {
+                        let moved = (dc.point - d.point).length();
+                        uv = cand;
+                        d = dc;
+                        r = rc;
+                        f = fc;
+                        accepted = true;
+                        if moved <= POINT_EPS && t == 1.0 && attempt == 0 {
+                            converged = true;
+                        }
+                        break;
+                    }
+                    t *= 0.5;
+                }
+                if accepted {
                     break;
                 }
-                t *= 0.5;
             }
             if converged {
                 break;
@@ -697,12 +927,18 @@ impl SurfaceInverter {
                 break;
             }
         }
+        let on_leaf_edge = (0..2).any(|k| {
+            !wrap[k]
+                && ((uv[k] <= lo[k] && lo[k] > self.domain_lo[k])
+                    || (uv[k] >= hi[k] && hi[k] < self.domain_hi[k]))
+        });
         Candidate {
             uv,
             point: d.point,
             dist2: f,
             iters,
             converged,
+            on_leaf_edge,
         }
     }
 }

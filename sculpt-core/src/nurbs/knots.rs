@@ -39,6 +39,40 @@ pub struct KnotVector {
     degree: usize,
     /// The last span index `s` with `u_s < u_{s+1}` inside the domain.
     last_span: usize,
+    /// `1 / (u_{i+p} - u_i)` (0 where the difference is 0), for eq. 2.7.
+    inv_p: Vec<f64>,
+    /// `1 / (u_{i+p-1} - u_i)` (0 where the difference is 0).
+    inv_pm1: Vec<f64>,
+}
+
+fn inverse_differences(knots: &[f64], deg: usize) -> Vec<f64> {
+    (0..knots.len())
+        .map(|i| match knots.get(i + deg) {
+            Some(&b) if b > knots[i] => 1.0 / (b - knots[i]),
+            _ => 0.0,
+        })
+        .collect()
+}
+
+/// Derivatives of the degree-`deg` functions `N_{s-deg+i,deg}`, `i = 0..=deg`, from the
+/// values `lower[i] = N_{s-deg+1+i,deg-1}` and `inv[g] = 1 / (u_{g+deg} - u_g)` (eq. 2.7).
+#[inline(always)]
+fn differentiate(
+    lower: &[f64; MAX_ORDER],
+    inv: &[f64],
+    span: usize,
+    deg: usize,
+) -> [f64; MAX_ORDER] {
+    let mut out = [0.0; MAX_ORDER];
+    let f = deg as f64;
+    let inv = &inv[span - deg..=span + 1];
+    let mut prev = 0.0; // lower[i - 1] * inv[g]
+    for i in 0..=deg {
+        let next = if i < deg { lower[i] * inv[i + 1] } else { 0.0 };
+        out[i] = f * (prev - next);
+        prev = next;
+    }
+    out
 }
 
 impl KnotVector {
@@ -96,10 +130,14 @@ impl KnotVector {
         while knots[last_span] >= knots[last_span + 1] {
             last_span -= 1;
         }
+        let inv_p = inverse_differences(&knots, degree);
+        let inv_pm1 = inverse_differences(&knots, degree - 1);
         Ok(Self {
             knots,
             degree,
             last_span,
+            inv_p,
+            inv_pm1,
         })
     }
 
@@ -211,7 +249,15 @@ impl KnotVector {
     /// (P&T A2.2, the triangular scheme of eq. 2.5).
     #[inline]
     pub fn basis(&self, span: usize, u: f64) -> Basis {
-        let p = self.degree;
+        match self.degree {
+            2 => self.basis_impl(2, span, u),
+            3 => self.basis_impl(3, span, u),
+            p => self.basis_impl(p, span, u),
+        }
+    }
+
+    #[inline(always)]
+    fn basis_impl(&self, p: usize, span: usize, u: f64) -> Basis {
         let k = &self.knots;
         let mut n = [0.0; MAX_ORDER];
         let mut left = [0.0; MAX_ORDER];
@@ -229,6 +275,65 @@ impl KnotVector {
             n[j] = saved;
         }
         n
+    }
+
+    /// The basis functions and their first and second derivatives on span `s`: row `k`
+    /// holds `N^{(k)}_{s-p+j,p}(u)` (rows past `p` are zero).
+    ///
+    /// The fast path used by evaluation: the triangular scheme of A2.2 keeps the
+    /// functions of degrees `p-2` and `p-1`, and the derivative formula P&T eq. 2.7,
+    /// `N'_{i,p} = p (N_{i,p-1} / (u_{i+p} - u_i) - N_{i+1,p-1} / (u_{i+p+1} - u_{i+1}))`,
+    /// is applied once for `N'` and twice for `N''`. Agrees with [`Self::basis_ders`]
+    /// (A2.3) to rounding; see the tests.
+    #[inline]
+    pub fn basis_ders2(&self, span: usize, u: f64) -> BasisDers {
+        // Constant degrees let the compiler unroll the loops for the common cases.
+        match self.degree {
+            2 => self.basis_ders2_impl(2, span, u),
+            3 => self.basis_ders2_impl(3, span, u),
+            p => self.basis_ders2_impl(p, span, u),
+        }
+    }
+
+    #[inline(always)]
+    fn basis_ders2_impl(&self, p: usize, span: usize, u: f64) -> BasisDers {
+        let k = &self.knots;
+        let mut n = [0.0; MAX_ORDER];
+        let mut left = [0.0; MAX_ORDER];
+        let mut right = [0.0; MAX_ORDER];
+        let mut n_pm1 = [0.0; MAX_ORDER];
+        let mut n_pm2 = [0.0; MAX_ORDER];
+        n[0] = 1.0;
+        if p == 1 {
+            n_pm1[0] = 1.0;
+        }
+        for j in 1..=p {
+            left[j] = u - k[span + 1 - j];
+            right[j] = k[span + j] - u;
+            let mut saved = 0.0;
+            for r in 0..j {
+                let temp = n[r] / (right[r + 1] + left[j - r]);
+                n[r] = saved + right[r + 1] * temp;
+                saved = left[j - r] * temp;
+            }
+            n[j] = saved;
+            if j + 2 == p {
+                n_pm2 = n;
+            } else if j + 1 == p {
+                n_pm1 = n;
+            }
+        }
+        if p == 2 {
+            n_pm2[0] = 1.0;
+        }
+        let d1 = differentiate(&n_pm1, &self.inv_p, span, p);
+        let d2 = if p >= 2 {
+            let d1_lower = differentiate(&n_pm2, &self.inv_pm1, span, p - 1);
+            differentiate(&d1_lower, &self.inv_p, span, p)
+        } else {
+            [0.0; MAX_ORDER]
+        };
+        [n, d1, d2]
     }
 
     /// The basis functions and their derivatives up to order `nd <= 2` on span `s`
@@ -345,6 +450,33 @@ mod tests {
         // N'_{2,2}(5/2) = -1/2, N'_{3,2} = 0, N'_{4,2} = 1/2; second derivatives 1, -2, 1.
         assert_near!([d[1][0], d[1][1], d[1][2]], [-0.5, 0.0, 0.5], 1e-14);
         assert_near!([d[2][0], d[2][1], d[2][2]], [1.0, -2.0, 1.0], 1e-14);
+    }
+
+    #[test]
+    fn fast_derivatives_agree_with_a2_3() {
+        let vectors = [
+            KnotVector::new(1, vec![0., 0., 0.3, 1., 1.]).unwrap(),
+            book(),
+            KnotVector::new(3, vec![0., 0., 0., 0., 0.2, 0.2, 0.7, 1., 1., 1., 1.]).unwrap(),
+            KnotVector::new(4, (0..14).map(f64::from).collect()).unwrap(),
+            KnotVector::new(5, vec![0., 0., 0., 0., 0., 0., 0.5, 1., 1., 1., 1., 1., 1.]).unwrap(),
+        ];
+        for kv in vectors {
+            let (a, b) = kv.domain();
+            for i in 0..=40 {
+                let u = a + (b - a) * i as f64 / 40.0;
+                let s = kv.find_span(u);
+                let slow = kv.basis_ders(s, u, 2);
+                let fast = kv.basis_ders2(s, u);
+                for r in 0..3 {
+                    assert_near!(
+                        fast[r],
+                        slow[r],
+                        1e-9 * (1.0 + slow[r].iter().fold(0.0, |m: f64, x| m.max(x.abs())))
+                    );
+                }
+            }
+        }
     }
 
     #[test]

@@ -320,8 +320,16 @@ impl NurbsSurface {
     /// `S(u, v)` (P&T A4.3: A3.5 on the homogeneous net, then one division).
     #[inline]
     pub fn point(&self, u: f64, v: f64) -> DVec3 {
+        match (self.degree_u(), self.degree_v()) {
+            (3, 3) => self.point_impl(3, 3, u, v),
+            (2, 2) => self.point_impl(2, 2, u, v),
+            (p, q) => self.point_impl(p, q, u, v),
+        }
+    }
+
+    #[inline(always)]
+    fn point_impl(&self, p: usize, q: usize, u: f64, v: f64) -> DVec3 {
         let (u, v) = (self.knots_u.clamp(u), self.knots_v.clamp(v));
-        let (p, q) = (self.degree_u(), self.degree_v());
         let su = self.knots_u.find_span(u);
         let sv = self.knots_v.find_span(v);
         let nu = self.knots_u.basis(su, u);
@@ -349,12 +357,21 @@ impl NurbsSurface {
     /// homogeneous net, then the rational quotient rule A4.4).
     #[inline]
     pub fn derivatives(&self, u: f64, v: f64) -> SurfaceDerivs {
+        // Constant degrees let the compiler unroll the tensor loops.
+        match (self.degree_u(), self.degree_v()) {
+            (3, 3) => self.derivatives_impl(3, 3, u, v),
+            (2, 2) => self.derivatives_impl(2, 2, u, v),
+            (p, q) => self.derivatives_impl(p, q, u, v),
+        }
+    }
+
+    #[inline(always)]
+    fn derivatives_impl(&self, p: usize, q: usize, u: f64, v: f64) -> SurfaceDerivs {
         let (u, v) = (self.knots_u.clamp(u), self.knots_v.clamp(v));
-        let (p, q) = (self.degree_u(), self.degree_v());
         let su = self.knots_u.find_span(u);
         let sv = self.knots_v.find_span(v);
-        let nu = self.knots_u.basis_ders(su, u, 2);
-        let nv = self.knots_v.basis_ders(sv, v, 2);
+        let nu = self.knots_u.basis_ders2(su, u);
+        let nv = self.knots_v.basis_ders2(sv, v);
         // a[k][l] = d^{k+l} S^w / du^k dv^l for k + l <= 2.
         let mut a = [[DVec4::ZERO; 3]; 3];
         for r in 0..=p {

@@ -1,4 +1,7 @@
-//! One module per `sculpt-tools` subcommand.
+//! The subcommands, one module each, and the input/output helpers they share.
 
+pub mod eval;
 pub mod goms;
+pub mod io;
+pub mod project;
 pub mod tilt2poselog;

@@ -1,0 +1,124 @@
+//! Shared input and output: files or stdin (`-`), surface JSON, numeric CSV lines.
+
+use std::fs::File;
+use std::io::{self, BufWriter, Read, Write};
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use sculpt_core::nurbs::NurbsSurface;
+
+/// Reads a whole input: the file at `path`, or stdin when `path` is `-`.
+pub fn read_input(path: &Path) -> Result<String> {
+    let mut text = String::new();
+    if path == Path::new("-") {
+        io::stdin()
+            .read_to_string(&mut text)
+            .context("<stdin>: cannot read")?;
+    } else {
+        File::open(path)
+            .and_then(|mut f| f.read_to_string(&mut text))
+            .with_context(|| format!("{}: cannot read", path.display()))?;
+    }
+    Ok(text)
+}
+
+/// Fails when more than one input is stdin (`-`): stdin can be read only once.
+pub fn check_one_stdin(paths: &[&Path]) -> Result<()> {
+    if paths.iter().filter(|p| **p == Path::new("-")).count() > 1 {
+        bail!("only one input can be read from stdin ('-')");
+    }
+    Ok(())
+}
+
+/// The name used in messages for an input path.
+pub fn display_name(path: &Path) -> String {
+    if path == Path::new("-") {
+        "<stdin>".to_string()
+    } else {
+        path.display().to_string()
+    }
+}
+
+/// Reads a surface in the JSON schema of `sculpt_core::nurbs`; errors name the file,
+/// line and column.
+pub fn read_surface(path: &Path) -> Result<NurbsSurface> {
+    let text = read_input(path)?;
+    serde_json::from_str::<NurbsSurface>(&text).map_err(|e| {
+        let msg = e.to_string();
+        // serde_json appends " at line L column C"; we put the position in front.
+        let msg = msg.split(" at line ").next().unwrap_or(&msg).to_string();
+        anyhow::anyhow!(
+            "{}:{}:{}: invalid surface: {msg}",
+            display_name(path),
+            e.line(),
+            e.column()
+        )
+    })
+}
+
+/// Parses CSV lines of exactly `N` finite numbers. Blank lines and lines starting with
+/// `#` are skipped, and so is a first line that is exactly the column `header`
+/// (e.g. `u,v`). Errors name the file and the 1-based line.
+pub fn read_rows<const N: usize>(path: &Path, header: &str) -> Result<Vec<[f64; N]>> {
+    let text = read_input(path)?;
+    let name = display_name(path);
+    let mut rows = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        if rows.is_empty() && line.replace(' ', "").eq_ignore_ascii_case(header) {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        if fields.len() != N {
+            bail!(
+                "{name}:{}: expected {N} comma-separated numbers ({header}), found {} fields",
+                i + 1,
+                fields.len()
+            );
+        }
+        let mut row = [0.0; N];
+        for (slot, field) in row.iter_mut().zip(&fields) {
+            let value: f64 = field
+                .parse()
+                .map_err(|_| anyhow::anyhow!("{name}:{}: '{field}' is not a number", i + 1))?;
+            if !value.is_finite() {
+                bail!("{name}:{}: '{field}' is not a finite number", i + 1);
+            }
+            *slot = value;
+        }
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
+/// The output: the file `out`, or stdout.
+pub fn open_output(out: Option<&PathBuf>) -> Result<Box<dyn Write>> {
+    Ok(match out {
+        Some(path) => Box::new(BufWriter::new(
+            File::create(path).with_context(|| format!("{}: cannot create", path.display()))?,
+        )),
+        None => Box::new(BufWriter::new(io::stdout().lock())),
+    })
+}
+
+/// Writes one CSV line of numbers (shortest round-trip formatting).
+pub fn write_row(out: &mut dyn Write, values: &[f64]) -> io::Result<()> {
+    for (i, v) in values.iter().enumerate() {
+        if i > 0 {
+            out.write_all(b",")?;
+        }
+        write!(out, "{v}")?;
+    }
+    out.write_all(b"\n")
+}
+
+/// Flushes the output, naming it on failure.
+pub fn finish_output(mut out: Box<dyn Write>, name: Option<&PathBuf>) -> Result<()> {
+    out.flush().with_context(|| match name {
+        Some(p) => format!("{}: cannot write", p.display()),
+        None => "<stdout>: cannot write".to_string(),
+    })
+}
