@@ -3,9 +3,16 @@
 //! Wand and head poses for Wandsculpt: DTrack2 ASCII over TCP and UDP, serial wands,
 //! filtering, tracking-loss handling, calibration, pose logs and a tracker simulator.
 //!
-//! Layering: the codecs ([`dtrack`], [`poselog`]) and the [`sim`]ulator are
-//! pure (bytes in, frames out, no tokio). [`Frame`] carries tracker units
-//! (millimetres, `tracker_from_body` matrices).
+//! Layering:
+//! * pure, no tokio: the codecs ([`dtrack`], [`serial`], [`poselog`]), the [`sim`]ulator,
+//!   [`filter`] (One Euro), [`calibration`] (Umeyama fit, tip offsets) and [`config`];
+//! * [`hub`]: the merge layer, latest state per device on tokio `watch` channels and
+//!   ordered events on a `broadcast` channel (no runtime needed to drive it);
+//! * [`transport`]: where the tokio runtime lives: TCP listen/connect, UDP, serial,
+//!   paced senders.
+//!
+//! [`Frame`] carries tracker units (millimetres, `tracker_from_body` matrices);
+//! [`calibration::Calibration`] turns them into metres in the display frame.
 //!
 //! ```
 //! use tracking::{dtrack, sim::{Script, SimConfig, Simulator}};
@@ -20,11 +27,17 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod calibration;
+pub mod config;
 pub mod dtrack;
 pub mod error;
+pub mod filter;
 pub mod frame;
+pub mod hub;
 pub mod poselog;
+pub mod serial;
 pub mod sim;
+pub mod transport;
 
 pub use error::{Result, TrackingError};
 pub use frame::{Body, DeviceId, Frame, Pose, Wand};

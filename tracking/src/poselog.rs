@@ -55,8 +55,9 @@ pub const MAX_LINE: usize = 4 * 1024 * 1024;
 pub struct PoseLogHeader {
     /// Where the records came from (e.g. `tcp-listen 127.0.0.1:5001`, `sim seed=7`).
     pub source: String,
-    /// Seconds since the Unix epoch when recording started (informational).
-    pub started_unix_s: f64,
+    /// Milliseconds since the Unix epoch when recording started (informational; an
+    /// integer so the header round-trips exactly).
+    pub started_unix_ms: u64,
     /// The calibration in force ([`crate::calibration::Calibration`] as JSON).
     pub calibration: serde_json::Value,
     /// The tracking config in force ([`crate::config::TrackingConfig`] as JSON).
@@ -66,12 +67,12 @@ pub struct PoseLogHeader {
 impl PoseLogHeader {
     /// A header naming its source, stamped with the current wall-clock time.
     pub fn new(source: impl Into<String>) -> Self {
-        let started_unix_s = std::time::SystemTime::now()
+        let started_unix_ms = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0.0, |d| d.as_secs_f64());
+            .map_or(0, |d| d.as_millis() as u64);
         Self {
             source: source.into(),
-            started_unix_s,
+            started_unix_ms,
             ..Self::default()
         }
     }

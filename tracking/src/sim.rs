@@ -325,7 +325,7 @@ impl Script {
                 }
                 Step::Hold { secs } => t += secs,
                 Step::Press { button } => {
-                    down |= 1 << button;
+                    down |= bit(*button);
                     tl.buttons.push(ButtonEdge {
                         time: t,
                         button: *button,
@@ -333,7 +333,7 @@ impl Script {
                     });
                 }
                 Step::Release { button } => {
-                    down &= !(1 << button);
+                    down &= !bit(*button);
                     tl.buttons.push(ButtonEdge {
                         time: t,
                         button: *button,
@@ -347,7 +347,7 @@ impl Script {
                         pressed: true,
                     });
                     t += secs;
-                    if down & (1 << button) == 0 {
+                    if down & bit(*button) == 0 {
                         tl.buttons.push(ButtonEdge {
                             time: t,
                             button: *button,
@@ -494,9 +494,9 @@ impl Timeline {
         let mut mask = 0u64;
         for e in self.buttons.iter().take_while(|e| e.time <= t) {
             if e.pressed {
-                mask |= 1 << e.button;
+                mask |= bit(e.button);
             } else {
-                mask &= !(1 << e.button);
+                mask &= !bit(e.button);
             }
         }
         mask
@@ -770,6 +770,11 @@ impl Simulator {
         }
         Ok(log.into_inner())
     }
+}
+
+/// The mask bit of button `b` (none for an out-of-range index).
+fn bit(b: u8) -> u64 {
+    1u64.checked_shl(u32::from(b)).unwrap_or(0)
 }
 
 fn mask(n: u8) -> u64 {

@@ -144,3 +144,10 @@ label = "done"
     let back: Script = toml::from_str(&toml::to_string(&script).unwrap()).unwrap();
     assert_eq!(back, script);
 }
+
+#[test]
+fn timeline_of_an_unvalidated_script_does_not_panic() {
+    // Regression: `1 << 64` overflowed in `timeline()` for a bad button index.
+    let script = Script::new(DVec3::ZERO).press(200).click(64, 0.1);
+    assert_eq!(script.timeline().buttons_at(1.0), 0);
+}
