@@ -9,7 +9,10 @@ use replay::config::ReplayConfig;
 use replay::pipeline::{default_document, replay_log};
 
 fn soak(c: &mut Criterion) {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/data/sessions/soak-60s.poselog");
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../tests/data/sessions/soak-60s.poselog"
+    );
     let bytes = std::fs::read(path).expect("the shipped soak session");
     let cfg = ReplayConfig::default();
     let mut group = c.benchmark_group("replay");

@@ -4,10 +4,16 @@
 //! what a session does and ignores the rest (screens, windows):
 //!
 //! ```toml
-//! [calibration]            # tracker -> display frame
-//! translation = [0.0, 0.0, 0.0]     # metres
+//! [calibration]            # tracker -> display frame (tracking::calibration)
+//! scale = 0.001                     # tracker units to metres (DTrack2: millimetres)
+//! axes = ["x", "y", "z"]            # axis remap, e.g. ["x", "z", "-y"]
 //! rotation = [0.0, 0.0, 0.0, 1.0]   # display_from_tracker quaternion x, y, z, w
-//! units_to_metres = 0.001           # DTrack2 sends millimetres
+//! translation_m = [0.0, 0.0, 0.0]
+//! tips = { "wand0" = [0.0, 0.0, -0.1] }   # tool-tip offsets in the body frame (metres)
+//!
+//! [filter]                 # One Euro filter on the wand (tracking::filter)
+//! enabled = true
+//! position = { min_cutoff_hz = 1.0, beta = 5.0, d_cutoff_hz = 1.0, reset_after_s = 0.5 }
 //!
 //! [tracking]
 //! wand_id = 0              # Flystick id of the wand
@@ -39,49 +45,12 @@
 //! assert_eq!(cfg.tracking.wand_id, 0);
 //! ```
 
-use glam::{DQuat, DVec3};
+use glam::DVec3;
 use serde::{Deserialize, Serialize};
+pub use tracking::calibration::Calibration;
+pub use tracking::filter::FilterConfig;
 
 use crate::error::{Error, Result};
-
-/// Tracker-to-display transform.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct Calibration {
-    /// Tracker origin in the display frame, metres.
-    pub translation: [f64; 3],
-    /// `display_from_tracker` rotation, `[x, y, z, w]`.
-    pub rotation: [f64; 4],
-    /// Tracker units to metres.
-    pub units_to_metres: f64,
-}
-
-impl Default for Calibration {
-    fn default() -> Self {
-        Self {
-            translation: [0.0; 3],
-            rotation: [0.0, 0.0, 0.0, 1.0],
-            units_to_metres: 0.001,
-        }
-    }
-}
-
-impl Calibration {
-    /// `display_from_tracker` rotation (normalised; identity if degenerate).
-    pub fn rotation_quat(&self) -> DQuat {
-        let q = DQuat::from_array(self.rotation);
-        if q.is_finite() && q.length() > 1e-9 {
-            q.normalize()
-        } else {
-            DQuat::IDENTITY
-        }
-    }
-
-    /// A tracker-frame position (tracker units) in the display frame (metres).
-    pub fn position_to_display(&self, p_in_tracker: DVec3) -> DVec3 {
-        self.rotation_quat() * (p_in_tracker * self.units_to_metres) + DVec3::from(self.translation)
-    }
-}
 
 /// Which tracker device is the wand, and when it counts as lost.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -247,11 +216,13 @@ impl Default for InteractionSection {
 }
 
 /// Everything replay reads from the display config.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(default)]
 pub struct ReplayConfig {
-    /// Tracker-to-display transform.
+    /// Tracker-to-display transform (the tracking crate's calibration).
     pub calibration: Calibration,
+    /// The One Euro filter on the wand pose (the tracking crate's filter).
+    pub filter: FilterConfig,
     /// Wand id and loss timeout.
     pub tracking: TrackingSection,
     /// Starting tool.
@@ -271,20 +242,12 @@ impl ReplayConfig {
     /// Checks every number; the error names the bad setting.
     pub fn validate(&self) -> Result<()> {
         let bad = |m: String| Err(Error::Config(m));
-        let c = &self.calibration;
-        if !(c.units_to_metres.is_finite() && c.units_to_metres > 0.0) {
-            return bad(format!(
-                "calibration.units_to_metres must be > 0, got {}",
-                c.units_to_metres
-            ));
-        }
-        if c.translation
-            .iter()
-            .chain(&c.rotation)
-            .any(|v| !v.is_finite())
-        {
-            return bad("calibration values must be finite".into());
-        }
+        self.calibration
+            .validate()
+            .map_err(|e| Error::Config(format!("calibration: {e}")))?;
+        self.filter
+            .validate()
+            .map_err(|e| Error::Config(format!("filter: {e}")))?;
         let i = &self.interaction;
         let positive = [
             ("tracking.timeout", self.tracking.timeout),
@@ -334,19 +297,25 @@ mod tests {
     fn bad_settings_are_named() {
         let e = ReplayConfig::from_toml_str("[tool]\nwidth = -1.0\n").unwrap_err();
         assert!(e.to_string().contains("tool.width"), "{e}");
-        let e = ReplayConfig::from_toml_str("[calibration]\nscale = 2\n").unwrap_err();
-        assert!(e.to_string().contains("scale"), "{e}");
+        let e = ReplayConfig::from_toml_str("[calibration]\nunits = 2\n").unwrap_err();
+        assert!(e.to_string().contains("units"), "{e}");
         let e = ReplayConfig::from_toml_str("[tool]\nmode = \"paint\"\n").unwrap_err();
         assert!(e.to_string().contains("paint"), "{e}");
     }
 
     #[test]
-    fn calibration_maps_millimetres_to_metres() {
-        let c = Calibration {
-            translation: [0.0, 1.0, 0.0],
-            ..Calibration::default()
-        };
-        let p = c.position_to_display(DVec3::new(1000.0, 0.0, -500.0));
+    fn calibration_and_filter_come_from_the_tracking_tables() {
+        let c = ReplayConfig::from_toml_str(
+            "[calibration]\ntranslation_m = [0.0, 1.0, 0.0]\n[filter]\nenabled = false\n",
+        )
+        .unwrap();
+        let p = c
+            .calibration
+            .point_in_world(DVec3::new(1000.0, 0.0, -500.0));
         assert_eq!(p, DVec3::new(1.0, 1.0, -0.5));
+        assert!(!c.filter.enabled);
+        let e = ReplayConfig::from_toml_str("[calibration]\naxes = [\"x\", \"x\", \"z\"]\n")
+            .unwrap_err();
+        assert!(e.to_string().contains("calibration"), "{e}");
     }
 }

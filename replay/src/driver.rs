@@ -34,7 +34,8 @@
 //!     let buttons = if i < 4 { 1 } else { 0 };
 //!     edits.extend(d.sample(Sample { t: 0.01 * i as f64, tracked: true, position: p, orientation: DQuat::IDENTITY, buttons }));
 //! }
-//! assert!(matches!(&edits[0], Edit::Stroke { samples, .. } if samples.len() == 4));
+//! // The release sample, still tracked, is the stroke's last point.
+//! assert!(matches!(&edits[0], Edit::Stroke { samples, .. } if samples.len() == 5));
 //! ```
 
 use glam::{DQuat, DVec3};
@@ -136,7 +137,7 @@ impl Driver {
     /// A driver in the config's starting mode, on target 0 of `target_count`.
     pub fn new(cfg: &ReplayConfig, target_count: usize) -> Self {
         Self {
-            cfg: *cfg,
+            cfg: cfg.clone(),
             mode: cfg.tool.mode,
             profile: cfg.tool.profile,
             target: 0,

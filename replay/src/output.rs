@@ -50,7 +50,17 @@ pub fn write_outputs(outcome: &Outcome, dir: &Path) -> Result<Vec<PathBuf>> {
     let mut files = Vec::new();
     let doc = &outcome.document;
     write(dir, "scene.json", &doc.to_json(), &mut files)?;
-    let welded = doc.mesh(Detail::Final).welded(WELD_TOLERANCE);
+    // scene.json is already on disk: a failure in the sculpting layer's tessellation
+    // loses no work and is reported as an error, not a crash.
+    let welded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        doc.mesh(Detail::Final).welded(WELD_TOLERANCE)
+    }))
+    .map_err(|_| {
+        Error::Session(format!(
+            "the sculpting layer failed to tessellate the final mesh; {} was written",
+            dir.join("scene.json").display()
+        ))
+    })?;
     for (name, format) in [
         ("scene.obj", MeshFormat::Obj),
         ("scene.stl", MeshFormat::Stl),

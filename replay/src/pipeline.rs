@@ -5,7 +5,9 @@
 //! 1. **decode** each DTrack2 record (`tracking::dtrack`); corrupt lines, bad frames,
 //!    stale (out-of-order) frame numbers and a truncated last line are counted, not
 //!    fatal;
-//! 2. **calibrate**: tracker millimetres to display metres ([`Calibration`]);
+//! 2. **calibrate** tracker millimetres into the display frame and the wand's tool tip
+//!    ([`Calibration`]), then **filter** the pose (the tracking crate's One Euro
+//!    filter, `[filter]` in the config);
 //! 3. **tracking loss**: a wand with quality < 0, or no frame for longer than the
 //!    tracking timeout, is lost (its buttons still count);
 //! 4. **interaction**: the [`Driver`] turns samples into edits and operator events;
@@ -25,6 +27,8 @@ use sculpt_core::oplog::{OpLogHeader, OpLogWriter};
 use sculpt_core::sculpt::document::{Document, TargetId};
 use sculpt_core::sculpt::stroke::{Mode as StrokeMode, Profile, StrokeInput, Tool};
 use serde::Serialize;
+use tracking::DeviceId;
+use tracking::filter::PoseFilter;
 use tracking::poselog::{PoseLogReader, Record, RecordKind};
 
 use crate::config::{ProfileName, ReplayConfig};
@@ -257,6 +261,7 @@ pub struct Replayer {
     cfg: ReplayConfig,
     doc: Document,
     driver: Driver,
+    filter: PoseFilter,
     oplog: OpLogWriter,
     metrics: Metrics,
     timing: Timing,
@@ -278,9 +283,10 @@ impl Replayer {
                 .with_method(cfg.tool.mode.name()),
         );
         Ok(Self {
-            cfg: *cfg,
+            cfg: cfg.clone(),
             doc,
             driver,
+            filter: PoseFilter::new(cfg.filter),
             oplog,
             metrics: Metrics {
                 session: session.to_string(),
@@ -338,15 +344,30 @@ impl Replayer {
             return;
         };
         self.metrics.frames.used += 1;
-        let cal = &self.cfg.calibration;
-        let orientation = wand.pose.orientation();
-        let tracked = wand.is_tracked() && orientation.is_some();
-        let sample = Sample {
-            t,
-            tracked,
-            position: cal.position_to_display(wand.pose.position_mm),
-            orientation: orientation.map_or(DQuat::IDENTITY, |q| cal.rotation_quat() * q),
-            buttons: wand.buttons as u32,
+        let device = DeviceId::Wand(self.cfg.tracking.wand_id);
+        let world = if wand.is_tracked() {
+            self.cfg.calibration.pose_in_world(device, &wand.pose)
+        } else {
+            None
+        };
+        let sample = match world {
+            Some(pose) => {
+                let pose = self.filter.filter(t, pose);
+                Sample {
+                    t,
+                    tracked: true,
+                    position: pose.tool_m,
+                    orientation: pose.orientation,
+                    buttons: wand.buttons as u32,
+                }
+            }
+            None => Sample {
+                t,
+                tracked: false,
+                position: DVec3::ZERO,
+                orientation: DQuat::IDENTITY,
+                buttons: wand.buttons as u32,
+            },
         };
         self.last_sample_t = Some(t);
         let edits = self.driver.sample(sample);
