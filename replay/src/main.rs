@@ -1,9 +1,214 @@
 //! # replay
 //!
-//! Deterministic replay of recorded pose logs through the live Wandsculpt pipeline, and
-//! tracking-server emulation. Not built yet: running it says so and exits non-zero.
+//! `replay SESSION.poselog --out DIR`: runs a recorded tracking session through the
+//! sculpting pipeline on a virtual clock and writes the document, exports, operator log
+//! and metrics. `replay SESSION.poselog --serve tcp://127.0.0.1:PORT` (or `--connect`)
+//! acts as the tracking server instead. See the README's `replay` section.
 
-fn main() -> std::process::ExitCode {
-    eprintln!("replay: not available in this build yet (see the open replay issue)");
-    std::process::ExitCode::FAILURE
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use anyhow::{Context, Result, bail};
+use clap::Parser;
+use replay::config::ReplayConfig;
+use replay::serve::{Endpoint, ServeOptions};
+use sculpt_core::sculpt::document::Document;
+use tracking::poselog::{PoseLog, RecordKind};
+
+/// Deterministic replay of a recorded tracking session, or tracking-server emulation.
+#[derive(Debug, Parser)]
+#[command(name = "replay", version, about)]
+struct Cli {
+    /// The pose log to replay.
+    session: PathBuf,
+    /// Output directory (scene.json, exports, operator.log, metrics.json, timing.json).
+    #[arg(long, required_unless_present_any = ["serve", "connect"])]
+    out: Option<PathBuf>,
+    /// Start from this document instead of the default surface.
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// The display config (calibration, wand id, tool, interaction settings).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Pace the replay by the log's timing instead of running as fast as possible.
+    #[arg(long)]
+    realtime: bool,
+    /// Compare metrics.json against these expectations; exit 2 with a diff on mismatch.
+    #[arg(long)]
+    check: Option<PathBuf>,
+    /// Act as the tracking server: listen here (`tcp://127.0.0.1:PORT`, port 0 picks
+    /// one and prints it) or write to `serial:///dev/DEVICE`.
+    #[arg(long, conflicts_with_all = ["connect", "out"])]
+    serve: Option<String>,
+    /// Act as the tracking server by connecting to a display server at `tcp://HOST:PORT`.
+    #[arg(long, conflicts_with = "out")]
+    connect: Option<String>,
+    /// With --serve/--connect: time scale (1 original timing, 0 as fast as possible).
+    #[arg(long, default_value_t = 1.0)]
+    speed: f64,
+    /// With --serve/--connect: seconds to wait for the display server.
+    #[arg(long, default_value_t = 30.0)]
+    wait: f64,
+    /// No progress bar.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("replay: error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn progress_bar(quiet: bool, what: &str) -> Option<indicatif::ProgressBar> {
+    if quiet || !std::io::stderr().is_terminal() {
+        return None;
+    }
+    let bar = indicatif::ProgressBar::new(0);
+    let style = indicatif::ProgressStyle::with_template(
+        "{msg} [{bar:40}] {pos}/{len} lines {elapsed_precise} eta {eta}",
+    )
+    .map(|s| s.progress_chars("=> "));
+    if let Ok(style) = style {
+        bar.set_style(style);
+    }
+    bar.set_message(what.to_string());
+    Some(bar)
+}
+
+fn run(cli: Cli) -> Result<ExitCode> {
+    let bytes = std::fs::read(&cli.session)
+        .with_context(|| format!("reading {}", cli.session.display()))?;
+    if let Some(target) = cli
+        .serve
+        .as_deref()
+        .map(|s| (s, true))
+        .or(cli.connect.as_deref().map(|s| (s, false)))
+    {
+        return serve(&cli, &bytes, target.0, target.1);
+    }
+    let Some(out) = cli.out.as_ref() else {
+        bail!("--out DIR is required");
+    };
+    let cfg = match &cli.config {
+        Some(p) => ReplayConfig::from_toml_str(
+            &std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?,
+        )
+        .with_context(|| format!("in {}", p.display()))?,
+        None => ReplayConfig::default(),
+    };
+    let base = match &cli.scene {
+        Some(p) => Document::from_json(
+            &std::fs::read(p).with_context(|| format!("reading {}", p.display()))?,
+        )
+        .with_context(|| format!("loading the scene {}", p.display()))?,
+        None => replay::pipeline::default_document(),
+    };
+    let name = cli.session.file_stem().map_or_else(
+        || "session".to_string(),
+        |s| s.to_string_lossy().into_owned(),
+    );
+    let bar = progress_bar(cli.quiet, &name);
+    let mut tick = |at: u64, total: u64| {
+        if let Some(b) = &bar {
+            b.set_length(total);
+            b.set_position(at);
+        }
+    };
+    let outcome =
+        replay::pipeline::replay_log(&bytes, &cfg, base, &name, cli.realtime, Some(&mut tick))?;
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    replay::output::write_outputs(&outcome, out)?;
+    let m = &outcome.metrics;
+    println!(
+        "{name}: {} strokes applied, {} rejected, {} sketches, {} frames ({} out of order, {} bad, {} corrupt lines), {} tracking losses; {:.1} s replayed at {:.0}x real time -> {}",
+        m.gestures.strokes_applied,
+        m.gestures.strokes_rejected,
+        m.gestures.sketches,
+        m.frames.used,
+        m.frames.out_of_order,
+        m.frames.bad_frames,
+        m.frames.corrupt_lines,
+        m.tracking.losses,
+        m.duration_s,
+        outcome.timing.speed_ratio,
+        out.display()
+    );
+    if let Some(check) = &cli.check {
+        let expected: serde_json::Value = serde_json::from_slice(
+            &std::fs::read(check).with_context(|| format!("reading {}", check.display()))?,
+        )
+        .with_context(|| format!("{} is not JSON", check.display()))?;
+        let actual = serde_json::to_value(m)?;
+        let diff = replay::check::check(&expected, &actual);
+        if !diff.is_empty() {
+            eprintln!("replay: {} differs from {}:", name, check.display());
+            for line in &diff {
+                eprintln!("  {line}");
+            }
+            return Ok(ExitCode::from(2));
+        }
+        println!("{name}: matches {}", check.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn serve(cli: &Cli, bytes: &[u8], target: &str, listen: bool) -> Result<ExitCode> {
+    let endpoint = Endpoint::parse(target, listen)?;
+    let log = PoseLog::from_bytes(bytes).context("reading the pose log")?;
+    // Serial endpoints take serial records; TCP takes the DTrack2 stream.
+    let kind = match endpoint {
+        Endpoint::Serial(_) if log.records.iter().any(|r| r.kind == RecordKind::Serial) => {
+            RecordKind::Serial
+        }
+        _ => RecordKind::DTrack,
+    };
+    let records: Vec<(Duration, Vec<u8>)> = log
+        .records
+        .into_iter()
+        .filter(|r| r.kind == kind)
+        .map(|r| (r.time, r.bytes))
+        .collect();
+    if !(cli.wait.is_finite() && cli.wait >= 0.0) {
+        bail!("--wait must be a non-negative number of seconds");
+    }
+    let bar = progress_bar(cli.quiet, "serving");
+    let mut on_listening = |addr: std::net::SocketAddr| {
+        // Tests and scripts read this line to find an ephemeral port.
+        println!("listening on tcp://{addr}");
+    };
+    let mut on_progress = |done: usize, total: usize| {
+        if let Some(b) = &bar {
+            b.set_length(total as u64);
+            b.set_position(done as u64);
+        }
+    };
+    let report = replay::serve::serve(
+        &records,
+        &endpoint,
+        ServeOptions {
+            speed: cli.speed,
+            connect_timeout: Duration::from_secs_f64(cli.wait),
+            reconnect_timeout: Duration::from_secs_f64(cli.wait),
+            on_listening: Some(&mut on_listening),
+            on_progress: Some(&mut on_progress),
+        },
+    )?;
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    println!(
+        "sent {} records ({} bytes) over {} connection(s); {} missed while disconnected",
+        report.sent, report.bytes, report.connections, report.missed
+    );
+    Ok(ExitCode::SUCCESS)
 }

@@ -11,6 +11,8 @@
 //!   tessellate a sculpted scene and write the mesh.
 //! - `sculpt-tools export --scene S.json --out X.igs`: its NURBS surfaces as IGES 5.3.
 //! - `sculpt-tools goms ...`: the GOMS / KLM timing-study harness.
+//! - `sculpt-tools tilt2poselog IN.tilt --out OUT.poselog`: Open Brush strokes as a
+//!   recorded wand session.
 //!
 //! Input files may be `-` for stdin; `--out FILE` writes to a file instead of stdout.
 //! Any bad input ends with one line on stderr naming the file and line, and exit code 1.
@@ -50,6 +52,9 @@ enum Command {
     Export(cmd::export::ExportArgs),
     /// GOMS / KLM timing studies: operator extraction, KLM predictions, study reports.
     Goms(cmd::goms::GomsArgs),
+    /// Convert an Open Brush `.tilt` sketch into a pose log (each stroke a button-down,
+    /// sweep, button-up at its recorded timing).
+    Tilt2poselog(cmd::tilt2poselog::Tilt2PoselogArgs),
 }
 
 fn main() -> ExitCode {
@@ -59,6 +64,7 @@ fn main() -> ExitCode {
         Command::Mesh(args) => cmd::mesh::run(args),
         Command::Export(args) => cmd::export::run(args),
         Command::Goms(args) => cmd::goms::run(args),
+        Command::Tilt2poselog(args) => cmd::tilt2poselog::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

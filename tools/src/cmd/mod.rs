@@ -6,3 +6,4 @@ pub mod goms;
 pub mod io;
 pub mod mesh;
 pub mod project;
+pub mod tilt2poselog;

@@ -1,0 +1,47 @@
+//! The one error type of the `replay` library.
+
+use thiserror::Error;
+
+/// Everything that can go wrong while importing, converting or replaying a session.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// The `.tilt` container (16-byte header and zip archive) is malformed.
+    #[error("not a readable .tilt file: {0}")]
+    TiltContainer(String),
+    /// The `data.sketch` stream inside a `.tilt` file is malformed.
+    #[error("malformed data.sketch at byte {offset}: {reason}")]
+    TiltSketch {
+        /// Byte offset in `data.sketch` where the problem was found.
+        offset: usize,
+        /// What was wrong.
+        reason: String,
+    },
+    /// Import options or the sketch cannot make a wand track.
+    #[error("import: {0}")]
+    Import(String),
+    /// A serve endpoint is malformed, or could not be reached or bound.
+    #[error("serve: {0}")]
+    Endpoint(String),
+    /// The tracking layer reported an error.
+    #[error("tracking: {0}")]
+    Tracking(String),
+    /// The replay configuration is invalid.
+    #[error("config: {0}")]
+    Config(String),
+    /// A base scene or session could not be used.
+    #[error("{0}")]
+    Session(String),
+    /// A file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file involved.
+        path: String,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// `Result` with [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;

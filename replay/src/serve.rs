@@ -1,0 +1,386 @@
+//! Tracking-server emulation: a recorded session's raw bytes, sent with their original
+//! timing to a running display server.
+//!
+//! - [`Endpoint::Listen`] (`--serve tcp://127.0.0.1:PORT`): act as the tracking server
+//!   that the display server connects to. Port 0 picks a free port; the bound address is
+//!   reported through [`ServeOptions::on_listening`] (the binary prints it).
+//! - [`Endpoint::Connect`] (`--connect tcp://HOST:PORT`): connect out to a display
+//!   server that listens, retrying with backoff until [`ServeOptions::connect_timeout`].
+//! - [`Endpoint::Serial`] (`--serve serial:///dev/pts/N`): write to a serial device or
+//!   a pseudo-terminal.
+//!
+//! Like a real tracking server the stream does not pause for its client: when the
+//! connection drops (the display server crashed or restarted), records due meanwhile
+//! are counted as missed, and sending resumes with the next due record once a client is
+//! back. Timing is measured from the start of sending; [`ServeOptions::speed`] scales
+//! it (0 sends as fast as possible).
+//!
+//! ```
+//! use std::io::Read;
+//! use std::time::Duration;
+//! use replay::serve::{serve, Endpoint, ServeOptions};
+//! let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+//! let addr = listener.local_addr().unwrap();
+//! let reader = std::thread::spawn(move || {
+//!     let (mut s, _) = listener.accept().unwrap();
+//!     let mut got = String::new();
+//!     s.read_to_string(&mut got).unwrap();
+//!     got
+//! });
+//! let records = vec![(Duration::ZERO, b"fr 1\r\n".to_vec()), (Duration::from_millis(5), b"fr 2\r\n".to_vec())];
+//! let report = serve(&records, &Endpoint::Connect(addr), ServeOptions::default()).unwrap();
+//! assert_eq!(report.sent, 2);
+//! assert_eq!(reader.join().unwrap(), "fr 1\r\nfr 2\r\n");
+//! ```
+
+use std::io::Write;
+use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+
+/// Where the records go.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Endpoint {
+    /// Listen here and send to whoever connects (the display server).
+    Listen(SocketAddr),
+    /// Connect to a display server listening here.
+    Connect(SocketAddr),
+    /// Write to this serial device or pseudo-terminal.
+    Serial(PathBuf),
+}
+
+impl Endpoint {
+    /// Parses `tcp://HOST:PORT` (with `listen` choosing [`Endpoint::Listen`] or
+    /// [`Endpoint::Connect`]) or `serial:///path/to/device`. A bare `PORT` means
+    /// `127.0.0.1:PORT`.
+    pub fn parse(text: &str, listen: bool) -> Result<Self> {
+        let bad = |why: &str| Error::Endpoint(format!("{text:?}: {why}"));
+        if let Some(path) = text.strip_prefix("serial://") {
+            if path.is_empty() {
+                return Err(bad("no device path"));
+            }
+            return Ok(Endpoint::Serial(PathBuf::from(path)));
+        }
+        let hostport = text.strip_prefix("tcp://").unwrap_or(text);
+        let addr: SocketAddr = match hostport.parse::<u16>() {
+            Ok(port) => SocketAddr::from(([127, 0, 0, 1], port)),
+            Err(_) => hostport
+                .parse()
+                .map_err(|_| bad("expected tcp://IP:PORT, PORT or serial:///DEVICE"))?,
+        };
+        Ok(if listen {
+            Endpoint::Listen(addr)
+        } else {
+            Endpoint::Connect(addr)
+        })
+    }
+}
+
+/// How to send.
+pub struct ServeOptions<'a> {
+    /// Time scale: 1 is the original timing, 2 twice as fast, 0 as fast as possible.
+    pub speed: f64,
+    /// How long to wait for the first client, or to reach the server (seconds).
+    pub connect_timeout: Duration,
+    /// Stop when no client is back this long after a disconnect.
+    pub reconnect_timeout: Duration,
+    /// Called once with the bound address when listening.
+    pub on_listening: Option<&'a mut dyn FnMut(SocketAddr)>,
+    /// Called after each record with (records done, total).
+    pub on_progress: Option<&'a mut dyn FnMut(usize, usize)>,
+}
+
+impl Default for ServeOptions<'_> {
+    fn default() -> Self {
+        Self {
+            speed: 1.0,
+            connect_timeout: Duration::from_secs(30),
+            reconnect_timeout: Duration::from_secs(30),
+            on_listening: None,
+            on_progress: None,
+        }
+    }
+}
+
+/// What a serve run did.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
+pub struct ServeReport {
+    /// Records written to a client.
+    pub sent: usize,
+    /// Bytes written.
+    pub bytes: u64,
+    /// Records that fell due while no client was connected.
+    pub missed: usize,
+    /// Connections made (1 without reconnects).
+    pub connections: usize,
+}
+
+/// The open sink: a client socket or a device.
+enum Sink {
+    Tcp(TcpStream),
+    File(std::fs::File),
+}
+
+impl Sink {
+    fn write_all(&mut self, b: &[u8]) -> std::io::Result<()> {
+        match self {
+            Sink::Tcp(s) => s.write_all(b),
+            Sink::File(f) => f.write_all(b).and_then(|()| f.flush()),
+        }
+    }
+}
+
+/// Opens (or re-opens) the sink for an endpoint.
+struct Opener {
+    endpoint: Endpoint,
+    listener: Option<TcpListener>,
+}
+
+impl Opener {
+    fn new(endpoint: &Endpoint, on_listening: Option<&mut dyn FnMut(SocketAddr)>) -> Result<Self> {
+        let listener = match endpoint {
+            Endpoint::Listen(addr) => {
+                let l = TcpListener::bind(addr)
+                    .map_err(|e| Error::Endpoint(format!("cannot listen on {addr}: {e}")))?;
+                l.set_nonblocking(true)
+                    .map_err(|e| Error::Endpoint(format!("{addr}: {e}")))?;
+                let bound = l
+                    .local_addr()
+                    .map_err(|e| Error::Endpoint(format!("{addr}: {e}")))?;
+                if let Some(cb) = on_listening {
+                    cb(bound);
+                }
+                Some(l)
+            }
+            _ => None,
+        };
+        Ok(Self {
+            endpoint: endpoint.clone(),
+            listener,
+        })
+    }
+
+    /// Tries to get a sink until `deadline`; `None` when it passes.
+    fn open(&self, deadline: Instant) -> Option<Sink> {
+        let mut backoff = Duration::from_millis(10);
+        loop {
+            let got = match (&self.endpoint, &self.listener) {
+                (Endpoint::Listen(_), Some(l)) => l.accept().ok().and_then(|(s, _)| {
+                    s.set_nonblocking(false).ok()?;
+                    s.set_nodelay(true).ok()?;
+                    Some(Sink::Tcp(s))
+                }),
+                (Endpoint::Connect(addr), _) => {
+                    TcpStream::connect_timeout(addr, Duration::from_millis(500))
+                        .ok()
+                        .and_then(|s| {
+                            s.set_nodelay(true).ok()?;
+                            Some(Sink::Tcp(s))
+                        })
+                }
+                (Endpoint::Serial(path), _) => std::fs::OpenOptions::new()
+                    .write(true)
+                    .open(path)
+                    .ok()
+                    .map(Sink::File),
+                (Endpoint::Listen(_), None) => None,
+            };
+            if got.is_some() {
+                return got;
+            }
+            let now = Instant::now();
+            if now >= deadline {
+                return None;
+            }
+            std::thread::sleep(backoff.min(deadline - now));
+            backoff = (backoff * 2).min(Duration::from_millis(200));
+        }
+    }
+}
+
+/// Sends `records` (receive time since the start, raw bytes) to `endpoint` with their
+/// original timing scaled by [`ServeOptions::speed`]. Fails when no client comes within
+/// the connect timeout; a client lost for longer than the reconnect timeout ends the
+/// run early (the rest is reported in [`ServeReport::missed`]).
+pub fn serve(
+    records: &[(Duration, Vec<u8>)],
+    endpoint: &Endpoint,
+    mut options: ServeOptions<'_>,
+) -> Result<ServeReport> {
+    if !(options.speed.is_finite() && options.speed >= 0.0) {
+        return Err(Error::Endpoint(format!(
+            "speed must be finite and >= 0, got {}",
+            options.speed
+        )));
+    }
+    let opener = Opener::new(endpoint, options.on_listening.take())?;
+    let mut report = ServeReport::default();
+    let mut sink = opener.open(Instant::now() + options.connect_timeout);
+    if sink.is_none() {
+        return Err(Error::Endpoint(format!(
+            "no connection with {endpoint:?} within {:?}",
+            options.connect_timeout
+        )));
+    }
+    report.connections = 1;
+    let start = Instant::now();
+    let first = records.first().map_or(Duration::ZERO, |r| r.0);
+    let due = |t: Duration| -> Instant {
+        if options.speed == 0.0 {
+            start
+        } else {
+            start + (t.saturating_sub(first)).div_f64(options.speed)
+        }
+    };
+    let mut i = 0;
+    while i < records.len() {
+        let (t, bytes) = &records[i];
+        let when = due(*t);
+        let now = Instant::now();
+        if when > now {
+            std::thread::sleep(when - now);
+        }
+        match sink.as_mut() {
+            Some(s) => match s.write_all(bytes) {
+                Ok(()) => {
+                    report.sent += 1;
+                    report.bytes += bytes.len() as u64;
+                    i += 1;
+                }
+                Err(_) => sink = None,
+            },
+            None => {
+                // Wait for a client; records falling due meanwhile are missed.
+                let reconnect_deadline = Instant::now() + options.reconnect_timeout;
+                sink = opener.open(reconnect_deadline);
+                if sink.is_none() {
+                    report.missed += records.len() - i;
+                    break;
+                }
+                report.connections += 1;
+                let now = Instant::now();
+                while i < records.len() && due(records[i].0) + Duration::from_millis(1) < now {
+                    report.missed += 1;
+                    i += 1;
+                }
+            }
+        }
+        if let Some(cb) = options.on_progress.as_mut() {
+            cb(i, records.len());
+        }
+    }
+    Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Read;
+
+    fn recs(n: usize, step_ms: u64) -> Vec<(Duration, Vec<u8>)> {
+        (0..n)
+            .map(|i| {
+                (
+                    Duration::from_millis(i as u64 * step_ms),
+                    format!("fr {i}\r\n\r\n").into_bytes(),
+                )
+            })
+            .collect()
+    }
+
+    #[test]
+    fn endpoints_parse() {
+        assert_eq!(
+            Endpoint::parse("tcp://127.0.0.1:5000", true).unwrap(),
+            Endpoint::Listen("127.0.0.1:5000".parse().unwrap())
+        );
+        assert_eq!(
+            Endpoint::parse("7000", false).unwrap(),
+            Endpoint::Connect("127.0.0.1:7000".parse().unwrap())
+        );
+        assert_eq!(
+            Endpoint::parse("serial:///dev/pts/4", true).unwrap(),
+            Endpoint::Serial("/dev/pts/4".into())
+        );
+        assert!(Endpoint::parse("tcp://nowhere", true).is_err());
+        assert!(Endpoint::parse("serial://", true).is_err());
+    }
+
+    #[test]
+    fn listening_sends_everything_in_order_to_the_client() {
+        let records = recs(50, 1);
+        let (tx, rx) = std::sync::mpsc::channel();
+        let client = std::thread::spawn(move || {
+            let addr: SocketAddr = rx.recv().unwrap();
+            let mut s = TcpStream::connect(addr).unwrap();
+            let mut got = Vec::new();
+            s.read_to_end(&mut got).unwrap();
+            got
+        });
+        let mut on_listening = |a: SocketAddr| tx.send(a).unwrap();
+        let report = serve(
+            &records,
+            &Endpoint::Listen("127.0.0.1:0".parse().unwrap()),
+            ServeOptions {
+                speed: 0.0,
+                on_listening: Some(&mut on_listening),
+                ..ServeOptions::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(report.sent, 50);
+        assert_eq!(report.missed, 0);
+        let expected: Vec<u8> = records.iter().flat_map(|r| r.1.clone()).collect();
+        assert_eq!(client.join().unwrap(), expected);
+    }
+
+    #[test]
+    fn no_client_is_a_clear_error() {
+        let e = serve(
+            &recs(2, 1),
+            &Endpoint::Listen("127.0.0.1:0".parse().unwrap()),
+            ServeOptions {
+                connect_timeout: Duration::from_millis(50),
+                ..ServeOptions::default()
+            },
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("no connection"), "{e}");
+    }
+
+    #[test]
+    fn a_dropped_client_is_replaced_and_sending_resumes() {
+        // The first client reads one record and hangs up; the second reads the rest.
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        let addr = listener.local_addr().unwrap();
+        let server = std::thread::spawn(move || {
+            let (s, _) = listener.accept().unwrap();
+            drop(s);
+            let (mut s, _) = listener.accept().unwrap();
+            let mut got = Vec::new();
+            s.read_to_end(&mut got).unwrap();
+            got
+        });
+        let records = recs(400, 1);
+        let report = serve(
+            &records,
+            &Endpoint::Connect(addr),
+            ServeOptions {
+                speed: 1.0,
+                ..ServeOptions::default()
+            },
+        )
+        .unwrap();
+        let got = server.join().unwrap();
+        assert_eq!(report.connections, 2, "{report:?}");
+        assert_eq!(report.sent + report.missed, 400);
+        // The second connection got whole records, ending with the last one.
+        let text = String::from_utf8(got).unwrap();
+        assert!(text.ends_with("fr 399\r\n\r\n"), "{text}");
+        assert!(text.starts_with("fr "));
+    }
+}

@@ -1,0 +1,243 @@
+//! The `replay` binary end to end: byte-identical outputs, `--check`, and the
+//! tracking-server emulation over real loopback TCP and a real pty pair.
+
+use std::io::{BufRead, BufReader, Read};
+use std::net::TcpStream;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+
+use tracking::poselog::{PoseLog, RecordKind};
+
+fn session(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("../tests/data/sessions/{name}.poselog"))
+}
+
+fn replay() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_replay"))
+}
+
+/// The DTrack2 bytes of a session, concatenated, as a tracking server sends them.
+fn dtrack_stream(name: &str) -> Vec<u8> {
+    let log = PoseLog::from_bytes(&std::fs::read(session(name)).unwrap()).unwrap();
+    log.records
+        .iter()
+        .filter(|r| r.kind == RecordKind::DTrack)
+        .flat_map(|r| r.bytes.clone())
+        .collect()
+}
+
+fn run_to(dir: &Path, name: &str) {
+    let status = replay()
+        .arg(session(name))
+        .arg("--out")
+        .arg(dir)
+        .arg("-q")
+        .status()
+        .unwrap();
+    assert!(status.success());
+}
+
+#[test]
+fn the_same_log_gives_byte_identical_outputs() {
+    let tmp = tempfile::tempdir().unwrap();
+    for name in ["patch-carve-reordered", "sketch-carve"] {
+        let (a, b) = (
+            tmp.path().join(format!("{name}-a")),
+            tmp.path().join(format!("{name}-b")),
+        );
+        run_to(&a, name);
+        run_to(&b, name);
+        for file in replay::output::DETERMINISTIC_FILES {
+            let x = std::fs::read(a.join(file)).unwrap();
+            let y = std::fs::read(b.join(file)).unwrap();
+            assert!(!x.is_empty(), "{name}/{file} is empty");
+            assert!(x == y, "{name}/{file} differs between two runs");
+        }
+        // The exports read back with their own readers.
+        let obj =
+            sculpt_core::formats::obj::read(&std::fs::read(a.join("scene.obj")).unwrap()).unwrap();
+        assert!(!obj.triangles.is_empty());
+        let glb =
+            sculpt_core::formats::glb::read(&std::fs::read(a.join("scene.glb")).unwrap()).unwrap();
+        assert_eq!(glb.triangles.len(), obj.triangles.len());
+        sculpt_core::formats::iges::read(&std::fs::read(a.join("scene.igs")).unwrap()).unwrap();
+        let ops = sculpt_core::oplog::decode_bytes(&std::fs::read(a.join("operator.log")).unwrap())
+            .unwrap();
+        assert!(ops.events.len() > 100);
+    }
+}
+
+#[test]
+fn check_passes_on_a_match_and_prints_a_readable_diff_on_a_mismatch() {
+    let tmp = tempfile::tempdir().unwrap();
+    let good = tmp.path().join("good.json");
+    std::fs::write(
+        &good,
+        r#"{"gestures": {"strokes_applied": 3}, "frames": {"out_of_order": {"min": 1}}}"#,
+    )
+    .unwrap();
+    let bad = tmp.path().join("bad.json");
+    std::fs::write(
+        &bad,
+        r#"{"gestures": {"strokes_applied": 4}, "targets": 1}"#,
+    )
+    .unwrap();
+    let run = |expect: &Path| {
+        replay()
+            .arg(session("patch-carve-reordered"))
+            .arg("--out")
+            .arg(tmp.path().join("out"))
+            .arg("--check")
+            .arg(expect)
+            .arg("-q")
+            .output()
+            .unwrap()
+    };
+    let ok = run(&good);
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let fail = run(&bad);
+    assert_eq!(fail.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&fail.stderr);
+    assert!(
+        err.contains("gestures.strokes_applied: expected 4, got 3"),
+        "{err}"
+    );
+    assert!(!err.contains("targets"), "{err}");
+}
+
+#[test]
+fn bad_inputs_are_clear_errors() {
+    let tmp = tempfile::tempdir().unwrap();
+    let junk = tmp.path().join("junk.poselog");
+    std::fs::write(&junk, "not a pose log\n").unwrap();
+    let out = replay()
+        .arg(&junk)
+        .arg("--out")
+        .arg(tmp.path())
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("replay: error"));
+    let cfg = tmp.path().join("bad.toml");
+    std::fs::write(&cfg, "[tool]\ndepth = 0.0\n").unwrap();
+    let out = replay()
+        .arg(session("patch-carve"))
+        .arg("--config")
+        .arg(&cfg)
+        .arg("--out")
+        .arg(tmp.path())
+        .output()
+        .unwrap();
+    assert!(String::from_utf8_lossy(&out.stderr).contains("tool.depth"));
+}
+
+/// Kills the child when the test ends, pass or fail.
+struct Reap(Child);
+
+impl Drop for Reap {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[test]
+fn serve_sends_the_raw_frames_over_loopback_tcp() {
+    let mut child = Reap(
+        replay()
+            .arg(session("patch-overlaps"))
+            .args(["--serve", "tcp://127.0.0.1:0", "--speed", "0", "-q"])
+            .stdout(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    let mut lines = BufReader::new(child.0.stdout.take().unwrap()).lines();
+    let first = lines.next().unwrap().unwrap();
+    let addr = first
+        .strip_prefix("listening on tcp://")
+        .unwrap_or_else(|| panic!("{first}"));
+    let mut got = Vec::new();
+    TcpStream::connect(addr)
+        .unwrap()
+        .read_to_end(&mut got)
+        .unwrap();
+    assert!(
+        got == dtrack_stream("patch-overlaps"),
+        "the stream differs from the log's frames"
+    );
+    assert!(child.0.wait().unwrap().success());
+    let summary = lines.next().unwrap().unwrap();
+    assert!(summary.contains("0 missed"), "{summary}");
+}
+
+#[test]
+fn connect_and_serial_send_the_same_bytes() {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap();
+    let mut child = Reap(
+        replay()
+            .arg(session("patch-overlaps"))
+            .args(["--connect", &format!("tcp://{addr}"), "--speed", "0", "-q"])
+            .stdout(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let (mut s, _) = listener.accept().unwrap();
+    let mut got = Vec::new();
+    s.read_to_end(&mut got).unwrap();
+    assert!(got == dtrack_stream("patch-overlaps"));
+    assert!(child.0.wait().unwrap().success());
+
+    // A real pty pair from socat (CI installs it).
+    let mut socat = Reap(
+        Command::new("socat")
+            .args(["-d", "-d", "pty,raw,echo=0", "pty,raw,echo=0"])
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("socat is needed for the serial test (apt-get install socat)"),
+    );
+    let mut err = BufReader::new(socat.0.stderr.take().unwrap());
+    let mut ptys = Vec::new();
+    let mut line = String::new();
+    while ptys.len() < 2 && err.read_line(&mut line).unwrap() > 0 {
+        if let Some(p) = line
+            .trim()
+            .rsplit(' ')
+            .next()
+            .filter(|p| p.starts_with("/dev/"))
+        {
+            ptys.push(p.to_string());
+        }
+        line.clear();
+    }
+    let reader_path = ptys[1].clone();
+    let expected = dtrack_stream("patch-overlaps");
+    let n = expected.len();
+    let reader = std::thread::spawn(move || {
+        let mut f = std::fs::File::open(reader_path).unwrap();
+        let mut got = vec![0u8; n];
+        f.read_exact(&mut got).unwrap();
+        got
+    });
+    let status = replay()
+        .arg(session("patch-overlaps"))
+        .args([
+            "--serve",
+            &format!("serial://{}", ptys[0]),
+            "--speed",
+            "0",
+            "-q",
+        ])
+        .stdout(Stdio::null())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    assert!(
+        reader.join().unwrap() == expected,
+        "the pty carried different bytes"
+    );
+}
