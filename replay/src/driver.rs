@@ -228,7 +228,7 @@ impl Driver {
         if tracked {
             let every = self.cfg.interaction.pose_every;
             if every > 0 {
-                if self.pose_counter % every == 0 {
+                if self.pose_counter.is_multiple_of(every) {
                     self.ev(
                         s.t,
                         EventKind::Pose {

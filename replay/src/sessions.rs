@@ -455,7 +455,7 @@ pub fn apply_trouble(clean: &[u8], trouble: Trouble, seed: u64) -> Result<Vec<u8
             let burst = n / 2..(n / 2 + 20).min(n);
             let mut i = 0;
             records.retain(|_| {
-                let keep = !burst.contains(&i) && rng.next() % 8 != 0;
+                let keep = !burst.contains(&i) && !rng.next().is_multiple_of(8);
                 i += 1;
                 keep
             });
