@@ -9,6 +9,7 @@
 #![warn(missing_docs)]
 
 pub mod error;
+pub mod interaction;
 pub mod mesh;
 pub mod tolerance;
 
