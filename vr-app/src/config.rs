@@ -15,9 +15,11 @@
 //!     lower_right = [1.5, 0.0, 0.0]
 //!     upper_left = [-1.5, 2.2, 0.0]
 //!     [tracking]
-//!     source = { kind = "tcp-listen", addr = "127.0.0.1:5000" }
-//!     wand_id = 1
-//!     head_id = 0
+//!     wand = "wand1"
+//!     head = "body0"
+//!     [[tracking.input.source]]
+//!     kind = "tcp-listen"
+//!     addr = "127.0.0.1:5001"
 //! "#)?;
 //! assert_eq!(cfg.display.mode, vr_app::render::OutputMode::SideBySide);
 //! # Ok::<(), vr_app::VrError>(())
@@ -25,7 +27,7 @@
 
 use std::path::{Path, PathBuf};
 
-use glam::{DQuat, DVec3};
+use glam::DVec3;
 use sculpt_core::interaction::{InteractionConfig, Mode, Profile, Tool};
 use serde::{Deserialize, Serialize};
 
@@ -46,9 +48,7 @@ pub struct Config {
     /// The head position used without a head tracker.
     pub head: HeadConfig,
     /// Where tracking comes from; absent means desktop mode.
-    pub tracking: Option<TrackingConfig>,
-    /// Tracker-to-display calibration.
-    pub calibration: CalibrationConfig,
+    pub tracking: Option<TrackingSection>,
     /// Starting tool and mode.
     pub tool: ToolConfig,
     /// State machine tuning and button map.
@@ -138,97 +138,40 @@ pub struct HeadConfig {
     pub position: Option<[f64; 3]>,
 }
 
-/// A tracking source (the tracking crate opens it).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
-pub enum SourceConfig {
-    /// Listen for the tracking server's TCP connection.
-    TcpListen {
-        /// Address to bind (loopback by default).
-        addr: String,
-    },
-    /// Connect to a TCP server.
-    TcpConnect {
-        /// Address to connect to.
-        addr: String,
-    },
-    /// Receive DTrack2 UDP datagrams.
-    Udp {
-        /// Address to bind.
-        addr: String,
-    },
-    /// A serial wand.
-    Serial {
-        /// Device path.
-        path: String,
-        /// Baud rate.
-        baud: u32,
-    },
-    /// The built-in tracker simulator.
-    Simulator {
-        /// Scenario seed.
-        seed: u64,
-    },
-    /// Play a recorded pose log.
-    PoseLog {
-        /// The log file.
-        path: PathBuf,
-        /// Playback speed (1 = real time).
-        speed: f64,
-    },
-}
-
-/// Tracking settings.
+/// Tracking: which devices are the wand and the head, and the tracking crate's own
+/// input configuration (sources, filter, calibration, loss timeout) under
+/// `[tracking.input]`, as documented in the README's `tracking` section.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct TrackingConfig {
-    /// The source.
-    pub source: SourceConfig,
-    /// Body or flystick id of the wand.
-    pub wand_id: u32,
-    /// Body id of the head glasses; none means a fixed head.
+pub struct TrackingSection {
+    /// The wand device: `wandN` (a Flystick) or `bodyN` (a 6DOF body).
+    pub wand: String,
+    /// The head (glasses) device, usually `bodyN`; absent means a fixed head.
     #[serde(default)]
-    pub head_id: Option<u32>,
-    /// Seconds without data before the tracker counts as gone and is reconnected.
-    #[serde(default = "default_timeout")]
-    pub timeout: f64,
+    pub head: Option<String>,
+    /// Sources, filter, calibration.
+    #[serde(default)]
+    pub input: tracking::config::TrackingConfig,
 }
 
-fn default_timeout() -> f64 {
-    0.5
-}
-
-/// Rigid transform from tracker to display coordinates, plus units.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct CalibrationConfig {
-    /// Translation of the tracker origin in the display frame (metres).
-    pub translation: [f64; 3],
-    /// Rotation `display_from_tracker` as a quaternion `[x, y, z, w]`.
-    pub rotation: [f64; 4],
-    /// Tracker units to metres (DTrack2 reports millimetres: 0.001).
-    pub units_to_metres: f64,
-}
-
-impl Default for CalibrationConfig {
-    fn default() -> Self {
-        Self {
-            translation: [0.0; 3],
-            rotation: [0.0, 0.0, 0.0, 1.0],
-            units_to_metres: 0.001,
-        }
-    }
-}
-
-impl CalibrationConfig {
-    /// Maps a tracker-frame position (tracker units) to the display frame (metres).
-    pub fn position_to_display(&self, p_in_tracker: DVec3) -> DVec3 {
-        self.rotation_quat() * (p_in_tracker * self.units_to_metres) + DVec3::from(self.translation)
+impl TrackingSection {
+    /// The wand's device id.
+    pub fn wand_id(&self) -> VrResult<tracking::DeviceId> {
+        self.wand
+            .parse()
+            .map_err(|e: tracking::TrackingError| VrError::Config(format!("tracking.wand: {e}")))
     }
 
-    /// `display_from_tracker` rotation.
-    pub fn rotation_quat(&self) -> DQuat {
-        DQuat::from_array(self.rotation).normalize()
+    /// The head's device id, if configured.
+    pub fn head_id(&self) -> VrResult<Option<tracking::DeviceId>> {
+        self.head
+            .as_deref()
+            .map(|h| {
+                h.parse().map_err(|e: tracking::TrackingError| {
+                    VrError::Config(format!("tracking.head: {e}"))
+                })
+            })
+            .transpose()
     }
 }
 
@@ -336,27 +279,15 @@ impl Config {
                 ));
             }
         }
-        let c = &self.calibration;
-        let q = DQuat::from_array(c.rotation);
-        let calibration_ok = q.is_finite()
-            && q.length() > 1e-6
-            && c.units_to_metres.is_finite()
-            && c.units_to_metres > 0.0
-            && DVec3::from(c.translation).is_finite();
-        if !calibration_ok {
-            return Err(VrError::Config(
-                "calibration: rotation must be a non-zero quaternion and units positive".into(),
-            ));
-        }
         if let Some(t) = &self.tracking {
-            if !(t.timeout.is_finite() && t.timeout > 0.0) {
-                return Err(VrError::Config("tracking.timeout must be positive".into()));
-            }
-            if let SourceConfig::PoseLog { speed, .. } = t.source
-                && !(speed.is_finite() && speed > 0.0)
-            {
+            t.wand_id()?;
+            t.head_id()?;
+            t.input
+                .validate()
+                .map_err(|e| VrError::Config(format!("tracking.input: {e}")))?;
+            if t.input.sources.is_empty() {
                 return Err(VrError::Config(
-                    "tracking.source.speed must be positive".into(),
+                    "tracking.input needs at least one [[tracking.input.source]]".into(),
                 ));
             }
         }
@@ -393,8 +324,12 @@ mod tests {
         assert_eq!(wall.display.mode, OutputMode::Dual);
         assert_eq!(wall.display.monitors, vec![1, 2]);
         let t = wall.tracking.as_ref().unwrap();
-        assert_eq!(t.head_id, Some(0));
-        assert!(matches!(t.source, SourceConfig::TcpListen { .. }));
+        assert_eq!(t.head_id().unwrap(), Some(tracking::DeviceId::Body(0)));
+        assert_eq!(t.wand_id().unwrap(), tracking::DeviceId::Wand(1));
+        assert!(matches!(
+            t.input.sources[0],
+            tracking::config::SourceConfig::TcpListen { .. }
+        ));
         let desk = example("desktop.toml");
         assert!(desk.tracking.is_none());
         assert_eq!(desk.display.mode, OutputMode::Mono);
@@ -420,29 +355,13 @@ mod tests {
             ("[stereo]\nipd = -1.0", "ipd"),
             ("[tool]\nwidth = 0.0", "width"),
             ("[head]\nposition = [0.0, 1.0, -2.0]", "in front"),
-            (
-                "[tracking]\nwand_id = 1\nsource = { kind = \"pose-log\", path = \"x\", speed = 0.0 }",
-                "speed",
-            ),
+            ("[tracking]\nwand = \"stick1\"", "tracking.wand"),
+            ("[tracking]\nwand = \"wand1\"", "at least one"),
             ("[display]\nwidth = 0", "size"),
         ] {
             let e = Config::from_toml_str(text).unwrap_err().to_string();
             assert!(e.contains(needle), "{text:?} gave {e:?}");
         }
-    }
-
-    #[test]
-    fn calibration_maps_millimetres_to_metres() {
-        let c = CalibrationConfig {
-            translation: [0.0, 1.0, 0.0],
-            ..Default::default()
-        };
-        sculpt_core::assert_near!(
-            c.position_to_display(DVec3::new(1000.0, 0.0, 0.0))
-                .to_array(),
-            [1.0, 1.0, 0.0],
-            1e-12
-        );
     }
 
     mod props {

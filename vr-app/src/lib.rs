@@ -22,6 +22,7 @@ pub mod desktop_wand;
 pub mod error;
 pub mod headless;
 pub mod journal;
+pub mod live;
 pub mod projection;
 pub mod render;
 pub mod scene_mesh;

@@ -13,6 +13,7 @@ use vr_app::app::AppState;
 use vr_app::config::Config;
 use vr_app::demo::demo_events;
 use vr_app::headless::{HeadlessOptions, Input, run_headless};
+use vr_app::live::LiveTracking;
 use vr_app::render::{Gpu, OutputMode};
 use vr_app::window::{WindowInput, run_windowed};
 
@@ -42,6 +43,13 @@ struct Cli {
     /// Headless: also render a frame every N wand events (for frame timing).
     #[arg(long, value_name = "N", default_value_t = 0)]
     render_every: usize,
+    /// Headless with live tracking: stop after this many seconds without wand data
+    /// (once some arrived).
+    #[arg(long, value_name = "SECONDS", default_value_t = 2.0)]
+    idle_exit: f64,
+    /// Headless with live tracking: stop after this many seconds in any case.
+    #[arg(long, value_name = "SECONDS", default_value_t = 3600.0)]
+    duration: f64,
     /// Headless: pace the input in real time (as a live session would arrive).
     #[arg(long)]
     realtime: bool,
@@ -116,12 +124,16 @@ fn run(cli: Cli) -> Result<()> {
         demo_events(&app.screen, app.screen.center() - vn * 0.1)
     };
     if cli.headless {
-        let events: Vec<Input> = if cli.demo {
-            demo().into_iter().map(Input::Wand).collect()
+        let events: Box<dyn Iterator<Item = Input>> = if cli.demo {
+            Box::new(demo().into_iter().map(Input::Wand))
+        } else if let Some(section) = &app.config.tracking {
+            Box::new(live_inputs(
+                LiveTracking::start(section)?,
+                cli.idle_exit,
+                cli.duration,
+            ))
         } else {
-            bail!(
-                "--headless needs an input: --demo (tracking sources arrive with the tracking crate)"
-            );
+            bail!("--headless needs an input: --demo, or a [tracking] section in --config");
         };
         let gpu = Gpu::headless()?;
         let opts = HeadlessOptions {
@@ -138,9 +150,45 @@ fn run(cli: Cli) -> Result<()> {
     }
     let input = if cli.demo {
         WindowInput::Scripted(demo())
+    } else if let Some(section) = &app.config.tracking {
+        let mut live = LiveTracking::start(section)?;
+        WindowInput::Live(Box::new(move |t| live.poll(t)))
     } else {
         WindowInput::Desktop
     };
     run_windowed(app, input)?;
     Ok(())
+}
+
+/// Live tracking as a stream of inputs: polls every 4 ms with the session clock, and
+/// ends `idle_exit` seconds after the last wand report (once one arrived) or after
+/// `duration` seconds.
+fn live_inputs(
+    mut live: LiveTracking,
+    idle_exit: f64,
+    duration: f64,
+) -> impl Iterator<Item = Input> {
+    let start = std::time::Instant::now();
+    let mut pending: std::collections::VecDeque<Input> = std::collections::VecDeque::new();
+    std::iter::from_fn(move || {
+        loop {
+            if let Some(i) = pending.pop_front() {
+                return Some(i);
+            }
+            let t = start.elapsed().as_secs_f64();
+            if t > duration {
+                return None;
+            }
+            if let Some(last) = live.last_report()
+                && live.now().saturating_sub(last).as_secs_f64() > idle_exit
+            {
+                tracing::info!("no tracking data for {idle_exit} s: finishing");
+                return None;
+            }
+            pending.extend(live.poll(t));
+            if pending.is_empty() {
+                std::thread::sleep(std::time::Duration::from_millis(4));
+            }
+        }
+    })
 }

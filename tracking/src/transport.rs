@@ -1,0 +1,422 @@
+//! Transports: where tokio lives. TCP (listen or connect), UDP and serial inputs that
+//! feed a [`Hub`], and paced senders for the simulator and for re-sending pose logs.
+//!
+//! Every input stamps frames with the hub's monotonic clock as soon as a read returns,
+//! decodes all frames in that read, and applies them to the hub. Streams are dropped
+//! (and, when connecting out, re-established with exponential backoff) when they
+//! complete no frame within the read timeout (so a slow-loris sender cannot hold a
+//! connection), and decoders cap line and frame sizes so memory stays bounded.
+//!
+//! ```no_run
+//! # async fn demo() -> tracking::Result<()> {
+//! use tracking::config::{SourceConfig, TrackingConfig};
+//! use tracking::transport::start;
+//! let mut cfg = TrackingConfig::default();
+//! cfg.sources.push(SourceConfig::Udp { addr: "127.0.0.1:5000".parse().unwrap() });
+//! let running = start(&cfg).await?;
+//! let wand = running.hub.watch(tracking::DeviceId::Wand(0));
+//! # Ok(()) }
+//! ```
+
+use crate::config::{SourceConfig, TrackingConfig};
+use crate::dtrack::{DTrackDecoder, Decoded, DecoderLimits};
+use crate::error::{Result, TrackingError};
+use crate::hub::{Hub, SourceId};
+use crate::poselog::{PoseLogHeader, PoseLogWriter, RecordKind};
+use crate::serial::SerialDecoder;
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
+use tokio::net::{TcpListener, TcpStream, UdpSocket};
+use tokio::sync::Semaphore;
+use tokio::task::JoinHandle;
+
+/// Read buffer size: several frames per read.
+const READ_BUF: usize = 64 * 1024;
+
+/// Transport timing and caps (from [`TrackingConfig`]).
+#[derive(Debug, Clone, Copy)]
+pub struct TransportOptions {
+    /// Decoder caps.
+    pub limits: DecoderLimits,
+    /// Drop a stream that completes no frame for this long.
+    pub read_timeout: Duration,
+    /// First reconnect delay.
+    pub backoff_min: Duration,
+    /// Longest reconnect delay.
+    pub backoff_max: Duration,
+    /// Most simultaneous connections per TCP listener.
+    pub max_connections: usize,
+}
+
+impl From<&TrackingConfig> for TransportOptions {
+    fn from(c: &TrackingConfig) -> Self {
+        Self {
+            limits: c.limits,
+            read_timeout: c.read_timeout(),
+            backoff_min: Duration::from_millis(c.reconnect_min_ms),
+            backoff_max: Duration::from_millis(c.reconnect_max_ms),
+            max_connections: c.max_connections,
+        }
+    }
+}
+
+/// Running inputs: the hub plus the tasks feeding it (aborted on drop).
+#[derive(Debug)]
+pub struct Running {
+    /// The merged state.
+    pub hub: Hub,
+    /// Bound local addresses of TCP listeners and UDP sockets, in config order
+    /// (`None` for connect-out and serial sources).
+    pub local_addrs: Vec<Option<SocketAddr>>,
+    /// The source ids, in config order.
+    pub sources: Vec<SourceId>,
+    tasks: Vec<JoinHandle<()>>,
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        for t in &self.tasks {
+            t.abort();
+        }
+    }
+}
+
+/// Starts every source in the config plus the staleness watchdog, and the recorder
+/// when `record` is set. Binding errors are returned; later I/O errors are retried.
+pub async fn start(config: &TrackingConfig) -> Result<Running> {
+    config.validate()?;
+    let hub = Hub::new(config);
+    if let Some(path) = &config.record {
+        let mut header = PoseLogHeader::new(
+            config
+                .sources
+                .iter()
+                .map(SourceConfig::describe)
+                .collect::<Vec<_>>()
+                .join(", "),
+        );
+        header.config = serde_json::to_value(config)?;
+        header.calibration = serde_json::to_value(&config.calibration)?;
+        hub.set_recorder(PoseLogWriter::create(path, &header)?);
+    }
+    start_with_hub(hub, config).await
+}
+
+/// Like [`start`], onto an existing hub.
+pub async fn start_with_hub(hub: Hub, config: &TrackingConfig) -> Result<Running> {
+    let opts = TransportOptions::from(config);
+    let mut running = Running {
+        hub: hub.clone(),
+        local_addrs: Vec::new(),
+        sources: Vec::new(),
+        tasks: Vec::new(),
+    };
+    for spec in &config.sources {
+        let src = hub.add_source(spec.describe());
+        running.sources.push(src);
+        let (addr, task) = match spec.clone() {
+            SourceConfig::TcpListen { addr } => {
+                let listener = TcpListener::bind(addr)
+                    .await
+                    .map_err(|e| TrackingError::io(addr.to_string(), e))?;
+                let local = listener.local_addr().ok();
+                (
+                    local,
+                    tokio::spawn(tcp_listen(hub.clone(), src, listener, opts)),
+                )
+            }
+            SourceConfig::TcpConnect { addr } => (
+                None,
+                tokio::spawn(tcp_connect(hub.clone(), src, addr, opts)),
+            ),
+            SourceConfig::Udp { addr } => {
+                let sock = UdpSocket::bind(addr)
+                    .await
+                    .map_err(|e| TrackingError::io(addr.to_string(), e))?;
+                let local = sock.local_addr().ok();
+                (local, tokio::spawn(udp(hub.clone(), src, sock, opts)))
+            }
+            SourceConfig::Serial {
+                port,
+                baud,
+                wand_id,
+                button_count,
+            } => (
+                None,
+                tokio::spawn(serial(
+                    hub.clone(),
+                    src,
+                    port,
+                    baud,
+                    wand_id,
+                    button_count,
+                    opts,
+                )),
+            ),
+        };
+        running.local_addrs.push(addr);
+        running.tasks.push(task);
+    }
+    let period = (config.lost_after() / 4).max(Duration::from_millis(1));
+    let watchdog_hub = hub.clone();
+    running.tasks.push(tokio::spawn(async move {
+        let mut tick = tokio::time::interval(period);
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        loop {
+            tick.tick().await;
+            watchdog_hub.check_stale(watchdog_hub.now());
+        }
+    }));
+    Ok(running)
+}
+
+/// Why a stream ended.
+#[derive(Debug, PartialEq, Eq)]
+pub enum StreamEnd {
+    /// The peer closed it.
+    Closed,
+    /// No complete frame within the read timeout (idle or slow-loris).
+    TimedOut,
+    /// A read error.
+    Error(std::io::ErrorKind),
+}
+
+/// Reads DTrack2 frames from a byte stream into the hub until it ends.
+pub async fn pump_dtrack<R: AsyncRead + Unpin>(
+    hub: &Hub,
+    src: SourceId,
+    mut reader: R,
+    opts: &TransportOptions,
+) -> StreamEnd {
+    let mut decoder = DTrackDecoder::new(opts.limits).keep_raw(hub.is_recording());
+    let mut buf = vec![0u8; READ_BUF];
+    let mut last_frame = Instant::now();
+    hub.set_connected(src, true, hub.now());
+    let end = loop {
+        let left = opts.read_timeout.saturating_sub(last_frame.elapsed());
+        let n = match tokio::time::timeout(left, reader.read(&mut buf)).await {
+            Err(_) => break StreamEnd::TimedOut,
+            Ok(Ok(0)) => break StreamEnd::Closed,
+            Ok(Ok(n)) => n,
+            Ok(Err(e)) => break StreamEnd::Error(e.kind()),
+        };
+        let now = hub.now();
+        let mut got = false;
+        decoder.push(&buf[..n], &mut |d| {
+            got |= deliver(hub, src, d, now);
+        });
+        if got {
+            last_frame = Instant::now();
+        }
+    };
+    if decoder.reset() {
+        tracing::debug!("stream ended mid-frame; partial frame dropped");
+    }
+    hub.set_connected(src, false, hub.now());
+    end
+}
+
+fn deliver(hub: &Hub, src: SourceId, d: Decoded, now: Duration) -> bool {
+    match d {
+        Decoded::Frame(mut f, raw) => {
+            f.receive_time = now;
+            if let Some(raw) = raw {
+                hub.record(RecordKind::DTrack, now, &raw);
+            }
+            hub.apply_frame(src, &f);
+            true
+        }
+        Decoded::Dropped(e) => {
+            tracing::debug!("dropped frame: {e}");
+            hub.bad_frame(src);
+            false
+        }
+    }
+}
+
+async fn tcp_listen(hub: Hub, src: SourceId, listener: TcpListener, opts: TransportOptions) {
+    let slots = Arc::new(Semaphore::new(opts.max_connections));
+    loop {
+        let Ok((stream, peer)) = listener.accept().await else {
+            tokio::time::sleep(opts.backoff_min).await;
+            continue;
+        };
+        let Ok(permit) = slots.clone().try_acquire_owned() else {
+            tracing::warn!("refusing tracker connection from {peer}: too many connections");
+            continue;
+        };
+        let _ = stream.set_nodelay(true);
+        let hub = hub.clone();
+        tokio::spawn(async move {
+            let end = pump_dtrack(&hub, src, stream, &opts).await;
+            tracing::info!("tracker connection from {peer} ended: {end:?}");
+            drop(permit);
+        });
+    }
+}
+
+async fn tcp_connect(hub: Hub, src: SourceId, addr: SocketAddr, opts: TransportOptions) {
+    let mut backoff = opts.backoff_min;
+    loop {
+        match tokio::time::timeout(opts.read_timeout, TcpStream::connect(addr)).await {
+            Ok(Ok(stream)) => {
+                let _ = stream.set_nodelay(true);
+                backoff = opts.backoff_min;
+                let end = pump_dtrack(&hub, src, stream, &opts).await;
+                tracing::info!("tracking server {addr}: {end:?}; reconnecting");
+            }
+            Ok(Err(e)) => tracing::debug!("connect {addr}: {e}"),
+            Err(_) => tracing::debug!("connect {addr}: timed out"),
+        }
+        tokio::time::sleep(backoff).await;
+        backoff = (backoff * 2).min(opts.backoff_max);
+    }
+}
+
+async fn udp(hub: Hub, src: SourceId, sock: UdpSocket, opts: TransportOptions) {
+    let mut decoder = DTrackDecoder::new(opts.limits).keep_raw(hub.is_recording());
+    let mut buf = vec![0u8; READ_BUF];
+    loop {
+        match tokio::time::timeout(opts.read_timeout, sock.recv_from(&mut buf)).await {
+            Err(_) => hub.set_connected(src, false, hub.now()),
+            Ok(Err(e)) => {
+                tracing::debug!("udp receive: {e}");
+                tokio::time::sleep(opts.backoff_min).await;
+            }
+            Ok(Ok((n, _peer))) => {
+                let now = hub.now();
+                let mut sink = |d| {
+                    deliver(&hub, src, d, now);
+                };
+                decoder.push(&buf[..n], &mut sink);
+                decoder.end_datagram(&mut sink);
+            }
+        }
+    }
+}
+
+async fn serial(
+    hub: Hub,
+    src: SourceId,
+    port: String,
+    baud: u32,
+    wand_id: u32,
+    button_count: u8,
+    opts: TransportOptions,
+) {
+    use tokio_serial::SerialPortBuilderExt;
+    let mut backoff = opts.backoff_min;
+    loop {
+        match tokio_serial::new(&port, baud).open_native_async() {
+            Ok(stream) => {
+                backoff = opts.backoff_min;
+                let end = pump_serial(&hub, src, stream, wand_id, button_count, &opts).await;
+                tracing::info!("serial {port}: {end:?}; reopening");
+            }
+            Err(e) => tracing::debug!("open serial {port}: {e}"),
+        }
+        tokio::time::sleep(backoff).await;
+        backoff = (backoff * 2).min(opts.backoff_max);
+    }
+}
+
+/// Reads serial wand records from a byte stream into the hub until it ends or goes
+/// quiet for the read timeout.
+pub async fn pump_serial<R: AsyncRead + Unpin>(
+    hub: &Hub,
+    src: SourceId,
+    mut reader: R,
+    wand_id: u32,
+    button_count: u8,
+    opts: &TransportOptions,
+) -> StreamEnd {
+    let recording = hub.is_recording();
+    let mut decoder = SerialDecoder::default();
+    let mut buf = vec![0u8; 4096];
+    let mut raw = Vec::new();
+    let mut last = Instant::now();
+    hub.set_connected(src, true, hub.now());
+    let end = loop {
+        let left = opts.read_timeout.saturating_sub(last.elapsed());
+        let n = match tokio::time::timeout(left, reader.read(&mut buf)).await {
+            Err(_) => break StreamEnd::TimedOut,
+            Ok(Ok(0)) => break StreamEnd::Closed,
+            Ok(Ok(n)) => n,
+            Ok(Err(e)) => break StreamEnd::Error(e.kind()),
+        };
+        let now = hub.now();
+        decoder.push(&buf[..n], &mut |r, line| match r {
+            Ok(rec) => {
+                last = Instant::now();
+                if recording {
+                    raw.clear();
+                    raw.extend_from_slice(line);
+                    raw.extend_from_slice(b"\r\n");
+                    hub.record(RecordKind::Serial, now, &raw);
+                }
+                let mut f = rec.to_frame(wand_id, button_count);
+                f.receive_time = now;
+                hub.apply(src, &f, rec.pose.is_some());
+            }
+            Err(e) => {
+                tracing::debug!("serial: {e}");
+                hub.bad_frame(src);
+            }
+        });
+    };
+    hub.set_connected(src, false, hub.now());
+    end
+}
+
+/// Writes `(time, bytes)` items to a stream, each at its time divided by `speed` after
+/// the start (`speed <= 0` or infinite: as fast as possible). Returns bytes written.
+pub async fn send_paced<W: AsyncWrite + Unpin>(
+    w: &mut W,
+    items: impl IntoIterator<Item = (Duration, Vec<u8>)>,
+    speed: f64,
+) -> std::io::Result<u64> {
+    let start = tokio::time::Instant::now();
+    let mut total = 0;
+    for (t, bytes) in items {
+        if speed.is_finite() && speed > 0.0 {
+            tokio::time::sleep_until(start + t.div_f64(speed)).await;
+        }
+        w.write_all(&bytes).await?;
+        total += bytes.len() as u64;
+    }
+    w.flush().await?;
+    Ok(total)
+}
+
+/// Sends `(time, datagram)` items to `target`, paced like [`send_paced`].
+pub async fn send_paced_udp(
+    sock: &UdpSocket,
+    target: SocketAddr,
+    items: impl IntoIterator<Item = (Duration, Vec<u8>)>,
+    speed: f64,
+) -> std::io::Result<u64> {
+    let start = tokio::time::Instant::now();
+    let mut total = 0;
+    for (t, bytes) in items {
+        if speed.is_finite() && speed > 0.0 {
+            tokio::time::sleep_until(start + t.div_f64(speed)).await;
+        }
+        sock.send_to(&bytes, target).await?;
+        total += bytes.len() as u64;
+    }
+    Ok(total)
+}
+
+/// Simulator (or decoded) frames as paced items: DTrack2 bytes at each frame's
+/// receive time.
+pub fn frames_as_items(
+    frames: impl IntoIterator<Item = crate::Frame>,
+) -> impl Iterator<Item = (Duration, Vec<u8>)> {
+    frames.into_iter().map(|f| {
+        let mut bytes = Vec::with_capacity(512);
+        crate::dtrack::encode_frame(&f, &mut bytes);
+        (f.receive_time, bytes)
+    })
+}
