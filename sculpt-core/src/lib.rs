@@ -10,6 +10,7 @@
 
 pub mod error;
 pub mod formats;
+pub mod interaction;
 pub mod mesh;
 pub mod nurbs;
 pub mod oplog;

@@ -1,0 +1,965 @@
+//! The interaction state machine: timestamped wand events in, document edits and
+//! operator events out.
+//!
+//! Pure and deterministic: time comes only from the events, so the display server and
+//! `replay` drive the same machine with live or recorded tracking and get the same
+//! edits. The machine does not know the document; it emits [`Edit`]s for the caller to
+//! apply, and [`OperatorEvent`]s (button edges, mode and tool changes, stroke start and
+//! end, tracking loss, wand poses) for the operator log read by the GOMS harness.
+//!
+//! - **Sketch** mode: hold the action button and sweep; every sample adds a row of
+//!   points along the wand's sweep axis, and release emits [`Edit::Sketch`] with the
+//!   point grid, to be fitted by the kernel's approximation.
+//! - **Carve** and **emboss** modes: press to start a stroke, move, release to emit
+//!   [`Edit::Stroke`]. [`Interaction::live_stroke`] shows the stroke so far, for the
+//!   interactive-depth preview.
+//! - **Tracking loss** mid-gesture pauses it: samples stop being added. If tracking
+//!   comes back within [`InteractionConfig::pause_timeout`] and within
+//!   [`InteractionConfig::max_resume_jump`] of the last good sample, the gesture
+//!   resumes; otherwise it ends at the last good sample, so there is never a jump.
+//!
+//! ```
+//! use glam::{DQuat, DVec3};
+//! use sculpt_core::interaction::{Edit, Interaction, Output, WandEvent, WandSample};
+//! let mut m = Interaction::default(); // starts in carve mode
+//! let mut out = Vec::new();
+//! for (i, buttons) in [1u32, 1, 1, 0].into_iter().enumerate() {
+//!     let p = DVec3::new(0.01 * i as f64, 1.0, 0.2);
+//!     m.handle(&WandEvent::sample(i as f64 * 0.01, WandSample::tracked(p, DQuat::IDENTITY, buttons)), &mut out)?;
+//! }
+//! assert!(out.iter().any(|o| matches!(o, Output::Edit(Edit::Stroke(s)) if s.samples.len() == 4)));
+//! # Ok::<(), sculpt_core::Error>(())
+//! ```
+
+use glam::{DQuat, DVec3};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// What the action button does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Mode {
+    /// Sweep to create a surface.
+    Sketch,
+    /// Strokes cut grooves.
+    Carve,
+    /// Strokes raise ridges.
+    Emboss,
+}
+
+impl Mode {
+    /// The next mode in the cycle sketch -> carve -> emboss -> sketch.
+    pub fn next(self) -> Self {
+        match self {
+            Mode::Sketch => Mode::Carve,
+            Mode::Carve => Mode::Emboss,
+            Mode::Emboss => Mode::Sketch,
+        }
+    }
+}
+
+/// Cross-section of the chisel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Profile {
+    /// V-shaped groove.
+    V,
+    /// U-shaped (round) groove.
+    U,
+}
+
+/// Tool settings for strokes.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tool {
+    /// Profile.
+    pub profile: Profile,
+    /// Width across the stroke (metres).
+    pub width: f64,
+    /// Depth of the groove or height of the ridge (metres).
+    pub depth: f64,
+}
+
+impl Default for Tool {
+    fn default() -> Self {
+        Self {
+            profile: Profile::V,
+            width: 0.02,
+            depth: 0.005,
+        }
+    }
+}
+
+impl Tool {
+    /// Checks that width and depth are finite and positive, at most 10 m.
+    pub fn validate(&self) -> Result<()> {
+        for (name, v) in [("width", self.width), ("depth", self.depth)] {
+            if !(v.is_finite() && v > 0.0 && v <= 10.0) {
+                return Err(Error::Interaction(format!(
+                    "tool {name} must be in (0, 10] m, got {v}"
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One wand tracker sample, in the display frame.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct WandSample {
+    /// Whether the tracker sees the wand; the pose is ignored when false.
+    pub tracked: bool,
+    /// Tip position (metres, display frame).
+    pub position: DVec3,
+    /// `display_from_wand` rotation.
+    pub orientation: DQuat,
+    /// Button states, bit i = button i held.
+    pub buttons: u32,
+}
+
+impl WandSample {
+    /// A tracked sample.
+    pub fn tracked(position: DVec3, orientation: DQuat, buttons: u32) -> Self {
+        Self {
+            tracked: true,
+            position,
+            orientation,
+            buttons,
+        }
+    }
+
+    /// An untracked sample (buttons still arrive from a wireless wand).
+    pub fn lost(buttons: u32) -> Self {
+        Self {
+            tracked: false,
+            position: DVec3::ZERO,
+            orientation: DQuat::IDENTITY,
+            buttons,
+        }
+    }
+
+    /// True when tracked with a finite pose and a usable (non-zero) rotation.
+    fn usable(&self) -> bool {
+        self.tracked
+            && self.position.is_finite()
+            && self.orientation.is_finite()
+            && self.orientation.length_squared() > 1e-6
+    }
+}
+
+/// A discrete command from a keyboard, menu or voice (desktop mode uses these).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "command", rename_all = "kebab-case")]
+pub enum Command {
+    /// Switch mode.
+    SetMode {
+        /// The new mode.
+        mode: Mode,
+    },
+    /// Change the profile.
+    SetProfile {
+        /// The new profile.
+        profile: Profile,
+    },
+    /// Change the tool width (metres).
+    SetWidth {
+        /// The new width.
+        width: f64,
+    },
+    /// Change the tool depth (metres).
+    SetDepth {
+        /// The new depth.
+        depth: f64,
+    },
+    /// Undo the last edit.
+    Undo,
+    /// Redo the last undone edit.
+    Redo,
+    /// Select target surface `index`.
+    SelectTarget {
+        /// Target index.
+        index: u32,
+    },
+    /// Select the next target surface.
+    SelectNextTarget,
+    /// Save the document.
+    Save,
+}
+
+/// What happened at time `t`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum WandInput {
+    /// A tracker sample.
+    Sample(WandSample),
+    /// A command.
+    Command(Command),
+}
+
+/// A timestamped input.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct WandEvent {
+    /// Seconds on the session clock (monotonic, non-decreasing).
+    pub t: f64,
+    /// The input.
+    pub input: WandInput,
+}
+
+impl WandEvent {
+    /// A sample event.
+    pub fn sample(t: f64, sample: WandSample) -> Self {
+        Self {
+            t,
+            input: WandInput::Sample(sample),
+        }
+    }
+
+    /// A command event.
+    pub fn command(t: f64, command: Command) -> Self {
+        Self {
+            t,
+            input: WandInput::Command(command),
+        }
+    }
+}
+
+/// One point of a stroke.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct StrokeSample {
+    /// Time (seconds).
+    pub t: f64,
+    /// Wand tip (metres, display frame).
+    pub position: DVec3,
+}
+
+/// Carve or emboss.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StrokeMode {
+    /// Cut a groove.
+    Carve,
+    /// Raise a ridge.
+    Emboss,
+}
+
+/// A finished stroke, ready for the sculpting layer.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StrokeEdit {
+    /// Target surface index.
+    pub target: u32,
+    /// Carve or emboss.
+    pub mode: StrokeMode,
+    /// Tool at the time of the stroke.
+    pub tool: Tool,
+    /// The wand path (at least two samples).
+    pub samples: Vec<StrokeSample>,
+}
+
+/// A document edit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "edit", rename_all = "kebab-case")]
+pub enum Edit {
+    /// A sketched surface: rows of points (one row per sweep sample, all rows the same
+    /// length), to be fitted.
+    Sketch {
+        /// The point grid, display frame metres.
+        rows: Vec<Vec<DVec3>>,
+    },
+    /// A carve or emboss stroke.
+    Stroke(StrokeEdit),
+    /// Undo the last edit.
+    Undo,
+    /// Redo.
+    Redo,
+    /// Make `index` the target of later strokes.
+    SelectTarget {
+        /// Target index.
+        index: u32,
+    },
+    /// Save the document.
+    Save,
+}
+
+/// Why a gesture ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum EndReason {
+    /// The button was released.
+    Released,
+    /// Tracking was lost for too long, or came back too far away.
+    TrackingLost,
+    /// The gesture hit the sample cap.
+    TooLong,
+}
+
+/// An operator event for the log.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "op", rename_all = "kebab-case")]
+pub enum OperatorEvent {
+    /// A button went down.
+    ButtonDown {
+        /// Button index.
+        button: u8,
+    },
+    /// A button came up.
+    ButtonUp {
+        /// Button index.
+        button: u8,
+    },
+    /// The mode changed.
+    ModeChange {
+        /// Old mode.
+        from: Mode,
+        /// New mode.
+        to: Mode,
+    },
+    /// The tool changed.
+    ToolChange {
+        /// The new tool.
+        tool: Tool,
+    },
+    /// A stroke or sketch began.
+    GestureStart {
+        /// The mode it began in.
+        mode: Mode,
+    },
+    /// A stroke or sketch ended.
+    GestureEnd {
+        /// The mode.
+        mode: Mode,
+        /// Whether it produced an edit.
+        committed: bool,
+        /// Why it ended.
+        reason: EndReason,
+    },
+    /// The wand stopped being tracked.
+    TrackingLost,
+    /// The wand is tracked again.
+    TrackingRegained,
+    /// An undo, redo, select or save command.
+    Command {
+        /// The command's edit.
+        edit: Edit,
+    },
+    /// A wand pose sample.
+    Pose {
+        /// Tip position.
+        position: DVec3,
+        /// Orientation.
+        orientation: DQuat,
+    },
+}
+
+/// What the machine produces.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Output {
+    /// An edit to apply to the document.
+    Edit(Edit),
+    /// An operator event at time `t`.
+    Op {
+        /// Seconds.
+        t: f64,
+        /// The event.
+        event: OperatorEvent,
+    },
+}
+
+/// Which button bit does what.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ButtonMap {
+    /// Draw (start/end strokes and sketches).
+    pub action: u8,
+    /// Cycle the mode.
+    pub mode: u8,
+    /// Toggle the profile.
+    pub profile: u8,
+    /// Undo.
+    pub undo: u8,
+    /// Redo.
+    pub redo: u8,
+    /// Select the next target.
+    pub select: u8,
+}
+
+impl Default for ButtonMap {
+    fn default() -> Self {
+        Self {
+            action: 0,
+            mode: 1,
+            profile: 2,
+            undo: 3,
+            redo: 4,
+            select: 5,
+        }
+    }
+}
+
+/// Tuning of the state machine.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct InteractionConfig {
+    /// Button assignment.
+    pub buttons: ButtonMap,
+    /// How long a gesture may stay paused by tracking loss (seconds).
+    pub pause_timeout: f64,
+    /// Largest distance from the last good sample at which a paused gesture resumes
+    /// (metres).
+    pub max_resume_jump: f64,
+    /// Faster apparent wand motion than this (m/s) is a tracking glitch, not motion.
+    pub max_speed: f64,
+    /// Strokes shorter than this (metres of path) are discarded.
+    pub min_stroke_length: f64,
+    /// Sketch sweep segment, in wand coordinates, from the tip (metres).
+    pub sketch_axis: DVec3,
+    /// Points per sketch row.
+    pub sketch_columns: u32,
+    /// Minimum tip travel between sketch rows (metres).
+    pub sketch_row_spacing: f64,
+    /// Minimum rows for a sketch to count.
+    pub min_sketch_rows: u32,
+    /// Gesture sample cap (memory bound).
+    pub max_samples: usize,
+    /// Emit a pose operator event every n-th tracked sample (1 = all).
+    pub pose_every: u32,
+}
+
+impl Default for InteractionConfig {
+    fn default() -> Self {
+        Self {
+            buttons: ButtonMap::default(),
+            pause_timeout: 0.5,
+            max_resume_jump: 0.05,
+            max_speed: 15.0,
+            min_stroke_length: 0.005,
+            sketch_axis: DVec3::new(0.3, 0.0, 0.0),
+            sketch_columns: 8,
+            sketch_row_spacing: 0.01,
+            min_sketch_rows: 4,
+            max_samples: 200_000,
+            pose_every: 1,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+enum Gesture {
+    Idle,
+    Stroke {
+        samples: Vec<StrokeSample>,
+        paused_since: Option<f64>,
+    },
+    Sketch {
+        rows: Vec<Vec<DVec3>>,
+        last_tip: DVec3,
+        paused_since: Option<f64>,
+    },
+    /// A gesture ended early; wait for the action button to come up.
+    Spent,
+}
+
+/// The interaction state machine.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Interaction {
+    config: InteractionConfig,
+    mode: Mode,
+    tool: Tool,
+    target: u32,
+    target_count: u32,
+    last_t: Option<f64>,
+    buttons: u32,
+    tracked: bool,
+    last_good: Option<(f64, DVec3, DQuat)>,
+    gesture: Gesture,
+    pose_counter: u32,
+}
+
+impl Default for Interaction {
+    fn default() -> Self {
+        Self::new(InteractionConfig::default(), Mode::Carve, Tool::default())
+    }
+}
+
+impl Interaction {
+    /// A machine in `mode` with `tool`, targeting surface 0 of 1.
+    pub fn new(config: InteractionConfig, mode: Mode, tool: Tool) -> Self {
+        Self {
+            config,
+            mode,
+            tool,
+            target: 0,
+            target_count: 1,
+            last_t: None,
+            buttons: 0,
+            tracked: false,
+            last_good: None,
+            gesture: Gesture::Idle,
+            pose_counter: 0,
+        }
+    }
+
+    /// Current mode.
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    /// Current tool.
+    pub fn tool(&self) -> Tool {
+        self.tool
+    }
+
+    /// Current target surface index.
+    pub fn target(&self) -> u32 {
+        self.target
+    }
+
+    /// Whether the wand is tracked.
+    pub fn is_tracked(&self) -> bool {
+        self.tracked
+    }
+
+    /// The last good wand pose `(t, tip, orientation)`.
+    pub fn wand(&self) -> Option<(f64, DVec3, DQuat)> {
+        self.last_good
+    }
+
+    /// True while a stroke or sketch is live.
+    pub fn gesture_active(&self) -> bool {
+        matches!(
+            self.gesture,
+            Gesture::Stroke { .. } | Gesture::Sketch { .. }
+        )
+    }
+
+    /// True while a live gesture is paused by tracking loss.
+    pub fn gesture_paused(&self) -> bool {
+        matches!(
+            self.gesture,
+            Gesture::Stroke {
+                paused_since: Some(_),
+                ..
+            } | Gesture::Sketch {
+                paused_since: Some(_),
+                ..
+            }
+        )
+    }
+
+    /// The live stroke so far (for the preview), if a stroke is in progress.
+    pub fn live_stroke(&self) -> Option<StrokeEdit> {
+        match &self.gesture {
+            Gesture::Stroke { samples, .. } => Some(StrokeEdit {
+                target: self.target,
+                mode: self.stroke_mode(),
+                tool: self.tool,
+                samples: samples.clone(),
+            }),
+            _ => None,
+        }
+    }
+
+    /// The live sketch grid so far.
+    pub fn live_sketch(&self) -> Option<&[Vec<DVec3>]> {
+        match &self.gesture {
+            Gesture::Sketch { rows, .. } => Some(rows),
+            _ => None,
+        }
+    }
+
+    /// Tells the machine how many target surfaces exist (selection wraps around them).
+    pub fn set_target_count(&mut self, n: u32) {
+        self.target_count = n.max(1);
+        if self.target >= self.target_count {
+            self.target = self.target_count - 1;
+        }
+    }
+
+    fn stroke_mode(&self) -> StrokeMode {
+        match self.mode {
+            Mode::Emboss => StrokeMode::Emboss,
+            _ => StrokeMode::Carve,
+        }
+    }
+
+    fn bit(&self, b: u8) -> u32 {
+        1u32.checked_shl(u32::from(b)).unwrap_or(0)
+    }
+
+    /// Feeds one event; appends what it causes to `out`.
+    ///
+    /// Fails (changing nothing) when the time is not finite or goes backwards, or a
+    /// command carries an invalid value.
+    pub fn handle(&mut self, ev: &WandEvent, out: &mut Vec<Output>) -> Result<()> {
+        if !ev.t.is_finite() {
+            return Err(Error::Interaction(format!(
+                "event time {} is not finite",
+                ev.t
+            )));
+        }
+        if let Some(last) = self.last_t
+            && ev.t < last
+        {
+            return Err(Error::Interaction(format!(
+                "event time {} is before the previous {last}",
+                ev.t
+            )));
+        }
+        if let WandInput::Command(c) = ev.input {
+            self.check_command(&c)?;
+        }
+        self.last_t = Some(ev.t);
+        self.tick_inner(ev.t, out);
+        match ev.input {
+            WandInput::Sample(s) => self.on_sample(ev.t, &s, out),
+            WandInput::Command(c) => self.on_command(ev.t, c, out),
+        }
+        Ok(())
+    }
+
+    /// Advances time with no input (call once a frame): a gesture paused for longer
+    /// than the timeout ends at its last good sample. Times before the last event are
+    /// ignored.
+    pub fn tick(&mut self, t: f64, out: &mut Vec<Output>) {
+        if t.is_finite() && self.last_t.is_none_or(|l| t >= l) {
+            self.last_t = Some(t);
+            self.tick_inner(t, out);
+        }
+    }
+
+    fn tick_inner(&mut self, t: f64, out: &mut Vec<Output>) {
+        let paused = match &self.gesture {
+            Gesture::Stroke { paused_since, .. } | Gesture::Sketch { paused_since, .. } => {
+                *paused_since
+            }
+            _ => None,
+        };
+        if let Some(since) = paused
+            && t - since > self.config.pause_timeout
+        {
+            self.finish(t, EndReason::TrackingLost, out);
+        }
+    }
+
+    fn check_command(&self, c: &Command) -> Result<()> {
+        match *c {
+            Command::SetWidth { width } => Tool { width, ..self.tool }.validate(),
+            Command::SetDepth { depth } => Tool { depth, ..self.tool }.validate(),
+            _ => Ok(()),
+        }
+    }
+
+    fn on_command(&mut self, t: f64, c: Command, out: &mut Vec<Output>) {
+        match c {
+            Command::SetMode { mode } => self.set_mode(t, mode, out),
+            Command::SetProfile { profile } => self.set_tool(
+                t,
+                Tool {
+                    profile,
+                    ..self.tool
+                },
+                out,
+            ),
+            Command::SetWidth { width } => self.set_tool(t, Tool { width, ..self.tool }, out),
+            Command::SetDepth { depth } => self.set_tool(t, Tool { depth, ..self.tool }, out),
+            Command::Undo => self.command_edit(t, Edit::Undo, out),
+            Command::Redo => self.command_edit(t, Edit::Redo, out),
+            Command::SelectTarget { index } => {
+                if index < self.target_count {
+                    self.target = index;
+                    self.command_edit(t, Edit::SelectTarget { index }, out);
+                }
+            }
+            Command::SelectNextTarget => self.select_next(t, out),
+            Command::Save => self.command_edit(t, Edit::Save, out),
+        }
+    }
+
+    fn select_next(&mut self, t: f64, out: &mut Vec<Output>) {
+        if self.gesture_active() {
+            return;
+        }
+        self.target = (self.target + 1) % self.target_count;
+        let index = self.target;
+        self.command_edit(t, Edit::SelectTarget { index }, out);
+    }
+
+    /// Undo, redo, select and save act only between gestures.
+    fn command_edit(&mut self, t: f64, edit: Edit, out: &mut Vec<Output>) {
+        if self.gesture_active() {
+            return;
+        }
+        out.push(Output::Op {
+            t,
+            event: OperatorEvent::Command { edit: edit.clone() },
+        });
+        out.push(Output::Edit(edit));
+    }
+
+    fn set_mode(&mut self, t: f64, mode: Mode, out: &mut Vec<Output>) {
+        if self.gesture_active() || mode == self.mode {
+            return;
+        }
+        out.push(Output::Op {
+            t,
+            event: OperatorEvent::ModeChange {
+                from: self.mode,
+                to: mode,
+            },
+        });
+        self.mode = mode;
+    }
+
+    fn set_tool(&mut self, t: f64, tool: Tool, out: &mut Vec<Output>) {
+        if self.gesture_active() || tool == self.tool {
+            return;
+        }
+        self.tool = tool;
+        out.push(Output::Op {
+            t,
+            event: OperatorEvent::ToolChange { tool },
+        });
+    }
+
+    fn on_sample(&mut self, t: f64, s: &WandSample, out: &mut Vec<Output>) {
+        let usable = s.usable() && !self.is_glitch(t, s);
+        if usable != self.tracked {
+            self.tracked = usable;
+            out.push(Output::Op {
+                t,
+                event: if usable {
+                    OperatorEvent::TrackingRegained
+                } else {
+                    OperatorEvent::TrackingLost
+                },
+            });
+        }
+        if usable {
+            let q = s.orientation.normalize();
+            self.pose_counter = self.pose_counter.wrapping_add(1);
+            if self.pose_counter % self.config.pose_every.max(1) == 0 {
+                out.push(Output::Op {
+                    t,
+                    event: OperatorEvent::Pose {
+                        position: s.position,
+                        orientation: q,
+                    },
+                });
+            }
+            self.extend_gesture(t, s.position, q, out);
+            self.last_good = Some((t, s.position, q));
+        } else {
+            self.pause_gesture(t);
+        }
+        self.on_buttons(t, s.buttons, out);
+    }
+
+    /// A tracked sample implying a speed above `max_speed` is a glitch.
+    fn is_glitch(&self, t: f64, s: &WandSample) -> bool {
+        match self.last_good {
+            Some((t0, p0, _)) if self.tracked => {
+                let dt = (t - t0).max(1e-3);
+                (s.position - p0).length() / dt > self.config.max_speed
+            }
+            _ => false,
+        }
+    }
+
+    fn pause_gesture(&mut self, t: f64) {
+        if let Gesture::Stroke { paused_since, .. } | Gesture::Sketch { paused_since, .. } =
+            &mut self.gesture
+            && paused_since.is_none()
+        {
+            *paused_since = Some(t);
+        }
+    }
+
+    fn extend_gesture(&mut self, t: f64, p: DVec3, q: DQuat, out: &mut Vec<Output>) {
+        let last_p = self.last_good.map(|(_, p, _)| p);
+        let resume_ok = last_p.is_some_and(|lp| (p - lp).length() <= self.config.max_resume_jump);
+        let paused = match &mut self.gesture {
+            Gesture::Stroke { paused_since, .. } | Gesture::Sketch { paused_since, .. } => {
+                paused_since
+            }
+            _ => return,
+        };
+        if paused.is_some() {
+            if resume_ok {
+                *paused = None;
+            } else {
+                // Came back somewhere else: end at the last good sample, no jump.
+                self.finish(t, EndReason::TrackingLost, out);
+                return;
+            }
+        }
+        let cap = self.config.max_samples;
+        let mut too_long = false;
+        match &mut self.gesture {
+            Gesture::Stroke { samples, .. } => {
+                samples.push(StrokeSample { t, position: p });
+                too_long = samples.len() >= cap;
+            }
+            Gesture::Sketch { rows, last_tip, .. } => {
+                if rows.is_empty() || (p - *last_tip).length() >= self.config.sketch_row_spacing {
+                    rows.push(sketch_row(
+                        p,
+                        q,
+                        self.config.sketch_axis,
+                        self.config.sketch_columns,
+                    ));
+                    *last_tip = p;
+                }
+                too_long = rows.len() >= cap;
+            }
+            _ => {}
+        }
+        if too_long {
+            self.finish(t, EndReason::TooLong, out);
+        }
+    }
+
+    fn on_buttons(&mut self, t: f64, buttons: u32, out: &mut Vec<Output>) {
+        let down = buttons & !self.buttons;
+        let up = self.buttons & !buttons;
+        self.buttons = buttons;
+        for b in 0..32u8 {
+            let bit = 1u32 << b;
+            if up & bit != 0 {
+                out.push(Output::Op {
+                    t,
+                    event: OperatorEvent::ButtonUp { button: b },
+                });
+            }
+            if down & bit != 0 {
+                out.push(Output::Op {
+                    t,
+                    event: OperatorEvent::ButtonDown { button: b },
+                });
+            }
+        }
+        let map = self.config.buttons;
+        if up & self.bit(map.action) != 0 {
+            self.finish(t, EndReason::Released, out);
+            self.gesture = Gesture::Idle;
+        }
+        if down & self.bit(map.action) != 0 {
+            self.start_gesture(t, out);
+        }
+        if down & self.bit(map.mode) != 0 {
+            self.set_mode(t, self.mode.next(), out);
+        }
+        if down & self.bit(map.profile) != 0 {
+            let profile = match self.tool.profile {
+                Profile::V => Profile::U,
+                Profile::U => Profile::V,
+            };
+            self.set_tool(
+                t,
+                Tool {
+                    profile,
+                    ..self.tool
+                },
+                out,
+            );
+        }
+        if down & self.bit(map.undo) != 0 {
+            self.command_edit(t, Edit::Undo, out);
+        }
+        if down & self.bit(map.redo) != 0 {
+            self.command_edit(t, Edit::Redo, out);
+        }
+        if down & self.bit(map.select) != 0 {
+            self.select_next(t, out);
+        }
+    }
+
+    fn start_gesture(&mut self, t: f64, out: &mut Vec<Output>) {
+        if !matches!(self.gesture, Gesture::Idle) {
+            return;
+        }
+        // A press while untracked starts nothing: there is no pose to start from.
+        let Some((_, p, q)) = self.last_good.filter(|_| self.tracked) else {
+            self.gesture = Gesture::Spent;
+            return;
+        };
+        self.gesture = match self.mode {
+            Mode::Sketch => Gesture::Sketch {
+                rows: vec![sketch_row(
+                    p,
+                    q,
+                    self.config.sketch_axis,
+                    self.config.sketch_columns,
+                )],
+                last_tip: p,
+                paused_since: None,
+            },
+            Mode::Carve | Mode::Emboss => Gesture::Stroke {
+                samples: vec![StrokeSample { t, position: p }],
+                paused_since: None,
+            },
+        };
+        out.push(Output::Op {
+            t,
+            event: OperatorEvent::GestureStart { mode: self.mode },
+        });
+    }
+
+    /// Ends the live gesture (if any), emitting its edit when it is long enough.
+    fn finish(&mut self, t: f64, reason: EndReason, out: &mut Vec<Output>) {
+        let gesture = std::mem::replace(&mut self.gesture, Gesture::Spent);
+        let edit = match gesture {
+            Gesture::Stroke { samples, .. } => {
+                let length: f64 = samples
+                    .windows(2)
+                    .map(|w| (w[1].position - w[0].position).length())
+                    .sum();
+                (samples.len() >= 2 && length >= self.config.min_stroke_length).then(|| {
+                    Edit::Stroke(StrokeEdit {
+                        target: self.target,
+                        mode: self.stroke_mode(),
+                        tool: self.tool,
+                        samples,
+                    })
+                })
+            }
+            Gesture::Sketch { rows, .. } => (rows.len() >= self.config.min_sketch_rows as usize)
+                .then_some(Edit::Sketch { rows }),
+            idle @ (Gesture::Idle | Gesture::Spent) => {
+                self.gesture = idle;
+                return;
+            }
+        };
+        out.push(Output::Op {
+            t,
+            event: OperatorEvent::GestureEnd {
+                mode: self.mode,
+                committed: edit.is_some(),
+                reason,
+            },
+        });
+        if let Some(edit) = edit {
+            if matches!(edit, Edit::Sketch { .. }) {
+                // The new surface becomes the next target.
+                self.target_count = self.target_count.saturating_add(1);
+            }
+            out.push(Output::Edit(edit));
+        }
+    }
+}
+
+/// One sketch row: `columns` points from the tip along the wand's sweep axis.
+fn sketch_row(
+    tip: DVec3,
+    display_from_wand: DQuat,
+    axis_in_wand: DVec3,
+    columns: u32,
+) -> Vec<DVec3> {
+    let axis = display_from_wand * axis_in_wand;
+    let n = columns.max(2);
+    (0..n)
+        .map(|j| tip + axis * (f64::from(j) / f64::from(n - 1)))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests;

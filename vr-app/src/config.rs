@@ -1,0 +1,379 @@
+//! The `wandsculpt` configuration file (TOML).
+//!
+//! Every section is optional; a missing section takes its defaults, which describe a
+//! desktop: one 0.6 m x 0.34 m monitor, mono output, no tracker (desktop mode with the
+//! emulated wand). Unknown keys are errors, so a typo never silently does nothing.
+//! Two documented examples ship in `vr-app/config/`: `wall.toml` (a two-projector
+//! passive-stereo wall with an ART tracker) and `desktop.toml`.
+//!
+//! ```
+//! let cfg = vr_app::config::Config::from_toml_str(r#"
+//!     [display]
+//!     mode = "side-by-side"
+//!     [screen]
+//!     lower_left = [-1.5, 0.0, 0.0]
+//!     lower_right = [1.5, 0.0, 0.0]
+//!     upper_left = [-1.5, 2.2, 0.0]
+//!     [tracking]
+//!     wand = "wand1"
+//!     head = "body0"
+//!     [[tracking.input.source]]
+//!     kind = "tcp-listen"
+//!     addr = "127.0.0.1:5001"
+//! "#)?;
+//! assert_eq!(cfg.display.mode, vr_app::render::OutputMode::SideBySide);
+//! # Ok::<(), vr_app::VrError>(())
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+use sculpt_core::interaction::{InteractionConfig, Mode, Profile, Tool};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{VrError, VrResult};
+use crate::projection::{HeadPose, Screen, StereoRig};
+use crate::render::OutputMode;
+
+/// The whole configuration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(default, deny_unknown_fields)]
+pub struct Config {
+    /// Outputs and windows.
+    pub display: DisplayConfig,
+    /// The physical screen.
+    pub screen: ScreenConfig,
+    /// Eye separation and clip planes.
+    pub stereo: StereoRig,
+    /// The head position used without a head tracker.
+    pub head: HeadConfig,
+    /// Where tracking comes from; absent means desktop mode.
+    pub tracking: Option<TrackingSection>,
+    /// Starting tool and mode.
+    pub tool: ToolConfig,
+    /// State machine tuning and button map.
+    pub interaction: InteractionConfig,
+    /// Journal, autosave and output files.
+    pub files: FilesConfig,
+}
+
+/// Output settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DisplayConfig {
+    /// `dual`, `side-by-side`, `anaglyph` or `mono`.
+    pub mode: OutputMode,
+    /// Swap the eyes (projectors or filters wired the other way round).
+    pub swap_eyes: bool,
+    /// Monitor indices (as winit lists them) for the outputs: `[left, right]` in dual
+    /// mode, the first entry otherwise.
+    pub monitors: Vec<usize>,
+    /// Fullscreen on the chosen monitors.
+    pub fullscreen: bool,
+    /// Window or offscreen size per output, pixels.
+    pub width: u32,
+    /// Height per output, pixels.
+    pub height: u32,
+    /// Draw the mesh wireframe.
+    pub wireframe: bool,
+    /// Show the HUD.
+    pub hud: bool,
+}
+
+impl Default for DisplayConfig {
+    fn default() -> Self {
+        Self {
+            mode: OutputMode::Mono,
+            swap_eyes: false,
+            monitors: Vec::new(),
+            fullscreen: false,
+            width: 1280,
+            height: 720,
+            wireframe: false,
+            hud: true,
+        }
+    }
+}
+
+/// The screen rectangle, display frame metres.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ScreenConfig {
+    /// Lower-left corner.
+    pub lower_left: [f64; 3],
+    /// Lower-right corner.
+    pub lower_right: [f64; 3],
+    /// Upper-left corner.
+    pub upper_left: [f64; 3],
+}
+
+impl Default for ScreenConfig {
+    fn default() -> Self {
+        // A 27" monitor (0.6 m x 0.34 m) whose bottom edge is at y = 1.0 m.
+        Self {
+            lower_left: [-0.3, 1.0, 0.0],
+            lower_right: [0.3, 1.0, 0.0],
+            upper_left: [-0.3, 1.34, 0.0],
+        }
+    }
+}
+
+impl ScreenConfig {
+    /// The validated screen.
+    pub fn screen(&self) -> VrResult<Screen> {
+        Screen::new(
+            self.lower_left.into(),
+            self.lower_right.into(),
+            self.upper_left.into(),
+        )
+    }
+}
+
+/// The fixed head, used when no head tracker is configured.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(default, deny_unknown_fields)]
+pub struct HeadConfig {
+    /// Head position (metres, display frame); by default 0.6 m in front of the
+    /// screen centre.
+    pub position: Option<[f64; 3]>,
+}
+
+/// Tracking: which devices are the wand and the head, and the tracking crate's own
+/// input configuration (sources, filter, calibration, loss timeout) under
+/// `[tracking.input]`, as documented in the README's `tracking` section.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrackingSection {
+    /// The wand device: `wandN` (a Flystick) or `bodyN` (a 6DOF body).
+    pub wand: String,
+    /// The head (glasses) device, usually `bodyN`; absent means a fixed head.
+    #[serde(default)]
+    pub head: Option<String>,
+    /// Sources, filter, calibration.
+    #[serde(default)]
+    pub input: tracking::config::TrackingConfig,
+}
+
+impl TrackingSection {
+    /// The wand's device id.
+    pub fn wand_id(&self) -> VrResult<tracking::DeviceId> {
+        self.wand
+            .parse()
+            .map_err(|e: tracking::TrackingError| VrError::Config(format!("tracking.wand: {e}")))
+    }
+
+    /// The head's device id, if configured.
+    pub fn head_id(&self) -> VrResult<Option<tracking::DeviceId>> {
+        self.head
+            .as_deref()
+            .map(|h| {
+                h.parse().map_err(|e: tracking::TrackingError| {
+                    VrError::Config(format!("tracking.head: {e}"))
+                })
+            })
+            .transpose()
+    }
+}
+
+/// Starting tool and mode.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ToolConfig {
+    /// Starting mode.
+    pub mode: Mode,
+    /// Profile, `v` or `u`.
+    pub profile: Profile,
+    /// Width (metres).
+    pub width: f64,
+    /// Depth (metres).
+    pub depth: f64,
+}
+
+impl Default for ToolConfig {
+    fn default() -> Self {
+        let t = Tool::default();
+        Self {
+            mode: Mode::Carve,
+            profile: t.profile,
+            width: t.width,
+            depth: t.depth,
+        }
+    }
+}
+
+impl ToolConfig {
+    /// The tool.
+    pub fn tool(&self) -> Tool {
+        Tool {
+            profile: self.profile,
+            width: self.width,
+            depth: self.depth,
+        }
+    }
+}
+
+/// Output files.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FilesConfig {
+    /// Directory for the journal, autosave, documents and screenshots.
+    pub dir: PathBuf,
+    /// Autosave the document after this many operations (0 = never).
+    pub autosave_every: u32,
+}
+
+impl Default for FilesConfig {
+    fn default() -> Self {
+        Self {
+            dir: PathBuf::from("wandsculpt-session"),
+            autosave_every: 5,
+        }
+    }
+}
+
+impl Config {
+    /// Parses and validates a TOML string.
+    pub fn from_toml_str(text: &str) -> VrResult<Self> {
+        let cfg: Config = toml::from_str(text).map_err(|e| VrError::Config(e.to_string()))?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// Reads and validates a TOML file.
+    pub fn load(path: impl AsRef<Path>) -> VrResult<Self> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| VrError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::from_toml_str(&text).map_err(|e| VrError::Config(format!("{}: {e}", path.display())))
+    }
+
+    /// Checks values the types cannot.
+    pub fn validate(&self) -> VrResult<()> {
+        let screen = self.screen.screen()?;
+        let s = &self.stereo;
+        if !(s.ipd.is_finite() && (0.0..=0.2).contains(&s.ipd)) {
+            return Err(VrError::Config(format!(
+                "stereo.ipd must be in [0, 0.2] m, got {}",
+                s.ipd
+            )));
+        }
+        if !(s.near > 0.0 && s.far > s.near && s.far.is_finite()) {
+            return Err(VrError::Config("stereo: need 0 < near < far".into()));
+        }
+        let d = &self.display;
+        if !(1..=16384).contains(&d.width) || !(1..=16384).contains(&d.height) {
+            return Err(VrError::Config(format!(
+                "display size {}x{} is outside 1..=16384",
+                d.width, d.height
+            )));
+        }
+        self.tool.tool().validate()?;
+        if let Some(p) = self.head.position {
+            let p = DVec3::from(p);
+            let (_, _, vn) = screen.basis();
+            if !p.is_finite() || (p - screen.lower_left).dot(vn) <= 0.0 {
+                return Err(VrError::Config(
+                    "head.position must be finite and in front of the screen".into(),
+                ));
+            }
+        }
+        if let Some(t) = &self.tracking {
+            t.wand_id()?;
+            t.head_id()?;
+            t.input
+                .validate()
+                .map_err(|e| VrError::Config(format!("tracking.input: {e}")))?;
+            if t.input.sources.is_empty() {
+                return Err(VrError::Config(
+                    "tracking.input needs at least one [[tracking.input.source]]".into(),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The fixed head pose (configured, or 0.6 m in front of the screen centre).
+    pub fn fixed_head(&self) -> VrResult<HeadPose> {
+        let screen = self.screen.screen()?;
+        let mut head = crate::projection::fixed_head(&screen, 0.6);
+        if let Some(p) = self.head.position {
+            head.position = p.into();
+        }
+        Ok(head)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn example(name: &str) -> Config {
+        Config::load(
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("config")
+                .join(name),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn shipped_examples_parse() {
+        let wall = example("wall.toml");
+        assert_eq!(wall.display.mode, OutputMode::Dual);
+        assert_eq!(wall.display.monitors, vec![1, 2]);
+        let t = wall.tracking.as_ref().unwrap();
+        assert_eq!(t.head_id().unwrap(), Some(tracking::DeviceId::Body(0)));
+        assert_eq!(t.wand_id().unwrap(), tracking::DeviceId::Wand(1));
+        assert!(matches!(
+            t.input.sources[0],
+            tracking::config::SourceConfig::TcpListen { .. }
+        ));
+        let desk = example("desktop.toml");
+        assert!(desk.tracking.is_none());
+        assert_eq!(desk.display.mode, OutputMode::Mono);
+    }
+
+    #[test]
+    fn empty_file_is_the_desktop_default() {
+        let c = Config::from_toml_str("").unwrap();
+        assert_eq!(c, Config::default());
+        let head = c.fixed_head().unwrap();
+        sculpt_core::assert_near!(head.position.to_array(), [0.0, 1.17, 0.6], 1e-12);
+    }
+
+    #[test]
+    fn bad_configs_are_clear_errors() {
+        for (text, needle) in [
+            ("[display]\nmode = \"holo\"", "unknown variant"),
+            ("[display]\nbogus = 1", "unknown field"),
+            (
+                "[screen]\nlower_left = [0,0,0]\nlower_right = [0,0,0]\nupper_left = [0,1,0]",
+                "edge",
+            ),
+            ("[stereo]\nipd = -1.0", "ipd"),
+            ("[tool]\nwidth = 0.0", "width"),
+            ("[head]\nposition = [0.0, 1.0, -2.0]", "in front"),
+            ("[tracking]\nwand = \"stick1\"", "tracking.wand"),
+            ("[tracking]\nwand = \"wand1\"", "at least one"),
+            ("[display]\nwidth = 0", "size"),
+        ] {
+            let e = Config::from_toml_str(text).unwrap_err().to_string();
+            assert!(e.contains(needle), "{text:?} gave {e:?}");
+        }
+    }
+
+    mod props {
+        use super::*;
+        use proptest::prelude::*;
+
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(128))]
+            #[test]
+            fn arbitrary_text_never_panics(text in "[\\[\\]a-z_=. 0-9\"\n{},-]{0,200}") {
+                let _ = Config::from_toml_str(&text);
+            }
+        }
+    }
+}

@@ -1,0 +1,188 @@
+//! Headless runs: inputs in, journal, document, operator log and stereo PNGs out, with
+//! no window (`wandsculpt --headless`).
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use sculpt_core::interaction::WandEvent;
+use serde::Serialize;
+
+use crate::app::{AppState, TrackingState};
+use crate::error::{VrError, VrResult};
+use crate::journal::Journal;
+use crate::projection::HeadPose;
+use crate::render::{FrameInput, Gpu, OutputMode, Renderer};
+use crate::session::{JOURNAL_FILE, OPLOG_FILE};
+
+/// One input of a headless run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Input {
+    /// A wand event.
+    Wand(WandEvent),
+    /// The tracked head moved (`None`: head lost, use the fixed head).
+    Head(Option<HeadPose>),
+    /// Tracking status changed.
+    Tracking(TrackingState),
+}
+
+/// Options of a headless run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeadlessOptions {
+    /// Output width per image (pixels).
+    pub width: u32,
+    /// Output height (pixels).
+    pub height: u32,
+    /// Composition of `frame.png`.
+    pub mode: OutputMode,
+    /// Also render a frame every this many wand events (0: only the final frame), to
+    /// measure frame time along the way.
+    pub render_every: usize,
+    /// Pace wand events by their timestamps (real time) instead of as fast as possible.
+    pub realtime: bool,
+}
+
+/// What a headless run did.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct HeadlessReport {
+    /// The adapter used.
+    pub adapter: String,
+    /// Inputs consumed.
+    pub inputs: usize,
+    /// Operations in the journal after the run.
+    pub operations: u64,
+    /// Operations recovered from an earlier run's journal.
+    pub recovered: usize,
+    /// Target surfaces in the document.
+    pub targets: usize,
+    /// Strokes in the document.
+    pub strokes: usize,
+    /// Frames rendered.
+    pub frames: usize,
+    /// Median CPU time per frame (update + encode, both eyes), microseconds.
+    pub frame_cpu_median_us: f64,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+}
+
+/// Runs `inputs` through the session in `app`, rendering with `gpu`, and writes
+/// `left.png`, `right.png` and `frame.png` (the `mode` composition), the saved
+/// document, the journal and the operator log into the session directory.
+pub fn run_headless(
+    app: &mut AppState,
+    gpu: &Gpu,
+    inputs: impl IntoIterator<Item = Input>,
+    opts: &HeadlessOptions,
+) -> VrResult<HeadlessReport> {
+    let mut renderer = Renderer::new(gpu, wgpu::TextureFormat::Rgba8Unorm);
+    renderer.wireframe = app.config.display.wireframe;
+    renderer.swap_eyes = app.config.display.swap_eyes;
+    let mut frame_times: Vec<Duration> = Vec::new();
+    let mut count = 0usize;
+    let mut wand_events = 0usize;
+    let mut last_t = 0.0;
+    let started = std::time::Instant::now();
+    for input in inputs {
+        count += 1;
+        match input {
+            Input::Wand(ev) => {
+                if opts.realtime && ev.t.is_finite() && ev.t >= 0.0 {
+                    let due = started + Duration::from_secs_f64(ev.t.min(1e6));
+                    if let Some(wait) = due.checked_duration_since(std::time::Instant::now()) {
+                        std::thread::sleep(wait);
+                    }
+                }
+                app.session.handle(&ev)?;
+                last_t = ev.t;
+                wand_events += 1;
+                if opts.render_every > 0 && wand_events % opts.render_every == 0 {
+                    frame_times.push(render_frame(app, &mut renderer, opts)?);
+                }
+            }
+            Input::Head(h) => app.set_head(h),
+            Input::Tracking(t) => app.tracking = t,
+        }
+    }
+    app.session.tick(last_t + 10.0)?;
+    let doc_path = app.session.save_document()?;
+    app.session.flush()?;
+    app.sync_meshes(&mut renderer.targets, &mut renderer.strokes);
+    let views = app.views()?;
+    let lines = app.overlay_lines();
+    let hud = if app.config.display.hud {
+        app.hud_lines()
+    } else {
+        Vec::new()
+    };
+    let input = FrameInput {
+        views: &views,
+        lines: &lines,
+        hud: &hud,
+    };
+    let frame = renderer.render_offscreen(&input, opts.mode, opts.width, opts.height)?;
+    frame_times.push(renderer.last_frame().cpu);
+    let dir = app.session.dir().to_path_buf();
+    let mut files = vec![doc_path, dir.join(JOURNAL_FILE), dir.join(OPLOG_FILE)];
+    for (name, img) in [
+        ("left.png", &frame.left),
+        ("right.png", &frame.right),
+        ("frame.png", &frame.composite),
+    ] {
+        let p = dir.join(name);
+        img.save(&p).map_err(|e| VrError::Image {
+            path: p.display().to_string(),
+            reason: e.to_string(),
+        })?;
+        files.push(p);
+    }
+    // The journal is the record of truth: make sure it reads back.
+    let operations = Journal::read(dir.join(JOURNAL_FILE))?.len() as u64;
+    frame_times.sort();
+    let median = frame_times
+        .get(frame_times.len() / 2)
+        .copied()
+        .unwrap_or_default();
+    Ok(HeadlessReport {
+        adapter: gpu.describe(),
+        inputs: count,
+        operations,
+        recovered: app.session.recovered,
+        targets: app.session.doc.targets.len(),
+        strokes: app.session.doc.strokes.len(),
+        frames: frame_times.len(),
+        frame_cpu_median_us: median.as_secs_f64() * 1e6,
+        files,
+    })
+}
+
+/// Renders one offscreen frame (not read back) and returns its CPU time.
+fn render_frame(
+    app: &mut AppState,
+    renderer: &mut Renderer,
+    opts: &HeadlessOptions,
+) -> VrResult<Duration> {
+    app.sync_meshes(&mut renderer.targets, &mut renderer.strokes);
+    let views = app.views()?;
+    let lines = app.overlay_lines();
+    let hud = app.hud_lines();
+    let texture = renderer.output_texture(opts.width, opts.height);
+    let view = texture.create_view(&Default::default());
+    let content = match opts.mode {
+        OutputMode::SideBySide => crate::render::OutputContent::SideBySide,
+        OutputMode::Anaglyph => crate::render::OutputContent::Anaglyph,
+        OutputMode::Mono => crate::render::OutputContent::Mono,
+        OutputMode::Dual => crate::render::OutputContent::LeftEye,
+    };
+    let stats = renderer.render(
+        &FrameInput {
+            views: &views,
+            lines: &lines,
+            hud: &hud,
+        },
+        &[crate::render::OutputTarget {
+            view: &view,
+            size: (opts.width, opts.height),
+            content,
+        }],
+    );
+    Ok(stats.cpu)
+}

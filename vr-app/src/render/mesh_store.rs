@@ -1,0 +1,192 @@
+//! GPU-side mesh storage: a [`MeshSink`] whose patches live in their own vertex and
+//! index buffers, so that re-tessellating one patch uploads only that patch.
+
+use std::collections::BTreeMap;
+
+use bytemuck::{Pod, Zeroable};
+use sculpt_core::mesh::{MeshSink, MeshVertex, PatchKey};
+use wgpu::util::DeviceExt;
+
+/// The GPU vertex layout (same fields as [`MeshVertex`], 32 bytes).
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+#[repr(C)]
+pub struct GpuVertex {
+    /// Position, display frame metres.
+    pub position: [f32; 3],
+    /// Unit normal.
+    pub normal: [f32; 3],
+    /// Surface parameter.
+    pub uv: [f32; 2],
+}
+
+impl GpuVertex {
+    /// The vertex buffer layout for the mesh pipelines.
+    pub const LAYOUT: wgpu::VertexBufferLayout<'static> = wgpu::VertexBufferLayout {
+        array_stride: std::mem::size_of::<GpuVertex>() as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2],
+    };
+}
+
+/// One uploaded patch.
+#[derive(Debug)]
+pub struct GpuPatch {
+    /// Vertex buffer.
+    pub vertices: wgpu::Buffer,
+    /// Triangle index buffer (u32).
+    pub triangles: wgpu::Buffer,
+    /// Number of triangle indices.
+    pub triangle_index_count: u32,
+    /// Edge index buffer (u32 pairs) for the wireframe.
+    pub edges: wgpu::Buffer,
+    /// Number of edge indices.
+    pub edge_index_count: u32,
+}
+
+/// Upload counters, to check that only changed patches reach the GPU.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct UploadStats {
+    /// Patches uploaded since creation.
+    pub patch_uploads: u64,
+    /// Bytes uploaded since creation.
+    pub bytes: u64,
+}
+
+/// A set of patches on the GPU, written through [`MeshSink`].
+#[derive(Debug)]
+pub struct GpuMeshStore {
+    device: wgpu::Device,
+    patches: BTreeMap<PatchKey, GpuPatch>,
+    current: Option<(PatchKey, Vec<GpuVertex>, Vec<[u32; 3]>)>,
+    stats: UploadStats,
+}
+
+impl GpuMeshStore {
+    /// An empty store on `device`.
+    pub fn new(device: &wgpu::Device) -> Self {
+        Self {
+            device: device.clone(),
+            patches: BTreeMap::new(),
+            current: None,
+            stats: UploadStats::default(),
+        }
+    }
+
+    /// The uploaded patches.
+    pub fn patches(&self) -> impl Iterator<Item = (PatchKey, &GpuPatch)> {
+        self.patches.iter().map(|(k, p)| (*k, p))
+    }
+
+    /// Number of patches.
+    pub fn len(&self) -> usize {
+        self.patches.len()
+    }
+
+    /// True when there are no patches.
+    pub fn is_empty(&self) -> bool {
+        self.patches.is_empty()
+    }
+
+    /// Total triangles over all patches.
+    pub fn triangle_count(&self) -> u64 {
+        self.patches
+            .values()
+            .map(|p| u64::from(p.triangle_index_count / 3))
+            .sum()
+    }
+
+    /// Upload counters.
+    pub fn stats(&self) -> UploadStats {
+        self.stats
+    }
+
+    /// Removes every patch.
+    pub fn clear(&mut self) {
+        self.patches.clear();
+        self.current = None;
+    }
+
+    fn upload(&mut self, key: PatchKey, vertices: Vec<GpuVertex>, triangles: Vec<[u32; 3]>) {
+        // Drop triangles that index past the patch or touch a non-finite vertex: bad
+        // input must not reach the GPU.
+        let n = vertices.len() as u32;
+        let finite: Vec<bool> = vertices
+            .iter()
+            .map(|v| v.position.iter().chain(&v.normal).all(|c| c.is_finite()))
+            .collect();
+        let triangles: Vec<[u32; 3]> = triangles
+            .into_iter()
+            .filter(|t| t.iter().all(|&i| i < n && finite[i as usize]))
+            .collect();
+        if triangles.is_empty() {
+            self.patches.remove(&key);
+            return;
+        }
+        let mut edges: Vec<[u32; 2]> = triangles
+            .iter()
+            .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+            .map(|[a, b]| if a < b { [a, b] } else { [b, a] })
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        let make = |label: &str, bytes: &[u8], usage| {
+            self.device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents: bytes,
+                    usage,
+                })
+        };
+        let vb = bytemuck::cast_slice::<GpuVertex, u8>(&vertices);
+        let tb = bytemuck::cast_slice::<[u32; 3], u8>(&triangles);
+        let eb = bytemuck::cast_slice::<[u32; 2], u8>(&edges);
+        let patch = GpuPatch {
+            vertices: make("patch vertices", vb, wgpu::BufferUsages::VERTEX),
+            triangles: make("patch triangles", tb, wgpu::BufferUsages::INDEX),
+            triangle_index_count: (triangles.len() * 3) as u32,
+            edges: make("patch edges", eb, wgpu::BufferUsages::INDEX),
+            edge_index_count: (edges.len() * 2) as u32,
+        };
+        self.stats.patch_uploads += 1;
+        self.stats.bytes += (vb.len() + tb.len() + eb.len()) as u64;
+        self.patches.insert(key, patch);
+    }
+}
+
+impl MeshSink for GpuMeshStore {
+    fn begin_patch(&mut self, key: PatchKey) {
+        if let Some((k, v, t)) = self.current.take() {
+            self.upload(k, v, t);
+        }
+        self.current = Some((key, Vec::new(), Vec::new()));
+    }
+
+    fn push_vertex(&mut self, vertex: MeshVertex) -> u32 {
+        let cur = self
+            .current
+            .get_or_insert_with(|| (PatchKey::MAX, Vec::new(), Vec::new()));
+        cur.1.push(GpuVertex {
+            position: vertex.position,
+            normal: vertex.normal,
+            uv: vertex.uv,
+        });
+        (cur.1.len() - 1) as u32
+    }
+
+    fn push_triangle(&mut self, a: u32, b: u32, c: u32) {
+        let cur = self
+            .current
+            .get_or_insert_with(|| (PatchKey::MAX, Vec::new(), Vec::new()));
+        cur.2.push([a, b, c]);
+    }
+
+    fn end_patch(&mut self) {
+        if let Some((k, v, t)) = self.current.take() {
+            self.upload(k, v, t);
+        }
+    }
+
+    fn remove_patch(&mut self, key: PatchKey) {
+        self.patches.remove(&key);
+    }
+}

@@ -1,0 +1,1008 @@
+//! The wgpu renderer: shaded meshes, optional wireframe, wand cursor lines and a HUD,
+//! drawn for each eye and composed into the outputs of the chosen [`OutputMode`].
+//!
+//! Geometry arrives only through [`MeshSink`](sculpt_core::mesh::MeshSink): the two
+//! [`GpuMeshStore`]s (targets and stroke surfaces) keep one buffer set per patch, so an
+//! edit re-uploads only the patches it changed. The same code renders to windows and
+//! offscreen; [`Renderer::render_offscreen`] returns both eyes and the composite as
+//! images for PNG output (it runs on lavapipe, Mesa's CPU Vulkan driver).
+//!
+//! ```no_run
+//! use vr_app::projection::{fixed_head, Screen, StereoRig};
+//! use vr_app::render::{FrameInput, Gpu, OutputMode, Renderer, Views};
+//! use glam::DVec3;
+//! let gpu = Gpu::headless()?;
+//! let mut renderer = Renderer::new(&gpu, wgpu::TextureFormat::Rgba8Unorm);
+//! let screen = Screen::new(DVec3::new(-1.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(-1.0, 1.5, 0.0))?;
+//! let views = Views::new(&StereoRig::default(), &screen, &fixed_head(&screen, 2.0))?;
+//! let frame = renderer.render_offscreen(&FrameInput { views: &views, lines: &[], hud: &[] }, OutputMode::Anaglyph, 640, 360)?;
+//! frame.composite.save("frame.png").unwrap();
+//! # Ok::<(), vr_app::VrError>(())
+//! ```
+
+pub mod gpu;
+pub mod hud;
+pub mod mesh_store;
+
+use std::time::{Duration, Instant};
+
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+pub use gpu::Gpu;
+pub use mesh_store::{GpuMeshStore, GpuVertex, UploadStats};
+
+use crate::error::{VrError, VrResult};
+use crate::projection::{EyeCamera, HeadPose, Screen, StereoRig, kooima};
+use hud::HudVertex;
+
+/// How the two eyes reach the display.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum OutputMode {
+    /// One output per projector: left eye on one, right eye on the other.
+    #[default]
+    Dual,
+    /// One wide output, left eye on the left half.
+    SideBySide,
+    /// Red-cyan anaglyph on one output.
+    Anaglyph,
+    /// One eye (the head centre), no stereo.
+    Mono,
+}
+
+impl std::str::FromStr for OutputMode {
+    type Err = VrError;
+    fn from_str(s: &str) -> VrResult<Self> {
+        match s {
+            "dual" => Ok(Self::Dual),
+            "side-by-side" | "sbs" => Ok(Self::SideBySide),
+            "anaglyph" => Ok(Self::Anaglyph),
+            "mono" => Ok(Self::Mono),
+            other => Err(VrError::Config(format!(
+                "unknown output mode {other:?} (expected dual, side-by-side, anaglyph or mono)"
+            ))),
+        }
+    }
+}
+
+/// The three cameras of a frame: both eyes and the head centre (for mono).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Views {
+    /// Left eye.
+    pub left: EyeCamera,
+    /// Right eye.
+    pub right: EyeCamera,
+    /// Head centre.
+    pub center: EyeCamera,
+}
+
+impl Views {
+    /// The cameras for `head` looking through `screen`.
+    pub fn new(rig: &StereoRig, screen: &Screen, head: &HeadPose) -> VrResult<Self> {
+        let (left, right) = rig.eye_cameras(screen, head)?;
+        let center = kooima(screen, head.position, rig.near, rig.far)?;
+        Ok(Self {
+            left,
+            right,
+            center,
+        })
+    }
+}
+
+/// One vertex of an overlay line (wand cursor, footprint), display frame.
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+#[repr(C)]
+pub struct LineVertex {
+    /// Position, display frame metres.
+    pub position: [f32; 3],
+    /// Linear RGBA colour.
+    pub color: [f32; 4],
+}
+
+impl LineVertex {
+    /// A vertex from a display-frame point.
+    pub fn new(p: DVec3, color: [f32; 4]) -> Self {
+        Self {
+            position: p.as_vec3().to_array(),
+            color,
+        }
+    }
+}
+
+/// What one frame shows besides the meshes.
+#[derive(Debug, Clone, Copy)]
+pub struct FrameInput<'a> {
+    /// The cameras.
+    pub views: &'a Views,
+    /// Overlay line segments (pairs of vertices).
+    pub lines: &'a [LineVertex],
+    /// HUD text lines.
+    pub hud: &'a [String],
+}
+
+/// What one output shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OutputContent {
+    /// The left eye only (one projector of a dual setup).
+    LeftEye,
+    /// The right eye only.
+    RightEye,
+    /// Both eyes side by side.
+    SideBySide,
+    /// Red-cyan anaglyph.
+    Anaglyph,
+    /// The head-centre view.
+    Mono,
+}
+
+/// One render target: a texture view of a window surface or an offscreen texture.
+#[derive(Debug, Clone, Copy)]
+pub struct OutputTarget<'a> {
+    /// Where to draw.
+    pub view: &'a wgpu::TextureView,
+    /// Its size in pixels.
+    pub size: (u32, u32),
+    /// What to show.
+    pub content: OutputContent,
+}
+
+/// The outputs of an offscreen frame.
+#[derive(Debug, Clone)]
+pub struct OffscreenFrame {
+    /// The left eye's image (the head-centre view in mono).
+    pub left: image::RgbaImage,
+    /// The right eye's image (the head-centre view in mono).
+    pub right: image::RgbaImage,
+    /// What the display shows: the mode's composition; for `dual`, the two projector
+    /// outputs side by side.
+    pub composite: image::RgbaImage,
+}
+
+/// Timing of one frame.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct FrameStats {
+    /// CPU time for uniform and buffer updates plus command encoding and submission,
+    /// both eyes.
+    pub cpu: Duration,
+    /// Triangles drawn per eye.
+    pub triangles: u64,
+}
+
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+#[repr(C)]
+struct CameraUniform {
+    clip_from_display: [[f32; 4]; 4],
+    eye: [f32; 4],
+}
+
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+#[repr(C)]
+struct MaterialUniform {
+    color: [f32; 4],
+    wire_color: [f32; 4],
+}
+
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+#[repr(C)]
+struct ComposeUniform {
+    mode: u32,
+    half_width: u32,
+    width: u32,
+    height: u32,
+}
+
+const EYE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// Most outputs one frame may have (two projectors).
+const MAX_OUTPUTS: usize = 2;
+
+#[derive(Debug)]
+struct EyeTargets {
+    size: (u32, u32),
+    color: [wgpu::Texture; 2],
+    color_views: [wgpu::TextureView; 2],
+    depth_views: [wgpu::TextureView; 2],
+    compose_bg: wgpu::BindGroup,
+}
+
+#[derive(Debug)]
+struct OutputSlot {
+    compose_ubuf: wgpu::Buffer,
+    hud_ubuf: wgpu::Buffer,
+    hud_bg: wgpu::BindGroup,
+    hud_vbuf: Option<(wgpu::Buffer, u64)>,
+}
+
+/// The renderer. Owns the pipelines, the per-eye offscreen targets and the two mesh
+/// stores.
+#[derive(Debug)]
+pub struct Renderer {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    /// Target surfaces (trimmed).
+    pub targets: GpuMeshStore,
+    /// Stroke surfaces and previews.
+    pub strokes: GpuMeshStore,
+    /// Draw the wireframe over the meshes.
+    pub wireframe: bool,
+    /// Swap the eyes (for a projector pair wired the other way round).
+    pub swap_eyes: bool,
+    /// Background colour.
+    pub background: [f64; 3],
+    mesh_pipeline: wgpu::RenderPipeline,
+    wire_pipeline: wgpu::RenderPipeline,
+    line_pipeline: wgpu::RenderPipeline,
+    compose_pipeline: wgpu::RenderPipeline,
+    hud_pipeline: wgpu::RenderPipeline,
+    compose_bgl: wgpu::BindGroupLayout,
+    camera_ubufs: [wgpu::Buffer; 2],
+    camera_bgs: [wgpu::BindGroup; 2],
+    target_material: wgpu::BindGroup,
+    stroke_material: wgpu::BindGroup,
+    line_vbuf: Option<(wgpu::Buffer, u64)>,
+    eyes: Option<EyeTargets>,
+    slots: Vec<OutputSlot>,
+    last: FrameStats,
+}
+
+fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+struct PipelineSpec<'a> {
+    label: &'a str,
+    layout: &'a wgpu::PipelineLayout,
+    vs: &'a str,
+    fs: &'a str,
+    buffers: &'a [Option<wgpu::VertexBufferLayout<'a>>],
+    topology: wgpu::PrimitiveTopology,
+    format: wgpu::TextureFormat,
+    depth: bool,
+    blend: bool,
+}
+
+impl Renderer {
+    /// A renderer on `gpu` whose outputs have `output_format` (the window surface's
+    /// format, or `Rgba8Unorm` offscreen).
+    pub fn new(gpu: &Gpu, output_format: wgpu::TextureFormat) -> Self {
+        let device = gpu.device.clone();
+        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("wandsculpt shaders"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("shaders.wgsl").into()),
+        });
+        let vf = wgpu::ShaderStages::VERTEX_FRAGMENT;
+        let camera_bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("camera"),
+            entries: &[uniform_entry(0, vf)],
+        });
+        let material_bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("material"),
+            entries: &[uniform_entry(0, vf)],
+        });
+        let compose_bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("compose"),
+            entries: &[
+                texture_entry(0),
+                texture_entry(1),
+                uniform_entry(2, wgpu::ShaderStages::FRAGMENT),
+            ],
+        });
+        let hud_bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("hud"),
+            entries: &[uniform_entry(0, wgpu::ShaderStages::VERTEX)],
+        });
+        let layout = |label: &str, bgls: &[Option<&wgpu::BindGroupLayout>]| {
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(label),
+                bind_group_layouts: bgls,
+                immediate_size: 0,
+            })
+        };
+        let scene_layout = layout("scene", &[Some(&camera_bgl), Some(&material_bgl)]);
+        let line_layout = layout("lines", &[Some(&camera_bgl)]);
+        let compose_layout = layout("compose", &[Some(&compose_bgl)]);
+        let hud_layout = layout("hud", &[Some(&hud_bgl)]);
+        let line_buffers = [Some(wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<LineVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4],
+        })];
+        let hud_buffers = [Some(wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<HudVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &wgpu::vertex_attr_array![0 => Float32x2, 1 => Float32x4],
+        })];
+        let make = |s: PipelineSpec<'_>| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(s.label),
+                layout: Some(s.layout),
+                vertex: wgpu::VertexState {
+                    module: &shader,
+                    entry_point: Some(s.vs),
+                    compilation_options: Default::default(),
+                    buffers: s.buffers,
+                },
+                primitive: wgpu::PrimitiveState {
+                    topology: s.topology,
+                    cull_mode: None,
+                    ..Default::default()
+                },
+                depth_stencil: s.depth.then(|| wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::LessEqual),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &shader,
+                    entry_point: Some(s.fs),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: s.format,
+                        blend: s.blend.then_some(wgpu::BlendState::ALPHA_BLENDING),
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let tri = wgpu::PrimitiveTopology::TriangleList;
+        let lines = wgpu::PrimitiveTopology::LineList;
+        let mesh_pipeline = make(PipelineSpec {
+            label: "mesh",
+            layout: &scene_layout,
+            vs: "vs_mesh",
+            fs: "fs_mesh",
+            buffers: &[Some(GpuVertex::LAYOUT)],
+            topology: tri,
+            format: EYE_FORMAT,
+            depth: true,
+            blend: false,
+        });
+        let wire_pipeline = make(PipelineSpec {
+            label: "wireframe",
+            layout: &scene_layout,
+            vs: "vs_wire",
+            fs: "fs_wire",
+            buffers: &[Some(GpuVertex::LAYOUT)],
+            topology: lines,
+            format: EYE_FORMAT,
+            depth: true,
+            blend: false,
+        });
+        let line_pipeline = make(PipelineSpec {
+            label: "overlay lines",
+            layout: &line_layout,
+            vs: "vs_line",
+            fs: "fs_line",
+            buffers: &line_buffers,
+            topology: lines,
+            format: EYE_FORMAT,
+            depth: true,
+            blend: false,
+        });
+        let compose_pipeline = make(PipelineSpec {
+            label: "compose",
+            layout: &compose_layout,
+            vs: "vs_full",
+            fs: "fs_compose",
+            buffers: &[],
+            topology: tri,
+            format: output_format,
+            depth: false,
+            blend: false,
+        });
+        let hud_pipeline = make(PipelineSpec {
+            label: "hud",
+            layout: &hud_layout,
+            vs: "vs_hud",
+            fs: "fs_hud",
+            buffers: &hud_buffers,
+            topology: tri,
+            format: output_format,
+            depth: false,
+            blend: true,
+        });
+        let ubuf = |label: &str, size: usize| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: size as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let bind = |label: &str, bgl: &wgpu::BindGroupLayout, buf: &wgpu::Buffer| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(label),
+                layout: bgl,
+                entries: &[wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: buf.as_entire_binding(),
+                }],
+            })
+        };
+        let camera_ubufs = [
+            ubuf("camera 0", std::mem::size_of::<CameraUniform>()),
+            ubuf("camera 1", std::mem::size_of::<CameraUniform>()),
+        ];
+        let camera_bgs = [
+            bind("camera 0", &camera_bgl, &camera_ubufs[0]),
+            bind("camera 1", &camera_bgl, &camera_ubufs[1]),
+        ];
+        let material = |label: &str, color: [f32; 4]| {
+            let buf = ubuf(label, std::mem::size_of::<MaterialUniform>());
+            gpu.queue.write_buffer(
+                &buf,
+                0,
+                bytemuck::bytes_of(&MaterialUniform {
+                    color,
+                    wire_color: [0.05, 0.08, 0.12, 1.0],
+                }),
+            );
+            bind(label, &material_bgl, &buf)
+        };
+        let target_material = material("target material", [0.78, 0.74, 0.66, 1.0]);
+        let stroke_material = material("stroke material", [0.55, 0.68, 0.82, 1.0]);
+        let slots = (0..MAX_OUTPUTS)
+            .map(|_| {
+                let hud_ubuf = ubuf("hud", 16);
+                OutputSlot {
+                    compose_ubuf: ubuf("compose", std::mem::size_of::<ComposeUniform>()),
+                    hud_bg: bind("hud", &hud_bgl, &hud_ubuf),
+                    hud_ubuf,
+                    hud_vbuf: None,
+                }
+            })
+            .collect();
+        Self {
+            targets: GpuMeshStore::new(&device),
+            strokes: GpuMeshStore::new(&device),
+            wireframe: false,
+            swap_eyes: false,
+            background: [0.06, 0.07, 0.09],
+            device,
+            queue: gpu.queue.clone(),
+            mesh_pipeline,
+            wire_pipeline,
+            line_pipeline,
+            compose_pipeline,
+            hud_pipeline,
+            compose_bgl,
+            camera_ubufs,
+            camera_bgs,
+            target_material,
+            stroke_material,
+            line_vbuf: None,
+            eyes: None,
+            slots,
+            last: FrameStats::default(),
+        }
+    }
+
+    /// The device this renderer draws with.
+    pub fn device(&self) -> &wgpu::Device {
+        &self.device
+    }
+
+    /// Timing of the last frame.
+    pub fn last_frame(&self) -> FrameStats {
+        self.last
+    }
+
+    fn ensure_eyes(&mut self, size: (u32, u32)) {
+        if self.eyes.as_ref().is_some_and(|e| e.size == size) {
+            return;
+        }
+        let tex = |label: &str, format, usage| {
+            self.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d {
+                    width: size.0,
+                    height: size.1,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let color_usage = wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC;
+        let color = [
+            tex("eye 0", EYE_FORMAT, color_usage),
+            tex("eye 1", EYE_FORMAT, color_usage),
+        ];
+        let depth = [
+            tex(
+                "depth 0",
+                DEPTH_FORMAT,
+                wgpu::TextureUsages::RENDER_ATTACHMENT,
+            ),
+            tex(
+                "depth 1",
+                DEPTH_FORMAT,
+                wgpu::TextureUsages::RENDER_ATTACHMENT,
+            ),
+        ];
+        let color_views = [0, 1].map(|i| color[i].create_view(&Default::default()));
+        let depth_views = [0, 1].map(|i| depth[i].create_view(&Default::default()));
+        let compose_bg = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("compose"),
+            layout: &self.compose_bgl,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&color_views[0]),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&color_views[1]),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: self.slots[0].compose_ubuf.as_entire_binding(),
+                },
+            ],
+        });
+        // Other output slots have their own compose uniforms; their bind groups are cheap
+        // and are built per frame in `compose_group`.
+        self.eyes = Some(EyeTargets {
+            size,
+            color,
+            color_views,
+            depth_views,
+            compose_bg,
+        });
+    }
+
+    /// The compose bind group of output `slot`; `second_first` puts eye 1 in the
+    /// first texture binding (a right-eye-only output).
+    fn compose_group(&self, slot: usize, second_first: bool) -> Option<wgpu::BindGroup> {
+        let eyes = self.eyes.as_ref()?;
+        let (a, b) = if second_first { (1, 0) } else { (0, 1) };
+        Some(self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("compose"),
+            layout: &self.compose_bgl,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&eyes.color_views[a]),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&eyes.color_views[b]),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: self.slots[slot].compose_ubuf.as_entire_binding(),
+                },
+            ],
+        }))
+    }
+
+    /// An offscreen output texture (`Rgba8Unorm`) that can be rendered to and copied.
+    pub fn output_texture(&self, width: u32, height: u32) -> wgpu::Texture {
+        self.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("offscreen output"),
+            size: wgpu::Extent3d {
+                width: width.max(1),
+                height: height.max(1),
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: EYE_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        })
+    }
+
+    fn write_buffer_growing(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        slot: &mut Option<(wgpu::Buffer, u64)>,
+        bytes: &[u8],
+    ) {
+        if bytes.is_empty() {
+            return;
+        }
+        let need = bytes.len() as u64;
+        if slot.as_ref().is_none_or(|(_, cap)| *cap < need) {
+            let cap = need.next_power_of_two().max(1024);
+            *slot = Some((
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("dynamic vertices"),
+                    size: cap,
+                    usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                }),
+                cap,
+            ));
+        }
+        if let Some((buf, _)) = slot {
+            queue.write_buffer(buf, 0, bytes);
+        }
+    }
+
+    /// Renders one frame into `outputs` (at most two) and submits it. The eye images
+    /// are sized for the first output (half its width for side by side).
+    pub fn render(&mut self, input: &FrameInput<'_>, outputs: &[OutputTarget<'_>]) -> FrameStats {
+        let start = Instant::now();
+        let outputs = &outputs[..outputs.len().min(MAX_OUTPUTS)];
+        let Some(first) = outputs.first() else {
+            return FrameStats::default();
+        };
+        let eye_size = match first.content {
+            OutputContent::SideBySide => ((first.size.0 / 2).max(1), first.size.1.max(1)),
+            _ => (first.size.0.max(1), first.size.1.max(1)),
+        };
+        self.ensure_eyes(eye_size);
+        let mono = outputs.iter().all(|o| o.content == OutputContent::Mono);
+        let (a, b) = if self.swap_eyes {
+            (input.views.right, input.views.left)
+        } else {
+            (input.views.left, input.views.right)
+        };
+        let cams = if mono {
+            [input.views.center, input.views.center]
+        } else {
+            [a, b]
+        };
+        for (i, cam) in cams.iter().enumerate() {
+            let u = CameraUniform {
+                clip_from_display: cam.clip_from_display().as_mat4().to_cols_array_2d(),
+                eye: cam.eye.as_vec3().extend(1.0).to_array(),
+            };
+            self.queue
+                .write_buffer(&self.camera_ubufs[i], 0, bytemuck::bytes_of(&u));
+        }
+        Self::write_buffer_growing(
+            &self.device,
+            &self.queue,
+            &mut self.line_vbuf,
+            bytemuck::cast_slice(input.lines),
+        );
+        let line_count = (input.lines.len() / 2 * 2) as u32;
+
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("frame"),
+            });
+        let eye_count = if mono { 1 } else { 2 };
+        let eyes = self.eyes.as_ref().expect("eye targets were just created");
+        let bg = self.background;
+        for eye in 0..eye_count {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("eye"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &eyes.color_views[eye],
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color {
+                            r: bg[0],
+                            g: bg[1],
+                            b: bg[2],
+                            a: 1.0,
+                        }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &eyes.depth_views[eye],
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, &self.camera_bgs[eye], &[]);
+            for (store, material) in [
+                (&self.targets, &self.target_material),
+                (&self.strokes, &self.stroke_material),
+            ] {
+                pass.set_pipeline(&self.mesh_pipeline);
+                pass.set_bind_group(1, material, &[]);
+                for (_, p) in store.patches() {
+                    pass.set_vertex_buffer(0, p.vertices.slice(..));
+                    pass.set_index_buffer(p.triangles.slice(..), wgpu::IndexFormat::Uint32);
+                    pass.draw_indexed(0..p.triangle_index_count, 0, 0..1);
+                }
+                if self.wireframe {
+                    pass.set_pipeline(&self.wire_pipeline);
+                    for (_, p) in store.patches() {
+                        pass.set_vertex_buffer(0, p.vertices.slice(..));
+                        pass.set_index_buffer(p.edges.slice(..), wgpu::IndexFormat::Uint32);
+                        pass.draw_indexed(0..p.edge_index_count, 0, 0..1);
+                    }
+                }
+            }
+            if let (Some((buf, _)), true) = (&self.line_vbuf, line_count > 0) {
+                pass.set_pipeline(&self.line_pipeline);
+                pass.set_vertex_buffer(0, buf.slice(..));
+                pass.draw(0..line_count, 0..1);
+            }
+        }
+
+        for (slot_index, out) in outputs.iter().enumerate() {
+            let (w, h) = (out.size.0.max(1), out.size.1.max(1));
+            let (mode, second_eye) = match out.content {
+                OutputContent::LeftEye | OutputContent::Mono => (0, false),
+                OutputContent::RightEye => (0, true),
+                OutputContent::SideBySide => (1, false),
+                OutputContent::Anaglyph => (2, false),
+            };
+            let cu = ComposeUniform {
+                mode,
+                half_width: eye_size.0,
+                width: w,
+                height: h,
+            };
+            let mut hud_vertices = Vec::new();
+            hud::hud_panel(input.hud, 0.0, h, &mut hud_vertices);
+            if out.content == OutputContent::SideBySide {
+                hud::hud_panel(input.hud, eye_size.0 as f32, h, &mut hud_vertices);
+            }
+            let slot = &mut self.slots[slot_index];
+            self.queue
+                .write_buffer(&slot.compose_ubuf, 0, bytemuck::bytes_of(&cu));
+            self.queue.write_buffer(
+                &slot.hud_ubuf,
+                0,
+                bytemuck::cast_slice(&[w as f32, h as f32, 0.0, 0.0]),
+            );
+            Self::write_buffer_growing(
+                &self.device,
+                &self.queue,
+                &mut slot.hud_vbuf,
+                bytemuck::cast_slice(&hud_vertices),
+            );
+            // A right-eye-only output reads eye 1 as its "first" image.
+            let group = if !second_eye && slot_index == 0 {
+                self.eyes.as_ref().map(|e| e.compose_bg.clone())
+            } else {
+                self.compose_group(slot_index, second_eye)
+            };
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("compose"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: out.view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            if let Some(group) = &group {
+                pass.set_pipeline(&self.compose_pipeline);
+                pass.set_bind_group(0, group, &[]);
+                pass.draw(0..3, 0..1);
+            }
+            let slot = &self.slots[slot_index];
+            if let (Some((buf, _)), false) = (&slot.hud_vbuf, hud_vertices.is_empty()) {
+                pass.set_pipeline(&self.hud_pipeline);
+                pass.set_bind_group(0, &slot.hud_bg, &[]);
+                pass.set_vertex_buffer(0, buf.slice(..));
+                pass.draw(0..hud_vertices.len() as u32, 0..1);
+            }
+        }
+        self.queue.submit([encoder.finish()]);
+        let stats = FrameStats {
+            cpu: start.elapsed(),
+            triangles: self.targets.triangle_count() + self.strokes.triangle_count(),
+        };
+        tracing::trace!(
+            cpu_us = stats.cpu.as_micros() as u64,
+            triangles = stats.triangles,
+            "frame"
+        );
+        self.last = stats;
+        stats
+    }
+
+    /// Renders a frame offscreen at `width` x `height` (the size of one output) and
+    /// reads back both eyes and the composite.
+    pub fn render_offscreen(
+        &mut self,
+        input: &FrameInput<'_>,
+        mode: OutputMode,
+        width: u32,
+        height: u32,
+    ) -> VrResult<OffscreenFrame> {
+        if width == 0 || height == 0 || width > 8192 || height > 8192 {
+            return Err(VrError::Gpu(format!(
+                "offscreen size {width}x{height} is outside 1..=8192"
+            )));
+        }
+        let contents: &[OutputContent] = match mode {
+            OutputMode::Dual => &[OutputContent::LeftEye, OutputContent::RightEye],
+            OutputMode::SideBySide => &[OutputContent::SideBySide],
+            OutputMode::Anaglyph => &[OutputContent::Anaglyph],
+            OutputMode::Mono => &[OutputContent::Mono],
+        };
+        let textures: Vec<wgpu::Texture> = contents
+            .iter()
+            .map(|_| self.output_texture(width, height))
+            .collect();
+        let views: Vec<wgpu::TextureView> = textures
+            .iter()
+            .map(|t| t.create_view(&Default::default()))
+            .collect();
+        let targets: Vec<OutputTarget<'_>> = views
+            .iter()
+            .zip(contents)
+            .map(|(view, &content)| OutputTarget {
+                view,
+                size: (width, height),
+                content,
+            })
+            .collect();
+        self.render(input, &targets);
+        let mut outs = Vec::new();
+        for t in &textures {
+            outs.push(self.read_texture(t)?);
+        }
+        let eyes = self.eyes.as_ref().expect("render created the eye targets");
+        let (left, right) = match mode {
+            OutputMode::Mono => {
+                let c = self.read_texture(&eyes.color[0])?;
+                (c.clone(), c)
+            }
+            _ => (
+                self.read_texture(&eyes.color[0])?,
+                self.read_texture(&eyes.color[1])?,
+            ),
+        };
+        let composite = if outs.len() == 2 {
+            let mut wide = image::RgbaImage::new(width * 2, height);
+            image::imageops::replace(&mut wide, &outs[0], 0, 0);
+            image::imageops::replace(&mut wide, &outs[1], i64::from(width), 0);
+            wide
+        } else {
+            outs.swap_remove(0)
+        };
+        Ok(OffscreenFrame {
+            left,
+            right,
+            composite,
+        })
+    }
+
+    /// Copies an `Rgba8Unorm` texture back to the CPU.
+    fn read_texture(&self, texture: &wgpu::Texture) -> VrResult<image::RgbaImage> {
+        let (w, h) = (texture.width(), texture.height());
+        let row = w * 4;
+        let padded =
+            row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: u64::from(padded) * u64::from(h),
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self.device.create_command_encoder(&Default::default());
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded),
+                    rows_per_image: Some(h),
+                },
+            },
+            texture.size(),
+        );
+        self.queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+            // The receiver outlives the poll below; a send failure cannot happen.
+            let _ = tx.send(r);
+        });
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| VrError::Gpu(format!("waiting for the GPU: {e}")))?;
+        rx.recv()
+            .map_err(|e| VrError::Gpu(format!("readback: {e}")))?
+            .map_err(|e| VrError::Gpu(format!("readback: {e}")))?;
+        let data = buffer
+            .slice(..)
+            .get_mapped_range()
+            .map_err(|e| VrError::Gpu(format!("readback: {e}")))?;
+        let mut pixels = Vec::with_capacity((row * h) as usize);
+        for y in 0..h as usize {
+            let start = y * padded as usize;
+            pixels.extend_from_slice(&data[start..start + row as usize]);
+        }
+        drop(data);
+        buffer.unmap();
+        image::RgbaImage::from_raw(w, h, pixels)
+            .ok_or_else(|| VrError::Gpu("readback size mismatch".into()))
+    }
+}
+
+/// Overlay lines for the wand cursor: a small 3D cross at the tip, the wand's pointing
+/// axis, and the tool footprint outline (already in the display frame).
+pub fn cursor_lines(
+    tip: DVec3,
+    axis: DVec3,
+    footprint: &[DVec3],
+    active: bool,
+    out: &mut Vec<LineVertex>,
+) {
+    if !tip.is_finite() {
+        return;
+    }
+    let color = if active {
+        [1.0, 0.55, 0.15, 1.0]
+    } else {
+        [0.3, 0.9, 1.0, 1.0]
+    };
+    let s = 0.015;
+    for d in [DVec3::X, DVec3::Y, DVec3::Z] {
+        out.push(LineVertex::new(tip - d * s, color));
+        out.push(LineVertex::new(tip + d * s, color));
+    }
+    if axis.is_finite() && axis.length_squared() > 0.0 {
+        out.push(LineVertex::new(tip, color));
+        out.push(LineVertex::new(
+            tip - axis.normalize() * 0.12,
+            [0.7, 0.7, 0.7, 1.0],
+        ));
+    }
+    let ring = [1.0, 0.95, 0.3, 1.0];
+    for w in footprint.windows(2) {
+        if w[0].is_finite() && w[1].is_finite() {
+            out.push(LineVertex::new(w[0], ring));
+            out.push(LineVertex::new(w[1], ring));
+        }
+    }
+}

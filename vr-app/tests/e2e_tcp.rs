@@ -1,0 +1,138 @@
+//! End to end over real loopback TCP: a scripted tracker (the tracking crate's
+//! simulator, DTrack2 ASCII) serves frames; `wandsculpt --headless` connects, carves a
+//! stroke, and writes the journal, the document and the stereo PNGs.
+
+use std::io::Write;
+use std::net::TcpListener;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use glam::DVec3;
+use tracking::sim::{Script, SimConfig, Simulator};
+use vr_app::journal::Journal;
+use vr_app::session::{DOCUMENT_FILE, JOURNAL_FILE, OPLOG_FILE, SceneDoc};
+
+#[test]
+fn headless_carve_over_loopback_tcp() {
+    let dir = tempfile::tempdir().unwrap();
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap();
+    let config = dir.path().join("wandsculpt.toml");
+    std::fs::write(
+        &config,
+        format!(
+            r#"
+[display]
+mode = "side-by-side"
+width = 320
+height = 180
+
+[tracking]
+wand = "wand0"
+head = "body0"
+
+[tracking.input]
+lost_after_ms = 200
+
+[[tracking.input.source]]
+kind = "tcp-connect"
+addr = "{addr}"
+"#
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("session");
+    let child = Command::new(env!("CARGO_BIN_EXE_wandsculpt"))
+        .arg("--headless")
+        .arg("--config")
+        .arg(&config)
+        .arg("--out")
+        .arg(&out)
+        .args(["--idle-exit", "1.0", "--duration", "60"])
+        .env("WANDSCULPT_ADAPTER", "llvmpipe")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+
+    // The tracker: wait for the display server to connect, then play a carve stroke
+    // in real time: hover, press, sweep 30 cm across the default surface, release.
+    listener.set_nonblocking(true).unwrap();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let (mut stream, _) = loop {
+        match listener.accept() {
+            Ok(s) => break s,
+            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                assert!(Instant::now() < deadline, "wandsculpt never connected");
+                std::thread::sleep(Duration::from_millis(20));
+            }
+            Err(e) => panic!("{e}"),
+        }
+    };
+    stream.set_nonblocking(false).unwrap();
+    let script = Script::new(DVec3::new(-0.15, 1.2, -0.05))
+        .head_start(DVec3::new(0.05, 1.17, 0.6))
+        .hold(0.3)
+        .press(0)
+        .move_to(DVec3::new(0.15, 1.18, -0.05), 1.0)
+        .release(0)
+        .hold(0.3);
+    let start = Instant::now();
+    for frame in Simulator::new(&script, SimConfig::default()).unwrap() {
+        let mut bytes = Vec::new();
+        tracking::dtrack::encode_frame(&frame, &mut bytes);
+        if let Some(wait) = frame.receive_time.checked_sub(start.elapsed()) {
+            std::thread::sleep(wait);
+        }
+        stream.write_all(&bytes).unwrap();
+    }
+    drop(stream);
+    drop(listener);
+
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "wandsculpt failed:\n{stderr}");
+    let report: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+
+    // The journal holds the stroke, fsync'd, readable by its own reader.
+    let journal = Journal::read(out.join(JOURNAL_FILE)).unwrap();
+    let strokes: Vec<_> = journal
+        .iter()
+        .filter_map(|e| match &e.edit {
+            sculpt_core::interaction::Edit::Stroke(s) => Some(s),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(strokes.len(), 1, "journal: {journal:?}\n{stderr}");
+    let s = strokes[0];
+    assert_eq!(s.mode, sculpt_core::interaction::StrokeMode::Carve);
+    let first = s.samples.first().unwrap().position;
+    let last = s.samples.last().unwrap().position;
+    // It spans (most of) the 30 cm sweep, in metres in the display frame.
+    assert!(last.x - first.x > 0.25, "stroke from {first} to {last}");
+    sculpt_core::assert_near!(first.z, -0.05, 0.005);
+
+    // The saved document has it too.
+    let doc =
+        SceneDoc::from_json(&std::fs::read_to_string(out.join(DOCUMENT_FILE)).unwrap()).unwrap();
+    assert_eq!(doc.strokes.len(), 1);
+    assert_eq!(doc.strokes[0], *s);
+    assert_eq!(report["strokes"], 1);
+
+    // The operator log has the gesture.
+    let oplog = std::fs::read_to_string(out.join(OPLOG_FILE)).unwrap();
+    assert!(oplog.contains("\"op\":\"gesture-start\""));
+    assert!(oplog.contains("\"op\":\"gesture-end\""));
+
+    // Stereo PNGs: two eye images that differ, and the side-by-side frame.
+    let left = image::open(out.join("left.png")).unwrap().to_rgba8();
+    let right = image::open(out.join("right.png")).unwrap().to_rgba8();
+    let frame = image::open(out.join("frame.png")).unwrap().to_rgba8();
+    assert_eq!(left.dimensions(), (160, 180));
+    assert_eq!(frame.dimensions(), (320, 180));
+    assert_ne!(
+        left.as_raw(),
+        right.as_raw(),
+        "the eyes must differ (head-tracked stereo)"
+    );
+}
