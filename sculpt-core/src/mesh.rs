@@ -169,10 +169,10 @@ impl PatchMesh {
                     let v = patch.vertices[i as usize].position;
                     [f64::from(v[0]), f64::from(v[1]), f64::from(v[2])]
                 });
-                if let Some(d) = ray_triangle(origin, dir, p) {
-                    if best.is_none_or(|b| d < b) {
-                        best = Some(d);
-                    }
+                if let Some(d) = ray_triangle(origin, dir, p)
+                    && best.is_none_or(|b| d < b)
+                {
+                    best = Some(d);
                 }
             }
         }

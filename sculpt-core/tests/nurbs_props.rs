@@ -89,12 +89,11 @@ proptest! {
         let i = pos % bytes.len();
         bytes[i] = byte;
         bytes.truncate(bytes.len() - cut % 50);
-        if let Ok(text) = String::from_utf8(bytes) {
-            if let Ok(s) = NurbsSurface::from_json(&text) {
+        if let Ok(text) = String::from_utf8(bytes)
+            && let Ok(s) = NurbsSurface::from_json(&text) {
                 // Anything accepted evaluates to finite points.
                 prop_assert!(s.point(0.5, 0.5).is_finite());
                 prop_assert!(s.inverter().closest_point(DVec3::ONE).distance.is_finite());
             }
-        }
     }
 }

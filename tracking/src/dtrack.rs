@@ -242,10 +242,10 @@ impl DTrackDecoder {
     fn line_done(&mut self, raw: &[u8], out: &mut impl FnMut(Decoded)) {
         let line = raw.trim_ascii();
         if line.is_empty() {
-            if let Some(p) = self.pending.as_mut() {
-                if self.keep_raw {
-                    p.raw.extend_from_slice(raw);
-                }
+            if let Some(p) = self.pending.as_mut()
+                && self.keep_raw
+            {
+                p.raw.extend_from_slice(raw);
             }
             self.emit(out);
             return;

@@ -279,11 +279,11 @@ impl Hub {
     /// Appends a raw record to the recording, if any.
     pub fn record(&self, kind: RecordKind, time: Duration, bytes: &[u8]) {
         let mut m = self.lock();
-        if let Some(w) = m.recorder.as_mut() {
-            if let Err(e) = w.write(kind, time, bytes) {
-                tracing::error!("pose log recording stopped: {e}");
-                m.recorder = None;
-            }
+        if let Some(w) = m.recorder.as_mut()
+            && let Err(e) = w.write(kind, time, bytes)
+        {
+            tracing::error!("pose log recording stopped: {e}");
+            m.recorder = None;
         }
     }
 

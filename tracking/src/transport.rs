@@ -94,20 +94,20 @@ pub async fn start(config: &TrackingConfig) -> Result<Running> {
 /// first, then start, and no early event is missed.
 pub async fn start_with_hub(hub: Hub, config: &TrackingConfig) -> Result<Running> {
     config.validate()?;
-    if let Some(path) = &config.record {
-        if !hub.is_recording() {
-            let mut header = PoseLogHeader::new(
-                config
-                    .sources
-                    .iter()
-                    .map(SourceConfig::describe)
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            );
-            header.config = serde_json::to_value(config)?;
-            header.calibration = serde_json::to_value(&config.calibration)?;
-            hub.set_recorder(PoseLogWriter::create(path, &header)?);
-        }
+    if let Some(path) = &config.record
+        && !hub.is_recording()
+    {
+        let mut header = PoseLogHeader::new(
+            config
+                .sources
+                .iter()
+                .map(SourceConfig::describe)
+                .collect::<Vec<_>>()
+                .join(", "),
+        );
+        header.config = serde_json::to_value(config)?;
+        header.calibration = serde_json::to_value(&config.calibration)?;
+        hub.set_recorder(PoseLogWriter::create(path, &header)?);
     }
     let opts = TransportOptions::from(config);
     let mut running = Running {

@@ -94,7 +94,7 @@ pub fn run_headless(
                 app.session.handle(&ev)?;
                 last_t = ev.t;
                 wand_events += 1;
-                if opts.render_every > 0 && wand_events % opts.render_every == 0 {
+                if opts.render_every > 0 && wand_events.is_multiple_of(opts.render_every) {
                     frame_times.push(render_frame(app, &mut renderer, opts)?);
                 }
             }

@@ -737,7 +737,10 @@ impl Interaction {
         if usable {
             let q = s.orientation.normalize();
             self.pose_counter = self.pose_counter.wrapping_add(1);
-            if self.pose_counter % self.config.pose_every.max(1) == 0 {
+            if self
+                .pose_counter
+                .is_multiple_of(self.config.pose_every.max(1))
+            {
                 out.push(Output::Op {
                     t,
                     event: OperatorEvent::Pose {

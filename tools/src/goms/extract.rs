@@ -138,10 +138,10 @@ impl ExtractConfig {
         if self.gap_s <= 0.0 {
             return Err("gap must be > 0".into());
         }
-        if let Some(w) = self.default_width {
-            if !(w.is_finite() && w > 0.0) {
-                return Err(format!("default-width must be > 0, got {w}"));
-            }
+        if let Some(w) = self.default_width
+            && !(w.is_finite() && w > 0.0)
+        {
+            return Err(format!("default-width must be > 0, got {w}"));
         }
         Ok(())
     }
@@ -277,10 +277,10 @@ fn extract_range(ev: &[sculpt_core::oplog::OpEvent], cfg: &ExtractConfig) -> Tri
     for e in ev {
         match &e.kind {
             EventKind::Pose { p, q } => {
-                if let Some(last) = samples.last() {
-                    if lost || e.t - last.t > cfg.gap_s {
-                        run += 1;
-                    }
+                if let Some(last) = samples.last()
+                    && (lost || e.t - last.t > cfg.gap_s)
+                {
+                    run += 1;
                 }
                 lost = false;
                 samples.push(Sample {

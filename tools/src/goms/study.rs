@@ -93,10 +93,11 @@ impl Manifest {
                 );
             }
         }
-        if let Some(b) = &m.baseline {
-            if !m.methods.is_empty() && !ids.contains(b.as_str()) {
-                bail!("study manifest: baseline {b:?} is not a [[method]] id");
-            }
+        if let Some(b) = &m.baseline
+            && !m.methods.is_empty()
+            && !ids.contains(b.as_str())
+        {
+            bail!("study manifest: baseline {b:?} is not a [[method]] id");
         }
         Ok(m)
     }
