@@ -141,36 +141,8 @@ impl Default for ToolSection {
     }
 }
 
-/// Which button bit does what.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ButtonMap {
-    /// Draw.
-    pub action: u8,
-    /// Cycle the mode.
-    pub mode: u8,
-    /// Toggle the profile.
-    pub profile: u8,
-    /// Undo.
-    pub undo: u8,
-    /// Redo.
-    pub redo: u8,
-    /// Select the next target.
-    pub select: u8,
-}
-
-impl Default for ButtonMap {
-    fn default() -> Self {
-        Self {
-            action: 0,
-            mode: 1,
-            profile: 2,
-            undo: 3,
-            redo: 4,
-            select: 5,
-        }
-    }
-}
+/// Which button bit does what: the same assignment the live app's interaction uses.
+pub use sculpt_core::interaction::ButtonMap;
 
 /// Gesture tuning.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
