@@ -186,6 +186,21 @@ pub enum StreamEnd {
     Error(std::io::ErrorKind),
 }
 
+/// One read with a deadline: the byte count, or how the stream ended (timed out,
+/// closed by the peer, or a read error).
+async fn read_within<R: AsyncRead + Unpin>(
+    reader: &mut R,
+    buf: &mut [u8],
+    left: Duration,
+) -> std::result::Result<usize, StreamEnd> {
+    match tokio::time::timeout(left, reader.read(buf)).await {
+        Err(_) => Err(StreamEnd::TimedOut),
+        Ok(Ok(0)) => Err(StreamEnd::Closed),
+        Ok(Ok(n)) => Ok(n),
+        Ok(Err(e)) => Err(StreamEnd::Error(e.kind())),
+    }
+}
+
 /// Reads DTrack2 frames from a byte stream into the hub until it ends.
 pub async fn pump_dtrack<R: AsyncRead + Unpin>(
     hub: &Hub,
@@ -199,11 +214,9 @@ pub async fn pump_dtrack<R: AsyncRead + Unpin>(
     hub.connection_opened(src);
     let end = loop {
         let left = opts.read_timeout.saturating_sub(last_frame.elapsed());
-        let n = match tokio::time::timeout(left, reader.read(&mut buf)).await {
-            Err(_) => break StreamEnd::TimedOut,
-            Ok(Ok(0)) => break StreamEnd::Closed,
-            Ok(Ok(n)) => n,
-            Ok(Err(e)) => break StreamEnd::Error(e.kind()),
+        let n = match read_within(&mut reader, &mut buf, left).await {
+            Ok(n) => n,
+            Err(end) => break end,
         };
         let now = hub.now();
         let mut got = false;
@@ -343,11 +356,9 @@ pub async fn pump_serial<R: AsyncRead + Unpin>(
     hub.connection_opened(src);
     let end = loop {
         let left = opts.read_timeout.saturating_sub(last.elapsed());
-        let n = match tokio::time::timeout(left, reader.read(&mut buf)).await {
-            Err(_) => break StreamEnd::TimedOut,
-            Ok(Ok(0)) => break StreamEnd::Closed,
-            Ok(Ok(n)) => n,
-            Ok(Err(e)) => break StreamEnd::Error(e.kind()),
+        let n = match read_within(&mut reader, &mut buf, left).await {
+            Ok(n) => n,
+            Err(end) => break end,
         };
         let now = hub.now();
         decoder.push(&buf[..n], &mut |r, line| match r {
