@@ -74,17 +74,7 @@ impl Target for Plane {
     }
 }
 
-/// Centre of the app's default surface (display frame metres).
-pub const SURFACE_CENTER: DVec3 = DVec3::new(0.0, 1.17, -0.1);
-
-/// The point of the app's default surface over display `(x, y)`: the gently curved
-/// 1 m x 0.6 m sheet `z = c.z - 0.25 (2 u^2 + v^2)` with `u = x - c.x` (metres) and
-/// `v = (y - c.y) / 0.6`, centred at [`SURFACE_CENTER`], facing the viewer (+z).
-pub fn default_surface_point(x: f64, y: f64) -> DVec3 {
-    let u = x - SURFACE_CENTER.x;
-    let v = (y - SURFACE_CENTER.y) / 0.6;
-    DVec3::new(x, y, SURFACE_CENTER.z - 0.25 * (2.0 * u * u + v * v))
-}
+pub use sculpt_core::editor::{DEFAULT_SURFACE_CENTER as SURFACE_CENTER, default_surface_point};
 
 /// The app's default surface as a [`Target`] (see [`default_surface_point`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

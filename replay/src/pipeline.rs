@@ -34,7 +34,6 @@ use tracking::poselog::{PoseLogReader, Record, RecordKind};
 use crate::config::{ProfileName, ReplayConfig};
 use crate::driver::{Driver, Edit, Sample};
 use crate::error::{Error, Result};
-use crate::import::{SURFACE_CENTER, default_surface_point};
 
 /// Counts over the input records.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
@@ -178,48 +177,7 @@ pub struct Outcome {
     pub timing: Timing,
 }
 
-/// The app's default surface as a NURBS target: the sheet of
-/// [`default_surface_point`], exactly, as one biquadratic Bézier patch (1 m x 0.6 m).
-///
-/// The sheet is quadratic in `(x, y)`, so its Bernstein coefficients follow from
-/// three samples per direction: `c0 = f(0)`, `c1 = 2 f(1/2) - (f(0) + f(1)) / 2`,
-/// `c2 = f(1)`, applied along u and then along v.
-pub fn default_surface() -> NurbsSurface {
-    let s = [0.0, 0.5, 1.0];
-    let w = [[1.0, 0.0, 0.0], [-0.5, 2.0, -0.5], [0.0, 0.0, 1.0]];
-    let sample = |a: usize, b: usize| {
-        default_surface_point(
-            SURFACE_CENTER.x - 0.5 + s[a],
-            SURFACE_CENTER.y - 0.3 + 0.6 * s[b],
-        )
-    };
-    let control: Vec<Vec<DVec3>> = (0..3)
-        .map(|i| {
-            (0..3)
-                .map(|j| {
-                    let mut c = DVec3::ZERO;
-                    for a in 0..3 {
-                        for b in 0..3 {
-                            c += sample(a, b) * (w[i][a] * w[j][b]);
-                        }
-                    }
-                    c
-                })
-                .collect()
-        })
-        .collect();
-    let knots = vec![0.0, 0.0, 0.0, 1.0, 1.0, 1.0];
-    // The construction is fixed and valid; a failure here is a kernel regression.
-    NurbsSurface::new(2, 2, knots.clone(), knots, control, None)
-        .unwrap_or_else(|e| unreachable!("the default surface is valid: {e}"))
-}
-
-/// A new document holding the app's default surface.
-pub fn default_document() -> Document {
-    let mut doc = Document::new();
-    doc.add_target("default", default_surface());
-    doc
-}
+pub use sculpt_core::editor::{default_document, default_surface};
 
 /// Fits a sketched point grid: a B-spline surface of degree up to 3 with the (at most
 /// 12 x 12, evenly picked) grid points as control points and clamped uniform knots.
@@ -598,18 +556,6 @@ mod tests {
     use super::*;
     use sculpt_core::assert_near;
     use sculpt_core::tolerance::EXACT_EPS;
-
-    #[test]
-    fn the_default_nurbs_surface_is_the_default_sheet() {
-        let s = default_surface();
-        for (u, v) in [(0.0, 0.0), (0.3, 0.7), (0.5, 0.5), (1.0, 0.25)] {
-            let p = s.point(u, v);
-            let on = default_surface_point(p.x, p.y);
-            assert_near!(p.z, on.z, EXACT_EPS);
-            assert_near!(p.x, SURFACE_CENTER.x - 0.5 + u, EXACT_EPS);
-            assert_near!(p.y, SURFACE_CENTER.y - 0.3 + 0.6 * v, EXACT_EPS);
-        }
-    }
 
     #[test]
     fn sketch_grids_fit_into_surfaces_through_their_corners() {

@@ -187,6 +187,8 @@ pub struct ToolConfig {
     pub width: f64,
     /// Depth (metres).
     pub depth: f64,
+    /// End taper length (metres).
+    pub taper: f64,
 }
 
 impl Default for ToolConfig {
@@ -197,6 +199,7 @@ impl Default for ToolConfig {
             profile: t.profile,
             width: t.width,
             depth: t.depth,
+            taper: t.taper,
         }
     }
 }
@@ -208,6 +211,7 @@ impl ToolConfig {
             profile: self.profile,
             width: self.width,
             depth: self.depth,
+            taper: self.taper,
         }
     }
 }

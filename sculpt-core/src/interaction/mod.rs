@@ -79,6 +79,9 @@ pub struct Tool {
     pub width: f64,
     /// Depth of the groove or height of the ridge (metres).
     pub depth: f64,
+    /// Length over which each stroke end tapers to nothing (metres; 0: blunt ends).
+    #[serde(default = "Tool::default_taper")]
+    pub taper: f64,
 }
 
 impl Default for Tool {
@@ -87,12 +90,19 @@ impl Default for Tool {
             profile: Profile::V,
             width: 0.02,
             depth: 0.005,
+            taper: Self::default_taper(),
         }
     }
 }
 
 impl Tool {
-    /// Checks that width and depth are finite and positive, at most 10 m.
+    /// The default end taper, 1 cm.
+    pub fn default_taper() -> f64 {
+        0.01
+    }
+
+    /// Checks that width and depth are finite and positive, at most 10 m, and the
+    /// taper finite and in `[0, 10]` m.
     pub fn validate(&self) -> Result<()> {
         for (name, v) in [("width", self.width), ("depth", self.depth)] {
             if !(v.is_finite() && v > 0.0 && v <= 10.0) {
@@ -100,6 +110,12 @@ impl Tool {
                     "tool {name} must be in (0, 10] m, got {v}"
                 )));
             }
+        }
+        if !(self.taper.is_finite() && (0.0..=10.0).contains(&self.taper)) {
+            return Err(Error::Interaction(format!(
+                "tool taper must be in [0, 10] m, got {}",
+                self.taper
+            )));
         }
         Ok(())
     }
