@@ -48,7 +48,8 @@
 
 use glam::{DVec2, DVec3, DVec4};
 
-use super::surface::NurbsSurface;
+use super::power::PowerPatches;
+use super::surface::{NurbsSurface, SurfaceDerivs};
 use crate::tolerance::{COSINE_EPS, POINT_EPS};
 
 /// Newton iterations per run before giving up.
@@ -276,6 +277,9 @@ pub struct SurfaceInverter {
     closed: [bool; 2],
     /// The four domain corners and their points.
     corners: [(DVec2, DVec3); 4],
+    /// The Bezier patches in power form, for fast Newton steps (`None` only when the
+    /// Bezier form is unavailable or too big; B-spline evaluation is used then).
+    power: Option<PowerPatches>,
 }
 
 fn box_dist2(p: DVec3, lo: DVec3, hi: DVec3) -> f64 {
@@ -375,6 +379,7 @@ impl SurfaceInverter {
             closed: [surface.is_closed_u(), surface.is_closed_v()],
             corners: [(u0, v0), (u0, v1), (u1, v0), (u1, v1)]
                 .map(|(u, v)| (DVec2::new(u, v), surface.point(u, v))),
+            power: None,
         };
         inv.build();
         inv
@@ -383,6 +388,21 @@ impl SurfaceInverter {
     /// The surface this inverter answers for.
     pub fn surface(&self) -> &NurbsSurface {
         &self.surface
+    }
+
+    /// The power-form patches, when built.
+    #[cfg(test)]
+    pub(crate) fn power(&self) -> Option<&PowerPatches> {
+        self.power.as_ref()
+    }
+
+    /// `S` and its derivatives to second order at `uv` (clamped into the domain).
+    #[inline]
+    fn derivs(&self, uv: DVec2) -> SurfaceDerivs {
+        match &self.power {
+            Some(pp) => pp.derivatives(uv),
+            None => self.surface.derivatives(uv.x, uv.y),
+        }
     }
 
     /// Number of leaf sub-patches in the hierarchy.
@@ -411,6 +431,7 @@ impl SurfaceInverter {
         let (n_u, n_v) = (bz.count_u(), bz.count_v());
         let spans_u = spans(bz.knots_u().knots(), p, n_u - 1);
         let spans_v = spans(bz.knots_v().knots(), q, n_v - 1);
+        self.power = PowerPatches::new(&bz, &spans_u, &spans_v, s.is_rational());
         let pw = bz.homogeneous();
         let cart = |i: usize, j: usize| {
             let h = pw[i * n_v + j];
@@ -812,9 +833,8 @@ impl SurfaceInverter {
 
     /// Bounded Newton with an active set (see the module docs).
     fn newton(&self, p: DVec3, start: DVec2, lo: DVec2, hi: DVec2, wrap: [bool; 2]) -> Candidate {
-        let s = &self.surface;
         let mut uv = start.clamp(lo, hi);
-        let mut d = s.derivatives(uv.x, uv.y);
+        let mut d = self.derivs(uv);
         let mut r = d.point - p;
         let mut f = r.length_squared();
         let mut iters = 0;
@@ -894,7 +914,7 @@ impl SurfaceInverter {
                     if cand == uv {
                         break;
                     }
-                    let dc = s.derivatives(cand.x, cand.y);
+                    let dc = self.derivs(cand);
                     let rc = dc.point - p;
                     let fc = rc.length_squared();
                     // Accept descent, and changes within rounding noise of f (near the
