@@ -220,30 +220,13 @@ fn sweep<V: Lin>(c: &[V], p: usize, q: usize, s: f64, t: f64, ku: f64, kv: f64) 
     let mut r1 = [V::ZERO; MAX_ORDER];
     let mut r2 = [V::ZERO; MAX_ORDER];
     for k in 0..=p {
-        let row = &c[k * q1..(k + 1) * q1];
-        let (mut d0, mut d1, mut d2) = (row[q], V::ZERO, V::ZERO);
-        for l in (0..q).rev() {
-            d2 = d2 * t + d1;
-            d1 = d1 * t + d0;
-            d0 = d0 * t + row[l];
-        }
-        r0[k] = d0;
-        r1[k] = d1;
-        r2[k] = d2;
+        [r0[k], r1[k], r2[k]] = horner2(&c[k * q1..(k + 1) * q1], t);
     }
     // Along s: the value and two derivatives of the r0 row, value and derivative of r1,
     // value of r2.
-    let (mut a00, mut a10, mut a20) = (r0[p], V::ZERO, V::ZERO);
-    let (mut a01, mut a11) = (r1[p], V::ZERO);
-    let mut a02 = r2[p];
-    for k in (0..p).rev() {
-        a20 = a20 * s + a10;
-        a10 = a10 * s + a00;
-        a00 = a00 * s + r0[k];
-        a11 = a11 * s + a01;
-        a01 = a01 * s + r1[k];
-        a02 = a02 * s + r2[k];
-    }
+    let [a00, a10, a20] = horner2(&r0[..=p], s);
+    let [a01, a11] = horner1(&r1[..=p], s);
+    let a02 = horner0(&r2[..=p], s);
     [
         a00,
         a10 * ku,
@@ -252,6 +235,49 @@ fn sweep<V: Lin>(c: &[V], p: usize, q: usize, s: f64, t: f64, ku: f64, kv: f64) 
         a11 * (ku * kv),
         a02 * (2.0 * kv * kv),
     ]
+}
+
+/// `sum c_l x^l`, its derivative and half its second derivative (Horner, P&T A1.1 with
+/// derivatives). The derivative chains start once their first term exists, so no work
+/// is spent on multiplying zeros (the compiler may not drop `0 * x` for floats).
+#[inline(always)]
+fn horner2<V: Lin>(c: &[V], x: f64) -> [V; 3] {
+    let n = c.len() - 1;
+    let (mut d0, mut d1, mut d2) = (c[n], V::ZERO, V::ZERO);
+    for (step, l) in (0..n).rev().enumerate() {
+        match step {
+            0 => d1 = d0,
+            1 => {
+                d2 = d1;
+                d1 = d1 * x + d0;
+            }
+            _ => {
+                d2 = d2 * x + d1;
+                d1 = d1 * x + d0;
+            }
+        }
+        d0 = d0 * x + c[l];
+    }
+    [d0, d1, d2]
+}
+
+/// `sum c_l x^l` and its derivative (see [`horner2`]).
+#[inline(always)]
+fn horner1<V: Lin>(c: &[V], x: f64) -> [V; 2] {
+    let n = c.len() - 1;
+    let (mut d0, mut d1) = (c[n], V::ZERO);
+    for (step, l) in (0..n).rev().enumerate() {
+        d1 = if step == 0 { d0 } else { d1 * x + d0 };
+        d0 = d0 * x + c[l];
+    }
+    [d0, d1]
+}
+
+/// `sum c_l x^l` (Horner).
+#[inline(always)]
+fn horner0<V: Lin>(c: &[V], x: f64) -> V {
+    let n = c.len() - 1;
+    (0..n).rev().fold(c[n], |d0, l| d0 * x + c[l])
 }
 
 #[cfg(test)]
