@@ -27,6 +27,11 @@ use glam::{DVec2, DVec3, DVec4};
 use super::knots::MAX_ORDER;
 use super::surface::{NurbsSurface, SurfaceDerivs};
 
+/// Degrees above this keep B-spline evaluation: the monomial coefficients of a degree-n
+/// Bezier piece reach `C(n, k) 2^k` times the control points (forward differences), so
+/// their rounding grows with n; up to degree 5 it stays below 1e-14 relative.
+const MAX_POWER_DEGREE: usize = 5;
+
 /// Patches with more coefficients than this are not converted (the evaluator falls back
 /// to plain B-spline evaluation): 2^18 homogeneous points is 8 MiB.
 const MAX_COEFFICIENTS: usize = 1 << 18;
@@ -85,7 +90,7 @@ impl PowerPatches {
     /// equal to the degree), whose non-empty spans are `spans_u` and `spans_v` as
     /// `(index, start, end)`. `rational` is the original surface's flag (refinement can
     /// leave weights a rounding error away from 1). `None` for nets too big to be worth
-    /// it.
+    /// it and for degrees above 5.
     pub(crate) fn new(
         bz: &NurbsSurface,
         spans_u: &[(usize, f64, f64)],
@@ -94,7 +99,9 @@ impl PowerPatches {
     ) -> Option<Self> {
         let (p, q) = (bz.degree_u(), bz.degree_v());
         let (p1, q1) = (p + 1, q + 1);
-        if spans_u.is_empty()
+        if p > MAX_POWER_DEGREE
+            || q > MAX_POWER_DEGREE
+            || spans_u.is_empty()
             || spans_v.is_empty()
             || spans_u.len() * spans_v.len() * p1 * q1 > MAX_COEFFICIENTS
         {
@@ -318,6 +325,19 @@ mod tests {
                     .collect()
             })
             .collect()
+    }
+
+    #[test]
+    fn high_degrees_keep_bspline_evaluation() {
+        let ku: Vec<f64> = [0.0; 8].into_iter().chain([1.0; 8]).collect();
+        let kv = vec![0., 0., 0., 1., 1., 1.];
+        let s = NurbsSurface::new(7, 2, ku, kv, net(8, 3), None).expect("valid");
+        let inv = s.inverter();
+        assert!(inv.power().is_none());
+        let p = s.point(0.3, 0.6) + s.normal(0.3, 0.6) * 0.01;
+        let got = inv.closest_point(p);
+        assert!(got.converged && got.distance <= 0.01 + 1e-12, "{got:?}");
+        assert_near!(s.point_uv(got.uv).to_array(), got.point.to_array(), 1e-12);
     }
 
     #[test]
