@@ -163,6 +163,15 @@ fn bench(c: &mut Criterion) {
                 .sum::<f64>()
         })
     });
+    // Local Newton from the same hint, like truck's seeded search (not global).
+    g.bench_function("wandsculpt_newton_seeded", |b| {
+        b.iter(|| {
+            q32.iter()
+                .zip(&answers)
+                .map(|(q, a)| inv.newton_from(*q, a.uv + 0.02).distance)
+                .sum::<f64>()
+        })
+    });
     g.bench_function("truck_no_hint", |b| {
         b.iter(|| {
             q32.iter()

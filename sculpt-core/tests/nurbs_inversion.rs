@@ -239,3 +239,31 @@ fn non_finite_queries_are_safe() {
     let got = inv.closest_point_from(DVec3::ONE, DVec2::NAN);
     assert!(got.point.is_finite() && got.distance.is_finite());
 }
+
+/// Regression: a query within 1e-6 of a domain corner, off the surface along its normal,
+/// came back `converged: false`. The corner (evaluated by `point`) was the best
+/// candidate, and the converged polish (evaluated by the derivative routine) was
+/// rejected because its squared distance differed from the corner's in the last digits
+/// by more than a relative 1e-12, which is below rounding at such tiny distances.
+#[test]
+fn queries_just_off_a_corner_converge() {
+    let mut rng = Rng(0x5EED_0005);
+    for k in 0..12 {
+        let s = random_surface(&mut rng, k % 2 == 1);
+        let inv = s.inverter();
+        for (u, v) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)] {
+            for h in [1e-9, 3.4e-7, 1e-6, -1e-6] {
+                let corner = s.point(u, v);
+                let p = corner + s.normal(u, v) * h;
+                let got = inv.closest_point(p);
+                assert!(got.converged, "corner ({u}, {v}), h = {h}: {got:?}");
+                assert!(got.distance <= corner.distance(p) + 1e-12, "{got:?}");
+                let seeded = inv.closest_point_from(p, DVec2::new(u, v));
+                assert!(
+                    seeded.converged,
+                    "seeded, corner ({u}, {v}), h = {h}: {seeded:?}"
+                );
+            }
+        }
+    }
+}

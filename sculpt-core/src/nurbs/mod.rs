@@ -69,6 +69,7 @@ pub mod curve;
 pub mod fit;
 pub mod invert;
 pub mod knots;
+mod power;
 pub mod refine;
 pub mod surface;
 
