@@ -109,7 +109,7 @@ pub struct TargetTessellation {
     triangles: Vec<usize>,
 }
 
-#[derive(Clone, Copy, PartialEq, Eq)]
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
 enum Kind {
     Plain,
     Rim,
@@ -354,7 +354,7 @@ impl TargetTessellation {
                 let ia = input.point(a, kind);
                 let ib = input.point(b, kind);
                 if ia != ib {
-                    input.constraints.push([ia, ib]);
+                    input.constraints.push(([ia, ib], kind));
                 }
             }
         }
@@ -390,23 +390,8 @@ impl TargetTessellation {
         if input.points.len() == 4 && input.constraints.is_empty() {
             return self.write_quad(surface, root, &input, strokes, cache, sink);
         }
-        let mut cdt: ConstrainedDelaunayTriangulation<Point2<f64>> =
-            ConstrainedDelaunayTriangulation::bulk_load_cdt(
-                input
-                    .points
-                    .iter()
-                    .map(|(p, _)| Point2::new(p.x, p.y))
-                    .collect(),
-                Vec::new(),
-            )
-            .unwrap_or_default();
-        let handles: Vec<_> = cdt.fixed_vertices().collect();
-        // bulk_load_cdt keeps insertion order for distinct points (ours are distinct).
-        if handles.len() == input.points.len() {
-            for &[a, b] in &input.constraints {
-                cdt.add_constraint_and_split(handles[a], handles[b], |p| p);
-            }
-        }
+        let mut input = input;
+        let cdt = input.triangulate();
         let rims: std::collections::HashSet<(u64, u64)> = input
             .points
             .iter()
@@ -570,8 +555,29 @@ struct PatchInput {
     rect: Rect,
     points: Vec<(DVec2, Kind)>,
     index: HashMap<(u64, u64), usize>,
-    constraints: Vec<[usize; 2]>,
+    constraints: Vec<([usize; 2], Kind)>,
     interior_hidden: bool,
+}
+
+/// Distance (normalised parameter units) below which a vertex counts as lying on a
+/// constraint segment, and a crossing as lying on a segment's end.
+const SNAP_EPS: f64 = 1e-12;
+
+/// Orientation of `c` against the line `a -> b` (twice the signed triangle area).
+fn orient(a: DVec2, b: DVec2, c: DVec2) -> f64 {
+    (b - a).perp_dot(c - a)
+}
+
+/// Parameter of the foot of `p` on the segment `a-b` when `p` lies within
+/// [`SNAP_EPS`] of its interior.
+fn on_segment(p: DVec2, a: DVec2, b: DVec2) -> Option<f64> {
+    let d = b - a;
+    let l2 = d.length_squared();
+    if l2 == 0.0 {
+        return None;
+    }
+    let t = (p - a).dot(d) / l2;
+    (t > 0.0 && t < 1.0 && p.distance(a + d * t) <= SNAP_EPS).then_some(t)
 }
 
 impl PatchInput {
@@ -595,6 +601,9 @@ impl PatchInput {
     }
 
     fn point(&mut self, p: DVec2, kind: Kind) -> usize {
+        // spade merges -0.0 with 0.0 and rejects subnormal-scale coordinates: the
+        // index must agree, so such values become 0.0.
+        let p = DVec2::new(p.x, p.y).map(|x| if x.abs() < 1e-30 { 0.0 } else { x });
         let key = (p.x.to_bits(), p.y.to_bits());
         if let Some(&i) = self.index.get(&key) {
             if kind == Kind::Rim {
@@ -605,6 +614,143 @@ impl PatchInput {
         self.points.push((p, kind));
         self.index.insert(key, self.points.len() - 1);
         self.points.len() - 1
+    }
+
+    /// Makes the constraints a planar straight-line graph: every crossing of two
+    /// constraint segments becomes a vertex (on the outline when either segment is),
+    /// and segments are split at the vertices lying on them. spade's own splitting
+    /// (`add_constraint_and_split`) asserts on shallow crossings whose computed split
+    /// point is off both lines, as where a stroke's centreline leaves its own
+    /// footprint at a hooked, tapered end. Two passes catch crossings through new
+    /// vertices; what rounding leaves is skipped by [`Self::triangulate`].
+    fn resolve_crossings(&mut self) {
+        for _ in 0..2 {
+            if !self.split_pass() {
+                break;
+            }
+        }
+        let mut seen = std::collections::HashSet::new();
+        self.constraints
+            .retain(|&([a, b], _)| a != b && seen.insert((a.min(b), a.max(b))));
+    }
+
+    /// One pass of [`Self::resolve_crossings`]: true when a crossing added a vertex.
+    fn split_pass(&mut self) -> bool {
+        let m = self.constraints.len();
+        let boxes: Vec<Rect> = self
+            .constraints
+            .iter()
+            .map(|&([a, b], _)| Rect::of_segment(self.points[a].0, self.points[b].0))
+            .collect();
+        let mut order: Vec<usize> = (0..m).collect();
+        order.sort_by(|&i, &j| boxes[i].min.x.total_cmp(&boxes[j].min.x));
+        let mut splits: Vec<Vec<(f64, usize)>> = vec![Vec::new(); m];
+        let mut added = false;
+        for (k, &i) in order.iter().enumerate() {
+            for &j in &order[k + 1..] {
+                if boxes[j].min.x > boxes[i].max.x {
+                    break;
+                }
+                if boxes[i].touches(&boxes[j]) {
+                    added |= self.split_pair(i, j, &mut splits);
+                }
+            }
+        }
+        let old = std::mem::take(&mut self.constraints);
+        for (([a, b], kind), mut cuts) in old.into_iter().zip(splits) {
+            cuts.sort_by(|x, y| x.0.total_cmp(&y.0));
+            let mut prev = a;
+            for (_, v) in cuts.into_iter().chain(std::iter::once((1.0, b))) {
+                if v != prev {
+                    self.constraints.push(([prev, v], kind));
+                    prev = v;
+                }
+            }
+        }
+        added
+    }
+
+    /// Records where constraints `i` and `j` meet: an end of one on the other, or a
+    /// proper crossing (a new vertex). True when a vertex was added.
+    fn split_pair(&mut self, i: usize, j: usize, splits: &mut [Vec<(f64, usize)>]) -> bool {
+        let ([a0, a1], ka) = self.constraints[i];
+        let ([b0, b1], kb) = self.constraints[j];
+        let (a, b) = (self.points[a0].0, self.points[a1].0);
+        let (c, d) = (self.points[b0].0, self.points[b1].0);
+        let mut touching = false;
+        for (k, ends, (s0, s1), (e0, e1)) in [
+            (i, [(b0, c), (b1, d)], (a, b), (a0, a1)),
+            (j, [(a0, a), (a1, b)], (c, d), (b0, b1)),
+        ] {
+            for (v, p) in ends {
+                if v != e0
+                    && v != e1
+                    && let Some(t) = on_segment(p, s0, s1)
+                {
+                    splits[k].push((t, v));
+                    touching = true;
+                }
+            }
+        }
+        let shared = a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1;
+        if touching || shared {
+            return false;
+        }
+        let (o1, o2) = (orient(c, d, a), orient(c, d, b));
+        let (o3, o4) = (orient(a, b, c), orient(a, b, d));
+        if !(o1 * o2 < 0.0 && o3 * o4 < 0.0) {
+            return false;
+        }
+        let (t, u) = (o1 / (o1 - o2), o3 / (o3 - o4));
+        let p = a + (b - a) * t;
+        if !p.is_finite() {
+            return false;
+        }
+        let p = p.clamp(self.rect.min, self.rect.max);
+        let kind = if ka == Kind::Rim || kb == Kind::Rim {
+            Kind::Rim
+        } else {
+            Kind::Plain
+        };
+        // A crossing at an end is that end.
+        let end = [(a0, a), (a1, b), (b0, c), (b1, d)]
+            .into_iter()
+            .find(|&(_, q)| q.distance(p) <= SNAP_EPS);
+        let v = match end {
+            Some((v, _)) => v,
+            None => self.point(p, kind),
+        };
+        if v != a0 && v != a1 {
+            splits[i].push((t, v));
+        }
+        if v != b0 && v != b1 {
+            splits[j].push((u, v));
+        }
+        end.is_none()
+    }
+
+    /// The constrained Delaunay triangulation of the points and constraints, built
+    /// point by point in input order: deterministic, so an incremental tessellation
+    /// equals a fresh one bit for bit (spade's bulk loader inserts the vertices it
+    /// defers in hash-set order, which varies from run to run). Never panics:
+    /// constraints still crossing after [`Self::resolve_crossings`] (rounding at
+    /// near-coincident crossings) are left out, as are points spade cannot take.
+    fn triangulate(&mut self) -> ConstrainedDelaunayTriangulation<Point2<f64>> {
+        self.resolve_crossings();
+        let mut cdt = ConstrainedDelaunayTriangulation::<Point2<f64>>::new();
+        let handles: Vec<_> = self
+            .points
+            .iter()
+            .map(|(p, _)| cdt.insert(Point2::new(p.x, p.y)).ok())
+            .collect();
+        for &([a, b], _) in &self.constraints {
+            if let (Some(a), Some(b)) = (handles[a], handles[b])
+                && a != b
+            {
+                cdt.try_add_constraint(a, b);
+            }
+        }
+        cdt
     }
 
     fn hash_into(&self, h: &mut impl Hasher) {
