@@ -341,8 +341,7 @@ impl Document {
                 .filter(|s| s.target == t.id)
                 .filter_map(|s| self.built.get(&s.id).map(|b| (s.id, b)))
                 .collect();
-            let area = if fresh { None } else { changed.flatten() };
-            let s = view.update(&t.surface, &strokes, area, sink);
+            let s = view.update_strokes(&t.surface, &strokes, sink);
             stats.patches_written += s.patches_written;
             stats.triangles_written += s.triangles_written;
             stats.triangles_total += s.triangles_total;
@@ -367,7 +366,7 @@ impl Document {
         let mut mesh = PatchMesh::new();
         for (k, t) in self.targets.iter().enumerate() {
             let mut view = TargetTessellation::new(&t.surface, k as u32, detail);
-            view.update(&t.surface, &self.strokes_on(t.id), None, &mut mesh);
+            view.update_strokes(&t.surface, &self.strokes_on(t.id), &mut mesh);
         }
         mesh
     }
@@ -420,12 +419,10 @@ impl Document {
 
 /// The domain minus the hidden region, as faces with holes.
 fn visible_faces(hidden: &super::jordan::Region) -> Vec<Face> {
-    use i_overlay::core::fill_rule::FillRule;
     use i_overlay::core::overlay_rule::OverlayRule;
-    use i_overlay::float::single::SingleFloatOverlay;
     let square = vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
     let holes = super::stroke::region_to_contours(hidden);
-    let shapes = square.overlay_as::<i64>(&holes, OverlayRule::Difference, FillRule::NonZero);
+    let shapes = super::stroke::domain_overlay(&[square], &holes, OverlayRule::Difference);
     let to = |c: &Vec<[f64; 2]>| c.iter().map(|p| DVec2::new(p[0], p[1])).collect::<Vec<_>>();
     shapes
         .iter()

@@ -40,7 +40,6 @@ use crate::error::{Error, Result};
 use glam::{DVec2, DVec3};
 use i_overlay::core::fill_rule::FillRule;
 use i_overlay::core::overlay_rule::OverlayRule;
-use i_overlay::float::single::SingleFloatOverlay;
 use serde::{Deserialize, Serialize};
 
 /// Turns sharper than this (degrees, measured over one tool width) are corners.
@@ -193,6 +192,10 @@ pub struct Stroke {
     pub footprint: Region,
     /// Bounding rectangle of the footprint in UV.
     pub bounds: Rect,
+    /// Bounding rectangles of the pieces whose union is the footprint (strip quads and
+    /// end caps): together they cover the footprint, the centreline and the profile
+    /// sample lines, so a quadtree cell that meets none of them is untouched.
+    pieces: Vec<Rect>,
     buckets: Buckets,
 }
 
@@ -384,8 +387,13 @@ impl Stroke {
         }
         // Footprint: the union of the strip's triangles plus round caps, clipped.
         let mut pieces: Vec<Vec<[f64; 2]>> = Vec::new();
+        let mut piece_bounds: Vec<Rect> = Vec::new();
         let mut push = |tri: Vec<DVec2>| {
             let mut tri = tri;
+            let r = tri.iter().fold(Rect::new(tri[0], tri[0]), |r, &p| {
+                Rect::new(r.min.min(p), r.max.max(p))
+            });
+            piece_bounds.push(r);
             let a = signed_area(&tri);
             if a.abs() < 1e-18 {
                 return;
@@ -417,13 +425,10 @@ impl Stroke {
                 push(cap);
             }
         }
-        let union = pieces.overlay_as::<i64>(
-            &Vec::<Vec<[f64; 2]>>::new(),
-            OverlayRule::Subject,
-            FillRule::NonZero,
-        );
-        let square = vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
-        let clipped = union.overlay_as::<i64>(&square, OverlayRule::Intersect, FillRule::NonZero);
+        let square = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+        let union = domain_overlay(&pieces, &[], OverlayRule::Subject);
+        let union: Vec<Vec<[f64; 2]>> = union.into_iter().flatten().collect();
+        let clipped = domain_overlay(&union, &[square.to_vec()], OverlayRule::Intersect);
         let footprint = region_from_shapes(clipped);
         if footprint.is_empty() {
             return Err(reject("the stroke's footprint is empty"));
@@ -436,6 +441,7 @@ impl Stroke {
             }
         }
         let buckets = Buckets::new(&centre_uv, &rims_uv, bounds);
+        let pieces = piece_bounds;
         Ok(Self {
             tool,
             centre_uv,
@@ -446,8 +452,15 @@ impl Stroke {
             depth,
             footprint,
             bounds,
+            pieces,
             buckets,
         })
+    }
+
+    /// Bounding rectangles of the pieces of the footprint (see the field docs of
+    /// `pieces`): a cell meeting none of them is untouched by this stroke.
+    pub fn piece_bounds(&self) -> &[Rect] {
+        &self.pieces
     }
 
     /// The groove depth (carve) or ridge height (emboss) at the surface point `p = S(uv)`;
@@ -536,11 +549,51 @@ pub fn union(regions: &[&Region]) -> Region {
     if subject.is_empty() {
         return Region::empty();
     }
-    region_from_shapes(subject.overlay_as::<i64>(
-        &Vec::<Vec<[f64; 2]>>::new(),
-        OverlayRule::Subject,
-        FillRule::NonZero,
-    ))
+    region_from_shapes(domain_overlay(&subject, &[], OverlayRule::Subject))
+}
+
+/// A polygon boolean (non-zero fill) of contours in the parameter square, on one fixed
+/// integer grid over `[-1, 2]^2` rather than one fitted to each input's bounds: a
+/// vertex snaps to the same point whatever else takes part, so a union grown one
+/// footprint at a time changes only where the new footprint is.
+pub fn domain_overlay(
+    subject: &[Vec<[f64; 2]>],
+    clip: &[Vec<[f64; 2]>],
+    rule: OverlayRule,
+) -> Vec<Vec<Vec<[f64; 2]>>> {
+    use i_overlay::core::overlay::ShapeType;
+    use i_overlay::float::overlay::FloatOverlay;
+    use i_overlay::i_float::adapter::FloatPointAdapter;
+    use i_overlay::i_float::float::rect::FloatRect;
+    let domain = FloatRect {
+        min_x: -1.0,
+        max_x: 2.0,
+        min_y: -1.0,
+        max_y: 2.0,
+    };
+    let adapter = FloatPointAdapter::<[f64; 2], i64>::new(domain);
+    let count = subject.iter().chain(clip).map(Vec::len).sum();
+    let mut overlay = FloatOverlay::with_adapter(adapter, count);
+    // The grid covers [-1, 2]^2 only: keep every point on it (NaN to the centre).
+    let on_grid = |x: f64| {
+        if x.is_finite() {
+            x.clamp(-1.0, 2.0)
+        } else {
+            0.5
+        }
+    };
+    let inside = |c: &Vec<[f64; 2]>| {
+        c.iter()
+            .map(|p| [on_grid(p[0]), on_grid(p[1])])
+            .collect::<Vec<_>>()
+    };
+    for c in subject {
+        overlay = overlay.unsafe_add_contour(&inside(c), ShapeType::Subject);
+    }
+    for c in clip {
+        overlay = overlay.unsafe_add_contour(&inside(c), ShapeType::Clip);
+    }
+    overlay.overlay(rule, FillRule::NonZero)
 }
 
 /// A uniform grid over the stroke's bounds listing the centreline segments near each

@@ -27,7 +27,7 @@
 //! **Incremental.** Each patch's inputs are hashed; after an edit only patches whose hash
 //! changed are triangulated and written (the sink replaces them by key).
 
-use super::jordan::{NodeClass, Rect, Region};
+use super::jordan::{Location, NodeClass, Rect, Region};
 use super::stroke::{Mode, Stroke};
 use super::surface::{ParamSurface, SurfaceExtent, extent, normal_from};
 use super::uvmap::{UvMap, base_grid};
@@ -104,7 +104,15 @@ pub struct TargetTessellation {
     detail: Detail,
     extent: SurfaceExtent,
     map: UvMap,
-    hidden: Region,
+    /// `unions[k]`: the id of the k-th stroke and the union of the footprints of
+    /// strokes `0..=k`. Applying a stroke unions one footprint into the last entry;
+    /// undo pops.
+    unions: Vec<(u64, Region)>,
+    empty: Region,
+    /// The roots each stroke touches (see [`Stroke::piece_bounds`]), by stroke id.
+    touched: HashMap<u64, Vec<u32>>,
+    /// The strokes touching each root, in application order.
+    root_strokes: Vec<Vec<u64>>,
     signatures: Vec<Option<u64>>,
     triangles: Vec<usize>,
 }
@@ -133,8 +141,11 @@ impl TargetTessellation {
             extent,
             signatures: vec![None; (n * n) as usize],
             triangles: vec![0; (n * n) as usize],
+            root_strokes: vec![Vec::new(); (n * n) as usize],
             map,
-            hidden: Region::empty(),
+            unions: Vec::new(),
+            empty: Region::empty(),
+            touched: HashMap::new(),
         }
     }
 
@@ -145,7 +156,7 @@ impl TargetTessellation {
 
     /// The union of all footprints (the region where the target is hidden).
     pub fn hidden(&self) -> &Region {
-        &self.hidden
+        self.unions.last().map_or(&self.empty, |u| &u.1)
     }
 
     /// Triangles in the current mesh of this target.
@@ -166,15 +177,30 @@ impl TargetTessellation {
     /// Memory held by the map and bookkeeping, bytes (excluding the written mesh).
     pub fn memory_bytes(&self) -> usize {
         self.map.memory_bytes()
-            + self.hidden.segments().len() * 32
+            + self
+                .unions
+                .iter()
+                .map(|u| u.1.segments().len() * 40)
+                .sum::<usize>()
+            + self
+                .touched
+                .values()
+                .map(|t| t.len() * 4 + 32)
+                .sum::<usize>()
+            + self
+                .root_strokes
+                .iter()
+                .map(|r| r.len() * 8 + 24)
+                .sum::<usize>()
             + self.signatures.len() * 16
             + self.triangles.len() * 8
     }
 
-    /// Brings the sink up to date with `strokes` (in application order): reclassifies
-    /// the UV map against the union of their footprints (only within `changed`, when
-    /// given, which must cover every footprint added or removed since the last call) and
-    /// rewrites the patches whose inputs changed.
+    /// Brings the sink up to date with `strokes` (in application order) and rewrites
+    /// the patches whose inputs changed. Like [`Self::update_strokes`], and when
+    /// `changed` is `None` every root is re-checked (a change the view cannot see, such
+    /// as a stroke rebuilt under the same id); otherwise the roots meeting `changed`
+    /// are re-checked too.
     pub fn update(
         &mut self,
         surface: &dyn ParamSurface,
@@ -182,32 +208,123 @@ impl TargetTessellation {
         changed: Option<Rect>,
         sink: &mut dyn MeshSink,
     ) -> TessStats {
-        let regions: Vec<&Region> = strokes.iter().map(|s| &s.1.footprint).collect();
-        self.hidden = super::stroke::union(&regions);
-        let area =
-            changed.map(|r| Rect::new(r.min - DVec2::splat(1e-9), r.max + DVec2::splat(1e-9)));
-        self.map.update(&self.hidden, area, self.detail.cap());
-        let segments = self.segments(strokes);
         let n = self.map.n();
+        let extra: Vec<u32> = (0..n * n)
+            .filter(|&r| changed.is_none_or(|c| c.touches(&self.map.node(r).rect)))
+            .collect();
+        self.update_inner(surface, strokes, &extra, sink)
+    }
+
+    /// Brings the sink up to date with `strokes` (in application order), doing work only
+    /// where something changed since the last call. The view remembers the strokes it
+    /// last saw: strokes applied since (a new suffix) have their footprints unioned into
+    /// the hidden region, strokes undone since are popped. The dirty roots are those
+    /// the added or removed strokes touch plus those met by an outline segment that
+    /// changed; they are reclassified, and they and their neighbours (whose shared
+    /// sides may change) are re-checked: a patch is rewritten only when its input
+    /// signature changed.
+    pub fn update_strokes(
+        &mut self,
+        surface: &dyn ParamSurface,
+        strokes: &[StrokeRef<'_>],
+        sink: &mut dyn MeshSink,
+    ) -> TessStats {
+        self.update_inner(surface, strokes, &[], sink)
+    }
+
+    fn update_inner(
+        &mut self,
+        surface: &dyn ParamSurface,
+        strokes: &[StrokeRef<'_>],
+        extra: &[u32],
+        sink: &mut dyn MeshSink,
+    ) -> TessStats {
+        let n = self.map.n();
+        let roots = (n * n) as usize;
+        let fresh = self.signatures.iter().all(Option::is_none);
+        let mut dirty = vec![fresh; roots];
+        for &r in extra {
+            dirty[r as usize] = true;
+        }
+        // The strokes added and removed since the last call.
+        let common = self
+            .unions
+            .iter()
+            .zip(strokes)
+            .take_while(|(u, s)| u.0 == s.0)
+            .count();
+        let old_segments: Vec<[DVec2; 2]> = self.hidden().segments().to_vec();
+        let edited = common < self.unions.len() || common < strokes.len();
+        for (id, _) in self.unions.split_off(common) {
+            for r in self.touched.remove(&id).unwrap_or_default() {
+                dirty[r as usize] = true;
+                self.root_strokes[r as usize].retain(|&x| x != id);
+            }
+        }
+        for &(id, s) in &strokes[common..] {
+            let hidden = match self.unions.last() {
+                Some((_, prev)) => super::stroke::union(&[prev, &s.footprint]),
+                None => super::stroke::union(&[&s.footprint]),
+            };
+            self.unions.push((id, hidden));
+            let touched = self.roots_touched(s);
+            for &r in &touched {
+                dirty[r as usize] = true;
+                self.root_strokes[r as usize].push(id);
+            }
+            self.touched.insert(id, touched);
+        }
+        // Roots met by an outline segment that appeared or disappeared.
+        if !fresh && edited {
+            let key = |s: &[DVec2; 2]| [s[0].x, s[0].y, s[1].x, s[1].y].map(f64::to_bits);
+            let old: std::collections::HashSet<[u64; 4]> = old_segments.iter().map(key).collect();
+            let new: std::collections::HashSet<[u64; 4]> =
+                self.hidden().segments().iter().map(key).collect();
+            let changed: Vec<[DVec2; 2]> = old_segments
+                .iter()
+                .filter(|s| !new.contains(&key(s)))
+                .chain(
+                    self.hidden()
+                        .segments()
+                        .iter()
+                        .filter(|s| !old.contains(&key(s))),
+                )
+                .copied()
+                .collect();
+            for s in changed {
+                self.for_roots_meeting(s, |r| dirty[r as usize] = true);
+            }
+        }
+        let hidden = self.unions.last().map_or(&self.empty, |u| &u.1);
+        let dirty_roots: Vec<u32> = (0..n * n).filter(|&r| dirty[r as usize]).collect();
+        self.map
+            .update_roots(hidden, dirty_roots.iter().copied(), self.detail.cap());
+        // Re-check the dirty roots and their neighbours; index segments one ring wider.
+        let recheck = self.grow(&dirty);
+        let indexed = self.grow(&recheck);
+        let by_id: HashMap<u64, &Stroke> = strokes.iter().map(|&(id, s)| (id, s)).collect();
+        let segments = self.segments(strokes, &indexed);
         let mut stats = TessStats::default();
-        let mut cache = EvalCache::with_capacity_and_hasher(
-            (n * n * 4) as usize,
-            BuildHasherDefault::default(),
-        );
-        for root in 0..n * n {
-            let input = self.patch_input(root, strokes, &segments);
-            let mut h = std::collections::hash_map::DefaultHasher::new();
+        let mut cache = EvalCache::default();
+        let mut here: Vec<StrokeRef<'_>> = Vec::new();
+        for root in (0..n * n).filter(|&r| recheck[r as usize]) {
+            here.clear();
+            here.extend(
+                self.root_strokes[root as usize]
+                    .iter()
+                    .filter_map(|id| by_id.get(id).map(|&s| (*id, s))),
+            );
+            let input = self.patch_input(root, &here, &segments);
+            let mut h = FxHasher::default();
             input.hash_into(&mut h);
-            for (id, s) in strokes {
-                if s.bounds.touches(&input.rect) {
-                    id.hash(&mut h);
-                }
+            for (id, _) in &here {
+                id.hash(&mut h);
             }
             let sig = h.finish();
             if self.signatures[root as usize] == Some(sig) {
                 continue;
             }
-            let tris = self.write_patch(surface, root, input, strokes, &mut cache, sink);
+            let tris = self.write_patch(surface, root, input, &here, &mut cache, sink);
             self.signatures[root as usize] = Some(sig);
             self.triangles[root as usize] = tris;
             stats.patches_written += 1;
@@ -217,42 +334,87 @@ impl TargetTessellation {
         stats
     }
 
-    fn segments(&self, strokes: &[StrokeRef<'_>]) -> Segments {
-        let mut segs: Vec<([DVec2; 2], Kind)> = self
-            .hidden
-            .segments()
-            .iter()
-            .map(|s| (*s, Kind::Rim))
-            .collect();
-        for (_, s) in strokes {
-            for w in s.centre_uv.windows(2) {
-                if w[0] != w[1] {
-                    segs.push(([w[0], w[1]], Kind::Plain));
+    /// The roots a stroke touches: those meeting one of its pieces' bounds.
+    fn roots_touched(&self, s: &Stroke) -> Vec<u32> {
+        let n = self.map.n();
+        let mut mask = vec![false; (n * n) as usize];
+        for r in s.piece_bounds() {
+            let r = Rect::new(r.min - DVec2::splat(1e-9), r.max + DVec2::splat(1e-9));
+            for root in self.roots_near(&r) {
+                if self.map.node(root).rect.touches(&r) {
+                    mask[root as usize] = true;
                 }
             }
         }
+        (0..n * n).filter(|&r| mask[r as usize]).collect()
+    }
+
+    /// Calls `f` for every root whose closed rectangle meets the segment.
+    fn for_roots_meeting(&self, s: [DVec2; 2], mut f: impl FnMut(u32)) {
+        for root in self.roots_near(&Rect::of_segment(s[0], s[1])) {
+            if self.map.node(root).rect.meets_segment(s[0], s[1]) {
+                f(root);
+            }
+        }
+    }
+
+    /// The roots of the grid cells under `r`, widened by one cell (a rectangle ending
+    /// on a cell side belongs to both cells).
+    fn roots_near(&self, r: &Rect) -> impl Iterator<Item = u32> + '_ {
         let n = self.map.n();
-        let mut by_root = vec![Vec::new(); (n * n) as usize];
         let cell = |x: f64| ((x * n as f64).floor().max(0.0) as u32).min(n - 1);
-        for (k, (s, _)) in segs.iter().enumerate() {
-            let r = Rect::of_segment(s[0], s[1]);
-            // A segment on a cell side belongs to both cells: widen by one cell.
-            let (i0, i1) = (
-                cell(r.min.x).saturating_sub(1),
-                (cell(r.max.x) + 1).min(n - 1),
-            );
-            let (j0, j1) = (
-                cell(r.min.y).saturating_sub(1),
-                (cell(r.max.y) + 1).min(n - 1),
-            );
-            for j in j0..=j1 {
-                for i in i0..=i1 {
-                    let root = self.map.root(i, j);
-                    if self.map.node(root).rect.meets_segment(s[0], s[1]) {
-                        by_root[root as usize].push(k as u32);
-                    }
+        let (i0, i1) = (
+            cell(r.min.x).saturating_sub(1),
+            (cell(r.max.x) + 1).min(n - 1),
+        );
+        let (j0, j1) = (
+            cell(r.min.y).saturating_sub(1),
+            (cell(r.max.y) + 1).min(n - 1),
+        );
+        (j0..=j1).flat_map(move |j| (i0..=i1).map(move |i| self.map.root(i, j)))
+    }
+
+    /// The mask grown by one ring of neighbours (across the seams of closed surfaces).
+    fn grow(&self, mask: &[bool]) -> Vec<bool> {
+        let mut out = mask.to_vec();
+        for (r, _) in mask.iter().enumerate().filter(|(_, m)| **m) {
+            for side in 0..4 {
+                if let Some((nb, _)) = self.neighbour(r as u32, side) {
+                    out[nb as usize] = true;
                 }
             }
+        }
+        out
+    }
+
+    /// The outline and centreline segments, indexed for the roots in `mask`.
+    fn segments(&self, strokes: &[StrokeRef<'_>], mask: &[bool]) -> Segments {
+        let n = self.map.n();
+        let mut by_root = vec![Vec::new(); (n * n) as usize];
+        let mut segs: Vec<([DVec2; 2], Kind)> = Vec::new();
+        let near = |r: &Rect| self.roots_near(r).any(|root| mask[root as usize]);
+        let hidden = self.hidden().segments().iter().map(|s| (*s, Kind::Rim));
+        let centres = strokes
+            .iter()
+            .filter(|(id, _)| {
+                self.touched
+                    .get(id)
+                    .is_none_or(|t| t.iter().any(|&r| mask[r as usize]))
+            })
+            .flat_map(|(_, s)| s.centre_uv.windows(2))
+            .filter(|w| w[0] != w[1])
+            .map(|w| ([w[0], w[1]], Kind::Plain));
+        for (s, kind) in hidden.chain(centres) {
+            if !near(&Rect::of_segment(s[0], s[1])) {
+                continue;
+            }
+            let k = segs.len() as u32;
+            segs.push((s, kind));
+            self.for_roots_meeting(s, |root| {
+                if mask[root as usize] {
+                    by_root[root as usize].push(k);
+                }
+            });
         }
         Segments { segs, by_root }
     }
@@ -508,11 +670,13 @@ fn evaluate(
 }
 
 /// The combined displacement along the normal at `p = S(uv)`: strokes in order, carving
-/// lowers to `min(h, -depth)`, embossing raises to `max(h, height)`.
+/// lowers to `min(h, -depth)`, embossing raises to `max(h, height)`. A stroke acts only
+/// inside its footprint (outline included), so the sculpted part ends exactly at the
+/// hidden region's outline.
 pub fn height(strokes: &[StrokeRef<'_>], uv: DVec2, p: DVec3) -> f64 {
     let mut h: f64 = 0.0;
     for (_, s) in strokes {
-        if !s.bounds.contains(uv) {
+        if !s.bounds.contains(uv) || s.footprint.locate(uv) == Location::Outside {
             continue;
         }
         let d = s.depth_at(uv, p);

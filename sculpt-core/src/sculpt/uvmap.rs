@@ -181,6 +181,23 @@ impl UvMap {
         edit
     }
 
+    /// [`Self::update`] for the listed roots only (the caller knows the region changed
+    /// nowhere else).
+    pub fn update_roots(
+        &mut self,
+        region: &Region,
+        roots: impl IntoIterator<Item = u32>,
+        cap: u8,
+    ) -> Edit {
+        let mut edit = Edit::default();
+        for r in roots {
+            if r < self.n * self.n {
+                self.classify_node(r, region, cap, &mut edit);
+            }
+        }
+        edit
+    }
+
     fn classify_node(&mut self, id: NodeId, region: &Region, cap: u8, edit: &mut Edit) {
         let node = self.nodes[id as usize];
         let class = region.classify(node.rect);
