@@ -30,7 +30,7 @@
 use super::jordan::{Location, NodeClass, Rect, Region};
 use super::stroke::{Mode, Stroke};
 use super::surface::{ParamSurface, SurfaceExtent, extent, normal_from};
-use super::uvmap::{UvMap, base_grid};
+use super::uvmap::UvMap;
 use crate::mesh::{MeshSink, MeshVertex, PatchKey};
 use glam::{DVec2, DVec3};
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
@@ -56,7 +56,8 @@ impl Detail {
         }
     }
 
-    /// Chord tolerance for the base grid, as a fraction of the surface's diagonal.
+    /// Chord tolerance of the tessellated target, as a fraction of its size (bounding
+    /// box diagonal): 0.2 % while sculpting, 0.1 % for the final render and export.
     pub fn chord_fraction(self) -> f64 {
         match self {
             Detail::Interactive => 2e-3,
@@ -65,10 +66,11 @@ impl Detail {
     }
 
     /// The stated tessellation tolerance (metres) for a target of size `size` (its
-    /// bounding-box diagonal): twice the chord fraction that picks the base grid, since
-    /// the grid estimate bounds the curvature from samples.
+    /// bounding-box diagonal): the mesh of the bare target lies within this distance of
+    /// the surface. [`GridPlan`] cuts the target by the measured chord error, with a
+    /// margin, so that the mesh honours it.
     pub fn tolerance(self, size: f64) -> f64 {
-        2.0 * self.chord_fraction() * size
+        self.chord_fraction() * size
     }
 
     /// Profile sample fractions (of the half-width) inserted between centre and rim.
@@ -80,6 +82,130 @@ impl Detail {
             (Detail::Final, true) => &[0.25, 0.5, 0.75, 0.9],
         }
     }
+}
+
+/// Largest root grid, cells per side.
+pub const MAX_GRID: u32 = 64;
+
+/// The deviation the grid is planned for, as a fraction of the stated tolerance: the
+/// chord error is measured at cell midpoints, where it peaks for smooth patches; the
+/// margin covers higher-order terms between them.
+const GRID_MARGIN: f64 = 0.8;
+
+/// Most root cells refined beyond this many levels by [`GridPlan`].
+pub const MAX_REFINE: u8 = 4;
+
+/// How a target is cut for tessellation: an `n x n` root grid, and per root the
+/// quadtree level its leaves reach at least, so that every cell, drawn as two flat
+/// triangles, deviates from the surface by at most `GRID_MARGIN * tol`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct GridPlan {
+    /// Root cells per side.
+    pub n: u32,
+    /// Per root (row-major), the minimum leaf level.
+    pub min_levels: Vec<u8>,
+}
+
+impl GridPlan {
+    /// Plans the grid for a chord tolerance `tol` (metres).
+    ///
+    /// The chord error is measured, not estimated from derivative bounds: at every
+    /// cell's edge midpoints and centre, the distance along the surface normal between
+    /// the surface and the chord through the cell's corners (both diagonals at the
+    /// centre) ([`chord_errors`]). Tangential parametric distortion (a clamped knot
+    /// vector, a rational weight) moves no vertex off the surface and does not count.
+    /// The uniform root grid `n` (2 to [`MAX_GRID`]) is grown until 95 % of the cells
+    /// hold (the error of a smooth patch falls as `1 / n^2`); the cells that still do
+    /// not (creases, tight spots) are refined by `log2(error / goal)` levels, at most
+    /// [`MAX_REFINE`] (the error falls at least by half per level).
+    pub fn new(surface: &dyn ParamSurface, tol: f64) -> Self {
+        let goal = tol * GRID_MARGIN;
+        if !(goal > 0.0 && goal.is_finite()) {
+            return Self::uniform(MAX_GRID);
+        }
+        let quantile = |e: &[f64]| {
+            let mut v = e.to_vec();
+            v.sort_by(f64::total_cmp);
+            v[(v.len() * 95 / 100).min(v.len() - 1)]
+        };
+        let probe = 4u32;
+        let d = quantile(&chord_errors(surface, probe));
+        if !d.is_finite() {
+            return Self::uniform(MAX_GRID);
+        }
+        let mut n = ((f64::from(probe) * (d / goal).sqrt()).ceil() as u32).clamp(2, MAX_GRID);
+        loop {
+            let errors = chord_errors(surface, n);
+            let q = quantile(&errors);
+            if q <= goal || n >= MAX_GRID {
+                let min_levels = errors
+                    .iter()
+                    .map(|&e| {
+                        if e <= goal {
+                            0
+                        } else if e.is_finite() {
+                            ((e / goal).log2().ceil() as u8).min(MAX_REFINE)
+                        } else {
+                            MAX_REFINE
+                        }
+                    })
+                    .collect();
+                return Self { n, min_levels };
+            }
+            let next = (f64::from(n) * (q / goal).sqrt() * 1.05).ceil() as u32;
+            n = next.clamp(n + 1, MAX_GRID);
+        }
+    }
+
+    fn uniform(n: u32) -> Self {
+        Self {
+            n,
+            min_levels: vec![0; (n * n) as usize],
+        }
+    }
+}
+
+/// The chord error (metres, along the normal) of each cell of an `n x n` grid of flat
+/// cells over the surface (row-major), measured at its edge midpoints and centre (see
+/// [`GridPlan::new`]); infinite where the surface is not finite.
+pub fn chord_errors(surface: &dyn ParamSurface, n: u32) -> Vec<f64> {
+    let n = n.max(1) as usize;
+    let m = 2 * n + 1;
+    let h = 0.5 / n as f64;
+    let mut grid = Vec::with_capacity(m * m);
+    for j in 0..m {
+        for i in 0..m {
+            let uv = DVec2::new(i as f64 * h, j as f64 * h).min(DVec2::ONE);
+            let sp = surface.eval(uv);
+            grid.push((sp.p, normal_from(surface, uv, &sp)));
+        }
+    }
+    let at = |i: usize, j: usize| grid[j * m + i];
+    let off = |mid: (DVec3, DVec3), a: DVec3, b: DVec3| mid.1.dot(mid.0 - (a + b) * 0.5).abs();
+    let mut out = Vec::with_capacity(n * n);
+    for cj in 0..n {
+        for ci in 0..n {
+            let (i, j) = (2 * ci + 1, 2 * cj + 1);
+            let c = at(i, j);
+            let e = [
+                off(at(i, j - 1), at(i - 1, j - 1).0, at(i + 1, j - 1).0),
+                off(at(i, j + 1), at(i - 1, j + 1).0, at(i + 1, j + 1).0),
+                off(at(i - 1, j), at(i - 1, j - 1).0, at(i - 1, j + 1).0),
+                off(at(i + 1, j), at(i + 1, j - 1).0, at(i + 1, j + 1).0),
+                off(c, at(i - 1, j - 1).0, at(i + 1, j + 1).0),
+                off(c, at(i + 1, j - 1).0, at(i - 1, j + 1).0),
+            ];
+            let worst = e.iter().fold(0.0f64, |w, &x| {
+                if x.is_finite() {
+                    w.max(x)
+                } else {
+                    f64::INFINITY
+                }
+            });
+            out.push(worst);
+        }
+    }
+    out
 }
 
 /// A stroke as the tessellator sees it: a stable id (for change detection) and the
@@ -130,11 +256,26 @@ struct Segments {
 }
 
 impl TargetTessellation {
-    /// Starts the tessellation of a target (patch keys use `key` in their high bits).
+    /// Starts the tessellation of a target (patch keys use `key` in their high bits),
+    /// with the grid [`GridPlan::new`] plans for the detail's tolerance.
     pub fn new(surface: &dyn ParamSurface, key: u32, detail: Detail) -> Self {
         let extent = extent(surface);
-        let n = base_grid(&extent, extent.diagonal() * detail.chord_fraction());
-        let map = UvMap::new(n);
+        let plan = GridPlan::new(surface, detail.tolerance(extent.diagonal()));
+        Self::with_grid(surface, key, detail, &plan)
+    }
+
+    /// [`Self::new`] with the grid already planned (planning costs a few thousand
+    /// surface evaluations: plan once per target and detail).
+    pub fn with_grid(
+        surface: &dyn ParamSurface,
+        key: u32,
+        detail: Detail,
+        plan: &GridPlan,
+    ) -> Self {
+        let extent = extent(surface);
+        let mut map = UvMap::new(plan.n.clamp(1, MAX_GRID));
+        map.set_min_levels(&plan.min_levels);
+        let n = map.n();
         Self {
             key,
             detail,
