@@ -443,7 +443,7 @@ impl TargetTessellation {
         // Re-check the dirty roots and their neighbours; index segments one ring wider.
         let recheck = self.grow(&dirty);
         let indexed = self.grow(&recheck);
-        let by_id: HashMap<u64, &Stroke> = strokes.iter().map(|&(id, s)| (id, s)).collect();
+        let by_id: FxMap<u64, &Stroke> = strokes.iter().map(|&(id, s)| (id, s)).collect();
         let segments = self.segments(strokes, &indexed);
         let mut stats = TessStats::default();
         let mut cache = EvalCache::default();
@@ -695,7 +695,7 @@ impl TargetTessellation {
         }
         let mut input = input;
         let cdt = input.triangulate();
-        let rims: std::collections::HashSet<(u64, u64)> = input
+        let rims: std::collections::HashSet<(u64, u64), BuildHasherDefault<FxHasher>> = input
             .points
             .iter()
             .filter(|(_, k)| *k == Kind::Rim)
@@ -835,6 +835,9 @@ pub fn height(strokes: &[StrokeRef<'_>], uv: DVec2, p: DVec3) -> f64 {
 /// patches of one pass so that side and corner vertices are evaluated once.
 type EvalCache = HashMap<(u64, u64), (DVec3, DVec3, f64), BuildHasherDefault<FxHasher>>;
 
+/// A hash map with the [`FxHasher`].
+type FxMap<K, V> = HashMap<K, V, BuildHasherDefault<FxHasher>>;
+
 /// The multiply-rotate hash of rustc (Fx): parameters are not adversarial, and SipHash
 /// dominated the cache's cost.
 #[derive(Default)]
@@ -859,7 +862,7 @@ impl Hasher for FxHasher {
 struct PatchInput {
     rect: Rect,
     points: Vec<(DVec2, Kind)>,
-    index: HashMap<(u64, u64), usize>,
+    index: FxMap<(u64, u64), usize>,
     constraints: Vec<([usize; 2], Kind)>,
     interior_hidden: bool,
 }
@@ -890,7 +893,7 @@ impl PatchInput {
         let mut me = Self {
             rect,
             points: Vec::new(),
-            index: HashMap::new(),
+            index: FxMap::default(),
             constraints: Vec::new(),
             interior_hidden: false,
         };
@@ -934,7 +937,7 @@ impl PatchInput {
                 break;
             }
         }
-        let mut seen = std::collections::HashSet::new();
+        let mut seen = std::collections::HashSet::<_, BuildHasherDefault<FxHasher>>::default();
         self.constraints
             .retain(|&([a, b], _)| a != b && seen.insert((a.min(b), a.max(b))));
     }
