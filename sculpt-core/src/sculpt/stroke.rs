@@ -12,7 +12,9 @@
 //! 3. **Project** every sample onto the target by Newton point inversion seeded from the
 //!    previous sample ([`project_seeded`]). Samples farther than the snap distance from
 //!    the surface are off the surface; the longest run on the surface is kept (the
-//!    stroke is clipped), and a stroke with no run is rejected.
+//!    stroke is clipped), and a stroke with no run is rejected. On a closed surface
+//!    (sphere, torus) a crossing of the seam also ends a run, and rim points that fall
+//!    across it are moved back onto it: strokes are clipped at the seam, not wrapped.
 //! 4. Compute the **rims**: the 3D points `C +- w/2 B` (`B = N x T`, the side direction)
 //!    projected onto the surface. Tapered ends scale the width and depth smoothly to
 //!    zero over the taper length, so the groove starts and ends cleanly.
@@ -316,14 +318,23 @@ impl Stroke {
         }
         let pts = resample(&raw, tool.width * 0.25);
         // Project, seeded from the previous sample; keep the longest on-surface run.
+        // On a closed surface a seeded projection stops at the seam: the point is then
+        // projected afresh, and a jump across the seam ends the run (strokes are
+        // clipped at the seam, not wrapped across it).
+        let closed = [ext.closed_u, ext.closed_v];
         let mut runs: Vec<Vec<(DVec2, DVec3)>> = vec![Vec::new()];
         let mut seed = None;
         for &p in &pts {
             let pr = match seed {
                 Some(s) => {
                     let pr = project_seeded(surface, p, s);
-                    if pr.distance > snap {
-                        project(surface, p)
+                    if pr.distance > snap || on_seam(pr.uv, closed) {
+                        let fresh = project(surface, p);
+                        if fresh.distance < pr.distance {
+                            fresh
+                        } else {
+                            pr
+                        }
                     } else {
                         pr
                     }
@@ -331,6 +342,10 @@ impl Stroke {
                 None => project(surface, p),
             };
             if pr.distance <= snap && pr.p.is_finite() {
+                let jump = seed.is_some_and(|s: DVec2| (pr.uv - s).abs().max_element() > 0.5);
+                if jump {
+                    runs.push(Vec::new());
+                }
                 seed = Some(pr.uv);
                 if let Some(r) = runs.last_mut() {
                     r.push((pr.uv, pr.p));
@@ -347,13 +362,14 @@ impl Stroke {
         if run.len() < 2 || run_len <= tool.width * 1e-3 {
             return Err(reject("the stroke does not lie on the surface"));
         }
-        Self::from_centreline(surface, tool, run)
+        Self::from_centreline(surface, tool, run, closed)
     }
 
     fn from_centreline(
         surface: &dyn ParamSurface,
         tool: Tool,
         run: Vec<(DVec2, DVec3)>,
+        closed: [bool; 2],
     ) -> Result<Self> {
         let n = run.len();
         let centre_uv: Vec<DVec2> = run.iter().map(|r| r.0).collect();
@@ -382,7 +398,8 @@ impl Stroke {
             for (k, sign) in [(0, 1.0), (1, -1.0)] {
                 let target = centre[i] + side * (sign * half_width[i]);
                 let seed = centre_uv[i] + uv_step(sp.du, sp.dv, target - centre[i]);
-                rims_uv[k].push(project_seeded(surface, target, seed).uv);
+                let rim = project_seeded(surface, target, seed).uv;
+                rims_uv[k].push(seam_side(rim, centre_uv[i], closed));
             }
         }
         // Footprint: the union of the strip's triangles plus round caps, clipped.
@@ -420,7 +437,8 @@ impl Stroke {
                     let dir = side * a.cos() + t * a.sin();
                     let target = centre[end] + dir * half_width[end];
                     let seed = centre_uv[end] + uv_step(sp.du, sp.dv, target - centre[end]);
-                    cap.push(project_seeded(surface, target, seed).uv);
+                    let rim = project_seeded(surface, target, seed).uv;
+                    cap.push(seam_side(rim, centre_uv[end], closed));
                 }
                 push(cap);
             }
@@ -499,6 +517,27 @@ impl Stroke {
                 .map(|c| c.len() * 4 + 24)
                 .sum::<usize>()
     }
+}
+
+/// True when `uv` lies on the seam of a closed direction (`closed` = [u, v]).
+fn on_seam(uv: DVec2, closed: [bool; 2]) -> bool {
+    (closed[0] && (uv.x <= 0.0 || uv.x >= 1.0)) || (closed[1] && (uv.y <= 0.0 || uv.y >= 1.0))
+}
+
+/// A rim point that projected across the seam of a closed direction, moved back onto
+/// the seam on its centre's side: the groove is clipped at the seam.
+fn seam_side(rim: DVec2, centre: DVec2, closed: [bool; 2]) -> DVec2 {
+    let fix = |r: f64, c: f64, closed: bool| {
+        if closed && (r - c).abs() > 0.5 {
+            if c > 0.5 { 1.0 } else { 0.0 }
+        } else {
+            r
+        }
+    };
+    DVec2::new(
+        fix(rim.x, centre.x, closed[0]),
+        fix(rim.y, centre.y, closed[1]),
+    )
 }
 
 /// Parameter step that best realises the 3D displacement `d` (least squares on `[Su Sv]`).
@@ -670,6 +709,19 @@ mod tests {
         }
     }
 
+    /// Builds a stroke with the test tool and a snap distance of 0.1.
+    fn build(s: &dyn ParamSurface, samples: Vec<(f64, DVec3)>) -> Stroke {
+        Stroke::build(
+            s,
+            &StrokeInput {
+                samples,
+                tool: tool(),
+            },
+            0.1,
+        )
+        .unwrap()
+    }
+
     fn line(a: DVec3, b: DVec3, n: usize) -> Vec<(f64, DVec3)> {
         (0..n)
             .map(|i| {
@@ -726,15 +778,7 @@ mod tests {
                 )
             })
             .collect();
-        let st = Stroke::build(
-            &s,
-            &StrokeInput {
-                samples,
-                tool: tool(),
-            },
-            0.1,
-        )
-        .unwrap();
+        let st = build(&s, samples);
         // A loop: an outer outline and a hole; the hole's centre is outside.
         assert_eq!(st.footprint.contours().len(), 2);
         assert_eq!(st.footprint.locate(DVec2::splat(0.5)), Location::Outside);
@@ -803,6 +847,26 @@ mod tests {
         let st = Stroke::build(&s, &input, 0.1).unwrap();
         assert!(st.bounds.max.x <= 1.0 && st.bounds.min.x >= 0.0);
         assert!(st.centre_uv.iter().all(|c| c.x <= 1.0));
+    }
+
+    #[test]
+    fn stroke_across_the_seam_of_a_sphere_is_clipped_there() {
+        use crate::sculpt::surface::test_surfaces::sphere;
+        let s = sphere(1.0);
+        // Along the equator from -30 to +25 degrees: the seam u = 0 = 1 is at 0 degrees.
+        let samples = (0..56)
+            .map(|k| {
+                let a = (-30.0 + k as f64).to_radians();
+                (k as f64, DVec3::new(a.cos(), a.sin(), 0.0))
+            })
+            .collect();
+        let st = build(&s, samples);
+        // The longer part, before the seam, is kept; nothing wraps across the domain.
+        assert!(st.bounds.min.x > 0.5, "{:?}", st.bounds);
+        assert!(st.centre_uv.iter().all(|c| c.x > 0.5));
+        assert!(st.rims_uv.iter().flatten().all(|c| c.x > 0.5));
+        let length = 30f64.to_radians() / std::f64::consts::TAU;
+        assert!(st.bounds.max.x - st.bounds.min.x < length * 1.5);
     }
 
     #[test]

@@ -1317,11 +1317,19 @@ mod tests {
             &s,
             DVec3::new(-0.6, -1.0, 0.3),
             DVec3::new(-1.0, 0.1, -0.3),
+            t.clone(),
+        );
+        // Across the seam (u = 0 = 1 at +x): clipped there, still watertight.
+        let c = stroke(
+            &s,
+            DVec3::new(0.9, -0.45, 0.1),
+            DVec3::new(0.9, 0.4, -0.1),
             t,
         );
+        assert!(c.bounds.max.x - c.bounds.min.x < 0.5, "{:?}", c.bounds);
         let mut tess = TargetTessellation::new(&s, 0, Detail::Final);
         let mut mesh = PatchMesh::new();
-        tess.update(&s, &[(1, &a), (2, &b)], None, &mut mesh);
+        tess.update(&s, &[(1, &a), (2, &b), (3, &c)], None, &mut mesh);
         let r = mesh.welded(1e-6).edge_report();
         assert!(r.is_watertight(), "{r:?}");
         let (v, _) = mesh.merged();
