@@ -240,3 +240,79 @@ proptest! {
         prop_assert_eq!(live, doc.mesh(Detail::Interactive));
     }
 }
+
+/// A wand path that wanders, reverses, loops back over itself and runs off the edge:
+/// a random walk of up to 12 legs, each a straight run of a few samples, some of them
+/// turning back by up to 180 degrees.
+fn arb_wild_path() -> impl Strategy<Value = Vec<(f64, DVec3)>> {
+    (
+        (-0.2..1.2f64, -0.2..1.2f64),
+        proptest::collection::vec((-3.2..3.2f64, 0.002..0.3f64, 2usize..12), 1..12),
+        -0.01..0.01f64,
+    )
+        .prop_map(|((x, y), legs, z)| {
+            let mut p = DVec3::new(x, y, z);
+            let mut heading = 0.0f64;
+            let mut out = vec![(0.0, p)];
+            for (turn, length, n) in legs {
+                heading += turn;
+                let step = DVec3::new(heading.cos(), heading.sin(), 0.0) * (length / n as f64);
+                for _ in 0..n {
+                    p += step;
+                    out.push((out.len() as f64 / 90.0, p));
+                }
+            }
+            out
+        })
+}
+
+fn arb_tool() -> impl Strategy<Value = Tool> {
+    (
+        0.005..0.2f64,
+        0.001..0.05f64,
+        prop_oneof![Just(0.0), 0.0..0.1f64],
+        any::<bool>(),
+        0..3u8,
+    )
+        .prop_map(|(width, depth, taper, emboss, profile)| Tool {
+            profile: match profile {
+                0 => Profile::V,
+                1 => Profile::U,
+                _ => Profile::Custom(vec![[0.0, 1.0], [0.4, 0.9], [0.8, 0.2]]),
+            },
+            width,
+            depth,
+            mode: if emboss { Mode::Emboss } else { Mode::Carve },
+            taper,
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+    /// Self-intersecting, reversing and off-edge strokes, alone or crossing each
+    /// other, never panic the tessellator and never put NaN in a mesh, at either
+    /// detail, incrementally or fresh.
+    #[test]
+    fn wild_strokes_never_panic_or_give_nan(
+        strokes in proptest::collection::vec((arb_wild_path(), arb_tool()), 1..4),
+    ) {
+        let mut doc = Document::new();
+        let t = doc.add_target("plane", plane());
+        let mut live = [PatchMesh::new(), PatchMesh::new()];
+        for (samples, tool) in strokes {
+            if let Err(e) = doc.apply_stroke(t, StrokeInput { samples, tool }) {
+                prop_assert!(matches!(e, Error::StrokeRejected(_)), "{e:?}");
+            }
+            for (detail, sink) in [Detail::Interactive, Detail::Final].into_iter().zip(&mut live) {
+                doc.tessellate(detail, sink);
+            }
+        }
+        for (detail, sink) in [Detail::Interactive, Detail::Final].into_iter().zip(&live) {
+            let (verts, tris) = sink.merged();
+            prop_assert!(!tris.is_empty());
+            prop_assert!(verts.iter().all(|v| v.position.iter().chain(&v.normal).chain(&v.uv).all(|x| x.is_finite())));
+            prop_assert!(tris.iter().all(|t| t.iter().all(|&i| (i as usize) < verts.len())));
+            prop_assert_eq!(sink, &doc.mesh(detail));
+        }
+    }
+}

@@ -17,12 +17,14 @@ const STANDOFF: f64 = 0.05;
 /// The final-detail mesh reproduces the groove bottom to within this (metres): a tenth
 /// of the 5 mm tool depth, for the V profile's sharp bottom between mesh samples.
 const GROOVE_TOL: f64 = 0.5e-3;
-/// Away from every footprint the mesh lies on the target to within this (metres).
-/// Regression: the final tessellator places grid vertices by a chord fraction of
-/// 0.1 % of the target's size (stated tolerance `Detail::Final.tolerance`, 2 mm on this
-/// ~1 m sheet); up to 1.26 mm was measured at (0, 1.37). The 5 mm tool depth still
-/// tells the bare target from a groove.
-const SURFACE_TOL: f64 = 2.0e-3;
+/// Away from every footprint the mesh lies on the target to within the tessellator's
+/// stated final tolerance, `Detail::Final.tolerance(size)`: 0.1 % of the target's size
+/// (1.2 mm on this sheet). Regression: up to 1.26 mm was measured at (0, 1.37) when the
+/// grid was chosen by a curvature estimate; the grid is now planned by the measured
+/// chord error. The 5 mm tool depth still tells the bare target from a groove.
+fn surface_tol(surface: &NurbsSurface) -> f64 {
+    Detail::Final.tolerance(surface.size())
+}
 
 /// Depth below the target (metres, positive into it) of the first mesh hit along the
 /// target's normal through the default sheet's point over display `(x, y)`.
@@ -112,7 +114,7 @@ fn carved_grooves_have_the_tool_depth_and_the_rest_stays_on_the_target() {
             assert_near!(
                 flat,
                 0.0,
-                SURFACE_TOL,
+                surface_tol(&surface),
                 "{name}: outside the footprints at ({x}, {y})"
             );
         }

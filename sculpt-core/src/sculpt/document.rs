@@ -65,7 +65,7 @@
 use super::jordan::Rect;
 use super::stroke::{Mode, Stroke, StrokeInput, Tool};
 use super::surface::{ParamSurface, extent, normal_at};
-use super::tessellate::{Detail, StrokeRef, TargetTessellation, TessStats};
+use super::tessellate::{Detail, GridPlan, StrokeRef, TargetTessellation, TessStats};
 use crate::error::{Error, Result};
 use crate::formats::iges::{Face, IgesSurface, NurbsPatch};
 use crate::mesh::{MeshSink, PatchMesh};
@@ -128,6 +128,8 @@ pub struct Document {
     dirty: HashMap<(TargetId, Detail), Option<Rect>>,
     /// Targets removed since the last tessellation at each detail, with their patches.
     removed: Vec<(Detail, Vec<u64>)>,
+    /// The grid of each target at each detail, planned once.
+    grids: HashMap<(TargetId, Detail), GridPlan>,
 }
 
 /// How far (metres) a wand sample may be from the target and still count as on it:
@@ -240,6 +242,9 @@ impl Document {
     fn push_target(&mut self, t: TargetRecord) {
         for detail in [Detail::Interactive, Detail::Final] {
             self.dirty.insert((t.id, detail), None);
+            self.grids
+                .entry((t.id, detail))
+                .or_insert_with(|| plan_grid(&t.surface, detail));
         }
         self.next_id = self.next_id.max(t.id + 1);
         self.targets.push(t);
@@ -331,18 +336,17 @@ impl Document {
                 stats.triangles_total += self.views[&key].triangle_count();
                 continue;
             }
-            let view = self
-                .views
-                .entry(key)
-                .or_insert_with(|| TargetTessellation::new(&t.surface, k as u32, detail));
+            let plan = grid_of(&self.grids, t, detail);
+            let view = self.views.entry(key).or_insert_with(|| {
+                TargetTessellation::with_grid(&t.surface, k as u32, detail, &plan)
+            });
             let strokes: Vec<StrokeRef<'_>> = self
                 .strokes
                 .iter()
                 .filter(|s| s.target == t.id)
                 .filter_map(|s| self.built.get(&s.id).map(|b| (s.id, b)))
                 .collect();
-            let area = if fresh { None } else { changed.flatten() };
-            let s = view.update(&t.surface, &strokes, area, sink);
+            let s = view.update_strokes(&t.surface, &strokes, sink);
             stats.patches_written += s.patches_written;
             stats.triangles_written += s.triangles_written;
             stats.triangles_total += s.triangles_total;
@@ -355,19 +359,24 @@ impl Document {
         self.targets
             .iter()
             .map(|t| {
-                let ext = extent(&t.surface);
-                let n = super::uvmap::base_grid(&ext, ext.diagonal() * detail.chord_fraction());
+                let n = self.grid(t, detail).n;
                 (n * n) as usize
             })
             .sum()
+    }
+
+    /// The root grid of a target at a detail (chosen when the target was added).
+    fn grid(&self, t: &TargetRecord, detail: Detail) -> std::borrow::Cow<'_, GridPlan> {
+        grid_of(&self.grids, t, detail)
     }
 
     /// The whole sculpted mesh at `detail`, freshly tessellated.
     pub fn mesh(&self, detail: Detail) -> PatchMesh {
         let mut mesh = PatchMesh::new();
         for (k, t) in self.targets.iter().enumerate() {
-            let mut view = TargetTessellation::new(&t.surface, k as u32, detail);
-            view.update(&t.surface, &self.strokes_on(t.id), None, &mut mesh);
+            let plan = self.grid(t, detail);
+            let mut view = TargetTessellation::with_grid(&t.surface, k as u32, detail, &plan);
+            view.update_strokes(&t.surface, &self.strokes_on(t.id), &mut mesh);
         }
         mesh
     }
@@ -418,14 +427,29 @@ impl Document {
     }
 }
 
+/// The planned grid of a target, or a fresh plan when none was made.
+fn grid_of<'a>(
+    grids: &'a HashMap<(TargetId, Detail), GridPlan>,
+    t: &TargetRecord,
+    detail: Detail,
+) -> std::borrow::Cow<'a, GridPlan> {
+    match grids.get(&(t.id, detail)) {
+        Some(plan) => std::borrow::Cow::Borrowed(plan),
+        None => std::borrow::Cow::Owned(plan_grid(&t.surface, detail)),
+    }
+}
+
+/// The grid of a target at a detail's stated tolerance.
+fn plan_grid(surface: &NurbsSurface, detail: Detail) -> GridPlan {
+    GridPlan::new(surface, detail.tolerance(extent(surface).diagonal()))
+}
+
 /// The domain minus the hidden region, as faces with holes.
 fn visible_faces(hidden: &super::jordan::Region) -> Vec<Face> {
-    use i_overlay::core::fill_rule::FillRule;
     use i_overlay::core::overlay_rule::OverlayRule;
-    use i_overlay::float::single::SingleFloatOverlay;
     let square = vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
     let holes = super::stroke::region_to_contours(hidden);
-    let shapes = square.overlay_as::<i64>(&holes, OverlayRule::Difference, FillRule::NonZero);
+    let shapes = super::stroke::domain_overlay(&[square], &holes, OverlayRule::Difference);
     let to = |c: &Vec<[f64; 2]>| c.iter().map(|p| DVec2::new(p[0], p[1])).collect::<Vec<_>>();
     shapes
         .iter()

@@ -12,7 +12,9 @@
 //! 3. **Project** every sample onto the target by Newton point inversion seeded from the
 //!    previous sample ([`project_seeded`]). Samples farther than the snap distance from
 //!    the surface are off the surface; the longest run on the surface is kept (the
-//!    stroke is clipped), and a stroke with no run is rejected.
+//!    stroke is clipped), and a stroke with no run is rejected. On a closed surface
+//!    (sphere, torus) a crossing of the seam also ends a run, and rim points that fall
+//!    across it are moved back onto it: strokes are clipped at the seam, not wrapped.
 //! 4. Compute the **rims**: the 3D points `C +- w/2 B` (`B = N x T`, the side direction)
 //!    projected onto the surface. Tapered ends scale the width and depth smoothly to
 //!    zero over the taper length, so the groove starts and ends cleanly.
@@ -40,7 +42,6 @@ use crate::error::{Error, Result};
 use glam::{DVec2, DVec3};
 use i_overlay::core::fill_rule::FillRule;
 use i_overlay::core::overlay_rule::OverlayRule;
-use i_overlay::float::single::SingleFloatOverlay;
 use serde::{Deserialize, Serialize};
 
 /// Turns sharper than this (degrees, measured over one tool width) are corners.
@@ -193,6 +194,10 @@ pub struct Stroke {
     pub footprint: Region,
     /// Bounding rectangle of the footprint in UV.
     pub bounds: Rect,
+    /// Bounding rectangles of the pieces whose union is the footprint (strip quads and
+    /// end caps): together they cover the footprint, the centreline and the profile
+    /// sample lines, so a quadtree cell that meets none of them is untouched.
+    pieces: Vec<Rect>,
     buckets: Buckets,
 }
 
@@ -313,14 +318,23 @@ impl Stroke {
         }
         let pts = resample(&raw, tool.width * 0.25);
         // Project, seeded from the previous sample; keep the longest on-surface run.
+        // On a closed surface a seeded projection stops at the seam: the point is then
+        // projected afresh, and a jump across the seam ends the run (strokes are
+        // clipped at the seam, not wrapped across it).
+        let closed = [ext.closed_u, ext.closed_v];
         let mut runs: Vec<Vec<(DVec2, DVec3)>> = vec![Vec::new()];
         let mut seed = None;
         for &p in &pts {
             let pr = match seed {
                 Some(s) => {
                     let pr = project_seeded(surface, p, s);
-                    if pr.distance > snap {
-                        project(surface, p)
+                    if pr.distance > snap || on_seam(pr.uv, closed) {
+                        let fresh = project(surface, p);
+                        if fresh.distance < pr.distance {
+                            fresh
+                        } else {
+                            pr
+                        }
                     } else {
                         pr
                     }
@@ -328,6 +342,10 @@ impl Stroke {
                 None => project(surface, p),
             };
             if pr.distance <= snap && pr.p.is_finite() {
+                let jump = seed.is_some_and(|s: DVec2| (pr.uv - s).abs().max_element() > 0.5);
+                if jump {
+                    runs.push(Vec::new());
+                }
                 seed = Some(pr.uv);
                 if let Some(r) = runs.last_mut() {
                     r.push((pr.uv, pr.p));
@@ -344,13 +362,14 @@ impl Stroke {
         if run.len() < 2 || run_len <= tool.width * 1e-3 {
             return Err(reject("the stroke does not lie on the surface"));
         }
-        Self::from_centreline(surface, tool, run)
+        Self::from_centreline(surface, tool, run, closed)
     }
 
     fn from_centreline(
         surface: &dyn ParamSurface,
         tool: Tool,
         run: Vec<(DVec2, DVec3)>,
+        closed: [bool; 2],
     ) -> Result<Self> {
         let n = run.len();
         let centre_uv: Vec<DVec2> = run.iter().map(|r| r.0).collect();
@@ -379,13 +398,19 @@ impl Stroke {
             for (k, sign) in [(0, 1.0), (1, -1.0)] {
                 let target = centre[i] + side * (sign * half_width[i]);
                 let seed = centre_uv[i] + uv_step(sp.du, sp.dv, target - centre[i]);
-                rims_uv[k].push(project_seeded(surface, target, seed).uv);
+                let rim = project_seeded(surface, target, seed).uv;
+                rims_uv[k].push(seam_side(rim, centre_uv[i], closed));
             }
         }
         // Footprint: the union of the strip's triangles plus round caps, clipped.
         let mut pieces: Vec<Vec<[f64; 2]>> = Vec::new();
+        let mut piece_bounds: Vec<Rect> = Vec::new();
         let mut push = |tri: Vec<DVec2>| {
             let mut tri = tri;
+            let r = tri.iter().fold(Rect::new(tri[0], tri[0]), |r, &p| {
+                Rect::new(r.min.min(p), r.max.max(p))
+            });
+            piece_bounds.push(r);
             let a = signed_area(&tri);
             if a.abs() < 1e-18 {
                 return;
@@ -412,18 +437,16 @@ impl Stroke {
                     let dir = side * a.cos() + t * a.sin();
                     let target = centre[end] + dir * half_width[end];
                     let seed = centre_uv[end] + uv_step(sp.du, sp.dv, target - centre[end]);
-                    cap.push(project_seeded(surface, target, seed).uv);
+                    let rim = project_seeded(surface, target, seed).uv;
+                    cap.push(seam_side(rim, centre_uv[end], closed));
                 }
                 push(cap);
             }
         }
-        let union = pieces.overlay_as::<i64>(
-            &Vec::<Vec<[f64; 2]>>::new(),
-            OverlayRule::Subject,
-            FillRule::NonZero,
-        );
-        let square = vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
-        let clipped = union.overlay_as::<i64>(&square, OverlayRule::Intersect, FillRule::NonZero);
+        let square = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+        let union = domain_overlay(&pieces, &[], OverlayRule::Subject);
+        let union: Vec<Vec<[f64; 2]>> = union.into_iter().flatten().collect();
+        let clipped = domain_overlay(&union, &[square.to_vec()], OverlayRule::Intersect);
         let footprint = region_from_shapes(clipped);
         if footprint.is_empty() {
             return Err(reject("the stroke's footprint is empty"));
@@ -436,6 +459,7 @@ impl Stroke {
             }
         }
         let buckets = Buckets::new(&centre_uv, &rims_uv, bounds);
+        let pieces = piece_bounds;
         Ok(Self {
             tool,
             centre_uv,
@@ -446,8 +470,15 @@ impl Stroke {
             depth,
             footprint,
             bounds,
+            pieces,
             buckets,
         })
+    }
+
+    /// Bounding rectangles of the pieces of the footprint (see the field docs of
+    /// `pieces`): a cell meeting none of them is untouched by this stroke.
+    pub fn piece_bounds(&self) -> &[Rect] {
+        &self.pieces
     }
 
     /// The groove depth (carve) or ridge height (emboss) at the surface point `p = S(uv)`;
@@ -486,6 +517,27 @@ impl Stroke {
                 .map(|c| c.len() * 4 + 24)
                 .sum::<usize>()
     }
+}
+
+/// True when `uv` lies on the seam of a closed direction (`closed` = [u, v]).
+fn on_seam(uv: DVec2, closed: [bool; 2]) -> bool {
+    (closed[0] && (uv.x <= 0.0 || uv.x >= 1.0)) || (closed[1] && (uv.y <= 0.0 || uv.y >= 1.0))
+}
+
+/// A rim point that projected across the seam of a closed direction, moved back onto
+/// the seam on its centre's side: the groove is clipped at the seam.
+fn seam_side(rim: DVec2, centre: DVec2, closed: [bool; 2]) -> DVec2 {
+    let fix = |r: f64, c: f64, closed: bool| {
+        if closed && (r - c).abs() > 0.5 {
+            if c > 0.5 { 1.0 } else { 0.0 }
+        } else {
+            r
+        }
+    };
+    DVec2::new(
+        fix(rim.x, centre.x, closed[0]),
+        fix(rim.y, centre.y, closed[1]),
+    )
 }
 
 /// Parameter step that best realises the 3D displacement `d` (least squares on `[Su Sv]`).
@@ -536,11 +588,51 @@ pub fn union(regions: &[&Region]) -> Region {
     if subject.is_empty() {
         return Region::empty();
     }
-    region_from_shapes(subject.overlay_as::<i64>(
-        &Vec::<Vec<[f64; 2]>>::new(),
-        OverlayRule::Subject,
-        FillRule::NonZero,
-    ))
+    region_from_shapes(domain_overlay(&subject, &[], OverlayRule::Subject))
+}
+
+/// A polygon boolean (non-zero fill) of contours in the parameter square, on one fixed
+/// integer grid over `[-1, 2]^2` rather than one fitted to each input's bounds: a
+/// vertex snaps to the same point whatever else takes part, so a union grown one
+/// footprint at a time changes only where the new footprint is.
+pub fn domain_overlay(
+    subject: &[Vec<[f64; 2]>],
+    clip: &[Vec<[f64; 2]>],
+    rule: OverlayRule,
+) -> Vec<Vec<Vec<[f64; 2]>>> {
+    use i_overlay::core::overlay::ShapeType;
+    use i_overlay::float::overlay::FloatOverlay;
+    use i_overlay::i_float::adapter::FloatPointAdapter;
+    use i_overlay::i_float::float::rect::FloatRect;
+    let domain = FloatRect {
+        min_x: -1.0,
+        max_x: 2.0,
+        min_y: -1.0,
+        max_y: 2.0,
+    };
+    let adapter = FloatPointAdapter::<[f64; 2], i64>::new(domain);
+    let count = subject.iter().chain(clip).map(Vec::len).sum();
+    let mut overlay = FloatOverlay::with_adapter(adapter, count);
+    // The grid covers [-1, 2]^2 only: keep every point on it (NaN to the centre).
+    let on_grid = |x: f64| {
+        if x.is_finite() {
+            x.clamp(-1.0, 2.0)
+        } else {
+            0.5
+        }
+    };
+    let inside = |c: &Vec<[f64; 2]>| {
+        c.iter()
+            .map(|p| [on_grid(p[0]), on_grid(p[1])])
+            .collect::<Vec<_>>()
+    };
+    for c in subject {
+        overlay = overlay.unsafe_add_contour(&inside(c), ShapeType::Subject);
+    }
+    for c in clip {
+        overlay = overlay.unsafe_add_contour(&inside(c), ShapeType::Clip);
+    }
+    overlay.overlay(rule, FillRule::NonZero)
 }
 
 /// A uniform grid over the stroke's bounds listing the centreline segments near each
@@ -617,6 +709,19 @@ mod tests {
         }
     }
 
+    /// Builds a stroke with the test tool and a snap distance of 0.1.
+    fn build(s: &dyn ParamSurface, samples: Vec<(f64, DVec3)>) -> Stroke {
+        Stroke::build(
+            s,
+            &StrokeInput {
+                samples,
+                tool: tool(),
+            },
+            0.1,
+        )
+        .unwrap()
+    }
+
     fn line(a: DVec3, b: DVec3, n: usize) -> Vec<(f64, DVec3)> {
         (0..n)
             .map(|i| {
@@ -673,15 +778,7 @@ mod tests {
                 )
             })
             .collect();
-        let st = Stroke::build(
-            &s,
-            &StrokeInput {
-                samples,
-                tool: tool(),
-            },
-            0.1,
-        )
-        .unwrap();
+        let st = build(&s, samples);
         // A loop: an outer outline and a hole; the hole's centre is outside.
         assert_eq!(st.footprint.contours().len(), 2);
         assert_eq!(st.footprint.locate(DVec2::splat(0.5)), Location::Outside);
@@ -750,6 +847,26 @@ mod tests {
         let st = Stroke::build(&s, &input, 0.1).unwrap();
         assert!(st.bounds.max.x <= 1.0 && st.bounds.min.x >= 0.0);
         assert!(st.centre_uv.iter().all(|c| c.x <= 1.0));
+    }
+
+    #[test]
+    fn stroke_across_the_seam_of_a_sphere_is_clipped_there() {
+        use crate::sculpt::surface::test_surfaces::sphere;
+        let s = sphere(1.0);
+        // Along the equator from -30 to +25 degrees: the seam u = 0 = 1 is at 0 degrees.
+        let samples = (0..56)
+            .map(|k| {
+                let a = (-30.0 + k as f64).to_radians();
+                (k as f64, DVec3::new(a.cos(), a.sin(), 0.0))
+            })
+            .collect();
+        let st = build(&s, samples);
+        // The longer part, before the seam, is kept; nothing wraps across the domain.
+        assert!(st.bounds.min.x > 0.5, "{:?}", st.bounds);
+        assert!(st.centre_uv.iter().all(|c| c.x > 0.5));
+        assert!(st.rims_uv.iter().flatten().all(|c| c.x > 0.5));
+        let length = 30f64.to_radians() / std::f64::consts::TAU;
+        assert!(st.bounds.max.x - st.bounds.min.x < length * 1.5);
     }
 
     #[test]

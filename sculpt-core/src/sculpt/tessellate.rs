@@ -27,10 +27,10 @@
 //! **Incremental.** Each patch's inputs are hashed; after an edit only patches whose hash
 //! changed are triangulated and written (the sink replaces them by key).
 
-use super::jordan::{NodeClass, Rect, Region};
+use super::jordan::{Location, NodeClass, Rect, Region};
 use super::stroke::{Mode, Stroke};
 use super::surface::{ParamSurface, SurfaceExtent, extent, normal_from};
-use super::uvmap::{UvMap, base_grid};
+use super::uvmap::UvMap;
 use crate::mesh::{MeshSink, MeshVertex, PatchKey};
 use glam::{DVec2, DVec3};
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
@@ -56,7 +56,8 @@ impl Detail {
         }
     }
 
-    /// Chord tolerance for the base grid, as a fraction of the surface's diagonal.
+    /// Chord tolerance of the tessellated target, as a fraction of its size (bounding
+    /// box diagonal): 0.2 % while sculpting, 0.1 % for the final render and export.
     pub fn chord_fraction(self) -> f64 {
         match self {
             Detail::Interactive => 2e-3,
@@ -65,10 +66,11 @@ impl Detail {
     }
 
     /// The stated tessellation tolerance (metres) for a target of size `size` (its
-    /// bounding-box diagonal): twice the chord fraction that picks the base grid, since
-    /// the grid estimate bounds the curvature from samples.
+    /// bounding-box diagonal): the mesh of the bare target lies within this distance of
+    /// the surface. [`GridPlan`] cuts the target by the measured chord error, with a
+    /// margin, so that the mesh honours it.
     pub fn tolerance(self, size: f64) -> f64 {
-        2.0 * self.chord_fraction() * size
+        self.chord_fraction() * size
     }
 
     /// Profile sample fractions (of the half-width) inserted between centre and rim.
@@ -80,6 +82,130 @@ impl Detail {
             (Detail::Final, true) => &[0.25, 0.5, 0.75, 0.9],
         }
     }
+}
+
+/// Largest root grid, cells per side.
+pub const MAX_GRID: u32 = 64;
+
+/// The deviation the grid is planned for, as a fraction of the stated tolerance: the
+/// chord error is measured at cell midpoints, where it peaks for smooth patches; the
+/// margin covers higher-order terms between them.
+const GRID_MARGIN: f64 = 0.8;
+
+/// Most root cells refined beyond this many levels by [`GridPlan`].
+pub const MAX_REFINE: u8 = 4;
+
+/// How a target is cut for tessellation: an `n x n` root grid, and per root the
+/// quadtree level its leaves reach at least, so that every cell, drawn as two flat
+/// triangles, deviates from the surface by at most `GRID_MARGIN * tol`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct GridPlan {
+    /// Root cells per side.
+    pub n: u32,
+    /// Per root (row-major), the minimum leaf level.
+    pub min_levels: Vec<u8>,
+}
+
+impl GridPlan {
+    /// Plans the grid for a chord tolerance `tol` (metres).
+    ///
+    /// The chord error is measured, not estimated from derivative bounds: at every
+    /// cell's edge midpoints and centre, the distance along the surface normal between
+    /// the surface and the chord through the cell's corners (both diagonals at the
+    /// centre) ([`chord_errors`]). Tangential parametric distortion (a clamped knot
+    /// vector, a rational weight) moves no vertex off the surface and does not count.
+    /// The uniform root grid `n` (2 to [`MAX_GRID`]) is grown until 95 % of the cells
+    /// hold (the error of a smooth patch falls as `1 / n^2`); the cells that still do
+    /// not (creases, tight spots) are refined by `log2(error / goal)` levels, at most
+    /// [`MAX_REFINE`] (the error falls at least by half per level).
+    pub fn new(surface: &dyn ParamSurface, tol: f64) -> Self {
+        let goal = tol * GRID_MARGIN;
+        if !(goal > 0.0 && goal.is_finite()) {
+            return Self::uniform(MAX_GRID);
+        }
+        let quantile = |e: &[f64]| {
+            let mut v = e.to_vec();
+            v.sort_by(f64::total_cmp);
+            v[(v.len() * 95 / 100).min(v.len() - 1)]
+        };
+        let probe = 4u32;
+        let d = quantile(&chord_errors(surface, probe));
+        if !d.is_finite() {
+            return Self::uniform(MAX_GRID);
+        }
+        let mut n = ((f64::from(probe) * (d / goal).sqrt()).ceil() as u32).clamp(2, MAX_GRID);
+        loop {
+            let errors = chord_errors(surface, n);
+            let q = quantile(&errors);
+            if q <= goal || n >= MAX_GRID {
+                let min_levels = errors
+                    .iter()
+                    .map(|&e| {
+                        if e <= goal {
+                            0
+                        } else if e.is_finite() {
+                            ((e / goal).log2().ceil() as u8).min(MAX_REFINE)
+                        } else {
+                            MAX_REFINE
+                        }
+                    })
+                    .collect();
+                return Self { n, min_levels };
+            }
+            let next = (f64::from(n) * (q / goal).sqrt() * 1.05).ceil() as u32;
+            n = next.clamp(n + 1, MAX_GRID);
+        }
+    }
+
+    fn uniform(n: u32) -> Self {
+        Self {
+            n,
+            min_levels: vec![0; (n * n) as usize],
+        }
+    }
+}
+
+/// The chord error (metres, along the normal) of each cell of an `n x n` grid of flat
+/// cells over the surface (row-major), measured at its edge midpoints and centre (see
+/// [`GridPlan::new`]); infinite where the surface is not finite.
+pub fn chord_errors(surface: &dyn ParamSurface, n: u32) -> Vec<f64> {
+    let n = n.max(1) as usize;
+    let m = 2 * n + 1;
+    let h = 0.5 / n as f64;
+    let mut grid = Vec::with_capacity(m * m);
+    for j in 0..m {
+        for i in 0..m {
+            let uv = DVec2::new(i as f64 * h, j as f64 * h).min(DVec2::ONE);
+            let sp = surface.eval(uv);
+            grid.push((sp.p, normal_from(surface, uv, &sp)));
+        }
+    }
+    let at = |i: usize, j: usize| grid[j * m + i];
+    let off = |mid: (DVec3, DVec3), a: DVec3, b: DVec3| mid.1.dot(mid.0 - (a + b) * 0.5).abs();
+    let mut out = Vec::with_capacity(n * n);
+    for cj in 0..n {
+        for ci in 0..n {
+            let (i, j) = (2 * ci + 1, 2 * cj + 1);
+            let c = at(i, j);
+            let e = [
+                off(at(i, j - 1), at(i - 1, j - 1).0, at(i + 1, j - 1).0),
+                off(at(i, j + 1), at(i - 1, j + 1).0, at(i + 1, j + 1).0),
+                off(at(i - 1, j), at(i - 1, j - 1).0, at(i - 1, j + 1).0),
+                off(at(i + 1, j), at(i + 1, j - 1).0, at(i + 1, j + 1).0),
+                off(c, at(i - 1, j - 1).0, at(i + 1, j + 1).0),
+                off(c, at(i + 1, j - 1).0, at(i - 1, j + 1).0),
+            ];
+            let worst = e.iter().fold(0.0f64, |w, &x| {
+                if x.is_finite() {
+                    w.max(x)
+                } else {
+                    f64::INFINITY
+                }
+            });
+            out.push(worst);
+        }
+    }
+    out
 }
 
 /// A stroke as the tessellator sees it: a stable id (for change detection) and the
@@ -104,12 +230,20 @@ pub struct TargetTessellation {
     detail: Detail,
     extent: SurfaceExtent,
     map: UvMap,
-    hidden: Region,
+    /// `unions[k]`: the id of the k-th stroke and the union of the footprints of
+    /// strokes `0..=k`. Applying a stroke unions one footprint into the last entry;
+    /// undo pops.
+    unions: Vec<(u64, Region)>,
+    empty: Region,
+    /// The roots each stroke touches (see [`Stroke::piece_bounds`]), by stroke id.
+    touched: HashMap<u64, Vec<u32>>,
+    /// The strokes touching each root, in application order.
+    root_strokes: Vec<Vec<u64>>,
     signatures: Vec<Option<u64>>,
     triangles: Vec<usize>,
 }
 
-#[derive(Clone, Copy, PartialEq, Eq)]
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
 enum Kind {
     Plain,
     Rim,
@@ -122,19 +256,37 @@ struct Segments {
 }
 
 impl TargetTessellation {
-    /// Starts the tessellation of a target (patch keys use `key` in their high bits).
+    /// Starts the tessellation of a target (patch keys use `key` in their high bits),
+    /// with the grid [`GridPlan::new`] plans for the detail's tolerance.
     pub fn new(surface: &dyn ParamSurface, key: u32, detail: Detail) -> Self {
         let extent = extent(surface);
-        let n = base_grid(&extent, extent.diagonal() * detail.chord_fraction());
-        let map = UvMap::new(n);
+        let plan = GridPlan::new(surface, detail.tolerance(extent.diagonal()));
+        Self::with_grid(surface, key, detail, &plan)
+    }
+
+    /// [`Self::new`] with the grid already planned (planning costs a few thousand
+    /// surface evaluations: plan once per target and detail).
+    pub fn with_grid(
+        surface: &dyn ParamSurface,
+        key: u32,
+        detail: Detail,
+        plan: &GridPlan,
+    ) -> Self {
+        let extent = extent(surface);
+        let mut map = UvMap::new(plan.n.clamp(1, MAX_GRID));
+        map.set_min_levels(&plan.min_levels);
+        let n = map.n();
         Self {
             key,
             detail,
             extent,
             signatures: vec![None; (n * n) as usize],
             triangles: vec![0; (n * n) as usize],
+            root_strokes: vec![Vec::new(); (n * n) as usize],
             map,
-            hidden: Region::empty(),
+            unions: Vec::new(),
+            empty: Region::empty(),
+            touched: HashMap::new(),
         }
     }
 
@@ -145,7 +297,7 @@ impl TargetTessellation {
 
     /// The union of all footprints (the region where the target is hidden).
     pub fn hidden(&self) -> &Region {
-        &self.hidden
+        self.unions.last().map_or(&self.empty, |u| &u.1)
     }
 
     /// Triangles in the current mesh of this target.
@@ -166,15 +318,30 @@ impl TargetTessellation {
     /// Memory held by the map and bookkeeping, bytes (excluding the written mesh).
     pub fn memory_bytes(&self) -> usize {
         self.map.memory_bytes()
-            + self.hidden.segments().len() * 32
+            + self
+                .unions
+                .iter()
+                .map(|u| u.1.segments().len() * 40)
+                .sum::<usize>()
+            + self
+                .touched
+                .values()
+                .map(|t| t.len() * 4 + 32)
+                .sum::<usize>()
+            + self
+                .root_strokes
+                .iter()
+                .map(|r| r.len() * 8 + 24)
+                .sum::<usize>()
             + self.signatures.len() * 16
             + self.triangles.len() * 8
     }
 
-    /// Brings the sink up to date with `strokes` (in application order): reclassifies
-    /// the UV map against the union of their footprints (only within `changed`, when
-    /// given, which must cover every footprint added or removed since the last call) and
-    /// rewrites the patches whose inputs changed.
+    /// Brings the sink up to date with `strokes` (in application order) and rewrites
+    /// the patches whose inputs changed. Like [`Self::update_strokes`], and when
+    /// `changed` is `None` every root is re-checked (a change the view cannot see, such
+    /// as a stroke rebuilt under the same id); otherwise the roots meeting `changed`
+    /// are re-checked too.
     pub fn update(
         &mut self,
         surface: &dyn ParamSurface,
@@ -182,32 +349,123 @@ impl TargetTessellation {
         changed: Option<Rect>,
         sink: &mut dyn MeshSink,
     ) -> TessStats {
-        let regions: Vec<&Region> = strokes.iter().map(|s| &s.1.footprint).collect();
-        self.hidden = super::stroke::union(&regions);
-        let area =
-            changed.map(|r| Rect::new(r.min - DVec2::splat(1e-9), r.max + DVec2::splat(1e-9)));
-        self.map.update(&self.hidden, area, self.detail.cap());
-        let segments = self.segments(strokes);
         let n = self.map.n();
+        let extra: Vec<u32> = (0..n * n)
+            .filter(|&r| changed.is_none_or(|c| c.touches(&self.map.node(r).rect)))
+            .collect();
+        self.update_inner(surface, strokes, &extra, sink)
+    }
+
+    /// Brings the sink up to date with `strokes` (in application order), doing work only
+    /// where something changed since the last call. The view remembers the strokes it
+    /// last saw: strokes applied since (a new suffix) have their footprints unioned into
+    /// the hidden region, strokes undone since are popped. The dirty roots are those
+    /// the added or removed strokes touch plus those met by an outline segment that
+    /// changed; they are reclassified, and they and their neighbours (whose shared
+    /// sides may change) are re-checked: a patch is rewritten only when its input
+    /// signature changed.
+    pub fn update_strokes(
+        &mut self,
+        surface: &dyn ParamSurface,
+        strokes: &[StrokeRef<'_>],
+        sink: &mut dyn MeshSink,
+    ) -> TessStats {
+        self.update_inner(surface, strokes, &[], sink)
+    }
+
+    fn update_inner(
+        &mut self,
+        surface: &dyn ParamSurface,
+        strokes: &[StrokeRef<'_>],
+        extra: &[u32],
+        sink: &mut dyn MeshSink,
+    ) -> TessStats {
+        let n = self.map.n();
+        let roots = (n * n) as usize;
+        let fresh = self.signatures.iter().all(Option::is_none);
+        let mut dirty = vec![fresh; roots];
+        for &r in extra {
+            dirty[r as usize] = true;
+        }
+        // The strokes added and removed since the last call.
+        let common = self
+            .unions
+            .iter()
+            .zip(strokes)
+            .take_while(|(u, s)| u.0 == s.0)
+            .count();
+        let old_segments: Vec<[DVec2; 2]> = self.hidden().segments().to_vec();
+        let edited = common < self.unions.len() || common < strokes.len();
+        for (id, _) in self.unions.split_off(common) {
+            for r in self.touched.remove(&id).unwrap_or_default() {
+                dirty[r as usize] = true;
+                self.root_strokes[r as usize].retain(|&x| x != id);
+            }
+        }
+        for &(id, s) in &strokes[common..] {
+            let hidden = match self.unions.last() {
+                Some((_, prev)) => super::stroke::union(&[prev, &s.footprint]),
+                None => super::stroke::union(&[&s.footprint]),
+            };
+            self.unions.push((id, hidden));
+            let touched = self.roots_touched(s);
+            for &r in &touched {
+                dirty[r as usize] = true;
+                self.root_strokes[r as usize].push(id);
+            }
+            self.touched.insert(id, touched);
+        }
+        // Roots met by an outline segment that appeared or disappeared.
+        if !fresh && edited {
+            let key = |s: &[DVec2; 2]| [s[0].x, s[0].y, s[1].x, s[1].y].map(f64::to_bits);
+            let old: std::collections::HashSet<[u64; 4]> = old_segments.iter().map(key).collect();
+            let new: std::collections::HashSet<[u64; 4]> =
+                self.hidden().segments().iter().map(key).collect();
+            let changed: Vec<[DVec2; 2]> = old_segments
+                .iter()
+                .filter(|s| !new.contains(&key(s)))
+                .chain(
+                    self.hidden()
+                        .segments()
+                        .iter()
+                        .filter(|s| !old.contains(&key(s))),
+                )
+                .copied()
+                .collect();
+            for s in changed {
+                self.for_roots_meeting(s, |r| dirty[r as usize] = true);
+            }
+        }
+        let hidden = self.unions.last().map_or(&self.empty, |u| &u.1);
+        let dirty_roots: Vec<u32> = (0..n * n).filter(|&r| dirty[r as usize]).collect();
+        self.map
+            .update_roots(hidden, dirty_roots.iter().copied(), self.detail.cap());
+        // Re-check the dirty roots and their neighbours; index segments one ring wider.
+        let recheck = self.grow(&dirty);
+        let indexed = self.grow(&recheck);
+        let by_id: FxMap<u64, &Stroke> = strokes.iter().map(|&(id, s)| (id, s)).collect();
+        let segments = self.segments(strokes, &indexed);
         let mut stats = TessStats::default();
-        let mut cache = EvalCache::with_capacity_and_hasher(
-            (n * n * 4) as usize,
-            BuildHasherDefault::default(),
-        );
-        for root in 0..n * n {
-            let input = self.patch_input(root, strokes, &segments);
-            let mut h = std::collections::hash_map::DefaultHasher::new();
+        let mut cache = EvalCache::default();
+        let mut here: Vec<StrokeRef<'_>> = Vec::new();
+        for root in (0..n * n).filter(|&r| recheck[r as usize]) {
+            here.clear();
+            here.extend(
+                self.root_strokes[root as usize]
+                    .iter()
+                    .filter_map(|id| by_id.get(id).map(|&s| (*id, s))),
+            );
+            let input = self.patch_input(root, &here, &segments);
+            let mut h = FxHasher::default();
             input.hash_into(&mut h);
-            for (id, s) in strokes {
-                if s.bounds.touches(&input.rect) {
-                    id.hash(&mut h);
-                }
+            for (id, _) in &here {
+                id.hash(&mut h);
             }
             let sig = h.finish();
             if self.signatures[root as usize] == Some(sig) {
                 continue;
             }
-            let tris = self.write_patch(surface, root, input, strokes, &mut cache, sink);
+            let tris = self.write_patch(surface, root, input, &here, &mut cache, sink);
             self.signatures[root as usize] = Some(sig);
             self.triangles[root as usize] = tris;
             stats.patches_written += 1;
@@ -217,42 +475,87 @@ impl TargetTessellation {
         stats
     }
 
-    fn segments(&self, strokes: &[StrokeRef<'_>]) -> Segments {
-        let mut segs: Vec<([DVec2; 2], Kind)> = self
-            .hidden
-            .segments()
-            .iter()
-            .map(|s| (*s, Kind::Rim))
-            .collect();
-        for (_, s) in strokes {
-            for w in s.centre_uv.windows(2) {
-                if w[0] != w[1] {
-                    segs.push(([w[0], w[1]], Kind::Plain));
+    /// The roots a stroke touches: those meeting one of its pieces' bounds.
+    fn roots_touched(&self, s: &Stroke) -> Vec<u32> {
+        let n = self.map.n();
+        let mut mask = vec![false; (n * n) as usize];
+        for r in s.piece_bounds() {
+            let r = Rect::new(r.min - DVec2::splat(1e-9), r.max + DVec2::splat(1e-9));
+            for root in self.roots_near(&r) {
+                if self.map.node(root).rect.touches(&r) {
+                    mask[root as usize] = true;
                 }
             }
         }
+        (0..n * n).filter(|&r| mask[r as usize]).collect()
+    }
+
+    /// Calls `f` for every root whose closed rectangle meets the segment.
+    fn for_roots_meeting(&self, s: [DVec2; 2], mut f: impl FnMut(u32)) {
+        for root in self.roots_near(&Rect::of_segment(s[0], s[1])) {
+            if self.map.node(root).rect.meets_segment(s[0], s[1]) {
+                f(root);
+            }
+        }
+    }
+
+    /// The roots of the grid cells under `r`, widened by one cell (a rectangle ending
+    /// on a cell side belongs to both cells).
+    fn roots_near(&self, r: &Rect) -> impl Iterator<Item = u32> + '_ {
         let n = self.map.n();
-        let mut by_root = vec![Vec::new(); (n * n) as usize];
         let cell = |x: f64| ((x * n as f64).floor().max(0.0) as u32).min(n - 1);
-        for (k, (s, _)) in segs.iter().enumerate() {
-            let r = Rect::of_segment(s[0], s[1]);
-            // A segment on a cell side belongs to both cells: widen by one cell.
-            let (i0, i1) = (
-                cell(r.min.x).saturating_sub(1),
-                (cell(r.max.x) + 1).min(n - 1),
-            );
-            let (j0, j1) = (
-                cell(r.min.y).saturating_sub(1),
-                (cell(r.max.y) + 1).min(n - 1),
-            );
-            for j in j0..=j1 {
-                for i in i0..=i1 {
-                    let root = self.map.root(i, j);
-                    if self.map.node(root).rect.meets_segment(s[0], s[1]) {
-                        by_root[root as usize].push(k as u32);
-                    }
+        let (i0, i1) = (
+            cell(r.min.x).saturating_sub(1),
+            (cell(r.max.x) + 1).min(n - 1),
+        );
+        let (j0, j1) = (
+            cell(r.min.y).saturating_sub(1),
+            (cell(r.max.y) + 1).min(n - 1),
+        );
+        (j0..=j1).flat_map(move |j| (i0..=i1).map(move |i| self.map.root(i, j)))
+    }
+
+    /// The mask grown by one ring of neighbours (across the seams of closed surfaces).
+    fn grow(&self, mask: &[bool]) -> Vec<bool> {
+        let mut out = mask.to_vec();
+        for (r, _) in mask.iter().enumerate().filter(|(_, m)| **m) {
+            for side in 0..4 {
+                if let Some((nb, _)) = self.neighbour(r as u32, side) {
+                    out[nb as usize] = true;
                 }
             }
+        }
+        out
+    }
+
+    /// The outline and centreline segments, indexed for the roots in `mask`.
+    fn segments(&self, strokes: &[StrokeRef<'_>], mask: &[bool]) -> Segments {
+        let n = self.map.n();
+        let mut by_root = vec![Vec::new(); (n * n) as usize];
+        let mut segs: Vec<([DVec2; 2], Kind)> = Vec::new();
+        let near = |r: &Rect| self.roots_near(r).any(|root| mask[root as usize]);
+        let hidden = self.hidden().segments().iter().map(|s| (*s, Kind::Rim));
+        let centres = strokes
+            .iter()
+            .filter(|(id, _)| {
+                self.touched
+                    .get(id)
+                    .is_none_or(|t| t.iter().any(|&r| mask[r as usize]))
+            })
+            .flat_map(|(_, s)| s.centre_uv.windows(2))
+            .filter(|w| w[0] != w[1])
+            .map(|w| ([w[0], w[1]], Kind::Plain));
+        for (s, kind) in hidden.chain(centres) {
+            if !near(&Rect::of_segment(s[0], s[1])) {
+                continue;
+            }
+            let k = segs.len() as u32;
+            segs.push((s, kind));
+            self.for_roots_meeting(s, |root| {
+                if mask[root as usize] {
+                    by_root[root as usize].push(k);
+                }
+            });
         }
         Segments { segs, by_root }
     }
@@ -354,7 +657,7 @@ impl TargetTessellation {
                 let ia = input.point(a, kind);
                 let ib = input.point(b, kind);
                 if ia != ib {
-                    input.constraints.push([ia, ib]);
+                    input.constraints.push(([ia, ib], kind));
                 }
             }
         }
@@ -390,24 +693,9 @@ impl TargetTessellation {
         if input.points.len() == 4 && input.constraints.is_empty() {
             return self.write_quad(surface, root, &input, strokes, cache, sink);
         }
-        let mut cdt: ConstrainedDelaunayTriangulation<Point2<f64>> =
-            ConstrainedDelaunayTriangulation::bulk_load_cdt(
-                input
-                    .points
-                    .iter()
-                    .map(|(p, _)| Point2::new(p.x, p.y))
-                    .collect(),
-                Vec::new(),
-            )
-            .unwrap_or_default();
-        let handles: Vec<_> = cdt.fixed_vertices().collect();
-        // bulk_load_cdt keeps insertion order for distinct points (ours are distinct).
-        if handles.len() == input.points.len() {
-            for &[a, b] in &input.constraints {
-                cdt.add_constraint_and_split(handles[a], handles[b], |p| p);
-            }
-        }
-        let rims: std::collections::HashSet<(u64, u64)> = input
+        let mut input = input;
+        let cdt = input.triangulate();
+        let rims: std::collections::HashSet<(u64, u64), BuildHasherDefault<FxHasher>> = input
             .points
             .iter()
             .filter(|(_, k)| *k == Kind::Rim)
@@ -523,11 +811,13 @@ fn evaluate(
 }
 
 /// The combined displacement along the normal at `p = S(uv)`: strokes in order, carving
-/// lowers to `min(h, -depth)`, embossing raises to `max(h, height)`.
+/// lowers to `min(h, -depth)`, embossing raises to `max(h, height)`. A stroke acts only
+/// inside its footprint (outline included), so the sculpted part ends exactly at the
+/// hidden region's outline.
 pub fn height(strokes: &[StrokeRef<'_>], uv: DVec2, p: DVec3) -> f64 {
     let mut h: f64 = 0.0;
     for (_, s) in strokes {
-        if !s.bounds.contains(uv) {
+        if !s.bounds.contains(uv) || s.footprint.locate(uv) == Location::Outside {
             continue;
         }
         let d = s.depth_at(uv, p);
@@ -544,6 +834,9 @@ pub fn height(strokes: &[StrokeRef<'_>], uv: DVec2, p: DVec3) -> f64 {
 /// Surface point, normal and displacement per parameter (bit pattern), shared by the
 /// patches of one pass so that side and corner vertices are evaluated once.
 type EvalCache = HashMap<(u64, u64), (DVec3, DVec3, f64), BuildHasherDefault<FxHasher>>;
+
+/// A hash map with the [`FxHasher`].
+type FxMap<K, V> = HashMap<K, V, BuildHasherDefault<FxHasher>>;
 
 /// The multiply-rotate hash of rustc (Fx): parameters are not adversarial, and SipHash
 /// dominated the cache's cost.
@@ -569,9 +862,30 @@ impl Hasher for FxHasher {
 struct PatchInput {
     rect: Rect,
     points: Vec<(DVec2, Kind)>,
-    index: HashMap<(u64, u64), usize>,
-    constraints: Vec<[usize; 2]>,
+    index: FxMap<(u64, u64), usize>,
+    constraints: Vec<([usize; 2], Kind)>,
     interior_hidden: bool,
+}
+
+/// Distance (normalised parameter units) below which a vertex counts as lying on a
+/// constraint segment, and a crossing as lying on a segment's end.
+const SNAP_EPS: f64 = 1e-12;
+
+/// Orientation of `c` against the line `a -> b` (twice the signed triangle area).
+fn orient(a: DVec2, b: DVec2, c: DVec2) -> f64 {
+    (b - a).perp_dot(c - a)
+}
+
+/// Parameter of the foot of `p` on the segment `a-b` when `p` lies within
+/// [`SNAP_EPS`] of its interior.
+fn on_segment(p: DVec2, a: DVec2, b: DVec2) -> Option<f64> {
+    let d = b - a;
+    let l2 = d.length_squared();
+    if l2 == 0.0 {
+        return None;
+    }
+    let t = (p - a).dot(d) / l2;
+    (t > 0.0 && t < 1.0 && p.distance(a + d * t) <= SNAP_EPS).then_some(t)
 }
 
 impl PatchInput {
@@ -579,7 +893,7 @@ impl PatchInput {
         let mut me = Self {
             rect,
             points: Vec::new(),
-            index: HashMap::new(),
+            index: FxMap::default(),
             constraints: Vec::new(),
             interior_hidden: false,
         };
@@ -595,6 +909,9 @@ impl PatchInput {
     }
 
     fn point(&mut self, p: DVec2, kind: Kind) -> usize {
+        // spade merges -0.0 with 0.0 and rejects subnormal-scale coordinates: the
+        // index must agree, so such values become 0.0.
+        let p = DVec2::new(p.x, p.y).map(|x| if x.abs() < 1e-30 { 0.0 } else { x });
         let key = (p.x.to_bits(), p.y.to_bits());
         if let Some(&i) = self.index.get(&key) {
             if kind == Kind::Rim {
@@ -605,6 +922,143 @@ impl PatchInput {
         self.points.push((p, kind));
         self.index.insert(key, self.points.len() - 1);
         self.points.len() - 1
+    }
+
+    /// Makes the constraints a planar straight-line graph: every crossing of two
+    /// constraint segments becomes a vertex (on the outline when either segment is),
+    /// and segments are split at the vertices lying on them. spade's own splitting
+    /// (`add_constraint_and_split`) asserts on shallow crossings whose computed split
+    /// point is off both lines, as where a stroke's centreline leaves its own
+    /// footprint at a hooked, tapered end. Two passes catch crossings through new
+    /// vertices; what rounding leaves is skipped by [`Self::triangulate`].
+    fn resolve_crossings(&mut self) {
+        for _ in 0..2 {
+            if !self.split_pass() {
+                break;
+            }
+        }
+        let mut seen = std::collections::HashSet::<_, BuildHasherDefault<FxHasher>>::default();
+        self.constraints
+            .retain(|&([a, b], _)| a != b && seen.insert((a.min(b), a.max(b))));
+    }
+
+    /// One pass of [`Self::resolve_crossings`]: true when a crossing added a vertex.
+    fn split_pass(&mut self) -> bool {
+        let m = self.constraints.len();
+        let boxes: Vec<Rect> = self
+            .constraints
+            .iter()
+            .map(|&([a, b], _)| Rect::of_segment(self.points[a].0, self.points[b].0))
+            .collect();
+        let mut order: Vec<usize> = (0..m).collect();
+        order.sort_by(|&i, &j| boxes[i].min.x.total_cmp(&boxes[j].min.x));
+        let mut splits: Vec<Vec<(f64, usize)>> = vec![Vec::new(); m];
+        let mut added = false;
+        for (k, &i) in order.iter().enumerate() {
+            for &j in &order[k + 1..] {
+                if boxes[j].min.x > boxes[i].max.x {
+                    break;
+                }
+                if boxes[i].touches(&boxes[j]) {
+                    added |= self.split_pair(i, j, &mut splits);
+                }
+            }
+        }
+        let old = std::mem::take(&mut self.constraints);
+        for (([a, b], kind), mut cuts) in old.into_iter().zip(splits) {
+            cuts.sort_by(|x, y| x.0.total_cmp(&y.0));
+            let mut prev = a;
+            for (_, v) in cuts.into_iter().chain(std::iter::once((1.0, b))) {
+                if v != prev {
+                    self.constraints.push(([prev, v], kind));
+                    prev = v;
+                }
+            }
+        }
+        added
+    }
+
+    /// Records where constraints `i` and `j` meet: an end of one on the other, or a
+    /// proper crossing (a new vertex). True when a vertex was added.
+    fn split_pair(&mut self, i: usize, j: usize, splits: &mut [Vec<(f64, usize)>]) -> bool {
+        let ([a0, a1], ka) = self.constraints[i];
+        let ([b0, b1], kb) = self.constraints[j];
+        let (a, b) = (self.points[a0].0, self.points[a1].0);
+        let (c, d) = (self.points[b0].0, self.points[b1].0);
+        let mut touching = false;
+        for (k, ends, (s0, s1), (e0, e1)) in [
+            (i, [(b0, c), (b1, d)], (a, b), (a0, a1)),
+            (j, [(a0, a), (a1, b)], (c, d), (b0, b1)),
+        ] {
+            for (v, p) in ends {
+                if v != e0
+                    && v != e1
+                    && let Some(t) = on_segment(p, s0, s1)
+                {
+                    splits[k].push((t, v));
+                    touching = true;
+                }
+            }
+        }
+        let shared = a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1;
+        if touching || shared {
+            return false;
+        }
+        let (o1, o2) = (orient(c, d, a), orient(c, d, b));
+        let (o3, o4) = (orient(a, b, c), orient(a, b, d));
+        if !(o1 * o2 < 0.0 && o3 * o4 < 0.0) {
+            return false;
+        }
+        let (t, u) = (o1 / (o1 - o2), o3 / (o3 - o4));
+        let p = a + (b - a) * t;
+        if !p.is_finite() {
+            return false;
+        }
+        let p = p.clamp(self.rect.min, self.rect.max);
+        let kind = if ka == Kind::Rim || kb == Kind::Rim {
+            Kind::Rim
+        } else {
+            Kind::Plain
+        };
+        // A crossing at an end is that end.
+        let end = [(a0, a), (a1, b), (b0, c), (b1, d)]
+            .into_iter()
+            .find(|&(_, q)| q.distance(p) <= SNAP_EPS);
+        let v = match end {
+            Some((v, _)) => v,
+            None => self.point(p, kind),
+        };
+        if v != a0 && v != a1 {
+            splits[i].push((t, v));
+        }
+        if v != b0 && v != b1 {
+            splits[j].push((u, v));
+        }
+        end.is_none()
+    }
+
+    /// The constrained Delaunay triangulation of the points and constraints, built
+    /// point by point in input order: deterministic, so an incremental tessellation
+    /// equals a fresh one bit for bit (spade's bulk loader inserts the vertices it
+    /// defers in hash-set order, which varies from run to run). Never panics:
+    /// constraints still crossing after [`Self::resolve_crossings`] (rounding at
+    /// near-coincident crossings) are left out, as are points spade cannot take.
+    fn triangulate(&mut self) -> ConstrainedDelaunayTriangulation<Point2<f64>> {
+        self.resolve_crossings();
+        let mut cdt = ConstrainedDelaunayTriangulation::<Point2<f64>>::new();
+        let handles: Vec<_> = self
+            .points
+            .iter()
+            .map(|(p, _)| cdt.insert(Point2::new(p.x, p.y)).ok())
+            .collect();
+        for &([a, b], _) in &self.constraints {
+            if let (Some(a), Some(b)) = (handles[a], handles[b])
+                && a != b
+            {
+                cdt.try_add_constraint(a, b);
+            }
+        }
+        cdt
     }
 
     fn hash_into(&self, h: &mut impl Hasher) {
@@ -863,11 +1317,19 @@ mod tests {
             &s,
             DVec3::new(-0.6, -1.0, 0.3),
             DVec3::new(-1.0, 0.1, -0.3),
+            t.clone(),
+        );
+        // Across the seam (u = 0 = 1 at +x): clipped there, still watertight.
+        let c = stroke(
+            &s,
+            DVec3::new(0.9, -0.45, 0.1),
+            DVec3::new(0.9, 0.4, -0.1),
             t,
         );
+        assert!(c.bounds.max.x - c.bounds.min.x < 0.5, "{:?}", c.bounds);
         let mut tess = TargetTessellation::new(&s, 0, Detail::Final);
         let mut mesh = PatchMesh::new();
-        tess.update(&s, &[(1, &a), (2, &b)], None, &mut mesh);
+        tess.update(&s, &[(1, &a), (2, &b), (3, &c)], None, &mut mesh);
         let r = mesh.welded(1e-6).edge_report();
         assert!(r.is_watertight(), "{r:?}");
         let (v, _) = mesh.merged();

@@ -1,7 +1,9 @@
 //! The UV vector map: a quadtree of render nodes over the normalised parameter square.
 //!
-//! The map starts as an `n x n` grid of root nodes ([`base_grid`] picks `n` from the
-//! surface's size and curvature). Each node is classified against the region hidden by
+//! The map starts as an `n x n` grid of root nodes (the tessellator's `GridPlan` picks
+//! `n`, and a minimum level for roots where the surface curves tightly, from the
+//! measured chord error; [`base_grid`] is a quick estimate from a curvature bound). Each
+//! node is classified against the region hidden by
 //! strokes ([`Region`]): exterior nodes are drawn, interior nodes are hidden, boundary
 //! nodes are subdivided down to a depth cap (coarse while a stroke is live, fine for the
 //! final render). New children start with their parent's classification, so merging a
@@ -67,6 +69,9 @@ pub struct UvMap {
     n: u32,
     nodes: Vec<Node>,
     free: Vec<NodeId>,
+    /// Per root, the level every leaf reaches whatever its class (where the surface
+    /// curves too much for a flat root cell).
+    min_levels: Vec<u8>,
 }
 
 /// Chooses the base grid size `n` so that a flat quad of parameter size `1/n` deviates
@@ -105,7 +110,21 @@ impl UvMap {
             n,
             nodes,
             free: Vec::new(),
+            min_levels: vec![0; (n * n) as usize],
         }
+    }
+
+    /// Sets, per root (row-major), the level that every leaf reaches whatever its class;
+    /// takes effect at the next [`Self::update`] of each root. Missing entries are 0.
+    pub fn set_min_levels(&mut self, levels: &[u8]) {
+        for (k, m) in self.min_levels.iter_mut().enumerate() {
+            *m = levels.get(k).copied().unwrap_or(0);
+        }
+    }
+
+    /// The level every leaf of `root` reaches (see [`Self::set_min_levels`]).
+    pub fn min_level(&self, root: u32) -> u8 {
+        self.min_levels.get(root as usize).copied().unwrap_or(0)
     }
 
     /// Roots per side.
@@ -181,6 +200,23 @@ impl UvMap {
         edit
     }
 
+    /// [`Self::update`] for the listed roots only (the caller knows the region changed
+    /// nowhere else).
+    pub fn update_roots(
+        &mut self,
+        region: &Region,
+        roots: impl IntoIterator<Item = u32>,
+        cap: u8,
+    ) -> Edit {
+        let mut edit = Edit::default();
+        for r in roots {
+            if r < self.n * self.n {
+                self.classify_node(r, region, cap, &mut edit);
+            }
+        }
+        edit
+    }
+
     fn classify_node(&mut self, id: NodeId, region: &Region, cap: u8, edit: &mut Edit) {
         let node = self.nodes[id as usize];
         let class = region.classify(node.rect);
@@ -188,7 +224,8 @@ impl UvMap {
             edit.reclassified.push((id, node.class));
             self.nodes[id as usize].class = class;
         }
-        let wants_children = class == NodeClass::Boundary && node.level < cap;
+        let wants_children = (class == NodeClass::Boundary && node.level < cap)
+            || node.level < self.min_level(node.root);
         match (wants_children, node.children) {
             (true, None) => {
                 let first = self.subdivide(id);
