@@ -21,12 +21,11 @@ fn frame(c: &mut Criterion) {
     config.files.dir = dir.path().to_path_buf();
     config.files.autosave_every = 0;
     let mut app = AppState::new(config).expect("session");
-    let (_, _, vn) = app.screen.basis();
-    for ev in demo_events(&app.screen, app.screen.center() - vn * 0.1) {
+    for ev in demo_events(&app.screen) {
         app.session.handle(&ev).expect("demo event");
     }
     let mut renderer = Renderer::new(&gpu, wgpu::TextureFormat::Rgba8Unorm);
-    app.sync_meshes(&mut renderer.targets, &mut renderer.strokes);
+    renderer.sync(&mut app);
     let (w, h) = (1280, 720);
     let make = || renderer.output_texture(w, h);
     let (ta, tb) = (make(), make());
@@ -40,7 +39,7 @@ fn frame(c: &mut Criterion) {
     eprintln!(
         "adapter: {}; triangles per eye: {}",
         gpu.describe(),
-        renderer.targets.triangle_count() + renderer.strokes.triangle_count()
+        renderer.document_store().triangle_count()
     );
     let mut g = c.benchmark_group("frame");
     g.sample_size(20)
@@ -51,7 +50,7 @@ fn frame(c: &mut Criterion) {
             let mut total = Duration::ZERO;
             for _ in 0..iters {
                 let start = Instant::now();
-                app.sync_meshes(&mut renderer.targets, &mut renderer.strokes);
+                renderer.sync(&mut app);
                 renderer.render(
                     &FrameInput {
                         views: &views,

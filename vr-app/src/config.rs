@@ -224,6 +224,9 @@ pub struct FilesConfig {
     pub dir: PathBuf,
     /// Autosave the document after this many operations (0 = never).
     pub autosave_every: u32,
+    /// The base scene the session starts from (a `Document::to_json` file, like a
+    /// saved `scene.json`); absent means the shared default surface.
+    pub scene: Option<PathBuf>,
 }
 
 impl Default for FilesConfig {
@@ -231,6 +234,7 @@ impl Default for FilesConfig {
         Self {
             dir: PathBuf::from("wandsculpt-session"),
             autosave_every: 5,
+            scene: None,
         }
     }
 }

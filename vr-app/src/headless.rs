@@ -104,8 +104,7 @@ pub fn run_headless(
     }
     app.session.tick(last_t + 10.0)?;
     let doc_path = app.session.save_document()?;
-    app.session.flush()?;
-    app.sync_meshes(&mut renderer.targets, &mut renderer.strokes);
+    renderer.sync(app);
     let views = app.views()?;
     let lines = app.overlay_lines();
     let hud = if app.config.display.hud {
@@ -146,8 +145,8 @@ pub fn run_headless(
         inputs: count,
         operations,
         recovered: app.session.recovered,
-        targets: app.session.doc.targets.len(),
-        strokes: app.session.doc.strokes.len(),
+        targets: app.session.doc.targets().len(),
+        strokes: app.session.doc.strokes().len(),
         frames: frame_times.len(),
         frame_cpu_median_us: median.as_secs_f64() * 1e6,
         files,
@@ -160,7 +159,7 @@ fn render_frame(
     renderer: &mut Renderer,
     opts: &HeadlessOptions,
 ) -> VrResult<Duration> {
-    app.sync_meshes(&mut renderer.targets, &mut renderer.strokes);
+    renderer.sync(app);
     let views = app.views()?;
     let lines = app.overlay_lines();
     let hud = app.hud_lines();

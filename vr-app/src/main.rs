@@ -34,6 +34,10 @@ struct Cli {
     /// Session directory (journal, autosave, document, operator log, PNGs).
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Base scene to start from (a `scene.json`, `Document::to_json` format); the
+    /// default is the shared default surface.
+    #[arg(long, value_name = "FILE")]
+    scene: Option<PathBuf>,
     /// Output mode: dual, side-by-side, anaglyph or mono.
     #[arg(long, value_name = "MODE")]
     mode: Option<OutputMode>,
@@ -98,6 +102,9 @@ fn run(cli: Cli) -> Result<()> {
     if let Some(dir) = &cli.out {
         config.files.dir = dir.clone();
     }
+    if let Some(scene) = &cli.scene {
+        config.files.scene = Some(scene.clone());
+    }
     if let Some(m) = cli.mode {
         config.display.mode = m;
     }
@@ -119,10 +126,7 @@ fn run(cli: Cli) -> Result<()> {
                 .display()
         );
     }
-    let demo = || {
-        let (_, _, vn) = app.screen.basis();
-        demo_events(&app.screen, app.screen.center() - vn * 0.1)
-    };
+    let demo = || demo_events(&app.screen);
     if cli.headless {
         let events: Box<dyn Iterator<Item = Input>> = if cli.demo {
             Box::new(demo().into_iter().map(Input::Wand))

@@ -101,7 +101,8 @@ pub fn run_windowed(app: AppState, input: WindowInput) -> VrResult<()> {
     event_loop
         .run_app(&mut wa)
         .map_err(|e| VrError::Gpu(format!("window event loop: {e}")))?;
-    wa.app.session.flush()?;
+    // Never lose work on a clean exit.
+    wa.app.session.autosave()?;
     match wa.error {
         Some(e) => Err(e),
         None => Ok(()),
@@ -303,8 +304,7 @@ impl WindowApp {
         self.last_frame = now;
         self.feed_input(t);
         let Some(run) = &mut self.running else { return };
-        self.app
-            .sync_meshes(&mut run.renderer.targets, &mut run.renderer.strokes);
+        run.renderer.sync(&mut self.app);
         let Ok(views) = self.app.views() else { return };
         let lines = self.app.overlay_lines();
         let hud = if self.app.config.display.hud {
