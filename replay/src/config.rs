@@ -17,7 +17,7 @@
 //!
 //! [tracking]              # the frame stage (tracking::stage)
 //! wand_id = 0              # Flystick id of the wand
-//! head_id = 1              # body id of the head target (omit: no head tracking)
+//! head_id = 0              # body id of the head target (omit: no head tracking)
 //! timeout = 0.5            # seconds without data before the wand counts as lost
 //!
 //! [tool]                   # the interaction's starting mode and tool

@@ -80,7 +80,7 @@ impl Default for StageConfig {
     fn default() -> Self {
         Self {
             wand_id: 0,
-            head_id: Some(1),
+            head_id: Some(0),
             timeout_s: 0.5,
             calibration: Calibration::default(),
             filter: FilterConfig::default(),

@@ -178,7 +178,7 @@ fn head_poses_are_calibrated_and_filtered() {
     let mut out = Vec::new();
     let mut f = wand_frame(1, 0.0, DVec3::ZERO, 0);
     f.bodies.push(Body {
-        id: 1,
+        id: 0,
         quality: 1.0,
         pose: Pose::from_position_mm(DVec3::new(0.0, 1700.0, 600.0)),
     });
@@ -254,7 +254,7 @@ fn frame_strategy() -> impl Strategy<Value = Frame> {
             }
             if let Some((pose, quality)) = head {
                 f.bodies.push(Body {
-                    id: 1,
+                    id: 0,
                     quality,
                     pose,
                 });
