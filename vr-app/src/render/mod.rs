@@ -165,8 +165,10 @@ pub struct OffscreenFrame {
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct FrameStats {
     /// CPU time for uniform and buffer updates plus command encoding and submission,
-    /// both eyes.
+    /// both eyes. (On lavapipe, submission runs part of the software rasteriser.)
     pub cpu: Duration,
+    /// The same up to the end of encoding, without the submission.
+    pub encode: Duration,
     /// Triangles drawn per eye.
     pub triangles: u64,
 }
@@ -862,13 +864,17 @@ impl Renderer {
                 pass.draw(0..hud_vertices.len() as u32, 0..1);
             }
         }
-        self.queue.submit([encoder.finish()]);
+        let command_buffer = encoder.finish();
+        let encode = start.elapsed();
+        self.queue.submit([command_buffer]);
         let stats = FrameStats {
             cpu: start.elapsed(),
+            encode,
             triangles: self.document_store().triangle_count() + self.preview.triangle_count(),
         };
         tracing::trace!(
             cpu_us = stats.cpu.as_micros() as u64,
+            encode_us = stats.encode.as_micros() as u64,
             triangles = stats.triangles,
             "frame"
         );
