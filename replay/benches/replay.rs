@@ -1,5 +1,5 @@
 //! Replay speed: the shipped 60-second soak session (60 Hz, 12 strokes) through the
-//! whole pipeline (decode, calibrate, driver, sculpting) without rendering or writing.
+//! whole pipeline (decode, frame stage, interaction, sculpting) without rendering or writing.
 //! Target: >= 50x real time on one core, i.e. a median below 1.2 s.
 //!
 //! `cargo bench -p replay --bench replay`

@@ -15,18 +15,20 @@
 //! enabled = true
 //! position = { min_cutoff_hz = 1.0, beta = 5.0, d_cutoff_hz = 1.0, reset_after_s = 0.5 }
 //!
-//! [tracking]
+//! [tracking]              # the frame stage (tracking::stage)
 //! wand_id = 0              # Flystick id of the wand
+//! head_id = 0              # body id of the head target (omit: no head tracking)
 //! timeout = 0.5            # seconds without data before the wand counts as lost
 //!
-//! [tool]
-//! mode = "carve"           # starting mode: carve, emboss or sketch
+//! [tool]                   # the interaction's starting mode and tool
+//! mode = "carve"           # carve, emboss or sketch (the mode button cycles
+//!                          # sketch -> carve -> emboss -> sketch)
 //! profile = "v"            # v or u
 //! width = 0.02             # metres
 //! depth = 0.005            # metres
 //! taper = 0.01             # metres
 //!
-//! [interaction]
+//! [interaction]            # sculpt_core::interaction::InteractionConfig
 //! buttons = { action = 0, mode = 1, profile = 2, undo = 3, redo = 4, select = 5 }
 //! pause_timeout = 0.5      # a gesture survives this much tracking loss (seconds)
 //! max_resume_jump = 0.05   # ... if it comes back within this distance (metres)
@@ -36,8 +38,12 @@
 //! sketch_columns = 8
 //! sketch_row_spacing = 0.01
 //! min_sketch_rows = 4
+//! max_samples = 200000     # gesture sample cap (memory bound)
 //! pose_every = 1           # operator-log pose events every n-th tracked sample
 //! ```
+//!
+//! Replay runs the live app's code on these: [`tracking::stage::FrameStage`], then
+//! [`sculpt_core::interaction::Interaction`], then [`sculpt_core::editor::apply`].
 //!
 //! ```
 //! let cfg = replay::config::ReplayConfig::from_toml_str("[tool]\nwidth = 0.03\n[display]\nmode = \"mono\"\n").unwrap();
@@ -45,72 +51,45 @@
 //! assert_eq!(cfg.tracking.wand_id, 0);
 //! ```
 
-use glam::DVec3;
+pub use sculpt_core::interaction::{ButtonMap, InteractionConfig, Mode, Profile, Tool};
 use serde::{Deserialize, Serialize};
 pub use tracking::calibration::Calibration;
 pub use tracking::filter::FilterConfig;
+use tracking::stage::StageConfig;
 
 use crate::error::{Error, Result};
 
-/// Which tracker device is the wand, and when it counts as lost.
+/// Which tracker devices are the wand and the head, and when the wand counts as lost.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct TrackingSection {
     /// Flystick id of the wand.
     pub wand_id: u32,
+    /// Standard body id of the head target (the glasses).
+    pub head_id: Option<u32>,
     /// Seconds without frames before the wand counts as lost.
     pub timeout: f64,
 }
 
 impl Default for TrackingSection {
     fn default() -> Self {
+        let stage = StageConfig::default();
         Self {
-            wand_id: 0,
-            timeout: 0.5,
+            wand_id: stage.wand_id,
+            head_id: stage.head_id,
+            timeout: stage.timeout_s,
         }
     }
 }
 
-/// Starting mode.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Mode {
-    /// Sweep to create a surface.
-    Sketch,
-    /// Strokes cut grooves.
-    Carve,
-    /// Strokes raise ridges.
-    Emboss,
-}
-
-impl Mode {
-    /// The next mode in the cycle carve -> emboss -> sketch -> carve.
-    pub fn next(self) -> Self {
-        match self {
-            Mode::Carve => Mode::Emboss,
-            Mode::Emboss => Mode::Sketch,
-            Mode::Sketch => Mode::Carve,
-        }
-    }
-
-    /// The lower-case name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Mode::Sketch => "sketch",
-            Mode::Carve => "carve",
-            Mode::Emboss => "emboss",
-        }
-    }
-}
-
-/// The starting tool.
+/// The starting tool: the interaction's mode and [`Tool`] settings.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct ToolSection {
     /// Starting mode.
     pub mode: Mode,
     /// `v` or `u`.
-    pub profile: ProfileName,
+    pub profile: Profile,
     /// Width, metres.
     pub width: f64,
     /// Depth or height, metres.
@@ -119,70 +98,27 @@ pub struct ToolSection {
     pub taper: f64,
 }
 
-/// A chisel profile by name.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ProfileName {
-    /// V groove.
-    V,
-    /// U groove.
-    U,
-}
-
 impl Default for ToolSection {
     fn default() -> Self {
+        let tool = Tool::default();
         Self {
             mode: Mode::Carve,
-            profile: ProfileName::V,
-            width: 0.02,
-            depth: 0.005,
-            taper: 0.01,
+            profile: tool.profile,
+            width: tool.width,
+            depth: tool.depth,
+            taper: tool.taper,
         }
     }
 }
 
-/// Which button bit does what: the same assignment the live app's interaction uses.
-pub use sculpt_core::interaction::ButtonMap;
-
-/// Gesture tuning.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct InteractionSection {
-    /// Button assignment.
-    pub buttons: ButtonMap,
-    /// Seconds a gesture may stay paused by tracking loss.
-    pub pause_timeout: f64,
-    /// Largest jump (metres) at which a paused gesture resumes.
-    pub max_resume_jump: f64,
-    /// Faster apparent motion (m/s) is a glitch and dropped.
-    pub max_speed: f64,
-    /// Shorter strokes (metres of path) are discarded.
-    pub min_stroke_length: f64,
-    /// The sketch sweep segment in wand coordinates (metres).
-    pub sketch_axis: [f64; 3],
-    /// Points per sketch row.
-    pub sketch_columns: u32,
-    /// Minimum tip travel between sketch rows (metres).
-    pub sketch_row_spacing: f64,
-    /// Minimum rows for a sketch.
-    pub min_sketch_rows: u32,
-    /// Operator-log pose events every n-th tracked sample (0: none).
-    pub pose_every: u32,
-}
-
-impl Default for InteractionSection {
-    fn default() -> Self {
-        Self {
-            buttons: ButtonMap::default(),
-            pause_timeout: 0.5,
-            max_resume_jump: 0.05,
-            max_speed: 15.0,
-            min_stroke_length: 0.005,
-            sketch_axis: [0.3, 0.0, 0.0],
-            sketch_columns: 8,
-            sketch_row_spacing: 0.01,
-            min_sketch_rows: 4,
-            pose_every: 1,
+impl ToolSection {
+    /// The interaction's tool.
+    pub fn tool(&self) -> Tool {
+        Tool {
+            profile: self.profile,
+            width: self.width,
+            depth: self.depth,
+            taper: self.taper,
         }
     }
 }
@@ -199,8 +135,8 @@ pub struct ReplayConfig {
     pub tracking: TrackingSection,
     /// Starting tool.
     pub tool: ToolSection,
-    /// Gesture tuning.
-    pub interaction: InteractionSection,
+    /// Gesture tuning: the interaction state machine's own config.
+    pub interaction: InteractionConfig,
 }
 
 impl ReplayConfig {
@@ -209,6 +145,17 @@ impl ReplayConfig {
         let cfg: Self = toml::from_str(text).map_err(|e| Error::Config(e.to_string()))?;
         cfg.validate()?;
         Ok(cfg)
+    }
+
+    /// The frame stage's config (wand and head ids, timeout, calibration, filter).
+    pub fn stage(&self) -> StageConfig {
+        StageConfig {
+            wand_id: self.tracking.wand_id,
+            head_id: self.tracking.head_id,
+            timeout_s: self.tracking.timeout,
+            calibration: self.calibration.clone(),
+            filter: self.filter,
+        }
     }
 
     /// Checks every number; the error names the bad setting.
@@ -244,10 +191,17 @@ impl ReplayConfig {
                 return bad(format!("{name} must be >= 0, got {v}"));
             }
         }
+        if i.max_samples < 2 {
+            return bad("interaction.max_samples must be at least 2".into());
+        }
+        self.tool
+            .tool()
+            .validate()
+            .map_err(|e| Error::Config(format!("tool: {e}")))?;
         if !(2..=64).contains(&i.sketch_columns) || !(2..=10_000).contains(&i.min_sketch_rows) {
             return bad("sketch_columns must be in 2..=64 and min_sketch_rows in 2..=10000".into());
         }
-        if !DVec3::from(i.sketch_axis).is_finite() || DVec3::from(i.sketch_axis).length() < 1e-6 {
+        if !i.sketch_axis.is_finite() || i.sketch_axis.length() < 1e-6 {
             return bad("interaction.sketch_axis must be a non-zero vector".into());
         }
         let b = i.buttons;
@@ -264,6 +218,7 @@ impl ReplayConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::DVec3;
 
     #[test]
     fn bad_settings_are_named() {

@@ -3,8 +3,8 @@
 //! Deterministic replay of recorded tracking sessions through the live Wandsculpt
 //! pipeline, tracking-server emulation, and import of real Open Brush recordings.
 //!
-//! - [`pipeline`]: pose-log records through decode, calibration, filter, the gesture
-//!   [`driver`] and the sculpting document, on a virtual clock; [`output`] writes the
+//! - [`pipeline`]: pose-log records through decode, frame stage (`tracking::stage`), the
+//!   [`Interaction`](sculpt_core::interaction::Interaction) and the sculpting document, on a virtual clock; [`output`] writes the
 //!   results (document, exports, operator log, metrics).
 //! - [`config`]: the display config tables replay reads.
 //! - [`check`]: `--check EXPECTED.json` comparisons with a readable diff.
@@ -29,7 +29,6 @@
 
 pub mod check;
 pub mod config;
-pub mod driver;
 pub mod error;
 pub mod import;
 pub mod output;

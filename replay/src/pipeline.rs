@@ -1,38 +1,37 @@
 //! The replay pipeline: pose-log records in; the sculpted document, the operator event
 //! log and metrics out.
 //!
-//! Stages, in the order the live display server runs them:
-//! 1. **decode** each DTrack2 record (`tracking::dtrack`); corrupt lines, bad frames,
-//!    stale (out-of-order) frame numbers and a truncated last line are counted, not
-//!    fatal;
-//! 2. **calibrate** tracker millimetres into the display frame and the wand's tool tip
-//!    ([`Calibration`]), then **filter** the pose (the tracking crate's One Euro
-//!    filter, `[filter]` in the config);
-//! 3. **tracking loss**: a wand with quality < 0, or no frame for longer than the
-//!    tracking timeout, is lost (its buttons still count);
-//! 4. **interaction**: the [`Driver`] turns samples into edits and operator events;
-//! 5. **sculpting**: edits go to the [`Document`] (strokes through the multiresolution
-//!    trimming, sketches fitted into new targets, undo and redo).
+//! Stages, in the order the live display server runs them, with the same code:
+//! 1. **decode** each DTrack2 record (`tracking::dtrack`); corrupt lines, bad frames
+//!    and a truncated last line are counted, not fatal;
+//! 2. the [`FrameStage`] (`tracking::stage`): out-of-order frames dropped, time from
+//!    the frames' DTrack `ts`, **calibration** of tracker millimetres into the display
+//!    frame with the wand's tool tip, the One Euro **filter**, **tracking loss**
+//!    (quality < 0, no wand, or no frame for longer than the timeout);
+//! 3. **interaction**: [`Interaction`] (`sculpt_core::interaction`) turns wand samples
+//!    into edits and operator events;
+//! 4. **sculpting**: [`editor::apply`] applies each edit to the [`Document`] (strokes
+//!    through the multiresolution trimming, sketches fitted into new targets, undo and
+//!    redo); [`editor::oplog_event`] writes the operator log.
 //!
-//! Time is virtual: each record's receive time from the log, so a replay is
-//! deterministic and runs as fast as the CPU allows.
-//!
-//! [`Calibration`]: crate::config::Calibration
+//! Time is virtual: the frames' own times, so a replay is deterministic, runs as fast
+//! as the CPU allows, and matches a live run of the same log.
 
 use std::time::Instant;
 
-use glam::{DQuat, DVec3};
-use sculpt_core::nurbs::NurbsSurface;
+use sculpt_core::editor::{self, Applied};
+use sculpt_core::interaction::{
+    Edit, EndReason, Interaction, OperatorEvent, Output, Profile, StrokeEdit, StrokeMode,
+    WandEvent, WandSample,
+};
 use sculpt_core::oplog::{OpLogHeader, OpLogWriter};
-use sculpt_core::sculpt::document::{Document, TargetId};
-use sculpt_core::sculpt::stroke::{Mode as StrokeMode, Profile, StrokeInput, Tool};
+use sculpt_core::sculpt::document::Document;
 use serde::Serialize;
-use tracking::DeviceId;
-use tracking::filter::PoseFilter;
+use tracking::Frame;
 use tracking::poselog::{PoseLogReader, Record, RecordKind};
+use tracking::stage::{FrameStage, HeadSample, StageEvent, WandSample as StageWand};
 
-use crate::config::{ProfileName, ReplayConfig};
-use crate::driver::{Driver, Edit, Sample};
+use crate::config::ReplayConfig;
 use crate::error::{Error, Result};
 
 /// Counts over the input records.
@@ -177,91 +176,74 @@ pub struct Outcome {
     pub timing: Timing,
 }
 
-pub use sculpt_core::editor::{default_document, default_surface};
+pub use sculpt_core::editor::{default_document, default_surface, fit_sketch};
 
-/// Fits a sketched point grid: a B-spline surface of degree up to 3 with the (at most
-/// 12 x 12, evenly picked) grid points as control points and clamped uniform knots.
-pub fn fit_sketch(rows: &[Vec<DVec3>]) -> Result<NurbsSurface> {
-    let pick = |n: usize, max: usize| -> Vec<usize> {
-        if n <= max {
-            (0..n).collect()
-        } else {
-            (0..max).map(|k| k * (n - 1) / (max - 1)).collect()
-        }
-    };
-    let cols = rows.first().map_or(0, Vec::len);
-    if rows.len() < 2 || cols < 2 || rows.iter().any(|r| r.len() != cols) {
-        return Err(Error::Session(
-            "a sketch needs at least a 2 x 2 grid".into(),
-        ));
-    }
-    let ri = pick(rows.len(), 12);
-    let ci = pick(cols, 12);
-    let control: Vec<Vec<DVec3>> = ri
-        .iter()
-        .map(|&i| ci.iter().map(|&j| rows[i][j]).collect())
-        .collect();
-    let knots = |n: usize, p: usize| -> Vec<f64> {
-        let inner = n - p - 1;
-        let mut k = vec![0.0; p + 1];
-        k.extend((1..=inner).map(|i| i as f64 / (inner + 1) as f64));
-        k.extend(vec![1.0; p + 1]);
-        k
-    };
-    let (nu, nv) = (control.len(), control[0].len());
-    let (pu, pv) = ((nu - 1).min(3), (nv - 1).min(3));
-    NurbsSurface::new(pu, pv, knots(nu, pu), knots(nv, pv), control, None)
-        .map_err(|e| Error::Session(format!("sketch surface: {e}")))
-}
-
-/// Feeds records through the pipeline one at a time.
+/// Feeds records through the pipeline one at a time: [`FrameStage`] →
+/// [`Interaction`] → [`editor::apply`], the same three calls the display server makes.
 pub struct Replayer {
-    cfg: ReplayConfig,
     doc: Document,
-    driver: Driver,
-    filter: PoseFilter,
+    stage: FrameStage,
+    interaction: Interaction,
     oplog: OpLogWriter,
     metrics: Metrics,
     timing: Timing,
-    last_number: Option<u64>,
+    pause_timeout: f64,
     first_t: Option<f64>,
     last_t: f64,
-    lost_since: Option<f64>,
-    last_sample_t: Option<f64>,
+    head: Option<HeadSample>,
+    events: Vec<StageEvent>,
+    outputs: Vec<Output>,
 }
 
 impl Replayer {
     /// A replayer starting from `doc` (the base scene), in the config's start mode.
     pub fn new(cfg: &ReplayConfig, doc: Document, session: &str) -> Result<Self> {
         cfg.validate()?;
-        let driver = Driver::new(cfg, doc.targets().len());
+        let stage = FrameStage::new(cfg.stage()).map_err(|e| Error::Config(e.to_string()))?;
+        let mut interaction = Interaction::new(cfg.interaction, cfg.tool.mode, cfg.tool.tool());
+        interaction.set_target_count(target_count(&doc));
         let oplog = OpLogWriter::new(
             &OpLogHeader::new()
                 .with_source("replay")
-                .with_method(cfg.tool.mode.name()),
+                .with_method(editor::mode_name(cfg.tool.mode)),
         );
         Ok(Self {
-            cfg: cfg.clone(),
             doc,
-            driver,
-            filter: PoseFilter::new(cfg.filter),
+            stage,
+            interaction,
             oplog,
             metrics: Metrics {
                 session: session.to_string(),
                 ..Metrics::default()
             },
             timing: Timing::default(),
-            last_number: None,
+            pause_timeout: cfg.interaction.pause_timeout,
             first_t: None,
             last_t: 0.0,
-            lost_since: None,
-            last_sample_t: None,
+            head: None,
+            events: Vec::new(),
+            outputs: Vec::new(),
         })
     }
 
     /// The document so far.
     pub fn document(&self) -> &Document {
         &self.doc
+    }
+
+    /// The interaction state (mode, tool, live stroke, wand).
+    pub fn interaction(&self) -> &Interaction {
+        &self.interaction
+    }
+
+    /// The latest tracked head pose.
+    pub fn head(&self) -> Option<&HeadSample> {
+        self.head.as_ref()
+    }
+
+    /// Session time of the last frame used (seconds on the stage clock).
+    pub fn time(&self) -> f64 {
+        self.last_t
     }
 
     /// Feeds one pose-log record.
@@ -271,218 +253,170 @@ impl Replayer {
             self.metrics.frames.other_kinds += 1;
             return;
         }
-        let t = rec.time.as_secs_f64();
-        self.first_t.get_or_insert(t);
-        // A silent gap longer than the timeout: the wand was lost from then on.
-        if let Some(prev) = self.last_sample_t
-            && t - prev > self.cfg.tracking.timeout
-        {
-            self.metrics.tracking.timeouts += 1;
-            let edits = self.driver.lost(prev + self.cfg.tracking.timeout);
-            self.apply_all(edits, prev + self.cfg.tracking.timeout);
+        match rec.frame() {
+            Ok(frame) => self.feed_frame(&frame),
+            Err(_) => self.stage.bad_frame(),
         }
-        self.last_t = t;
-        let frame = match rec.frame() {
-            Ok(f) => f,
-            Err(_) => {
-                self.metrics.frames.bad_frames += 1;
-                return;
+    }
+
+    /// Feeds one decoded frame (in arrival order).
+    pub fn feed_frame(&mut self, frame: &Frame) {
+        let mut events = std::mem::take(&mut self.events);
+        events.clear();
+        self.stage.push(frame, &mut events);
+        if let Some(t) = self.stage.time() {
+            self.first_t.get_or_insert(t);
+            self.last_t = t;
+        }
+        for ev in &events {
+            match ev {
+                StageEvent::Head(h) => self.head = Some(*h),
+                StageEvent::Wand(w) => self.wand(w),
             }
-        };
-        if let Some(last) = self.last_number
-            && frame.number <= last
-            && last - frame.number < 10_000
-        {
-            self.metrics.frames.out_of_order += 1;
-            return;
         }
-        self.last_number = Some(frame.number);
-        let Some(wand) = frame.wand(self.cfg.tracking.wand_id) else {
-            self.metrics.frames.without_wand += 1;
-            return;
-        };
-        self.metrics.frames.used += 1;
-        let device = DeviceId::Wand(self.cfg.tracking.wand_id);
-        let world = if wand.is_tracked() {
-            self.cfg.calibration.pose_in_world(device, &wand.pose)
+        self.events = events;
+    }
+
+    fn wand(&mut self, w: &StageWand) {
+        let buttons = (w.buttons & u64::from(u32::MAX)) as u32;
+        let sample = if w.tracked {
+            WandSample::tracked(w.tip_m, w.orientation, buttons)
         } else {
-            None
+            WandSample::lost(buttons)
         };
-        let sample = match world {
-            Some(pose) => {
-                let pose = self.filter.filter(t, pose);
-                Sample {
-                    t,
-                    tracked: true,
-                    position: pose.tool_m,
-                    orientation: pose.orientation,
-                    buttons: wand.buttons as u32,
-                }
+        let paused = self.interaction.gesture_paused();
+        let mut outputs = std::mem::take(&mut self.outputs);
+        outputs.clear();
+        // Stage times never go back, so the interaction accepts every sample.
+        if self
+            .interaction
+            .handle(&WandEvent::sample(w.t, sample), &mut outputs)
+            .is_ok()
+        {
+            if paused && !self.interaction.gesture_paused() && self.interaction.gesture_active() {
+                self.metrics.gestures.resumed += 1;
             }
-            None => Sample {
-                t,
-                tracked: false,
-                position: DVec3::ZERO,
-                orientation: DQuat::IDENTITY,
-                buttons: wand.buttons as u32,
-            },
-        };
-        self.last_sample_t = Some(t);
-        let edits = self.driver.sample(sample);
-        self.apply_all(edits, t);
-    }
-
-    fn track_lost_time(&mut self, t: f64) {
-        let lost_now = self.driver.losses > self.metrics.tracking.losses;
-        if lost_now && self.lost_since.is_none() {
-            self.lost_since = Some(t);
-        }
-        self.metrics.tracking.losses = self.driver.losses;
-    }
-
-    fn apply_all(&mut self, edits: Vec<Edit>, t: f64) {
-        self.track_lost_time(t);
-        for (et, kind) in self.driver.take_events() {
-            if matches!(
-                kind,
-                sculpt_core::oplog::EventKind::Tracking {
-                    state: sculpt_core::oplog::TrackingState::Tracked
-                }
-            ) && let Some(t0) = self.lost_since.take()
+            if w.tracked
+                && outputs.iter().any(|o| {
+                    matches!(
+                        o,
+                        Output::Op {
+                            event: OperatorEvent::TrackingLost,
+                            ..
+                        }
+                    )
+                })
             {
-                self.metrics.tracking.lost_s += et - t0;
+                self.metrics.tracking.glitches += 1;
             }
-            // Times are monotone by construction; a refused event is dropped.
-            let _ = self.oplog.push(et, kind);
+            self.apply_outputs(&outputs, w.t);
         }
-        for edit in edits {
-            self.apply(edit, t);
+        self.outputs = outputs;
+    }
+
+    /// Logs the operator events and applies the edits, all caused at time `t`.
+    fn apply_outputs(&mut self, outputs: &[Output], t: f64) {
+        for out in outputs {
+            match out {
+                Output::Op { t: et, event } => {
+                    let g = &mut self.metrics.gestures;
+                    if let OperatorEvent::GestureEnd {
+                        committed, reason, ..
+                    } = event
+                    {
+                        match reason {
+                            EndReason::TrackingLost => g.ended_by_loss += 1,
+                            EndReason::Released if !committed => g.too_short += 1,
+                            _ => {}
+                        }
+                    }
+                    // Times are monotone by construction; a refused event is dropped.
+                    let _ = self.oplog.push(*et, editor::oplog_event(event));
+                }
+                Output::Edit(edit) => self.apply(edit, t),
+            }
         }
     }
 
-    fn target_ids(&self) -> Vec<TargetId> {
-        self.doc.targets().iter().map(|t| t.id).collect()
+    fn apply(&mut self, edit: &Edit, t: f64) {
+        let started = Instant::now();
+        let applied = editor::apply(&mut self.doc, edit);
+        if let Edit::Stroke(s) = edit {
+            self.timing
+                .stroke_apply_us
+                .push(started.elapsed().as_secs_f64() * 1e6);
+            if let Applied::Stroke { id, target } = applied {
+                self.stroke_applied(s, id, target, t);
+            }
+        }
+        let g = &mut self.metrics.gestures;
+        match &applied {
+            Applied::Stroke { .. } => g.strokes_applied += 1,
+            Applied::Sketch { .. } => g.sketches += 1,
+            Applied::Undone => g.undos += 1,
+            Applied::Redone => g.redos += 1,
+            Applied::Unchanged => {}
+            Applied::Rejected(e) => {
+                if matches!(edit, Edit::Stroke(_)) {
+                    g.strokes_rejected += 1;
+                }
+                self.metrics.rejected.push(Rejection {
+                    at_s: t,
+                    reason: e.to_string(),
+                });
+            }
+        }
+        if applied.changed() {
+            self.metrics.operations += 1;
+        }
+        self.interaction.set_target_count(target_count(&self.doc));
     }
 
-    fn apply(&mut self, edit: Edit, t: f64) {
-        match edit {
-            Edit::Stroke {
-                target,
-                emboss,
-                profile,
-                samples,
-                ended_at: _,
-            } => {
-                let ids = self.target_ids();
-                let Some(&target_id) = ids.get(target) else {
-                    self.metrics.gestures.strokes_rejected += 1;
-                    self.metrics.rejected.push(Rejection {
-                        at_s: t,
-                        reason: format!("no target {target}"),
-                    });
-                    return;
-                };
-                let tool = Tool {
-                    profile: match profile {
-                        ProfileName::V => Profile::V,
-                        ProfileName::U => Profile::U,
-                    },
-                    width: self.cfg.tool.width,
-                    depth: self.cfg.tool.depth,
-                    mode: if emboss {
-                        StrokeMode::Emboss
-                    } else {
-                        StrokeMode::Carve
-                    },
-                    taper: self.cfg.tool.taper,
-                };
-                let n = samples.len();
-                let (start_s, end_s) = (samples[0].0, samples[n - 1].0);
-                let length_m = samples.windows(2).map(|w| (w[1].1 - w[0].1).length()).sum();
-                let started = Instant::now();
-                let result = self
-                    .doc
-                    .apply_stroke(target_id, StrokeInput { samples, tool });
-                self.timing
-                    .stroke_apply_us
-                    .push(started.elapsed().as_secs_f64() * 1e6);
-                match result {
-                    Ok(id) => {
-                        self.metrics.gestures.strokes_applied += 1;
-                        self.metrics.operations += 1;
-                        self.metrics.per_stroke.push(StrokeMetrics {
-                            id,
-                            target: target_id,
-                            mode: if emboss { "emboss" } else { "carve" },
-                            profile: match profile {
-                                ProfileName::V => "v",
-                                ProfileName::U => "u",
-                            },
-                            samples: n,
-                            start_s,
-                            end_s,
-                            length_m,
-                            apply_latency_ms: (t - end_s) * 1000.0,
-                        });
-                    }
-                    Err(e) => {
-                        self.metrics.gestures.strokes_rejected += 1;
-                        self.metrics.rejected.push(Rejection {
-                            at_s: t,
-                            reason: e.to_string(),
-                        });
-                    }
-                }
-            }
-            Edit::Sketch { rows, .. } => match fit_sketch(&rows) {
-                Ok(surface) => {
-                    let name = format!("sketch {}", self.metrics.gestures.sketches + 1);
-                    self.metrics.gestures.sketches += 1;
-                    self.metrics.operations += 1;
-                    self.doc.add_target(&name, surface);
-                    self.driver.set_target_count(self.doc.targets().len());
-                }
-                Err(e) => {
-                    self.metrics.rejected.push(Rejection {
-                        at_s: t,
-                        reason: e.to_string(),
-                    });
-                }
+    fn stroke_applied(&mut self, s: &StrokeEdit, id: u64, target: u64, t: f64) {
+        let n = s.samples.len();
+        let (start_s, end_s) = (s.samples[0].t, s.samples[n - 1].t);
+        self.metrics.per_stroke.push(StrokeMetrics {
+            id,
+            target,
+            mode: match s.mode {
+                StrokeMode::Carve => "carve",
+                StrokeMode::Emboss => "emboss",
             },
-            Edit::Undo => {
-                if self.doc.undo() {
-                    self.metrics.gestures.undos += 1;
-                    self.metrics.operations += 1;
-                }
-                self.driver.set_target_count(self.doc.targets().len());
-            }
-            Edit::Redo => {
-                if self.doc.redo() {
-                    self.metrics.gestures.redos += 1;
-                    self.metrics.operations += 1;
-                }
-                self.driver.set_target_count(self.doc.targets().len());
-            }
-        }
+            profile: match s.tool.profile {
+                Profile::V => "v",
+                Profile::U => "u",
+            },
+            samples: n,
+            start_s,
+            end_s,
+            length_m: s
+                .samples
+                .windows(2)
+                .map(|w| (w[1].position - w[0].position).length())
+                .sum(),
+            apply_latency_ms: (t - end_s) * 1000.0,
+        });
     }
 
-    /// Ends the session at the last record's time (a paused gesture is given its
+    /// Ends the session at the last frame's time (a paused gesture is given its
     /// timeout) and returns the outcome.
     pub fn finish(mut self, corrupt_lines: usize, truncated_tail: bool) -> Outcome {
-        let end = self.last_t + self.cfg.interaction.pause_timeout + 1e-9;
-        let edits = self.driver.tick(end);
-        self.apply_all(edits, end);
-        if let Some(t0) = self.lost_since.take() {
-            self.metrics.tracking.lost_s += self.last_t - t0;
-        }
+        let end = self.last_t + self.pause_timeout + 1e-9;
+        let mut outputs = Vec::new();
+        self.interaction.tick(end, &mut outputs);
+        self.apply_outputs(&outputs, end);
+        let stage = self.stage.metrics_until(self.last_t);
         let m = &mut self.metrics;
+        m.frames.used = stage.used;
+        m.frames.bad_frames = stage.bad_frames;
+        m.frames.out_of_order = stage.out_of_order;
+        m.frames.without_wand = stage.without_wand;
         m.frames.corrupt_lines = corrupt_lines;
         m.frames.truncated_tail = truncated_tail;
+        m.tracking.losses = stage.losses;
+        m.tracking.timeouts = stage.timeouts;
+        m.tracking.lost_s = stage.lost_s;
         m.duration_s = self.last_t - self.first_t.unwrap_or(self.last_t);
-        m.tracking.glitches = self.driver.glitches;
-        m.gestures.too_short = self.driver.too_short;
-        m.gestures.ended_by_loss = self.driver.ended_by_loss;
-        m.gestures.resumed = self.driver.resumed;
         m.targets = self.doc.targets().len();
         m.strokes = self.doc.strokes().len();
         let mut sorted = self.timing.stroke_apply_us.clone();
@@ -496,6 +430,10 @@ impl Replayer {
             timing: self.timing,
         }
     }
+}
+
+fn target_count(doc: &Document) -> u32 {
+    u32::try_from(doc.targets().len()).unwrap_or(u32::MAX)
 }
 
 /// Replays a whole pose log (its bytes) from `base`, as fast as possible or, with
@@ -549,34 +487,4 @@ pub fn replay_log(
         cb(total, total);
     }
     Ok(outcome)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use sculpt_core::assert_near;
-    use sculpt_core::tolerance::EXACT_EPS;
-
-    #[test]
-    fn sketch_grids_fit_into_surfaces_through_their_corners() {
-        let rows: Vec<Vec<DVec3>> = (0..30)
-            .map(|i| {
-                (0..8)
-                    .map(|j| DVec3::new(j as f64 * 0.04, 1.0 + i as f64 * 0.01, 0.0))
-                    .collect()
-            })
-            .collect();
-        let s = fit_sketch(&rows).unwrap();
-        assert_near!(
-            s.point(0.0, 0.0).to_array(),
-            rows[0][0].to_array(),
-            EXACT_EPS
-        );
-        assert_near!(
-            s.point(1.0, 1.0).to_array(),
-            rows[29][7].to_array(),
-            EXACT_EPS
-        );
-        assert!(fit_sketch(&rows[..1]).is_err());
-    }
 }

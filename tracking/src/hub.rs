@@ -1,8 +1,12 @@
 //! The merge layer: every source's frames become the latest state per device.
 //!
 //! A [`Hub`] keeps, per device, a tokio `watch` channel of [`DeviceState`] (the latest
-//! calibrated, filtered pose with its [`TrackingStatus`]) and one ordered `broadcast`
-//! channel of [`TrackingEvent`]s (button edges and status changes). It is driven by
+//! calibrated, filtered pose with its [`TrackingStatus`]), one ordered `broadcast`
+//! channel of [`TrackingEvent`]s (button edges and status changes), and a frame
+//! subscription ([`Hub::subscribe_frames`]): every accepted raw frame, with its
+//! source, in acceptance order, for consumers that must see every frame (the display
+//! server feeds them to the same per-frame stage as `replay`, so a live session equals
+//! the replay of its log). It is driven by
 //! the transports (or directly, by replay) with frames stamped with their receive time,
 //! and is itself clock-free: staleness is checked against a time you pass in, so
 //! replaying a log is deterministic.
@@ -53,6 +57,10 @@ use tokio::sync::{broadcast, watch};
 /// Capacity of the event channel (a receiver that falls further behind gets
 /// `RecvError::Lagged` with the count it missed).
 pub const EVENT_CAPACITY: usize = 4096;
+/// Capacity of the frame subscription: a subscriber that falls further behind loses
+/// the oldest frames and counts them ([`FrameSubscription::dropped`]). 16384 frames are
+/// over 4 minutes at 60 Hz.
+pub const FRAME_CAPACITY: usize = 16_384;
 /// Frame counters this far behind the newest are out of order; further means a reset.
 pub const REORDER_WINDOW: u64 = 1_000;
 /// A source quiet for this long may restart its frame counter.
@@ -148,6 +156,60 @@ pub enum TrackingEvent {
     },
 }
 
+/// A frame the hub accepted, with where it came from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SourcedFrame {
+    /// The source it came from.
+    pub source: SourceId,
+    /// The raw frame (tracker units, stamped with its receive time).
+    pub frame: Frame,
+    /// False for a buttons-only source (its wands carry no pose).
+    pub carries_pose: bool,
+}
+
+/// A bounded, in-order subscription to every frame the hub accepts (see
+/// [`Hub::subscribe_frames`]). Nothing is lost unless the subscriber falls more than
+/// [`FRAME_CAPACITY`] frames behind; then the oldest are skipped and counted.
+#[derive(Debug)]
+pub struct FrameSubscription {
+    rx: broadcast::Receiver<SourcedFrame>,
+    dropped: u64,
+}
+
+impl FrameSubscription {
+    /// The next frame if one is waiting (never blocks).
+    pub fn try_recv(&mut self) -> Option<SourcedFrame> {
+        loop {
+            match self.rx.try_recv() {
+                Ok(f) => return Some(f),
+                Err(broadcast::error::TryRecvError::Lagged(n)) => self.lag(n),
+                Err(_) => return None,
+            }
+        }
+    }
+
+    /// Waits for the next frame; `None` once the hub is gone and everything was read.
+    pub async fn recv(&mut self) -> Option<SourcedFrame> {
+        loop {
+            match self.rx.recv().await {
+                Ok(f) => return Some(f),
+                Err(broadcast::error::RecvError::Lagged(n)) => self.lag(n),
+                Err(broadcast::error::RecvError::Closed) => return None,
+            }
+        }
+    }
+
+    fn lag(&mut self, n: u64) {
+        tracing::warn!(missed = n, "frame subscriber fell behind; frames dropped");
+        self.dropped += n;
+    }
+
+    /// Frames skipped because this subscriber fell behind.
+    pub fn dropped(&self) -> u64 {
+        self.dropped
+    }
+}
+
 /// Identifies a source registered with a hub.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
 pub struct SourceId(pub usize);
@@ -200,6 +262,7 @@ struct Inner {
     calibration: Calibration,
     merge: Mutex<Merge>,
     events: broadcast::Sender<TrackingEvent>,
+    frames: broadcast::Sender<SourcedFrame>,
 }
 
 /// The merged tracking state; cheap to clone (shared).
@@ -218,6 +281,7 @@ impl Hub {
     /// A hub with the config's filter, calibration and `lost_after`.
     pub fn new(config: &TrackingConfig) -> Self {
         let (events, _) = broadcast::channel(EVENT_CAPACITY);
+        let (frames, _) = broadcast::channel(FRAME_CAPACITY);
         Self {
             inner: Arc::new(Inner {
                 epoch: Instant::now(),
@@ -230,6 +294,7 @@ impl Hub {
                     recorder: None,
                 }),
                 events,
+                frames,
             }),
         }
     }
@@ -296,6 +361,15 @@ impl Hub {
     /// A receiver of the ordered event stream (events from now on).
     pub fn subscribe(&self) -> broadcast::Receiver<TrackingEvent> {
         self.inner.events.subscribe()
+    }
+
+    /// A subscription to every frame accepted from now on (frames dropped as out of
+    /// order are not sent), with its source, in the order the hub applied them.
+    pub fn subscribe_frames(&self) -> FrameSubscription {
+        FrameSubscription {
+            rx: self.inner.frames.subscribe(),
+            dropped: 0,
+        }
     }
 
     /// Every known device's latest state.
@@ -438,6 +512,14 @@ impl Hub {
         }
         src.last_frame = Some(frame.number);
         src.last_accept = time;
+        // Sent under the merge lock, so subscribers see frames in acceptance order.
+        if self.inner.frames.receiver_count() > 0 {
+            let _ = self.inner.frames.send(SourcedFrame {
+                source,
+                frame: frame.clone(),
+                carries_pose,
+            });
+        }
         src.stats.frames += 1;
         if src.active == 0 {
             src.active = 1;

@@ -37,6 +37,7 @@ pub mod hub;
 pub mod poselog;
 pub mod serial;
 pub mod sim;
+pub mod stage;
 pub mod transport;
 
 pub use error::{Result, TrackingError};

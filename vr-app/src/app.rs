@@ -5,16 +5,23 @@
 use glam::DVec3;
 use sculpt_core::interaction::{Mode, Profile, StrokeMode};
 use sculpt_core::mesh::{MeshSink, PatchKey};
+use sculpt_core::nurbs::SurfaceInverter;
+use sculpt_core::sculpt::document::TargetId;
+use sculpt_core::sculpt::tessellate::Detail;
 
 use crate::config::Config;
 use crate::error::VrResult;
+use crate::preview::write_stroke_ribbon;
 use crate::projection::{HeadPose, Screen, StereoRig};
 use crate::render::{LineVertex, Views, cursor_lines};
-use crate::scene_mesh::{SceneMesher, write_grid_surface, write_stroke};
 use crate::session::Session;
 
-/// Patch key of the live stroke or sketch preview.
+/// Patch key of the live stroke preview (in the preview sink).
 pub const PREVIEW_KEY: PatchKey = PatchKey::MAX - 1;
+
+/// How far (metres) the wand tip may be from the selected target for the tool
+/// footprint to be drawn on it.
+pub const FOOTPRINT_REACH: f64 = 0.25;
 
 /// Whether tracking data is arriving.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -25,6 +32,29 @@ pub enum TrackingState {
     Ok,
     /// Frames arriving but the wand is not visible, or no frames for a while.
     Lost,
+}
+
+/// Where [`AppState::sync_meshes`] writes: the document at each detail (one sink per
+/// detail, as `Document::tessellate` requires) and the live preview.
+pub struct MeshSinks<'a> {
+    /// The document at [`Detail::Final`].
+    pub final_detail: &'a mut dyn MeshSink,
+    /// The document at [`Detail::Interactive`].
+    pub interactive: &'a mut dyn MeshSink,
+    /// The live stroke preview.
+    pub preview: &'a mut dyn MeshSink,
+}
+
+/// What [`AppState::sync_meshes`] did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MeshSync {
+    /// The detail to draw now: interactive while a stroke or sketch is live, final
+    /// otherwise.
+    pub shown: Detail,
+    /// Document patches written (only changed ones are).
+    pub patches_written: usize,
+    /// Whether a preview is shown.
+    pub preview: bool,
 }
 
 /// The app state of one display server.
@@ -44,9 +74,10 @@ pub struct AppState {
     pub tracking: TrackingState,
     /// Smoothed frames per second, for the HUD.
     pub fps: f64,
-    mesher: SceneMesher,
     fixed_head: HeadPose,
+    primed: bool,
     preview_shown: bool,
+    inverter: Option<(TargetId, SurfaceInverter)>,
 }
 
 impl AppState {
@@ -68,9 +99,10 @@ impl AppState {
             head,
             tracking,
             fps: 0.0,
-            mesher: SceneMesher::new(6),
             fixed_head: head,
+            primed: false,
             preview_shown: false,
+            inverter: None,
         })
     }
 
@@ -95,46 +127,117 @@ impl AppState {
         self.screen.basis().2
     }
 
-    /// Brings the GPU meshes up to date: changed document patches, and the preview of a
-    /// live stroke or sketch. Returns the number of patches written.
-    pub fn sync_meshes(&mut self, targets: &mut dyn MeshSink, strokes: &mut dyn MeshSink) -> usize {
-        let facing = self.facing();
-        let mut written = self
-            .mesher
-            .update(&self.session.doc, facing, targets, strokes);
-        let i = &self.session.interaction;
-        if let Some(live) = i.live_stroke().filter(|s| s.samples.len() >= 2) {
-            write_stroke(&live, facing, PREVIEW_KEY, strokes);
+    /// Brings the meshes up to date: the document's changed patches at the detail to
+    /// show (interactive while a gesture is live, final otherwise; the first call
+    /// writes both) and the preview of a live stroke. Only patches the document marks
+    /// changed are written, and patches of removed targets are removed.
+    pub fn sync_meshes(&mut self, sinks: MeshSinks<'_>) -> MeshSync {
+        let live = self.session.interaction.gesture_active();
+        let shown = if live {
+            Detail::Interactive
+        } else {
+            Detail::Final
+        };
+        let doc = &mut self.session.doc;
+        let mut written = 0;
+        if !self.primed || shown == Detail::Interactive {
+            written += doc
+                .tessellate(Detail::Interactive, sinks.interactive)
+                .patches_written;
+        }
+        if !self.primed || shown == Detail::Final {
+            written += doc
+                .tessellate(Detail::Final, sinks.final_detail)
+                .patches_written;
+        }
+        self.primed = true;
+        let live_stroke = self
+            .session
+            .interaction
+            .live_stroke()
+            .filter(|s| s.samples.len() >= 2);
+        if let Some(stroke) = live_stroke {
+            write_stroke_ribbon(&stroke, self.facing(), PREVIEW_KEY, sinks.preview);
             self.preview_shown = true;
-            written += 1;
-        } else if let Some(rows) = i.live_sketch().filter(|r| r.len() >= 2) {
-            write_grid_surface(rows, 1, PREVIEW_KEY, targets);
-            self.preview_shown = true;
-            written += 1;
         } else if self.preview_shown {
-            strokes.remove_patch(PREVIEW_KEY);
-            targets.remove_patch(PREVIEW_KEY);
+            sinks.preview.remove_patch(PREVIEW_KEY);
             self.preview_shown = false;
         }
-        written
+        MeshSync {
+            shown,
+            patches_written: written,
+            preview: self.preview_shown,
+        }
     }
 
-    /// The wand cursor and its tool footprint (a circle of the tool width around the
-    /// tip, in the screen's plane orientation).
-    pub fn overlay_lines(&self) -> Vec<LineVertex> {
+    /// The closest point of the selected target to `p` and the surface normal there,
+    /// when `p` is within [`FOOTPRINT_REACH`] of it.
+    pub fn project_on_target(&mut self, p: DVec3) -> Option<(DVec3, DVec3)> {
+        let index = self.session.interaction.target() as usize;
+        let target = self.session.doc.targets().get(index)?;
+        if self
+            .inverter
+            .as_ref()
+            .is_none_or(|(id, _)| *id != target.id)
+        {
+            self.inverter = Some((target.id, target.surface.inverter()));
+        }
+        let (_, inv) = self.inverter.as_ref()?;
+        let hit = inv.closest_point(p);
+        let n = target.surface.normal(hit.uv.x, hit.uv.y);
+        (hit.distance <= FOOTPRINT_REACH && hit.point.is_finite() && n.is_finite())
+            .then_some((hit.point, n))
+    }
+
+    /// The wand cursor with the tool footprint projected onto the selected target (a
+    /// circle of the tool width in the surface's tangent plane at the closest point,
+    /// joined to the tip), or around the tip when the target is out of reach; and the
+    /// rows of a live sketch.
+    pub fn overlay_lines(&mut self) -> Vec<LineVertex> {
         let mut lines = Vec::new();
+        let Some((_, tip, q)) = self.session.interaction.wand() else {
+            return lines;
+        };
+        let r = 0.5 * self.session.interaction.tool().width;
+        let (vr, vu, vn) = self.screen.basis();
+        let (centre, e1, e2, lift) = match self.project_on_target(tip) {
+            Some((foot, n)) => {
+                let e1 = if n.cross(vu).length_squared() > 1e-12 {
+                    vu.cross(n).normalize()
+                } else {
+                    vr
+                };
+                (foot, e1, n.cross(e1).normalize(), n * 0.001)
+            }
+            None => (tip, vr, vu, -vn * 0.001),
+        };
+        let ring: Vec<DVec3> = (0..=24)
+            .map(|k| {
+                let a = k as f64 / 24.0 * std::f64::consts::TAU;
+                centre + (e1 * a.cos() + e2 * a.sin()) * r + lift
+            })
+            .collect();
         let i = &self.session.interaction;
-        if let Some((_, tip, q)) = i.wand() {
-            let (vr, vu, vn) = self.screen.basis();
-            let r = 0.5 * i.tool().width;
-            let ring: Vec<DVec3> = (0..=24)
-                .map(|k| {
-                    let a = k as f64 / 24.0 * std::f64::consts::TAU;
-                    tip + (vr * a.cos() + vu * a.sin()) * r - vn * 0.001
-                })
-                .collect();
-            let axis = q * DVec3::NEG_Z;
-            cursor_lines(tip, axis, &ring, i.gesture_active(), &mut lines);
+        cursor_lines(tip, q * DVec3::NEG_Z, &ring, i.gesture_active(), &mut lines);
+        if centre != tip {
+            let c = [1.0, 0.95, 0.3, 0.6];
+            lines.push(LineVertex::new(tip, c));
+            lines.push(LineVertex::new(centre, c));
+        }
+        if let Some(rows) = i.live_sketch() {
+            let c = [0.55, 0.9, 0.55, 1.0];
+            for row in rows {
+                for w in row.windows(2) {
+                    lines.push(LineVertex::new(w[0], c));
+                    lines.push(LineVertex::new(w[1], c));
+                }
+            }
+            for pair in rows.windows(2) {
+                for (a, b) in pair[0].iter().zip(&pair[1]) {
+                    lines.push(LineVertex::new(*a, c));
+                    lines.push(LineVertex::new(*b, c));
+                }
+            }
         }
         lines
     }
@@ -169,7 +272,7 @@ impl AppState {
                 t.width * 1000.0,
                 t.depth * 1000.0,
                 i.target() + 1,
-                self.session.doc.targets.len()
+                self.session.doc.targets().len()
             ),
             format!(
                 "{tracking}  {:.0} fps  ops {}",
@@ -196,43 +299,91 @@ impl AppState {
 mod tests {
     use super::*;
     use glam::DQuat;
-    use sculpt_core::interaction::{WandEvent, WandSample};
+    use sculpt_core::assert_near;
+    use sculpt_core::editor::default_surface_point;
+    use sculpt_core::interaction::{Command, WandEvent, WandSample};
     use sculpt_core::mesh::PatchMesh;
 
+    struct Meshes {
+        final_detail: PatchMesh,
+        interactive: PatchMesh,
+        preview: PatchMesh,
+    }
+
+    impl Meshes {
+        fn sync(&mut self, app: &mut AppState) -> MeshSync {
+            app.sync_meshes(MeshSinks {
+                final_detail: &mut self.final_detail,
+                interactive: &mut self.interactive,
+                preview: &mut self.preview,
+            })
+        }
+    }
+
+    fn wand(app: &mut AppState, t: f64, x: f64, buttons: u32) {
+        let p = default_surface_point(x, 1.17);
+        app.session
+            .handle(&WandEvent::sample(
+                t,
+                WandSample::tracked(p, DQuat::IDENTITY, buttons),
+            ))
+            .unwrap();
+    }
+
     #[test]
-    fn preview_follows_the_live_stroke_and_hud_reports_state() {
+    fn document_meshes_follow_edits_at_the_right_detail_with_a_live_preview() {
         let dir = tempfile::tempdir().unwrap();
         let mut cfg = Config::default();
         cfg.files.dir = dir.path().to_path_buf();
         let mut app = AppState::new(cfg).unwrap();
-        let (mut t, mut s) = (PatchMesh::new(), PatchMesh::new());
-        assert_eq!(app.sync_meshes(&mut t, &mut s), 1);
-        for i in 0..3 {
-            let p = DVec3::new(i as f64 * 0.01, 1.17, 0.0);
-            app.session
-                .handle(&WandEvent::sample(
-                    i as f64 * 0.01,
-                    WandSample::tracked(p, DQuat::IDENTITY, 1),
-                ))
-                .unwrap();
+        let mut m = Meshes {
+            final_detail: PatchMesh::new(),
+            interactive: PatchMesh::new(),
+            preview: PatchMesh::new(),
+        };
+        let first = m.sync(&mut app);
+        assert_eq!(first.shown, Detail::Final);
+        let full = first.patches_written;
+        assert_eq!(
+            full,
+            app.session.doc.patch_count(Detail::Final)
+                + app.session.doc.patch_count(Detail::Interactive),
+            "the first sync writes both details"
+        );
+        let untouched = m.final_detail.clone();
+        assert!(untouched.triangle_count() > m.interactive.triangle_count());
+        assert_eq!(m.sync(&mut app).patches_written, 0, "nothing changed");
+
+        for i in 0..=10 {
+            wand(&mut app, i as f64 * 0.01, -0.1 + 0.02 * i as f64, 1);
         }
-        app.sync_meshes(&mut t, &mut s);
-        assert!(s.patches().any(|(k, _)| k == PREVIEW_KEY));
-        assert!(!app.overlay_lines().is_empty());
+        let live = m.sync(&mut app);
+        assert_eq!(live.shown, Detail::Interactive);
+        assert!(live.preview);
+        assert!(m.preview.patches().any(|(k, _)| k == PREVIEW_KEY));
         assert!(app.hud_lines()[0].contains("carving"));
         app.session
-            .handle(&WandEvent::sample(0.05, WandSample::lost(1)))
+            .handle(&WandEvent::sample(0.15, WandSample::lost(1)))
             .unwrap();
         assert!(app.hud_lines()[1].contains("TRACKING LOST"));
+        wand(&mut app, 0.16, 0.1, 0);
+        assert_eq!(app.session.doc.strokes().len(), 1);
+        let applied = m.sync(&mut app);
+        assert_eq!(applied.shown, Detail::Final);
+        assert!(!applied.preview);
+        assert!(!m.preview.patches().any(|(k, _)| k == PREVIEW_KEY));
+        assert!(
+            applied.patches_written > 0
+                && applied.patches_written < app.session.doc.patch_count(Detail::Final),
+            "only the patches under the stroke are re-sent: {applied:?}"
+        );
+        assert_ne!(m.final_detail, untouched);
         app.session
-            .handle(&WandEvent::sample(
-                0.06,
-                WandSample::tracked(DVec3::new(0.03, 1.17, 0.0), DQuat::IDENTITY, 0),
-            ))
+            .handle(&WandEvent::command(0.2, Command::Undo))
             .unwrap();
-        app.sync_meshes(&mut t, &mut s);
-        assert!(!s.patches().any(|(k, _)| k == PREVIEW_KEY));
-        assert_eq!(app.session.doc.strokes.len(), 1);
+        m.sync(&mut app);
+        assert_eq!(m.final_detail, untouched, "undo restores the surface");
+
         // A head behind the screen is ignored rather than breaking the projection.
         let before = app.head;
         app.set_head(Some(HeadPose {
@@ -240,5 +391,42 @@ mod tests {
             orientation: DQuat::IDENTITY,
         }));
         assert_eq!(app.head, before);
+    }
+
+    #[test]
+    fn the_tool_footprint_lies_on_the_target_under_the_wand() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut cfg = Config::default();
+        cfg.files.dir = dir.path().to_path_buf();
+        let mut app = AppState::new(cfg).unwrap();
+        assert!(app.overlay_lines().is_empty(), "no wand yet");
+        // 5 cm in front of the surface.
+        let on = default_surface_point(0.05, 1.2);
+        app.session
+            .handle(&WandEvent::sample(
+                0.0,
+                WandSample::tracked(on + DVec3::Z * 0.05, DQuat::IDENTITY, 0),
+            ))
+            .unwrap();
+        let tip = on + DVec3::Z * 0.05;
+        let (foot, n) = app.project_on_target(tip).unwrap();
+        // The closest point: on the surface, straight below the tip along the normal.
+        assert_near!(foot.z, default_surface_point(foot.x, foot.y).z, 1e-9);
+        assert_near!((tip - foot).normalize().dot(n), 1.0, 1e-9);
+        assert!(n.z > 0.9, "{n}");
+        let lines = app.overlay_lines();
+        let ring_colour = [1.0, 0.95, 0.3, 1.0];
+        let ring: Vec<DVec3> = lines
+            .iter()
+            .filter(|l| l.color == ring_colour)
+            .map(|l| DVec3::from(l.position.map(f64::from)))
+            .collect();
+        assert!(!ring.is_empty());
+        let r = 0.5 * app.session.interaction.tool().width;
+        for p in ring {
+            assert_near!(p.distance(foot), (r * r + 1e-6).sqrt(), 1e-4);
+            assert_near!(p.z, default_surface_point(p.x, p.y).z, 2e-3);
+        }
+        assert!(app.project_on_target(on + DVec3::Z * 2.0).is_none());
     }
 }

@@ -4,6 +4,7 @@
 //! and saves, exercising the whole pipeline with no tracker.
 
 use glam::{DQuat, DVec3};
+use sculpt_core::editor;
 use sculpt_core::interaction::{Command, WandEvent, WandSample};
 
 use crate::projection::Screen;
@@ -11,10 +12,11 @@ use crate::projection::Screen;
 /// The wand sample rate of the demo (Hz).
 pub const DEMO_RATE: f64 = 60.0;
 
-/// A point on the default surface (see [`crate::session::default_target`]) at
-/// normalised `(u, v)` in `[-0.5, 0.5]^2`, for a surface centred at `center`.
-pub fn surface_point(center: DVec3, u: f64, v: f64) -> DVec3 {
-    center + DVec3::new(u, v * 0.6, -0.25 * (u * u * 2.0 + v * v))
+/// A point on the shared default surface ([`editor::default_surface`]) at
+/// normalised `(u, v)` in `[-0.5, 0.5]^2`.
+pub fn surface_point(u: f64, v: f64) -> DVec3 {
+    let c = editor::DEFAULT_SURFACE_CENTER;
+    editor::default_surface_point(c.x + u, c.y + 0.6 * v)
 }
 
 struct Script {
@@ -72,10 +74,10 @@ impl Script {
     }
 }
 
-/// The demo's events for a session on `screen` whose default surface is centred at
-/// `surface_center`.
-pub fn demo_events(screen: &Screen, surface_center: DVec3) -> Vec<WandEvent> {
+/// The demo's events for a session on `screen` starting from the default document.
+pub fn demo_events(screen: &Screen) -> Vec<WandEvent> {
     let (_, _, vn) = screen.basis();
+    let surface_center = editor::DEFAULT_SURFACE_CENTER;
     let lift = vn * 0.002;
     let mut s = Script {
         events: Vec::new(),
@@ -89,7 +91,7 @@ pub fn demo_events(screen: &Screen, surface_center: DVec3) -> Vec<WandEvent> {
             .map(|i| {
                 let u = -0.35 + 0.7 * i as f64 / 60.0;
                 let v = v0 + 0.04 * (u * 12.0 + phase).sin();
-                surface_point(surface_center, u, v) + lift
+                surface_point(u, v) + lift
             })
             .collect()
     };
@@ -101,13 +103,7 @@ pub fn demo_events(screen: &Screen, surface_center: DVec3) -> Vec<WandEvent> {
     });
     s.command(Command::SetWidth { width: 0.03 });
     let ridge: Vec<DVec3> = (0..=40)
-        .map(|i| {
-            surface_point(
-                surface_center,
-                0.3 - 0.6 * i as f64 / 40.0,
-                -0.4 + 0.8 * i as f64 / 40.0,
-            ) + lift
-        })
+        .map(|i| surface_point(0.3 - 0.6 * i as f64 / 40.0, -0.4 + 0.8 * i as f64 / 40.0) + lift)
         .collect();
     s.stroke(&ridge, None);
     s.command(Command::Undo);
@@ -129,19 +125,18 @@ mod tests {
         let mut cfg = Config::default();
         cfg.files.dir = dir.path().to_path_buf();
         let screen = cfg.screen.screen().unwrap();
-        let (_, _, vn) = screen.basis();
         let mut session = Session::open(&cfg).unwrap();
-        let center = screen.center() - vn * 0.1;
-        let events = demo_events(&screen, center);
+        let events = demo_events(&screen);
         assert!(events.windows(2).all(|w| w[1].t >= w[0].t));
         for e in &events {
             session.handle(e).unwrap();
         }
-        assert_eq!(session.doc.strokes.len(), 4);
+        assert_eq!(session.doc.strokes().len(), 4);
         assert_eq!(
-            session.doc.strokes[3].mode,
-            sculpt_core::interaction::StrokeMode::Emboss
+            session.doc.strokes()[3].input.tool.mode,
+            sculpt_core::sculpt::stroke::Mode::Emboss
         );
+        assert_eq!(session.rejected, 0, "every demo stroke lies on the surface");
         assert!(dir.path().join(crate::session::DOCUMENT_FILE).exists());
         // 4 strokes + 2 mode/tool commands are not edits; undo, redo and save are.
         assert_eq!(session.operations(), 7);

@@ -23,6 +23,8 @@ pub enum Input {
     Head(Option<HeadPose>),
     /// Tracking status changed.
     Tracking(TrackingState),
+    /// Time passed with no input (session seconds): ends gestures paused too long.
+    Tick(f64),
 }
 
 /// Options of a headless run.
@@ -100,12 +102,14 @@ pub fn run_headless(
             }
             Input::Head(h) => app.set_head(h),
             Input::Tracking(t) => app.tracking = t,
+            Input::Tick(t) => {
+                app.session.tick(t)?;
+            }
         }
     }
     app.session.tick(last_t + 10.0)?;
     let doc_path = app.session.save_document()?;
-    app.session.flush()?;
-    app.sync_meshes(&mut renderer.targets, &mut renderer.strokes);
+    renderer.sync(app);
     let views = app.views()?;
     let lines = app.overlay_lines();
     let hud = if app.config.display.hud {
@@ -146,8 +150,8 @@ pub fn run_headless(
         inputs: count,
         operations,
         recovered: app.session.recovered,
-        targets: app.session.doc.targets.len(),
-        strokes: app.session.doc.strokes.len(),
+        targets: app.session.doc.targets().len(),
+        strokes: app.session.doc.strokes().len(),
         frames: frame_times.len(),
         frame_cpu_median_us: median.as_secs_f64() * 1e6,
         files,
@@ -160,7 +164,7 @@ fn render_frame(
     renderer: &mut Renderer,
     opts: &HeadlessOptions,
 ) -> VrResult<Duration> {
-    app.sync_meshes(&mut renderer.targets, &mut renderer.strokes);
+    renderer.sync(app);
     let views = app.views()?;
     let lines = app.overlay_lines();
     let hud = app.hud_lines();

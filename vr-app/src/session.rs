@@ -1,10 +1,24 @@
-//! The sculpting session: the interaction state machine, the scene document, the
-//! operation journal and the operator log, tied together without any GPU.
+//! The sculpting session: the interaction state machine, the sculpted
+//! [`Document`], the operation journal and the operator log, tied together without any
+//! GPU.
 //!
-//! Every edit the state machine emits is appended to the journal (and fsync'd)
-//! *before* it is applied, so an operation the sculptor saw happen survives a crash;
-//! [`Session::open`] replays the journal to recover. Operator events go to
-//! `operator.log` (JSON lines: `{"t":..,"op":..}`) for the GOMS harness.
+//! The document starts from a base scene (the shared
+//! [`editor::default_document`], or a `--scene` / `files.scene` file in the
+//! [`Document::to_json`] format). Every edit the state machine emits is appended to the
+//! journal (and fsync'd) *before* it is applied with [`editor::apply`] (the same call
+//! `replay` makes), so an operation the sculptor saw happen survives a crash;
+//! [`Session::open`] re-applies the journal to the base scene to recover.
+//!
+//! Files in the session directory:
+//! - [`JOURNAL_FILE`] (`session.journal`): the operation journal ([`crate::journal`]);
+//! - [`DOCUMENT_FILE`] (`scene.json`): the saved document, [`Document::to_json`] bytes,
+//!   written on a save command and when a headless run ends;
+//! - [`AUTOSAVE_FILE`] (`autosave.scene.json`): the same format, every
+//!   `files.autosave_every` operations;
+//! - [`OPLOG_FILE`] (`operator.log`): the operator events of this run in the
+//!   `sculpt_core::oplog` format (header `source = "wandsculpt"`), appended and flushed
+//!   per event, read by `sculpt-tools goms`. A log left by an earlier run is kept as
+//!   `operator.N.log` (the first free `N`), since each run's clock starts at zero.
 //!
 //! ```
 //! use vr_app::session::Session;
@@ -13,17 +27,18 @@
 //! let mut cfg = Config::default();
 //! cfg.files.dir = dir.path().to_path_buf();
 //! let session = Session::open(&cfg)?;
-//! assert_eq!(session.doc.targets.len(), 1, "a fresh session has the default surface");
+//! assert_eq!(session.doc.targets().len(), 1, "a fresh session has the default surface");
 //! # Ok::<(), vr_app::VrError>(())
 //! ```
 
-use std::fs::{File, OpenOptions};
-use std::io::{BufWriter, Write};
+use std::fs::File;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use glam::DVec3;
-use sculpt_core::interaction::{Edit, Interaction, OperatorEvent, Output, StrokeEdit, WandEvent};
-use serde::{Deserialize, Serialize};
+use sculpt_core::editor::{self, Applied};
+use sculpt_core::interaction::{Command, Edit, Interaction, OperatorEvent, Output, WandEvent};
+use sculpt_core::oplog::{OpLogHeader, OpLogWriter};
+use sculpt_core::sculpt::document::Document;
 
 use crate::config::Config;
 use crate::error::{VrError, VrResult};
@@ -34,193 +49,86 @@ pub const JOURNAL_FILE: &str = "session.journal";
 /// The operator log's file name.
 pub const OPLOG_FILE: &str = "operator.log";
 /// The autosaved document's file name.
-pub const AUTOSAVE_FILE: &str = "autosave.wsdoc.json";
-/// The explicitly saved document's file name.
-pub const DOCUMENT_FILE: &str = "document.wsdoc.json";
-/// Document format name and version.
-pub const DOC_FORMAT: &str = "wandsculpt-scene";
-/// Current document version.
-pub const DOC_VERSION: u32 = 1;
+pub const AUTOSAVE_FILE: &str = "autosave.scene.json";
+/// The saved document's file name.
+pub const DOCUMENT_FILE: &str = "scene.json";
+/// The `source` written in the operator log's header.
+pub const OPLOG_SOURCE: &str = "wandsculpt";
 
-/// A target surface, as the point grid it was sketched (or built) from.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Target {
-    /// Rows of points (display frame metres), all rows the same length.
-    pub grid: Vec<Vec<DVec3>>,
-}
-
-/// The scene document: target surfaces and the strokes applied to them, in order, with
-/// undo and redo.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct SceneDoc {
-    /// Format name, always [`DOC_FORMAT`].
-    pub format: String,
-    /// Format version.
-    pub version: u32,
-    /// Target surfaces; the first is the starting surface.
-    pub targets: Vec<Target>,
-    /// Applied strokes.
-    pub strokes: Vec<StrokeEdit>,
-    /// The selected target.
-    pub selected: u32,
-    /// Applied content edits in order (sketches and strokes), for undo.
-    pub history: Vec<Edit>,
-    /// Undone edits, most recent last.
-    pub redo: Vec<Edit>,
-}
-
-/// What changed in the document, for incremental re-meshing.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct Changes {
-    /// Targets were added or removed.
-    pub targets: bool,
-    /// Strokes were added or removed.
-    pub strokes: bool,
-}
-
-impl SceneDoc {
-    /// A document with one starting surface.
-    pub fn new(base: Target) -> Self {
-        Self {
-            format: DOC_FORMAT.into(),
-            version: DOC_VERSION,
-            targets: vec![base],
-            strokes: Vec::new(),
-            selected: 0,
-            history: Vec::new(),
-            redo: Vec::new(),
-        }
-    }
-
-    /// Applies an edit. Undo with nothing to undo (and redo likewise) changes nothing.
-    pub fn apply(&mut self, edit: &Edit) -> Changes {
-        match edit {
-            Edit::Sketch { .. } | Edit::Stroke(_) => {
-                self.redo.clear();
-                self.push(edit.clone())
-            }
-            Edit::Undo => match self.history.pop() {
-                Some(e) => {
-                    let c = match &e {
-                        Edit::Sketch { .. } => {
-                            self.targets.pop();
-                            self.selected = self
-                                .selected
-                                .min(self.targets.len().saturating_sub(1) as u32);
-                            Changes {
-                                targets: true,
-                                strokes: false,
-                            }
-                        }
-                        _ => {
-                            self.strokes.pop();
-                            Changes {
-                                targets: false,
-                                strokes: true,
-                            }
-                        }
-                    };
-                    self.redo.push(e);
-                    c
-                }
-                None => Changes::default(),
-            },
-            Edit::Redo => match self.redo.pop() {
-                Some(e) => self.push(e),
-                None => Changes::default(),
-            },
-            Edit::SelectTarget { index } => {
-                if (*index as usize) < self.targets.len() {
-                    self.selected = *index;
-                }
-                Changes::default()
-            }
-            Edit::Save => Changes::default(),
-        }
-    }
-
-    fn push(&mut self, e: Edit) -> Changes {
-        let c = match &e {
-            Edit::Sketch { rows } => {
-                self.targets.push(Target { grid: rows.clone() });
-                Changes {
-                    targets: true,
-                    strokes: false,
-                }
-            }
-            Edit::Stroke(s) => {
-                self.strokes.push(s.clone());
-                Changes {
-                    targets: false,
-                    strokes: true,
-                }
-            }
-            _ => return Changes::default(),
-        };
-        self.history.push(e);
-        c
-    }
-
-    /// Serialises to pretty JSON.
-    pub fn to_json(&self) -> String {
-        serde_json::to_string_pretty(self).unwrap_or_default()
-    }
-
-    /// Parses a document, rejecting other formats and newer versions.
-    pub fn from_json(text: &str) -> VrResult<Self> {
-        let doc: SceneDoc =
-            serde_json::from_str(text).map_err(|e| VrError::Config(format!("document: {e}")))?;
-        if doc.format != DOC_FORMAT {
-            return Err(VrError::Config(format!(
-                "document: format {:?} is not {DOC_FORMAT:?}",
-                doc.format
-            )));
-        }
-        if doc.version > DOC_VERSION {
-            return Err(VrError::Config(format!(
-                "document: version {} is newer than {DOC_VERSION}",
-                doc.version
-            )));
-        }
-        if doc.targets.is_empty() || doc.selected as usize >= doc.targets.len() {
-            return Err(VrError::Config(
-                "document: no targets, or the selection is out of range".into(),
-            ));
-        }
-        Ok(doc)
-    }
-
-    /// Writes the document atomically (temporary file, fsync, rename).
-    pub fn save(&self, path: &Path) -> VrResult<()> {
-        let tmp = path.with_extension("tmp");
-        let io = |p: &Path, source| VrError::Io {
-            path: p.display().to_string(),
-            source,
-        };
-        let mut f = File::create(&tmp).map_err(|e| io(&tmp, e))?;
-        f.write_all(self.to_json().as_bytes())
-            .map_err(|e| io(&tmp, e))?;
-        f.sync_all().map_err(|e| io(&tmp, e))?;
-        std::fs::rename(&tmp, path).map_err(|e| io(path, e))
+fn io_err(path: &Path, source: std::io::Error) -> VrError {
+    VrError::Io {
+        path: path.display().to_string(),
+        source,
     }
 }
 
-/// The default starting surface: a gently curved 1 m x 0.6 m sheet facing the viewer,
-/// as a 9 x 9 point grid, centred at `center`.
-pub fn default_target(center: DVec3) -> Target {
-    let n = 9;
-    let grid = (0..n)
-        .map(|i| {
-            let v = i as f64 / (n - 1) as f64 - 0.5;
-            (0..n)
-                .map(|j| {
-                    let u = j as f64 / (n - 1) as f64 - 0.5;
-                    center + DVec3::new(u * 1.0, v * 0.6, -0.25 * (u * u * 2.0 + v * v))
-                })
-                .collect()
-        })
-        .collect();
-    Target { grid }
+/// Reads a base scene in the [`Document::to_json`] format.
+pub fn load_scene(path: &Path) -> VrResult<Document> {
+    let bytes = std::fs::read(path).map_err(|e| io_err(path, e))?;
+    Document::from_json(&bytes)
+        .map_err(|e| VrError::Config(format!("scene {}: {e}", path.display())))
+}
+
+/// Writes document bytes atomically: a temporary file, fsync, rename.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> VrResult<()> {
+    let tmp = path.with_extension("tmp");
+    let mut f = File::create(&tmp).map_err(|e| io_err(&tmp, e))?;
+    f.write_all(bytes).map_err(|e| io_err(&tmp, e))?;
+    f.sync_all().map_err(|e| io_err(&tmp, e))?;
+    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))
+}
+
+/// The operator log file: one event per line, written and flushed as it happens.
+#[derive(Debug)]
+struct OperatorLog {
+    path: PathBuf,
+    file: File,
+    writer: OpLogWriter,
+}
+
+impl OperatorLog {
+    /// Starts `path` afresh, keeping an earlier run's log as `operator.N.log`.
+    fn create(path: PathBuf, method: &str) -> VrResult<Self> {
+        if std::fs::metadata(&path).is_ok_and(|m| m.len() > 0) {
+            let stem = path
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("operator")
+                .to_string();
+            let kept = (1..)
+                .map(|n| path.with_file_name(format!("{stem}.{n}.log")))
+                .find(|p| !p.exists())
+                .unwrap_or_else(|| path.with_extension("old.log"));
+            std::fs::rename(&path, &kept).map_err(|e| io_err(&path, e))?;
+        }
+        let file = File::create(&path).map_err(|e| io_err(&path, e))?;
+        let writer = OpLogWriter::new(
+            &OpLogHeader::new()
+                .with_source(OPLOG_SOURCE)
+                .with_method(method),
+        );
+        let mut log = Self { path, file, writer };
+        log.flush()?;
+        Ok(log)
+    }
+
+    fn push(&mut self, t: f64, event: &OperatorEvent) -> VrResult<()> {
+        // The state machine never goes back in time; an event it could not order is
+        // reported and left out rather than corrupting the log.
+        if let Err(e) = self.writer.push(t, editor::oplog_event(event)) {
+            tracing::warn!("operator log: {e}");
+            return Ok(());
+        }
+        self.flush()
+    }
+
+    fn flush(&mut self) -> VrResult<()> {
+        let bytes = self.writer.take();
+        self.file
+            .write_all(&bytes)
+            .and_then(|()| self.file.flush())
+            .map_err(|e| io_err(&self.path, e))
+    }
 }
 
 /// A running session.
@@ -228,59 +136,54 @@ pub fn default_target(center: DVec3) -> Target {
 pub struct Session {
     /// The interaction state machine.
     pub interaction: Interaction,
-    /// The document.
-    pub doc: SceneDoc,
+    /// The sculpted document.
+    pub doc: Document,
     dir: PathBuf,
     journal: Journal,
-    oplog: BufWriter<File>,
+    oplog: OperatorLog,
     autosave_every: u32,
     since_autosave: u32,
     /// Operations recovered from the journal at open.
     pub recovered: usize,
-    /// Changes since the last [`Session::take_changes`].
-    changes: Changes,
+    /// Edits the sculpting layer refused (the document stayed as it was).
+    pub rejected: usize,
+    /// The latest event or tick time accepted.
+    time: f64,
     outputs: Vec<Output>,
 }
 
 impl Session {
-    /// Opens the session in `config.files.dir`: creates the directory, replays the
-    /// journal (recovering after a crash) and opens the operator log for appending.
+    /// Opens the session in `config.files.dir`: creates the directory, loads the base
+    /// scene (`config.files.scene`, or the default document), re-applies the journal
+    /// (recovering after a crash) and starts the operator log.
     pub fn open(config: &Config) -> VrResult<Self> {
         let dir = config.files.dir.clone();
-        std::fs::create_dir_all(&dir).map_err(|source| VrError::Io {
-            path: dir.display().to_string(),
-            source,
-        })?;
-        let screen = config.screen.screen()?;
-        let (_, _, vn) = screen.basis();
-        let base = default_target(screen.center() - vn * 0.1);
+        std::fs::create_dir_all(&dir).map_err(|e| io_err(&dir, e))?;
+        let mut doc = match &config.files.scene {
+            Some(p) => load_scene(p)?,
+            None => editor::default_document(),
+        };
         let (journal, entries) = Journal::open(dir.join(JOURNAL_FILE))?;
-        let mut doc = SceneDoc::new(base);
+        let mut selected = None;
         for e in &entries {
-            doc.apply(&e.edit);
+            match &e.edit {
+                Edit::SelectTarget { index } => selected = Some(*index),
+                edit => {
+                    if let Applied::Rejected(err) = editor::apply(&mut doc, edit) {
+                        tracing::debug!(seq = e.seq, "journalled edit refused again: {err}");
+                    }
+                }
+            }
         }
-        let oplog_path = dir.join(OPLOG_FILE);
-        let oplog = OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(&oplog_path)
-            .map_err(|source| VrError::Io {
-                path: oplog_path.display().to_string(),
-                source,
-            })?;
+        let oplog = OperatorLog::create(dir.join(OPLOG_FILE), editor::mode_name(config.tool.mode))?;
         let mut interaction =
             Interaction::new(config.interaction, config.tool.mode, config.tool.tool());
-        interaction.set_target_count(doc.targets.len() as u32);
-        if doc.selected > 0 {
-            let mut sink = Vec::new();
+        interaction.set_target_count(doc.targets().len() as u32);
+        if let Some(index) = selected.filter(|&i| (i as usize) < doc.targets().len()) {
+            // At t = 0, so that any live event may follow.
             interaction.handle(
-                &WandEvent::command(
-                    0.0,
-                    sculpt_core::interaction::Command::SelectTarget {
-                        index: doc.selected,
-                    },
-                ),
-                &mut sink,
+                &WandEvent::command(0.0, Command::SelectTarget { index }),
+                &mut Vec::new(),
             )?;
         }
         if !entries.is_empty() {
@@ -294,14 +197,12 @@ impl Session {
             doc,
             dir,
             journal,
-            oplog: BufWriter::new(oplog),
+            oplog,
             autosave_every: config.files.autosave_every,
             since_autosave: 0,
             recovered: entries.len(),
-            changes: Changes {
-                targets: true,
-                strokes: true,
-            },
+            rejected: 0,
+            time: 0.0,
             outputs: Vec::new(),
         })
     }
@@ -316,6 +217,12 @@ impl Session {
         self.journal.len()
     }
 
+    /// The latest event or tick time the session accepted (session seconds): the
+    /// time for a command given from outside the wand's own clock.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
     /// Feeds one wand event. Invalid events (time going backwards) are logged and
     /// dropped; edits are journalled, then applied. Returns the edits applied.
     pub fn handle(&mut self, ev: &WandEvent) -> VrResult<Vec<Edit>> {
@@ -324,6 +231,7 @@ impl Session {
             tracing::warn!("dropped an input: {e}");
             return Ok(Vec::new());
         }
+        self.time = self.time.max(ev.t);
         self.consume(ev.t)
     }
 
@@ -331,6 +239,9 @@ impl Session {
     pub fn tick(&mut self, t: f64) -> VrResult<Vec<Edit>> {
         self.outputs.clear();
         self.interaction.tick(t, &mut self.outputs);
+        if t.is_finite() {
+            self.time = self.time.max(t);
+        }
         self.consume(t)
     }
 
@@ -339,15 +250,19 @@ impl Session {
         let mut applied = Vec::new();
         for o in &outputs {
             match o {
-                Output::Op { t, event } => self.log_op(*t, event)?,
+                Output::Op { t, event } => self.oplog.push(*t, event)?,
                 Output::Edit(edit) => {
                     let seq = self.journal.append(t, edit)?;
                     tracing::info!(seq, "operation committed");
-                    let c = self.doc.apply(edit);
-                    self.changes.targets |= c.targets;
-                    self.changes.strokes |= c.strokes;
+                    match editor::apply(&mut self.doc, edit) {
+                        Applied::Rejected(e) => {
+                            self.rejected += 1;
+                            tracing::warn!(seq, "the sculpting layer refused an edit: {e}");
+                        }
+                        a => tracing::debug!(seq, "applied: {a:?}"),
+                    }
                     self.interaction
-                        .set_target_count(self.doc.targets.len() as u32);
+                        .set_target_count(self.doc.targets().len() as u32);
                     if *edit == Edit::Save {
                         self.save_document()?;
                     }
@@ -363,63 +278,28 @@ impl Session {
         Ok(applied)
     }
 
-    fn log_op(&mut self, t: f64, event: &OperatorEvent) -> VrResult<()> {
-        #[derive(Serialize)]
-        struct Line<'a> {
-            t: f64,
-            #[serde(flatten)]
-            event: &'a OperatorEvent,
-        }
-        let line = serde_json::to_string(&Line { t, event })
-            .map_err(|e| VrError::Config(e.to_string()))?;
-        writeln!(self.oplog, "{line}").map_err(|source| VrError::Io {
-            path: self.dir.join(OPLOG_FILE).display().to_string(),
-            source,
-        })
-    }
-
-    /// Flushes the operator log.
-    pub fn flush(&mut self) -> VrResult<()> {
-        self.oplog.flush().map_err(|source| VrError::Io {
-            path: self.dir.join(OPLOG_FILE).display().to_string(),
-            source,
-        })
-    }
-
-    /// Writes the autosave document.
+    /// Writes the autosave document ([`AUTOSAVE_FILE`]).
     pub fn autosave(&mut self) -> VrResult<PathBuf> {
         self.since_autosave = 0;
         let p = self.dir.join(AUTOSAVE_FILE);
-        self.doc.save(&p)?;
+        write_atomic(&p, &self.doc.to_json())?;
         Ok(p)
     }
 
-    /// Writes the document to the session directory's document file.
+    /// Writes the document to the session directory's [`DOCUMENT_FILE`].
     pub fn save_document(&mut self) -> VrResult<PathBuf> {
         let p = self.dir.join(DOCUMENT_FILE);
-        self.doc.save(&p)?;
-        self.flush()?;
+        write_atomic(&p, &self.doc.to_json())?;
         Ok(p)
-    }
-
-    /// What changed since the last call.
-    pub fn take_changes(&mut self) -> Changes {
-        std::mem::take(&mut self.changes)
-    }
-}
-
-impl Drop for Session {
-    fn drop(&mut self) {
-        // Best effort on a clean exit; the journal (not this log) is what recovery needs.
-        let _ = self.oplog.flush();
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::DQuat;
-    use sculpt_core::interaction::{Command, WandSample};
+    use glam::{DQuat, DVec3};
+    use sculpt_core::interaction::WandSample;
+    use sculpt_core::oplog::{EventKind, decode_bytes};
 
     fn config(dir: &Path) -> Config {
         let mut c = Config::default();
@@ -428,70 +308,99 @@ mod tests {
         c
     }
 
-    fn stroke(s: &mut Session, t0: f64, x0: f64) {
-        for i in 0..=5 {
-            let p = DVec3::new(x0 + i as f64 * 0.01, 1.17, 0.0);
+    /// A carve stroke across the default surface at height `y`, starting at `t0`.
+    fn stroke(s: &mut Session, t0: f64, y: f64) {
+        for i in 0..=10 {
+            let p = editor::default_surface_point(-0.1 + i as f64 * 0.02, y);
             s.handle(&WandEvent::sample(
                 t0 + i as f64 * 0.01,
-                WandSample::tracked(p, DQuat::IDENTITY, u32::from(i < 5)),
+                WandSample::tracked(p, DQuat::IDENTITY, u32::from(i < 10)),
             ))
             .unwrap();
         }
     }
 
     #[test]
-    fn edits_are_journalled_applied_and_recovered() {
+    fn edits_are_journalled_applied_to_the_core_and_recovered() {
         let dir = tempfile::tempdir().unwrap();
         let cfg = config(dir.path());
-        {
+        let saved = {
             let mut s = Session::open(&cfg).unwrap();
-            stroke(&mut s, 0.0, 0.0);
-            stroke(&mut s, 1.0, 0.1);
+            stroke(&mut s, 0.0, 1.1);
+            stroke(&mut s, 1.0, 1.2);
+            assert_eq!(s.doc.strokes().len(), 2);
             s.handle(&WandEvent::command(2.0, Command::Undo)).unwrap();
-            assert_eq!(s.doc.strokes.len(), 1);
+            assert_eq!(s.doc.strokes().len(), 1);
             assert_eq!(s.operations(), 3);
+            assert_eq!(s.rejected, 0);
             assert!(
                 dir.path().join(AUTOSAVE_FILE).exists(),
                 "autosave after 2 operations"
             );
-        }
-        let s = Session::open(&cfg).unwrap();
+            s.save_document().unwrap();
+            s.doc.to_json()
+        };
+        let on_disk = std::fs::read(dir.path().join(DOCUMENT_FILE)).unwrap();
+        assert_eq!(on_disk, saved);
+        let back = Document::from_json(&on_disk).unwrap();
+        assert_eq!(back.strokes().len(), 1);
+        let mut s = Session::open(&cfg).unwrap();
         assert_eq!(s.recovered, 3);
-        assert_eq!(s.doc.strokes.len(), 1);
-        assert_eq!(s.doc.redo.len(), 1);
-        let log = std::fs::read_to_string(dir.path().join(OPLOG_FILE)).unwrap();
-        assert!(log.contains("\"op\":\"gesture-start\""));
-        assert!(log.contains("\"op\":\"button-down\""));
+        assert_eq!(
+            s.doc.to_json(),
+            saved,
+            "recovery rebuilds the same document"
+        );
+        assert!(s.doc.can_redo(), "the undone stroke can be redone");
+        s.handle(&WandEvent::command(0.5, Command::Redo)).unwrap();
+        assert_eq!(s.doc.strokes().len(), 2);
     }
 
     #[test]
-    fn undo_redo_sketch_and_documents_round_trip() {
-        let mut d = SceneDoc::new(default_target(DVec3::ZERO));
-        let sketch = Edit::Sketch {
-            rows: vec![vec![DVec3::ZERO, DVec3::X]; 4],
-        };
-        assert!(d.apply(&sketch).targets);
-        d.apply(&Edit::SelectTarget { index: 1 });
-        assert_eq!(d.selected, 1);
-        d.apply(&Edit::Undo);
-        assert_eq!((d.targets.len(), d.selected), (1, 0));
-        assert_eq!(
-            d.apply(&Edit::Undo),
-            Changes::default(),
-            "nothing left to undo"
-        );
-        d.apply(&Edit::Redo);
-        assert_eq!(d.targets.len(), 2);
-        let back = SceneDoc::from_json(&d.to_json()).unwrap();
-        assert_eq!(back, d);
-        assert!(SceneDoc::from_json("{}").is_err());
-        let mut newer = d.clone();
-        newer.version = 99;
-        assert!(
-            SceneDoc::from_json(&newer.to_json())
-                .unwrap_err()
-                .to_string()
-                .contains("newer")
-        );
+    fn operator_log_is_the_core_format_flushed_per_event() {
+        let dir = tempfile::tempdir().unwrap();
+        let cfg = config(dir.path());
+        let mut s = Session::open(&cfg).unwrap();
+        stroke(&mut s, 0.0, 1.1);
+        // Not dropped or flushed: every event is already on disk.
+        let log = decode_bytes(&std::fs::read(dir.path().join(OPLOG_FILE)).unwrap()).unwrap();
+        assert_eq!(log.header.source.as_deref(), Some(OPLOG_SOURCE));
+        let kinds: Vec<&EventKind> = log.events.iter().map(|e| &e.kind).collect();
+        let at = |k: &EventKind| kinds.iter().position(|x| *x == k);
+        let down = at(&EventKind::Button { id: 0, down: true }).unwrap();
+        let start = at(&EventKind::StrokeStart).unwrap();
+        let end = at(&EventKind::StrokeEnd).unwrap();
+        assert!(down <= start && start < end, "{kinds:?}");
+        assert!(kinds.iter().any(|k| matches!(k, EventKind::Pose { .. })));
+        drop(s);
+        // A second run keeps the first run's log and starts its own.
+        let mut s = Session::open(&cfg).unwrap();
+        s.handle(&WandEvent::command(0.1, Command::Undo)).unwrap();
+        assert!(dir.path().join("operator.1.log").exists());
+        let log = decode_bytes(&std::fs::read(dir.path().join(OPLOG_FILE)).unwrap()).unwrap();
+        assert_eq!(log.events.last().unwrap().kind, EventKind::Undo);
+    }
+
+    #[test]
+    fn a_base_scene_file_is_the_starting_document_and_bad_ones_are_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut base = editor::default_document();
+        base.add_target("second", editor::default_surface());
+        let scene = dir.path().join("base.json");
+        std::fs::write(&scene, base.to_json()).unwrap();
+        let mut cfg = config(&dir.path().join("run"));
+        cfg.files.scene = Some(scene.clone());
+        let mut s = Session::open(&cfg).unwrap();
+        assert_eq!(s.doc.targets().len(), 2);
+        s.handle(&WandEvent::command(0.0, Command::SelectNextTarget))
+            .unwrap();
+        assert_eq!(s.interaction.target(), 1, "both targets can be selected");
+        drop(s);
+        let s = Session::open(&cfg).unwrap();
+        assert_eq!(s.interaction.target(), 1, "the selection is recovered");
+        std::fs::write(&scene, b"{\"format\":\"nope\"}").unwrap();
+        let e = Session::open(&cfg).unwrap_err().to_string();
+        assert!(e.contains("base.json"), "{e}");
+        let _ = DVec3::ZERO;
     }
 }

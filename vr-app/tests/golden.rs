@@ -110,7 +110,7 @@ fn scene(renderer: &mut Renderer) {
         0.3,
         3,
     );
-    ribbon(&mut renderer.strokes, 100);
+    ribbon(&mut renderer.preview, 100);
 }
 
 fn compare_or_bless(name: &str, img: &image::RgbaImage) {

@@ -32,6 +32,7 @@ use serde::{Deserialize, Serialize};
 
 pub use gpu::Gpu;
 pub use mesh_store::{GpuMeshStore, GpuVertex, UploadStats};
+use sculpt_core::sculpt::tessellate::Detail;
 
 use crate::error::{VrError, VrResult};
 use crate::projection::{EyeCamera, HeadPose, Screen, StereoRig, kooima};
@@ -164,8 +165,10 @@ pub struct OffscreenFrame {
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct FrameStats {
     /// CPU time for uniform and buffer updates plus command encoding and submission,
-    /// both eyes.
+    /// both eyes. (On lavapipe, submission runs part of the software rasteriser.)
     pub cpu: Duration,
+    /// The same up to the end of encoding, without the submission.
+    pub encode: Duration,
     /// Triangles drawn per eye.
     pub triangles: u64,
 }
@@ -215,16 +218,22 @@ struct OutputSlot {
     hud_vbuf: Option<(wgpu::Buffer, u64)>,
 }
 
-/// The renderer. Owns the pipelines, the per-eye offscreen targets and the two mesh
-/// stores.
+/// The renderer. Owns the pipelines, the per-eye offscreen targets and the mesh
+/// stores: the sculpted document at final and at interactive detail (one store per
+/// detail, as `Document::tessellate` wants; [`Renderer::shown`] picks which is drawn)
+/// and the live stroke preview.
 #[derive(Debug)]
 pub struct Renderer {
     device: wgpu::Device,
     queue: wgpu::Queue,
-    /// Target surfaces (trimmed).
+    /// The sculpted targets (trimmed, with their stroke surfaces) at final detail.
     pub targets: GpuMeshStore,
-    /// Stroke surfaces and previews.
-    pub strokes: GpuMeshStore,
+    /// The same at interactive detail, drawn while a stroke is live.
+    pub interactive: GpuMeshStore,
+    /// Which of the two document stores is drawn.
+    pub shown: Detail,
+    /// The live stroke preview.
+    pub preview: GpuMeshStore,
     /// Draw the wireframe over the meshes.
     pub wireframe: bool,
     /// Swap the eyes (for a projector pair wired the other way round).
@@ -483,7 +492,9 @@ impl Renderer {
             .collect();
         Self {
             targets: GpuMeshStore::new(&device),
-            strokes: GpuMeshStore::new(&device),
+            interactive: GpuMeshStore::new(&device),
+            shown: Detail::Final,
+            preview: GpuMeshStore::new(&device),
             wireframe: false,
             swap_eyes: false,
             background: [0.06, 0.07, 0.09],
@@ -504,6 +515,30 @@ impl Renderer {
             slots,
             last: FrameStats::default(),
         }
+    }
+
+    /// The document store that is drawn ([`Renderer::shown`]).
+    pub fn document_store(&self) -> &GpuMeshStore {
+        match self.shown {
+            Detail::Final => &self.targets,
+            Detail::Interactive => &self.interactive,
+        }
+    }
+
+    /// The sinks [`crate::app::AppState::sync_meshes`] writes into.
+    pub fn sinks(&mut self) -> crate::app::MeshSinks<'_> {
+        crate::app::MeshSinks {
+            final_detail: &mut self.targets,
+            interactive: &mut self.interactive,
+            preview: &mut self.preview,
+        }
+    }
+
+    /// Brings the mesh stores up to date with `app` and draws the detail it asks for.
+    pub fn sync(&mut self, app: &mut crate::app::AppState) -> crate::app::MeshSync {
+        let sync = app.sync_meshes(self.sinks());
+        self.shown = sync.shown;
+        sync
     }
 
     /// The device this renderer draws with.
@@ -735,8 +770,8 @@ impl Renderer {
             });
             pass.set_bind_group(0, &self.camera_bgs[eye], &[]);
             for (store, material) in [
-                (&self.targets, &self.target_material),
-                (&self.strokes, &self.stroke_material),
+                (self.document_store(), &self.target_material),
+                (&self.preview, &self.stroke_material),
             ] {
                 pass.set_pipeline(&self.mesh_pipeline);
                 pass.set_bind_group(1, material, &[]);
@@ -829,13 +864,17 @@ impl Renderer {
                 pass.draw(0..hud_vertices.len() as u32, 0..1);
             }
         }
-        self.queue.submit([encoder.finish()]);
+        let command_buffer = encoder.finish();
+        let encode = start.elapsed();
+        self.queue.submit([command_buffer]);
         let stats = FrameStats {
             cpu: start.elapsed(),
-            triangles: self.targets.triangle_count() + self.strokes.triangle_count(),
+            encode,
+            triangles: self.document_store().triangle_count() + self.preview.triangle_count(),
         };
         tracing::trace!(
             cpu_us = stats.cpu.as_micros() as u64,
+            encode_us = stats.encode.as_micros() as u64,
             triangles = stats.triangles,
             "frame"
         );

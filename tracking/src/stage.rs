@@ -1,0 +1,443 @@
+//! The frame stage: decoded DTrack [`Frame`]s in, calibrated and filtered wand samples
+//! and head poses out. Pure (no I/O, no clock, no tokio), so the display server's live
+//! path and `replay` run exactly the same code on the same frames.
+//!
+//! Rules, in the order a frame meets them:
+//! 1. **time**: a frame's time is its DTrack `ts` field when present (else its receive
+//!    time), re-based so the stage clock never runs backwards (after a tracker restart,
+//!    or a switch between `ts` and receive times, it continues from the last time by
+//!    the receive-time gap). A live run,
+//!    where receive times differ, and an offline replay of its log therefore give the
+//!    same sample times;
+//! 2. **order**: a frame whose counter is not newer than the last accepted one is
+//!    dropped as out of order, unless the source was quiet for
+//!    [`COUNTER_RESET_AFTER`] (a restarted tracker counts from 1 again) or it is more
+//!    than [`REORDER_WINDOW`] behind (the same rule as the [`hub`](crate::hub));
+//! 3. **timeout**: when more than [`StageConfig::timeout_s`] passed since the last wand
+//!    report, the wand was lost at that report's time plus the timeout. The caller's
+//!    [`FrameStage::idle`] detects the same gap while no frame arrives at all;
+//! 4. **calibration** ([`Calibration`]) of the wand and the head body into metres in the
+//!    display frame, with the wand's tool tip, then the One Euro [`PoseFilter`] (reset
+//!    when tracking resumes, so nothing is smoothed across a gap);
+//! 5. **loss**: a wand with quality < 0, an invalid pose (NaN, not a rotation), a pose
+//!    that calibrates to a non-finite point, or a frame without the wand gives an
+//!    untracked sample. Its buttons are the reported ones (or the last known, when the
+//!    wand is absent): a loss never invents a button release.
+//!
+//! Everything is counted in [`StageMetrics`].
+//!
+//! ```
+//! use glam::DVec3;
+//! use std::time::Duration;
+//! use tracking::stage::{FrameStage, StageConfig, StageEvent};
+//! use tracking::{Frame, Pose, Wand};
+//! let mut stage = FrameStage::new(StageConfig::default()).unwrap();
+//! let mut out = Vec::new();
+//! for n in 1..=3u64 {
+//!     let mut f = Frame::new(n);
+//!     f.tracker_time = Some(n as f64 * 0.01);
+//!     f.receive_time = Duration::from_millis(500 + 10 * n); // ignored: `ts` wins
+//!     f.wands.push(Wand::tracked(0, Pose::from_position_mm(DVec3::new(0.0, 1000.0, 0.0))));
+//!     stage.push(&f, &mut out);
+//! }
+//! let StageEvent::Wand(last) = out.last().unwrap() else { panic!() };
+//! assert!(last.tracked && (last.t - 0.03).abs() < 1e-12);
+//! assert!((last.tip_m.y - 1.0).abs() < 1e-12);
+//! // No frame for a second: the wand is lost at the last time plus the timeout.
+//! out.clear();
+//! stage.idle(Duration::from_millis(1530), &mut out);
+//! let StageEvent::Wand(lost) = &out[0] else { panic!() };
+//! assert!(!lost.tracked && (lost.t - 0.53).abs() < 1e-9);
+//! assert_eq!(stage.metrics().losses, 1);
+//! ```
+
+use crate::calibration::{Calibration, WorldPose};
+use crate::error::{Result, TrackingError};
+use crate::filter::{FilterConfig, PoseFilter};
+use crate::frame::{DeviceId, Frame, Pose};
+pub use crate::hub::{COUNTER_RESET_AFTER, REORDER_WINDOW};
+use glam::{DQuat, DVec3};
+use serde::{Deserialize, Serialize};
+use std::time::Duration;
+
+/// What the stage needs to know.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct StageConfig {
+    /// Flystick id of the wand.
+    pub wand_id: u32,
+    /// Standard body id of the head target, if a head tracker is used.
+    pub head_id: Option<u32>,
+    /// Seconds without a wand report before the wand counts as lost.
+    pub timeout_s: f64,
+    /// Tracker to display frame, with tip offsets.
+    pub calibration: Calibration,
+    /// The One Euro filter, for the wand and the head alike.
+    pub filter: FilterConfig,
+}
+
+impl Default for StageConfig {
+    fn default() -> Self {
+        Self {
+            wand_id: 0,
+            head_id: Some(0),
+            timeout_s: 0.5,
+            calibration: Calibration::default(),
+            filter: FilterConfig::default(),
+        }
+    }
+}
+
+impl StageConfig {
+    /// Checks the timeout, the calibration and the filter.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.timeout_s.is_finite() && self.timeout_s > 0.0) {
+            return Err(TrackingError::Config(format!(
+                "stage timeout_s must be > 0, got {}",
+                self.timeout_s
+            )));
+        }
+        self.calibration.validate()?;
+        self.filter.validate()
+    }
+}
+
+/// One wand report in the display frame.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct WandSample {
+    /// Stage time, seconds (see the module docs).
+    pub t: f64,
+    /// Whether the pose may be used; the pose fields are zero/identity when not.
+    pub tracked: bool,
+    /// The tool tip, metres in the display frame (filtered).
+    pub tip_m: DVec3,
+    /// The marker target's origin, metres in the display frame (filtered).
+    pub position_m: DVec3,
+    /// `world_from_wand` (filtered).
+    pub orientation: DQuat,
+    /// Button mask, bit `i` = DTrack button `i`.
+    pub buttons: u64,
+    /// The frame counter it came from (the last accepted one for a timeout).
+    pub frame: u64,
+}
+
+/// One tracked head pose in the display frame.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct HeadSample {
+    /// Stage time, seconds.
+    pub t: f64,
+    /// The filtered pose.
+    pub pose: WorldPose,
+}
+
+/// What the stage emits, in time order.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub enum StageEvent {
+    /// A wand sample (tracked or lost).
+    Wand(WandSample),
+    /// A tracked head pose.
+    Head(HeadSample),
+}
+
+impl StageEvent {
+    /// The wand sample, if this is one.
+    pub fn wand(&self) -> Option<&WandSample> {
+        match self {
+            StageEvent::Wand(w) => Some(w),
+            StageEvent::Head(_) => None,
+        }
+    }
+}
+
+/// Counts over everything the stage saw.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct StageMetrics {
+    /// Frames pushed.
+    pub frames: usize,
+    /// Frames accepted and used.
+    pub used: usize,
+    /// Frames the caller could not decode ([`FrameStage::bad_frame`]).
+    pub bad_frames: usize,
+    /// Frames dropped because their counter was not newer than the last one.
+    pub out_of_order: usize,
+    /// Accepted frames without the wand.
+    pub without_wand: usize,
+    /// Wand reports with quality ≥ 0 whose pose was unusable (NaN, not a rotation).
+    pub invalid_poses: usize,
+    /// Tracked head poses emitted.
+    pub head_poses: usize,
+    /// Times the wand went from tracked to lost.
+    pub losses: usize,
+    /// Gaps with no wand report longer than the timeout.
+    pub timeouts: usize,
+    /// Seconds the wand was lost in all (up to the last report; see
+    /// [`FrameStage::metrics_until`]).
+    pub lost_s: f64,
+}
+
+/// The frame stage (see the module docs).
+#[derive(Debug, Clone)]
+pub struct FrameStage {
+    config: StageConfig,
+    wand_filter: PoseFilter,
+    head_filter: PoseFilter,
+    metrics: StageMetrics,
+    /// Counter and receive time of the last accepted frame.
+    last_frame: Option<(u64, Duration)>,
+    /// Stage time of the last accepted frame, its raw time and whether that was `ts`.
+    clock: Option<(f64, f64, bool)>,
+    /// Receive time (seconds) of the last accepted frame, to map `idle` times.
+    last_receive_s: f64,
+    /// Stage time of the last wand report, and whether its gap was already handled.
+    last_wand: Option<f64>,
+    timed_out: bool,
+    wand_tracked: bool,
+    head_tracked: bool,
+    buttons: u64,
+    lost_since: Option<f64>,
+    /// The latest time emitted (sample times never go back).
+    emitted: f64,
+}
+
+impl FrameStage {
+    /// A stage with a validated config.
+    pub fn new(config: StageConfig) -> Result<Self> {
+        config.validate()?;
+        Ok(Self {
+            wand_filter: PoseFilter::new(config.filter),
+            head_filter: PoseFilter::new(config.filter),
+            config,
+            metrics: StageMetrics::default(),
+            last_frame: None,
+            clock: None,
+            last_receive_s: 0.0,
+            last_wand: None,
+            timed_out: false,
+            wand_tracked: false,
+            head_tracked: false,
+            buttons: 0,
+            lost_since: None,
+            emitted: f64::NEG_INFINITY,
+        })
+    }
+
+    /// The config.
+    pub fn config(&self) -> &StageConfig {
+        &self.config
+    }
+
+    /// The counts so far.
+    pub fn metrics(&self) -> &StageMetrics {
+        &self.metrics
+    }
+
+    /// The counts with an ongoing loss counted up to stage time `t` (for the end of a
+    /// session).
+    pub fn metrics_until(&self, t: f64) -> StageMetrics {
+        let mut m = self.metrics.clone();
+        if let Some(t0) = self.lost_since {
+            m.lost_s += (t - t0).max(0.0);
+        }
+        m
+    }
+
+    /// Whether the wand is tracked now.
+    pub fn wand_tracked(&self) -> bool {
+        self.wand_tracked
+    }
+
+    /// The stage time of the last accepted frame.
+    pub fn time(&self) -> Option<f64> {
+        self.clock.map(|c| c.0)
+    }
+
+    /// Counts a frame the caller could not decode.
+    pub fn bad_frame(&mut self) {
+        self.metrics.bad_frames += 1;
+    }
+
+    /// Feeds one decoded frame (in arrival order); returns false when it was dropped as
+    /// out of order. Events go to `out`.
+    pub fn push(&mut self, frame: &Frame, out: &mut Vec<StageEvent>) -> bool {
+        self.metrics.frames += 1;
+        let receive = frame.receive_time;
+        if let Some((last, last_receive)) = self.last_frame {
+            let quiet = receive.saturating_sub(last_receive) >= COUNTER_RESET_AFTER;
+            if frame.number <= last && last - frame.number < REORDER_WINDOW && !quiet {
+                self.metrics.out_of_order += 1;
+                return false;
+            }
+        }
+        self.last_frame = Some((frame.number, receive));
+        self.metrics.used += 1;
+        let t = self.stage_time(frame);
+        self.last_receive_s = receive.as_secs_f64();
+
+        // A silent gap: the wand was lost at the last report plus the timeout.
+        if let Some(prev) = self.last_wand
+            && !self.timed_out
+            && t - prev > self.config.timeout_s
+        {
+            self.time_out(prev, out);
+        }
+
+        if let Some(head_id) = self.config.head_id {
+            self.push_head(head_id, t, frame, out);
+        }
+
+        let device = DeviceId::Wand(self.config.wand_id);
+        let world = match frame.wand(self.config.wand_id) {
+            None => {
+                self.metrics.without_wand += 1;
+                None
+            }
+            Some(w) => {
+                self.buttons = w.buttons;
+                if w.quality >= 0.0 {
+                    let world = self.calibrate(device, &w.pose);
+                    if world.is_none() {
+                        self.metrics.invalid_poses += 1;
+                    }
+                    world
+                } else {
+                    None
+                }
+            }
+        };
+        self.last_wand = Some(t);
+        self.timed_out = false;
+        let sample = match world {
+            Some(world) => {
+                if !self.wand_tracked {
+                    self.wand_filter.reset();
+                }
+                let pose = self.wand_filter.filter(t, world);
+                if let Some(t0) = self.lost_since.take() {
+                    self.metrics.lost_s += t - t0;
+                }
+                self.wand_tracked = true;
+                WandSample {
+                    t,
+                    tracked: true,
+                    tip_m: pose.tool_m,
+                    position_m: pose.position_m,
+                    orientation: pose.orientation,
+                    buttons: self.buttons,
+                    frame: frame.number,
+                }
+            }
+            None => {
+                self.lose(t);
+                self.lost_sample(t, frame.number)
+            }
+        };
+        out.push(StageEvent::Wand(sample));
+        true
+    }
+
+    /// Tells the stage that no frame came until receive time `now` (the caller's clock,
+    /// the one frames' `receive_time` uses). When the gap since the last wand report
+    /// exceeds the timeout, a lost sample is emitted at that report's time plus the
+    /// timeout (once per gap). Returns whether it emitted one.
+    pub fn idle(&mut self, now: Duration, out: &mut Vec<StageEvent>) -> bool {
+        let (Some(prev), Some((stage_t, _, _))) = (self.last_wand, self.clock) else {
+            return false;
+        };
+        if self.timed_out {
+            return false;
+        }
+        let stage_now = stage_t + (now.as_secs_f64() - self.last_receive_s);
+        if stage_now - prev > self.config.timeout_s {
+            self.time_out(prev, out)
+        } else {
+            false
+        }
+    }
+
+    fn time_out(&mut self, prev: f64, out: &mut Vec<StageEvent>) -> bool {
+        self.timed_out = true;
+        self.metrics.timeouts += 1;
+        if !self.wand_tracked {
+            return false;
+        }
+        let t = prev + self.config.timeout_s;
+        self.emitted = self.emitted.max(t);
+        self.lose(t);
+        let frame = self.last_frame.map_or(0, |f| f.0);
+        out.push(StageEvent::Wand(self.lost_sample(t, frame)));
+        true
+    }
+
+    fn lose(&mut self, t: f64) {
+        if self.wand_tracked {
+            self.metrics.losses += 1;
+            self.lost_since = Some(t);
+        }
+        self.wand_tracked = false;
+    }
+
+    fn lost_sample(&self, t: f64, frame: u64) -> WandSample {
+        WandSample {
+            t,
+            tracked: false,
+            tip_m: DVec3::ZERO,
+            position_m: DVec3::ZERO,
+            orientation: DQuat::IDENTITY,
+            buttons: self.buttons,
+            frame,
+        }
+    }
+
+    fn push_head(&mut self, head_id: u32, t: f64, frame: &Frame, out: &mut Vec<StageEvent>) {
+        let world = frame
+            .body(head_id)
+            .filter(|b| b.quality >= 0.0)
+            .and_then(|b| self.calibrate(DeviceId::Body(head_id), &b.pose));
+        match world {
+            Some(world) => {
+                if !self.head_tracked {
+                    self.head_filter.reset();
+                }
+                self.head_tracked = true;
+                let pose = self.head_filter.filter(t, world);
+                self.metrics.head_poses += 1;
+                out.push(StageEvent::Head(HeadSample { t, pose }));
+            }
+            None => self.head_tracked = false,
+        }
+    }
+
+    /// A calibrated pose, or `None` when it is not a usable rigid pose or lands on a
+    /// non-finite point.
+    fn calibrate(&self, device: DeviceId, pose: &Pose) -> Option<WorldPose> {
+        let w = self.config.calibration.pose_in_world(device, pose)?;
+        (w.position_m.is_finite() && w.tool_m.is_finite() && w.orientation.is_finite()).then_some(w)
+    }
+
+    /// The frame's stage time: `ts` when present and finite, else the receive time,
+    /// shifted so it continues from the last time (by the receive-time gap) when the
+    /// clock restarts or switches.
+    fn stage_time(&mut self, frame: &Frame) -> f64 {
+        let (raw, is_ts) = match frame.tracker_time {
+            Some(ts) if ts.is_finite() => (ts, true),
+            _ => (frame.receive_time.as_secs_f64(), false),
+        };
+        let t = match self.clock {
+            None => raw,
+            Some((last_t, last_raw, last_is_ts)) => {
+                if is_ts == last_is_ts && raw >= last_raw {
+                    last_t + (raw - last_raw)
+                } else {
+                    // Restarted or switched clock: continue by the receive-time gap.
+                    let gap = frame.receive_time.as_secs_f64() - self.last_receive_s;
+                    last_t + if gap.is_finite() { gap.max(0.0) } else { 0.0 }
+                }
+            }
+        };
+        // Never before a time already emitted (a timeout sample from `idle` while the
+        // network stalled and `ts` then shows a shorter gap).
+        let t = t.max(self.emitted);
+        self.clock = Some((t, raw, is_ts));
+        t
+    }
+}
