@@ -144,14 +144,25 @@ pub struct HeadConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TrackingSection {
-    /// The wand device: `wandN` (a Flystick) or `bodyN` (a 6DOF body).
+    /// The wand device: `wandN` (a Flystick; the frame stage reads Flysticks only).
     pub wand: String,
     /// The head (glasses) device, usually `bodyN`; absent means a fixed head.
     #[serde(default)]
     pub head: Option<String>,
+    /// Seconds without a wand report before the wand counts as lost (the frame
+    /// stage's timeout; default 0.5, as in `replay`).
+    #[serde(default = "stage_timeout_default")]
+    pub timeout: f64,
     /// Sources, filter, calibration.
     #[serde(default)]
     pub input: tracking::config::TrackingConfig,
+    /// A source the app plays itself: a pose-log file or the simulator.
+    #[serde(default)]
+    pub playback: Option<crate::live::Playback>,
+}
+
+fn stage_timeout_default() -> f64 {
+    tracking::stage::StageConfig::default().timeout_s
 }
 
 impl TrackingSection {
@@ -160,6 +171,40 @@ impl TrackingSection {
         self.wand
             .parse()
             .map_err(|e: tracking::TrackingError| VrError::Config(format!("tracking.wand: {e}")))
+    }
+
+    /// The frame stage's config: the wand's Flystick id, the head's body id, the
+    /// timeout, and the calibration and filter of `[tracking.input]`. The stage needs
+    /// the wand to be a Flystick (`wandN`).
+    pub fn stage_config(&self) -> VrResult<tracking::stage::StageConfig> {
+        let wand_id = match self.wand_id()? {
+            tracking::DeviceId::Wand(id) => id,
+            other => {
+                return Err(VrError::Config(format!(
+                    "tracking.wand: the live path needs a Flystick (wandN) as the wand, not {other}"
+                )));
+            }
+        };
+        let head_id = match self.head_id()? {
+            None => None,
+            Some(tracking::DeviceId::Body(id)) => Some(id),
+            Some(other) => {
+                return Err(VrError::Config(format!(
+                    "tracking.head: the head must be a body (bodyN), not {other}"
+                )));
+            }
+        };
+        let stage = tracking::stage::StageConfig {
+            wand_id,
+            head_id,
+            timeout_s: self.timeout,
+            calibration: self.input.calibration.clone(),
+            filter: self.input.filter,
+        };
+        stage
+            .validate()
+            .map_err(|e| VrError::Config(format!("tracking: {e}")))?;
+        Ok(stage)
     }
 
     /// The head's device id, if configured.
@@ -288,14 +333,17 @@ impl Config {
             }
         }
         if let Some(t) = &self.tracking {
-            t.wand_id()?;
-            t.head_id()?;
+            t.stage_config()?;
             t.input
                 .validate()
                 .map_err(|e| VrError::Config(format!("tracking.input: {e}")))?;
-            if t.input.sources.is_empty() {
+            if let Some(p) = &t.playback {
+                p.validate()?;
+            }
+            if t.input.sources.is_empty() && t.playback.is_none() {
                 return Err(VrError::Config(
-                    "tracking.input needs at least one [[tracking.input.source]]".into(),
+                    "tracking needs at least one [[tracking.input.source]] or a [tracking.playback]"
+                        .into(),
                 ));
             }
         }
@@ -365,6 +413,14 @@ mod tests {
             ("[head]\nposition = [0.0, 1.0, -2.0]", "in front"),
             ("[tracking]\nwand = \"stick1\"", "tracking.wand"),
             ("[tracking]\nwand = \"wand1\"", "at least one"),
+            (
+                "[tracking]\nwand = \"body1\"\n[tracking.playback]\nkind = \"sim\"",
+                "Flystick",
+            ),
+            (
+                "[tracking]\nwand = \"wand1\"\n[tracking.playback]\nkind = \"sim\"\nspeed = 0.0",
+                "speed",
+            ),
             ("[display]\nwidth = 0", "size"),
         ] {
             let e = Config::from_toml_str(text).unwrap_err().to_string();

@@ -23,6 +23,8 @@ pub enum Input {
     Head(Option<HeadPose>),
     /// Tracking status changed.
     Tracking(TrackingState),
+    /// Time passed with no input (session seconds): ends gestures paused too long.
+    Tick(f64),
 }
 
 /// Options of a headless run.
@@ -100,6 +102,9 @@ pub fn run_headless(
             }
             Input::Head(h) => app.set_head(h),
             Input::Tracking(t) => app.tracking = t,
+            Input::Tick(t) => {
+                app.session.tick(t)?;
+            }
         }
     }
     app.session.tick(last_t + 10.0)?;

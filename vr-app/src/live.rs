@@ -1,17 +1,35 @@
-//! Live tracking: the tracking crate's transports and hub, running on a small tokio
-//! runtime owned here, polled once a frame into wand events and head poses.
+//! Live tracking: the tracking crate's transports and hub on a small tokio runtime
+//! owned here, plus the app's own playback sources (a pose-log file or the tracker
+//! simulator, fed into the same hub in real time), and the per-frame stage.
 //!
-//! Button edges come from the hub's ordered event channel, so a press and release
-//! between two frames is not lost; poses come from the per-device watch state (the
-//! latest filtered pose in the display frame).
+//! **Every** frame the hub accepts goes, in order, through the same pure
+//! [`FrameStage`] that `replay` runs (`tracking::stage`: order check, time from the
+//! frame's DTrack `ts`, calibration with the tool tip, filter, loss and timeout), then
+//! to the interaction as wand events stamped with the stage's time. Nothing is
+//! sampled "latest only", so a live session builds the same document as the offline
+//! replay of its pose log.
+//!
+//! When no frame arrives for longer than the stage timeout, [`FrameStage::idle`]
+//! reports the wand lost; a stroke paused by that loss ends `pause_timeout` later
+//! (an [`Input::Tick`]). Buttons of a buttons-only source (a serial wand without a
+//! pose) are merged into the wand's next samples.
 
 use std::net::SocketAddr;
-use std::time::Duration;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
 
+use glam::DVec3;
+use sculpt_core::editor;
 use sculpt_core::interaction::{WandEvent, WandSample};
-use tokio::sync::{broadcast, watch};
-use tracking::hub::{DeviceState, TrackingEvent, TrackingStatus};
-use tracking::{DeviceId, transport};
+use serde::{Deserialize, Serialize};
+use tracking::hub::{FrameSubscription, Hub};
+use tracking::poselog::PoseLog;
+use tracking::sim::{Script, SimConfig, Simulator};
+use tracking::stage::{FrameStage, StageEvent};
+use tracking::{Frame, transport};
 
 use crate::app::TrackingState;
 use crate::config::TrackingSection;
@@ -19,53 +37,266 @@ use crate::error::{VrError, VrResult};
 use crate::headless::Input;
 use crate::projection::HeadPose;
 
+/// How long past a paused gesture's timeout the live clock must be before it is
+/// ended with a tick (keeps ticks safely behind the next frame's time).
+const TICK_MARGIN_S: f64 = 0.25;
+
+/// The inputs for frame-stage events: wand samples (stamped with the stage time, with
+/// `extra_buttons` of a buttons-only source merged in) and tracked head poses. The
+/// live path and any offline feed of the same frames use this one conversion.
+pub fn stage_inputs(events: &[StageEvent], extra_buttons: u64, out: &mut Vec<Input>) {
+    for ev in events {
+        match ev {
+            StageEvent::Wand(w) => {
+                let buttons = ((w.buttons | extra_buttons) & u64::from(u32::MAX)) as u32;
+                let sample = if w.tracked {
+                    WandSample::tracked(w.tip_m, w.orientation, buttons)
+                } else {
+                    WandSample::lost(buttons)
+                };
+                out.push(Input::Wand(WandEvent::sample(w.t, sample)));
+            }
+            StageEvent::Head(h) => out.push(Input::Head(Some(HeadPose {
+                position: h.pose.position_m,
+                orientation: h.pose.orientation,
+            }))),
+        }
+    }
+}
+
+/// A source the app plays into the hub itself, in real time: `[tracking.playback]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum Playback {
+    /// A recorded pose log (`.poselog`), its DTrack frames sent with their recorded
+    /// timing.
+    Poselog {
+        /// The log file.
+        path: PathBuf,
+        /// Playback speed (1 = as recorded; 2 = twice as fast).
+        #[serde(default = "speed_default")]
+        speed: f64,
+    },
+    /// The tracker simulator (`tracking::sim`) playing a script.
+    Sim {
+        /// A script file (TOML, the `tracksim` format); absent: the built-in script, a
+        /// carve stroke across the default surface.
+        #[serde(default)]
+        script: Option<PathBuf>,
+        /// Simulator settings (rate, seed, noise, ids).
+        #[serde(default)]
+        config: SimConfig,
+        /// Playback speed (1 = real time).
+        #[serde(default = "speed_default")]
+        speed: f64,
+    },
+}
+
+fn speed_default() -> f64 {
+    1.0
+}
+
+impl Playback {
+    /// A short description (`poselog FILE`, `sim`).
+    pub fn describe(&self) -> String {
+        match self {
+            Playback::Poselog { path, .. } => format!("poselog {}", path.display()),
+            Playback::Sim {
+                script: Some(p), ..
+            } => format!("sim {}", p.display()),
+            Playback::Sim { script: None, .. } => "sim (built-in script)".into(),
+        }
+    }
+
+    /// Checks the speed.
+    pub fn validate(&self) -> VrResult<()> {
+        let speed = match self {
+            Playback::Poselog { speed, .. } | Playback::Sim { speed, .. } => *speed,
+        };
+        if !(speed.is_finite() && speed > 0.0 && speed <= 1000.0) {
+            return Err(VrError::Config(format!(
+                "tracking.playback.speed must be in (0, 1000], got {speed}"
+            )));
+        }
+        Ok(())
+    }
+
+    /// The frames to play, with their times (from the start of playback, before the
+    /// speed is applied).
+    pub fn frames(&self) -> VrResult<Vec<Frame>> {
+        match self {
+            Playback::Poselog { path, .. } => {
+                let log = PoseLog::read(path)
+                    .map_err(|e| VrError::Config(format!("{}: {e}", path.display())))?;
+                let (frames, bad) = log.frames();
+                if !log.corrupt.is_empty() || !bad.is_empty() {
+                    tracing::warn!(
+                        corrupt = log.corrupt.len(),
+                        bad_frames = bad.len(),
+                        "pose log {}: skipping unreadable records",
+                        path.display()
+                    );
+                }
+                Ok(frames)
+            }
+            Playback::Sim { script, config, .. } => {
+                let script = match script {
+                    Some(p) => {
+                        let text = std::fs::read_to_string(p).map_err(|source| VrError::Io {
+                            path: p.display().to_string(),
+                            source,
+                        })?;
+                        toml::from_str(&text)
+                            .map_err(|e| VrError::Config(format!("{}: {e}", p.display())))?
+                    }
+                    None => builtin_script(),
+                };
+                let sim = Simulator::new(&script, config.clone())
+                    .map_err(|e| VrError::Config(format!("tracking.playback: {e}")))?;
+                Ok(sim.collect())
+            }
+        }
+    }
+
+    fn speed(&self) -> f64 {
+        match self {
+            Playback::Poselog { speed, .. } | Playback::Sim { speed, .. } => *speed,
+        }
+    }
+}
+
+/// The simulator's built-in script: hover, then carve a 30 cm stroke across the
+/// default surface, release and hover.
+pub fn builtin_script() -> Script {
+    let from = editor::default_surface_point(-0.15, 1.2);
+    let to = editor::default_surface_point(0.15, 1.18);
+    Script::new(from)
+        .head_start(DVec3::new(0.05, 1.17, 0.6))
+        .hold(0.3)
+        .press(0)
+        .move_to(to, 1.0)
+        .release(0)
+        .hold(0.3)
+}
+
+/// A playback source running on its own thread.
+#[derive(Debug)]
+struct PlaybackThread {
+    stop: Arc<AtomicBool>,
+    handle: Option<JoinHandle<()>>,
+}
+
+impl PlaybackThread {
+    fn start(playback: &Playback, hub: Hub) -> VrResult<Self> {
+        playback.validate()?;
+        let frames = playback.frames()?;
+        let speed = playback.speed();
+        let src = hub.add_source(playback.describe());
+        let stop = Arc::new(AtomicBool::new(false));
+        let stop_flag = stop.clone();
+        let handle = std::thread::Builder::new()
+            .name("wandsculpt-playback".into())
+            .spawn(move || {
+                hub.connection_opened(src);
+                let start = Instant::now();
+                let t0 = frames.first().map_or(Duration::ZERO, |f| f.receive_time);
+                for mut frame in frames {
+                    let due = frame.receive_time.saturating_sub(t0).div_f64(speed);
+                    while let Some(wait) = due.checked_sub(start.elapsed()) {
+                        if stop_flag.load(Ordering::Relaxed) {
+                            return;
+                        }
+                        std::thread::sleep(wait.min(Duration::from_millis(50)));
+                    }
+                    frame.receive_time = hub.now();
+                    hub.apply_frame(src, &frame);
+                }
+                hub.connection_closed(src, hub.now());
+            })
+            .map_err(|e| VrError::Config(format!("playback thread: {e}")))?;
+        Ok(Self {
+            stop,
+            handle: Some(handle),
+        })
+    }
+}
+
+impl Drop for PlaybackThread {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
+}
+
 /// Running tracking input.
 #[derive(Debug)]
 pub struct LiveTracking {
+    hub: Hub,
     running: transport::Running,
-    wand: DeviceId,
-    wand_rx: watch::Receiver<DeviceState>,
-    head_rx: Option<watch::Receiver<DeviceState>>,
-    events: broadcast::Receiver<TrackingEvent>,
-    buttons: u32,
-    last_frame: Option<(u64, Duration)>,
-    last_head_frame: Option<u64>,
+    playback: Option<PlaybackThread>,
+    frames: FrameSubscription,
+    stage: FrameStage,
+    wand_id: u32,
+    pause_timeout: f64,
+    /// Buttons reported by a buttons-only source.
+    extra_buttons: u64,
+    /// Receive time of the last frame.
+    last_receive: Option<Duration>,
+    /// Time of the lost sample the idle check emitted, until a tick ended the pause.
+    idle_lost_at: Option<f64>,
     state: Option<TrackingState>,
+    events: Vec<StageEvent>,
     // Declared last so the transports are aborted before the runtime shuts down.
     runtime: tokio::runtime::Runtime,
 }
 
 impl LiveTracking {
     /// Starts every configured source (binding listeners now; connections are retried
-    /// in the background).
-    pub fn start(section: &TrackingSection) -> VrResult<Self> {
-        let wand = section.wand_id()?;
-        let head = section.head_id()?;
+    /// in the background) and the playback source, if any. `pause_timeout` is the
+    /// interaction's (a stroke paused by silence ends that long after the loss).
+    pub fn start(section: &TrackingSection, pause_timeout: f64) -> VrResult<Self> {
+        let stage_config = section.stage_config()?;
+        let wand_id = stage_config.wand_id;
+        let stage =
+            FrameStage::new(stage_config).map_err(|e| VrError::Config(format!("tracking: {e}")))?;
         let runtime = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
             .enable_all()
             .thread_name("wandsculpt-tracking")
             .build()
             .map_err(|e| VrError::Config(format!("tracking runtime: {e}")))?;
+        let hub = Hub::new(&section.input);
+        // Subscribe before any source starts, so no frame is missed.
+        let frames = hub.subscribe_frames();
         let running = runtime
-            .block_on(transport::start(&section.input))
+            .block_on(transport::start_with_hub(hub.clone(), &section.input))
             .map_err(|e| VrError::Config(format!("tracking: {e}")))?;
-        let wand_rx = running.hub.watch(wand);
-        let head_rx = head.map(|h| running.hub.watch(h));
-        let events = running.hub.subscribe();
         for (src, addr) in section.input.sources.iter().zip(&running.local_addrs) {
             tracing::info!(source = %src.describe(), local = ?addr, "tracking source started");
         }
+        let playback = section
+            .playback
+            .as_ref()
+            .map(|p| {
+                tracing::info!(source = %p.describe(), "playback source started");
+                PlaybackThread::start(p, hub.clone())
+            })
+            .transpose()?;
         Ok(Self {
+            hub,
             running,
-            wand,
-            wand_rx,
-            head_rx,
-            events,
-            buttons: 0,
-            last_frame: None,
-            last_head_frame: None,
+            playback,
+            frames,
+            stage,
+            wand_id,
+            pause_timeout,
+            extra_buttons: 0,
+            last_receive: None,
+            idle_lost_at: None,
             state: None,
+            events: Vec::new(),
             runtime,
         })
     }
@@ -75,95 +306,82 @@ impl LiveTracking {
         &self.running.local_addrs
     }
 
-    /// Receive time (hub clock) of the wand's latest report, if any arrived.
+    /// Receive time (hub clock) of the latest frame, if any arrived.
     pub fn last_report(&self) -> Option<Duration> {
-        self.last_frame.map(|(_, t)| t)
+        self.last_receive
     }
 
     /// The hub's clock.
     pub fn now(&self) -> Duration {
-        self.running.hub.now()
+        self.hub.now()
     }
 
-    fn sample(&self, state: &DeviceState, buttons: u32) -> WandSample {
-        match (&state.status, &state.pose) {
-            (TrackingStatus::Tracking, Some(p)) => {
-                WandSample::tracked(p.tool_m, p.orientation, buttons)
-            }
-            _ => WandSample::lost(buttons),
+    /// Frames lost because this consumer fell behind the hub (should stay 0).
+    pub fn dropped(&self) -> u64 {
+        self.frames.dropped()
+    }
+
+    /// True once every source has been connected (or played) and is now gone, with
+    /// at least one frame received: a served session is over.
+    pub fn sources_done(&self) -> bool {
+        let mut ids = self.running.sources.clone();
+        if self.playback.is_some() {
+            // The playback source is registered after the configured ones.
+            ids.push(tracking::hub::SourceId(ids.len()));
         }
+        self.last_receive.is_some()
+            && ids.iter().all(|&s| {
+                self.hub
+                    .source_stats(s)
+                    .is_some_and(|st| st.connections > 0 && !st.connected)
+            })
     }
 
-    /// Everything new since the last poll, stamped with session time `t`.
-    pub fn poll(&mut self, t: f64) -> Vec<Input> {
+    /// Everything new since the last poll, in order.
+    pub fn poll(&mut self) -> Vec<Input> {
         let _guard = self.runtime.enter();
         let mut out = Vec::new();
-        let wand_state = self.wand_rx.borrow_and_update().clone();
-        loop {
-            match self.events.try_recv() {
-                Ok(TrackingEvent::Button {
-                    device,
-                    button,
-                    pressed,
-                    ..
-                }) if device == self.wand && button < 32 => {
-                    let bit = 1u32 << button;
-                    if pressed {
-                        self.buttons |= bit;
-                    } else {
-                        self.buttons &= !bit;
-                    }
-                    out.push(Input::Wand(WandEvent::sample(
-                        t,
-                        self.sample(&wand_state, self.buttons),
-                    )));
+        let mut events = std::mem::take(&mut self.events);
+        events.clear();
+        let mut got = false;
+        while let Some(f) = self.frames.try_recv() {
+            got = true;
+            self.last_receive = Some(f.frame.receive_time);
+            if !f.carries_pose {
+                if let Some(w) = f.frame.wand(self.wand_id) {
+                    self.extra_buttons = w.buttons;
                 }
-                Ok(_) => {}
-                Err(broadcast::error::TryRecvError::Lagged(n)) => {
-                    tracing::warn!(
-                        missed = n,
-                        "tracking events lagged; resynchronising buttons"
-                    );
-                }
-                Err(_) => break,
+                continue;
+            }
+            self.stage.push(&f.frame, &mut events);
+        }
+        if got {
+            self.idle_lost_at = None;
+        } else if self.stage.idle(self.hub.now(), &mut events) {
+            self.idle_lost_at = events.iter().rev().find_map(|e| e.wand().map(|w| w.t));
+        }
+        stage_inputs(&events, self.extra_buttons, &mut out);
+        self.events = events;
+        // Silence past a loss: end a paused stroke once its timeout is well behind
+        // the live clock.
+        if let (Some(lost_t), Some(stage_t), Some(last)) =
+            (self.idle_lost_at, self.stage.time(), self.last_receive)
+        {
+            let end = lost_t + self.pause_timeout + 1e-9;
+            let now = stage_t + self.hub.now().saturating_sub(last).as_secs_f64();
+            if now > end + TICK_MARGIN_S {
+                out.push(Input::Tick(end));
+                self.idle_lost_at = None;
             }
         }
-        let fresh = self.last_frame.map(|(f, _)| f) != Some(wand_state.frame)
-            && wand_state.last_seen > Duration::ZERO;
-        if fresh {
-            self.last_frame = Some((wand_state.frame, wand_state.last_seen));
-            // The device state is the truth for held buttons.
-            self.buttons = (wand_state.buttons & u64::from(u32::MAX)) as u32;
-            out.push(Input::Wand(WandEvent::sample(
-                t,
-                self.sample(&wand_state, self.buttons),
-            )));
-        }
-        let state = match wand_state.status {
-            TrackingStatus::Tracking => TrackingState::Ok,
-            _ => TrackingState::Lost,
+        let state = if self.stage.wand_tracked() {
+            TrackingState::Ok
+        } else {
+            TrackingState::Lost
         };
         if self.state != Some(state) {
             self.state = Some(state);
             out.push(Input::Tracking(state));
-            if state == TrackingState::Lost && !fresh {
-                out.push(Input::Wand(WandEvent::sample(
-                    t,
-                    WandSample::lost(self.buttons),
-                )));
-            }
-        }
-        if let Some(rx) = &mut self.head_rx {
-            let h = rx.borrow_and_update().clone();
-            if self.last_head_frame != Some(h.frame)
-                && let (TrackingStatus::Tracking, Some(p)) = (h.status, h.pose)
-            {
-                self.last_head_frame = Some(h.frame);
-                out.push(Input::Head(Some(HeadPose {
-                    position: p.position_m,
-                    orientation: p.orientation,
-                })));
-            }
         }
         out
     }

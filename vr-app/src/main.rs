@@ -47,8 +47,17 @@ struct Cli {
     /// Headless: also render a frame every N wand events (for frame timing).
     #[arg(long, value_name = "N", default_value_t = 0)]
     render_every: usize,
-    /// Headless with live tracking: stop after this many seconds without wand data
-    /// (once some arrived).
+    /// Listen for the tracking server on this address (DTrack2 over TCP; port 0 picks
+    /// a free port). Adds a `tcp-listen` source; without a `[tracking]` section the
+    /// wand is `wand0` and the head `body0`.
+    #[arg(long, value_name = "ADDR")]
+    listen: Option<std::net::SocketAddr>,
+    /// Write the bound addresses of listening sources (one `HOST:PORT` per line) to
+    /// this file once they are bound, and print them on stderr.
+    #[arg(long, value_name = "FILE")]
+    addr_file: Option<PathBuf>,
+    /// Headless with live tracking: stop after this many seconds without tracking data
+    /// (once some arrived), or as soon as every source has disconnected.
     #[arg(long, value_name = "SECONDS", default_value_t = 2.0)]
     idle_exit: f64,
     /// Headless with live tracking: stop after this many seconds in any case.
@@ -63,6 +72,9 @@ struct Cli {
     /// Swap the eyes.
     #[arg(long)]
     swap_eyes: bool,
+    /// Window mode: render this many frames, then exit cleanly (smoke tests).
+    #[arg(long, value_name = "N")]
+    frames: Option<u64>,
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -112,6 +124,21 @@ fn run(cli: Cli) -> Result<()> {
         config.display.width = w;
         config.display.height = h;
     }
+    if let Some(addr) = cli.listen {
+        let section = config
+            .tracking
+            .get_or_insert_with(|| vr_app::config::TrackingSection {
+                wand: "wand0".into(),
+                head: Some("body0".into()),
+                timeout: tracking::stage::StageConfig::default().timeout_s,
+                input: Default::default(),
+                playback: None,
+            });
+        section
+            .input
+            .sources
+            .push(tracking::config::SourceConfig::TcpListen { addr });
+    }
     config.display.wireframe |= cli.wireframe;
     config.display.swap_eyes ^= cli.swap_eyes;
     config.validate()?;
@@ -131,11 +158,8 @@ fn run(cli: Cli) -> Result<()> {
         let events: Box<dyn Iterator<Item = Input>> = if cli.demo {
             Box::new(demo().into_iter().map(Input::Wand))
         } else if let Some(section) = &app.config.tracking {
-            Box::new(live_inputs(
-                LiveTracking::start(section)?,
-                cli.idle_exit,
-                cli.duration,
-            ))
+            let live = start_live(section, &app, cli.addr_file.as_deref())?;
+            Box::new(live_inputs(live, cli.idle_exit, cli.duration))
         } else {
             bail!("--headless needs an input: --demo, or a [tracking] section in --config");
         };
@@ -155,18 +179,45 @@ fn run(cli: Cli) -> Result<()> {
     let input = if cli.demo {
         WindowInput::Scripted(demo())
     } else if let Some(section) = &app.config.tracking {
-        let mut live = LiveTracking::start(section)?;
-        WindowInput::Live(Box::new(move |t| live.poll(t)))
+        let mut live = start_live(section, &app, cli.addr_file.as_deref())?;
+        WindowInput::Live(Box::new(move |_| live.poll()))
     } else {
         WindowInput::Desktop
     };
-    run_windowed(app, input)?;
+    run_windowed(app, input, cli.frames)?;
     Ok(())
 }
 
-/// Live tracking as a stream of inputs: polls every 4 ms with the session clock, and
-/// ends `idle_exit` seconds after the last wand report (once one arrived) or after
-/// `duration` seconds.
+/// Starts live tracking and reports where listening sources are bound.
+fn start_live(
+    section: &vr_app::config::TrackingSection,
+    app: &AppState,
+    addr_file: Option<&std::path::Path>,
+) -> Result<LiveTracking> {
+    let live = LiveTracking::start(section, app.config.interaction.pause_timeout)?;
+    let bound: Vec<String> = live
+        .local_addrs()
+        .iter()
+        .flatten()
+        .map(ToString::to_string)
+        .collect();
+    for a in &bound {
+        eprintln!("wandsculpt: listening on {a}");
+    }
+    if let Some(path) = addr_file {
+        // Written whole, then renamed: a reader never sees half a file.
+        let tmp = path.with_extension("tmp");
+        let text: String = bound.iter().map(|a| format!("{a}\n")).collect();
+        std::fs::write(&tmp, text)
+            .and_then(|()| std::fs::rename(&tmp, path))
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(live)
+}
+
+/// Live tracking as a stream of inputs: polls every 2 ms, and ends once every source
+/// has gone after sending (a served session is over), `idle_exit` seconds after the
+/// last frame (once one arrived), or after `duration` seconds.
 fn live_inputs(
     mut live: LiveTracking,
     idle_exit: f64,
@@ -174,24 +225,34 @@ fn live_inputs(
 ) -> impl Iterator<Item = Input> {
     let start = std::time::Instant::now();
     let mut pending: std::collections::VecDeque<Input> = std::collections::VecDeque::new();
+    let mut done = false;
     std::iter::from_fn(move || {
         loop {
             if let Some(i) = pending.pop_front() {
                 return Some(i);
             }
-            let t = start.elapsed().as_secs_f64();
-            if t > duration {
+            if done {
                 return None;
             }
-            if let Some(last) = live.last_report()
-                && live.now().saturating_sub(last).as_secs_f64() > idle_exit
-            {
-                tracing::info!("no tracking data for {idle_exit} s: finishing");
-                return None;
-            }
-            pending.extend(live.poll(t));
-            if pending.is_empty() {
-                std::thread::sleep(std::time::Duration::from_millis(4));
+            // Checked before draining: frames sent before the sources went are
+            // already queued, so this last poll gets all of them.
+            let gone = live.sources_done();
+            let idle = live
+                .last_report()
+                .is_some_and(|last| live.now().saturating_sub(last).as_secs_f64() > idle_exit);
+            let timed_out = start.elapsed().as_secs_f64() > duration;
+            pending.extend(live.poll());
+            if gone || idle || timed_out {
+                tracing::info!(
+                    sources_gone = gone,
+                    idle,
+                    timed_out,
+                    dropped = live.dropped(),
+                    "live input finished"
+                );
+                done = true;
+            } else if pending.is_empty() {
+                std::thread::sleep(std::time::Duration::from_millis(2));
             }
         }
     })

@@ -147,6 +147,8 @@ pub struct Session {
     pub recovered: usize,
     /// Edits the sculpting layer refused (the document stayed as it was).
     pub rejected: usize,
+    /// The latest event or tick time accepted.
+    time: f64,
     outputs: Vec<Output>,
 }
 
@@ -200,6 +202,7 @@ impl Session {
             since_autosave: 0,
             recovered: entries.len(),
             rejected: 0,
+            time: 0.0,
             outputs: Vec::new(),
         })
     }
@@ -214,6 +217,12 @@ impl Session {
         self.journal.len()
     }
 
+    /// The latest event or tick time the session accepted (session seconds): the
+    /// time for a command given from outside the wand's own clock.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
     /// Feeds one wand event. Invalid events (time going backwards) are logged and
     /// dropped; edits are journalled, then applied. Returns the edits applied.
     pub fn handle(&mut self, ev: &WandEvent) -> VrResult<Vec<Edit>> {
@@ -222,6 +231,7 @@ impl Session {
             tracing::warn!("dropped an input: {e}");
             return Ok(Vec::new());
         }
+        self.time = self.time.max(ev.t);
         self.consume(ev.t)
     }
 
@@ -229,6 +239,9 @@ impl Session {
     pub fn tick(&mut self, t: f64) -> VrResult<Vec<Edit>> {
         self.outputs.clear();
         self.interaction.tick(t, &mut self.outputs);
+        if t.is_finite() {
+            self.time = self.time.max(t);
+        }
         self.consume(t)
     }
 

@@ -69,10 +69,13 @@ struct WindowApp {
     ctrl: bool,
     wand: EmulatedWand,
     last_t: f64,
+    /// Frames still to draw before exiting (`--frames`), if limited.
+    frames_left: Option<u64>,
 }
 
-/// Opens the windows and runs until they close.
-pub fn run_windowed(app: AppState, input: WindowInput) -> VrResult<()> {
+/// Opens the windows and runs until they close (or, with `frames`, until that many
+/// frames were drawn).
+pub fn run_windowed(app: AppState, input: WindowInput, frames: Option<u64>) -> VrResult<()> {
     let event_loop = EventLoop::new().map_err(|e| {
         VrError::Gpu(format!(
             "no display available ({e}). On a machine without a display run \
@@ -97,6 +100,7 @@ pub fn run_windowed(app: AppState, input: WindowInput) -> VrResult<()> {
         ctrl: false,
         wand: EmulatedWand::default(),
         last_t: 0.0,
+        frames_left: frames,
     };
     event_loop
         .run_app(&mut wa)
@@ -197,7 +201,12 @@ impl WindowApp {
     }
 
     fn command(&mut self, c: Command) {
-        let ev = WandEvent::command(self.last_t, c);
+        // Live input runs on the tracker's clock; the others on this window's.
+        let t = match self.input {
+            WindowInput::Live(_) => self.app.session.time(),
+            _ => self.last_t,
+        };
+        let ev = WandEvent::command(t, c);
         if let Err(e) = self.app.session.handle(&ev) {
             tracing::error!("{e}");
         }
@@ -287,8 +296,15 @@ impl WindowApp {
                         }
                         crate::headless::Input::Head(h) => self.app.set_head(h),
                         crate::headless::Input::Tracking(s) => self.app.tracking = s,
+                        crate::headless::Input::Tick(t) => {
+                            if let Err(e) = self.app.session.tick(t) {
+                                tracing::error!("{e}");
+                            }
+                        }
                     }
                 }
+                // Live time is the tracker's (the frame stage's clock), not this one.
+                return;
             }
         }
         if let Err(e) = self.app.session.tick(t) {
@@ -416,6 +432,13 @@ impl ApplicationHandler for WindowApp {
                     .map(|o| o.window.id());
                 if first == Some(id) {
                     self.redraw();
+                    if let Some(n) = &mut self.frames_left {
+                        *n = n.saturating_sub(1);
+                        if *n == 0 {
+                            tracing::info!("drew the requested frames; exiting");
+                            event_loop.exit();
+                        }
+                    }
                 }
             }
             _ => {}
