@@ -1,0 +1,233 @@
+//! End to end with real processes: `replay --serve` plays a shipped session as the
+//! tracking server over loopback TCP into `wandsculpt --headless`.
+//!
+//! - live path: the saved document equals the offline replay's `scene.json` byte for
+//!   byte (both run `tracking::stage::FrameStage` → `sculpt_core::interaction::Interaction`
+//!   → `sculpt_core::editor::apply`, with the frames' own DTrack times);
+//! - crash and recovery: the display server is killed with SIGKILL mid-session and
+//!   restarted on the same session directory; every operation its journal acknowledged
+//!   is in the final document exactly once.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::Duration;
+
+use sculpt_core::editor;
+use sculpt_core::interaction::Edit;
+use sculpt_core::sculpt::document::Document;
+use sculpt_core::sculpt::stroke::StrokeInput;
+use tests::{ChildGuard, sessions_dir, workspace_bin};
+use vr_app::journal::{Journal, JournalEntry};
+use vr_app::session::{DOCUMENT_FILE, JOURNAL_FILE};
+
+/// Plenty for a few seconds of session, on a loaded 2-core CI machine.
+const TIMEOUT: Duration = Duration::from_secs(120);
+
+fn session(name: &str) -> PathBuf {
+    sessions_dir().join(format!("{name}.poselog"))
+}
+
+/// `replay SESSION --out DIR`: the offline outputs.
+fn offline(name: &str, dir: &Path) -> Vec<u8> {
+    let status = Command::new(workspace_bin("replay", "replay"))
+        .arg(session(name))
+        .arg("--out")
+        .arg(dir)
+        .arg("-q")
+        .stdout(Stdio::null())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    std::fs::read(dir.join("scene.json")).unwrap()
+}
+
+/// `replay SESSION --serve tcp://127.0.0.1:0`, and the address it listens on.
+fn serve_tcp(name: &str, speed: f64) -> (ChildGuard, String) {
+    let mut child = ChildGuard::spawn(
+        Command::new(workspace_bin("replay", "replay"))
+            .arg(session(name))
+            .args(["--serve", "tcp://127.0.0.1:0", "--wait", "60", "-q"])
+            .args(["--speed", &speed.to_string()])
+            .stdout(Stdio::piped()),
+    );
+    let mut stdout = BufReader::new(child.0.stdout.take().unwrap());
+    let mut line = String::new();
+    stdout.read_line(&mut line).unwrap();
+    // Keep draining, so its closing summary never meets a closed pipe.
+    std::thread::spawn(move || std::io::copy(&mut stdout, &mut std::io::sink()));
+    let addr = line
+        .trim()
+        .strip_prefix("listening on tcp://")
+        .unwrap_or_else(|| panic!("replay said {line:?}"))
+        .to_string();
+    (child, addr)
+}
+
+/// A headless display server config reading DTrack2 from `addr` (connecting out).
+fn display_config(dir: &Path, addr: &str) -> PathBuf {
+    let path = dir.join("wandsculpt.toml");
+    std::fs::write(
+        &path,
+        format!(
+            r#"
+[display]
+mode = "mono"
+width = 160
+height = 90
+
+[tracking]
+wand = "wand0"
+head = "body0"
+
+[[tracking.input.source]]
+kind = "tcp-connect"
+addr = "{addr}"
+"#
+        ),
+    )
+    .unwrap();
+    path
+}
+
+fn wandsculpt(config: &Path, out: &Path) -> ChildGuard {
+    ChildGuard::spawn(
+        Command::new(workspace_bin("vr-app", "wandsculpt"))
+            .arg("--headless")
+            .arg("--config")
+            .arg(config)
+            .arg("--out")
+            .arg(out)
+            .args(["--idle-exit", "1.0", "--duration", "100"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped()),
+    )
+}
+
+fn stderr_of(child: &mut ChildGuard) -> String {
+    let mut s = String::new();
+    if let Some(mut e) = child.0.stderr.take() {
+        let _ = std::io::Read::read_to_string(&mut e, &mut s);
+    }
+    s
+}
+
+/// The first differing line of two JSON texts, with its number.
+fn first_difference(live: &[u8], offline: &[u8]) -> String {
+    let (a, b) = (
+        String::from_utf8_lossy(live),
+        String::from_utf8_lossy(offline),
+    );
+    let (la, lb): (Vec<&str>, Vec<&str>) = (a.lines().collect(), b.lines().collect());
+    match la.iter().zip(&lb).position(|(x, y)| x != y) {
+        Some(i) => format!(
+            "line {}: live {:?}, offline {:?} ({} vs {} lines)",
+            i + 1,
+            la[i],
+            lb[i],
+            la.len(),
+            lb.len()
+        ),
+        None => format!("{} vs {} lines", la.len(), lb.len()),
+    }
+}
+
+#[test]
+fn a_session_served_over_tcp_builds_the_offline_document() {
+    let name = "patch-overlaps";
+    let dir = tempfile::tempdir().unwrap();
+    let expected = offline(name, &dir.path().join("offline"));
+    // Three times real time: two seconds for this six-second session. The result does
+    // not depend on the pacing (times come from the frames' `ts`).
+    let (mut server, addr) = serve_tcp(name, 3.0);
+    let live = dir.path().join("live");
+    let mut app = wandsculpt(&display_config(dir.path(), &addr), &live);
+    assert!(server.wait_for("replay --serve", TIMEOUT).success());
+    let status = app.wait_for("wandsculpt", TIMEOUT);
+    let log = stderr_of(&mut app);
+    assert!(status.success(), "wandsculpt failed:\n{log}");
+    let saved = std::fs::read(live.join(DOCUMENT_FILE)).unwrap();
+    assert!(
+        saved == expected,
+        "the live document differs from the offline scene.json: {}\n{log}",
+        first_difference(&saved, &expected)
+    );
+}
+
+/// Waits until the journal in `dir` acknowledges at least `n` operations.
+fn wait_for_journal(dir: &Path, n: usize, app: &mut ChildGuard) -> Vec<JournalEntry> {
+    let deadline = std::time::Instant::now() + TIMEOUT;
+    loop {
+        if let Ok(entries) = Journal::read(dir.join(JOURNAL_FILE))
+            && entries.len() >= n
+        {
+            return entries;
+        }
+        assert!(
+            matches!(app.0.try_wait(), Ok(None)),
+            "wandsculpt exited early:\n{}",
+            stderr_of(app)
+        );
+        assert!(std::time::Instant::now() < deadline, "no {n} operations");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+#[test]
+fn a_display_server_killed_mid_session_recovers_every_acknowledged_operation() {
+    // Five strokes over 11 s, served at twice real time.
+    let name = "patch-mask";
+    let dir = tempfile::tempdir().unwrap();
+    let (mut server, addr) = serve_tcp(name, 2.0);
+    let config = display_config(dir.path(), &addr);
+    let live = dir.path().join("live");
+    let mut first = wandsculpt(&config, &live);
+    wait_for_journal(&live, 2, &mut first);
+    first.0.kill().unwrap(); // SIGKILL: no chance to save or flush anything
+    first.0.wait().unwrap();
+    let acknowledged = Journal::read(live.join(JOURNAL_FILE)).unwrap();
+    assert!(acknowledged.len() >= 2);
+
+    // Restart on the same directory; the tracking server takes the new connection.
+    let mut second = wandsculpt(&config, &live);
+    assert!(server.wait_for("replay --serve", TIMEOUT).success());
+    let status = second.wait_for("wandsculpt (restarted)", TIMEOUT);
+    let log = stderr_of(&mut second);
+    assert!(status.success(), "restarted wandsculpt failed:\n{log}");
+
+    // The journal keeps the acknowledged prefix, and its sequence numbers never repeat.
+    let journal = Journal::read(live.join(JOURNAL_FILE)).unwrap();
+    assert_eq!(journal[..acknowledged.len()], acknowledged[..], "{log}");
+    let seqs: Vec<u64> = journal.iter().map(|e| e.seq).collect();
+    assert!(seqs.windows(2).all(|w| w[1] > w[0]), "{seqs:?}");
+
+    // Every acknowledged stroke is in the document once; nothing else is duplicated.
+    let doc = Document::from_json(&std::fs::read(live.join(DOCUMENT_FILE)).unwrap()).unwrap();
+    let inputs: Vec<StrokeInput> = doc.strokes().iter().map(|s| s.input.clone()).collect();
+    let acked_strokes: Vec<StrokeInput> = acknowledged
+        .iter()
+        .filter_map(|e| match &e.edit {
+            Edit::Stroke(s) => Some(editor::stroke_input(s)),
+            _ => None,
+        })
+        .collect();
+    assert!(!acked_strokes.is_empty());
+    for (k, want) in acked_strokes.iter().enumerate() {
+        let copies = inputs.iter().filter(|got| *got == want).count();
+        assert_eq!(
+            copies, 1,
+            "acknowledged stroke {k} is in the document {copies} times"
+        );
+    }
+    for (i, a) in inputs.iter().enumerate() {
+        assert!(
+            inputs[i + 1..].iter().all(|b| b != a),
+            "stroke {i} is duplicated"
+        );
+    }
+    let journal_strokes = journal
+        .iter()
+        .filter(|e| matches!(e.edit, Edit::Stroke(_)))
+        .count();
+    assert_eq!(doc.strokes().len(), journal_strokes, "{log}");
+}
