@@ -899,8 +899,25 @@ impl SurfaceInverter {
             if c.converged {
                 interior_uv = Some(c.uv);
             }
+            let on_domain_edge = |uv: DVec2| {
+                (0..2).any(|k| {
+                    !self.closed[k] && (uv[k] <= self.domain_lo[k] || uv[k] >= self.domain_hi[k])
+                })
+            };
+            let slid_along_edge = on_domain_edge(start) && on_domain_edge(c.uv);
             if c.dist2 < best.dist2 {
                 *best = c;
+            }
+            // A start on a domain edge can stay on the edge, at a minimum of the edge, and
+            // miss an interior minimum of the same leaf (both are local minima of the
+            // domain): run again from the leaf's centre.
+            if slid_along_edge {
+                let centre = (leaf.uv_lo + leaf.uv_hi) * 0.5;
+                let c = self.newton(p, centre, leaf.uv_lo, leaf.uv_hi, [false; 2]);
+                *iters += c.iters;
+                if c.dist2 < best.dist2 {
+                    *best = c;
+                }
             }
         }
         // Leaves on an edge of the domain also search that edge by itself: a minimum on
