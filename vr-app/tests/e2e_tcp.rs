@@ -150,7 +150,7 @@ fn listening_on_an_ephemeral_port_and_finishing_when_the_tracker_leaves() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("session");
     let addr_file = dir.path().join("addr");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_wandsculpt"))
+    let child = Command::new(env!("CARGO_BIN_EXE_wandsculpt"))
         .arg("--headless")
         .args(["--listen", "127.0.0.1:0", "--addr-file"])
         .arg(&addr_file)
