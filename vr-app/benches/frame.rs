@@ -39,6 +39,7 @@ fn frame(c: &mut Criterion) {
     let tess_start = Instant::now();
     let sync = renderer.sync(&mut app);
     assert_eq!(sync.shown, Detail::Final);
+    renderer.targets.flush();
     let (w, h) = (1280, 720);
     let make = || renderer.output_texture(w, h);
     let (ta, tb) = (make(), make());
@@ -50,12 +51,13 @@ fn frame(c: &mut Criterion) {
     let lines = app.overlay_lines();
     let hud = app.hud_lines();
     eprintln!(
-        "adapter: {}; strokes: {}; final-detail patches (draw calls per eye): {}; triangles \
-         per eye: {}; first sync \
+        "adapter: {}; strokes: {}; final-detail patches: {} in {} batches (draw calls per \
+         eye); triangles per eye: {}; first sync \
          (both details tessellated and uploaded): {:.1} ms",
         gpu.describe(),
         app.session.doc.strokes().len(),
         renderer.document_store().len(),
+        renderer.document_store().batches().count(),
         renderer.document_store().triangle_count(),
         tess_start.elapsed().as_secs_f64() * 1e3,
     );
