@@ -25,7 +25,7 @@ fn every_accepted_frame_arrives_in_order_with_its_source() {
     let b = hub.add_source("b");
     let mut sub = hub.subscribe_frames();
     // Many frames between two polls: a latest-value watch would keep only the last.
-    for n in 1..=200 {
+    for n in 1..=200u64 {
         assert!(hub.apply_frame(if n.is_multiple_of(2) { a } else { b }, &frame(n, n as f64)));
     }
     // A stale frame from `a` is dropped by the hub and not sent.

@@ -1,31 +1,45 @@
-//! Frame CPU time: uniform/buffer updates plus command encoding and submission for
-//! both eyes, excluding the GPU's own work (waited for outside the measurement).
+//! Frame CPU time: the per-frame update (mesh sync with the document) plus uniform and
+//! buffer updates and command encoding for both eyes (`..._update_encode`, the issue's
+//! measure), and the same including the queue submission (`..._with_submit`: on
+//! lavapipe the submission runs part of the software rasteriser on this thread). The
+//! GPU's own work is waited for outside the measurement.
 //!
-//! Scene: the demo session (default surface, three carved grooves and an embossed
-//! ridge) at 1280x720 per eye, dual output, HUD and cursor on.
+//! Scene: paper scene 4 (`tests/data/scenes/mask-face.json`: a mask-like face with
+//! embossed wrinkles, a carved brow and two crossing grooves), tessellated at final
+//! detail, at 1280x720 per eye, dual output, HUD and cursor on, head-tracked stereo
+//! from 0.6 m.
 //! Run: `cargo bench -p vr-app --bench frame -- --quick`.
 
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use sculpt_core::sculpt::tessellate::Detail;
 use vr_app::app::AppState;
 use vr_app::config::Config;
-use vr_app::demo::demo_events;
 use vr_app::render::{FrameInput, Gpu, OutputContent, OutputTarget, Renderer};
 
 fn frame(c: &mut Criterion) {
     let gpu =
         Gpu::headless().expect("a GPU adapter (lavapipe: apt-get install mesa-vulkan-drivers)");
     let dir = tempfile::tempdir().expect("temp dir");
-    let mut config = Config::default();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/scenes/mask-face.json");
+    // A 0.4 m x 0.3 m screen just behind the face (which is centred at the origin and
+    // faces +z), the viewer 0.6 m in front.
+    let mut config = Config::from_toml_str(
+        "[screen]\nlower_left = [-0.2, -0.15, -0.1]\nlower_right = [0.2, -0.15, -0.1]\n\
+         upper_left = [-0.2, 0.15, -0.1]\n[head]\nposition = [0.0, 0.0, 0.6]\n",
+    )
+    .expect("config");
     config.files.dir = dir.path().to_path_buf();
+    config.files.scene = Some(scene);
     config.files.autosave_every = 0;
     let mut app = AppState::new(config).expect("session");
-    for ev in demo_events(&app.screen) {
-        app.session.handle(&ev).expect("demo event");
-    }
     let mut renderer = Renderer::new(&gpu, wgpu::TextureFormat::Rgba8Unorm);
-    renderer.sync(&mut app);
+    let tess_start = Instant::now();
+    let sync = renderer.sync(&mut app);
+    assert_eq!(sync.shown, Detail::Final);
+    renderer.targets.flush();
     let (w, h) = (1280, 720);
     let make = || renderer.output_texture(w, h);
     let (ta, tb) = (make(), make());
@@ -37,45 +51,65 @@ fn frame(c: &mut Criterion) {
     let lines = app.overlay_lines();
     let hud = app.hud_lines();
     eprintln!(
-        "adapter: {}; triangles per eye: {}",
+        "adapter: {}; strokes: {}; final-detail patches: {} in {} batches (draw calls per \
+         eye); triangles per eye: {}; first sync \
+         (both details tessellated and uploaded): {:.1} ms",
         gpu.describe(),
-        renderer.document_store().triangle_count()
+        app.session.doc.strokes().len(),
+        renderer.document_store().len(),
+        renderer.document_store().batches().count(),
+        renderer.document_store().triangle_count(),
+        tess_start.elapsed().as_secs_f64() * 1e3,
     );
     let mut g = c.benchmark_group("frame");
     g.sample_size(20)
         .measurement_time(Duration::from_secs(4))
         .warm_up_time(Duration::from_secs(1));
-    g.bench_function("demo_scene_dual_1280x720_cpu", |b| {
-        b.iter_custom(|iters| {
-            let mut total = Duration::ZERO;
-            for _ in 0..iters {
-                let start = Instant::now();
-                renderer.sync(&mut app);
-                renderer.render(
-                    &FrameInput {
-                        views: &views,
-                        lines: &lines,
-                        hud: &hud,
-                    },
-                    &[
-                        OutputTarget {
-                            view: &va,
-                            size: (w, h),
-                            content: OutputContent::LeftEye,
+    for (name, with_submit) in [
+        ("mask_face_final_dual_1280x720_update_encode", false),
+        ("mask_face_final_dual_1280x720_with_submit", true),
+    ] {
+        g.bench_function(name, |b| {
+            b.iter_custom(|iters| {
+                let mut total = Duration::ZERO;
+                for _ in 0..iters {
+                    let start = Instant::now();
+                    renderer.sync(&mut app);
+                    let update = start.elapsed();
+                    let stats = renderer.render(
+                        &FrameInput {
+                            views: &views,
+                            lines: &lines,
+                            hud: &hud,
                         },
-                        OutputTarget {
-                            view: &vb,
-                            size: (w, h),
-                            content: OutputContent::RightEye,
-                        },
-                    ],
-                );
-                total += start.elapsed();
-                // The GPU's work is not part of the CPU frame time.
-                let _ = renderer.device().poll(wgpu::PollType::wait_indefinitely());
-            }
-            total
-        })
+                        &[
+                            OutputTarget {
+                                view: &va,
+                                size: (w, h),
+                                content: OutputContent::LeftEye,
+                            },
+                            OutputTarget {
+                                view: &vb,
+                                size: (w, h),
+                                content: OutputContent::RightEye,
+                            },
+                        ],
+                    );
+                    total += if with_submit {
+                        start.elapsed()
+                    } else {
+                        update + stats.encode
+                    };
+                    // The GPU's work is not part of the CPU frame time.
+                    let _ = renderer.device().poll(wgpu::PollType::wait_indefinitely());
+                }
+                total
+            })
+        });
+    }
+    // The update alone (nothing changed: the document reports no dirty patch).
+    g.bench_function("mask_face_sync_only", |b| {
+        b.iter(|| renderer.sync(&mut app))
     });
     g.finish();
 }

@@ -142,3 +142,51 @@ addr = "{addr}"
         "the eyes must differ (head-tracked stereo)"
     );
 }
+
+/// `--listen 127.0.0.1:0 --addr-file`: the display server listens on a free port,
+/// says which, and finishes (saving) once its tracker has sent a session and gone.
+#[test]
+fn listening_on_an_ephemeral_port_and_finishing_when_the_tracker_leaves() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("session");
+    let addr_file = dir.path().join("addr");
+    let child = Command::new(env!("CARGO_BIN_EXE_wandsculpt"))
+        .arg("--headless")
+        .args(["--listen", "127.0.0.1:0", "--addr-file"])
+        .arg(&addr_file)
+        .arg("--out")
+        .arg(&out)
+        .args(["--size", "96x54", "--idle-exit", "30", "--duration", "60"])
+        .env("WANDSCULPT_ADAPTER", "llvmpipe")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let addr = loop {
+        if let Ok(text) = std::fs::read_to_string(&addr_file) {
+            break text.trim().to_string();
+        }
+        assert!(Instant::now() < deadline, "no address file");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert!(
+        addr.starts_with("127.0.0.1:") && !addr.ends_with(":0"),
+        "{addr}"
+    );
+    // The whole session at once: times come from the frames' `ts`, not their arrival.
+    let mut stream = std::net::TcpStream::connect(&addr).unwrap();
+    let mut bytes = Vec::new();
+    for frame in Simulator::new(&vr_app::live::builtin_script(), SimConfig::default()).unwrap() {
+        tracking::dtrack::encode_frame(&frame, &mut bytes);
+    }
+    stream.write_all(&bytes).unwrap();
+    drop(stream);
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(stderr.contains("sources_gone=true"), "{stderr}");
+    assert!(stderr.contains(&format!("listening on {addr}")), "{stderr}");
+    let doc = Document::from_json(&std::fs::read(out.join(DOCUMENT_FILE)).unwrap()).unwrap();
+    assert_eq!(doc.strokes().len(), 1, "{stderr}");
+}

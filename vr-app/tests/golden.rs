@@ -271,16 +271,31 @@ fn only_changed_patches_are_uploaded() {
     let gpu = lavapipe();
     let mut renderer = Renderer::new(&gpu, wgpu::TextureFormat::Rgba8Unorm);
     sphere(&mut renderer.targets, 0, DVec3::ZERO, 1.0, 4);
+    // A second object whose keys fall in another batch.
+    let other = 1 << vr_app::render::mesh_store::BATCH_SHIFT;
+    sphere(&mut renderer.targets, other, DVec3::X * 3.0, 1.0, 2);
+    renderer.targets.flush();
     let after_first = renderer.targets.stats();
-    assert_eq!(after_first.patch_uploads, 4);
-    assert_eq!(renderer.targets.len(), 4);
-    // Re-tessellate one band: exactly one more upload, the others stay.
+    assert_eq!(after_first.patch_uploads, 6);
+    assert_eq!(after_first.batch_uploads, 2, "one draw batch per key range");
+    assert_eq!(renderer.targets.len(), 6);
+    assert_eq!(renderer.targets.batches().count(), 2);
+    // Re-tessellate one band: that patch is stored and only its batch re-uploaded.
     sphere(&mut renderer.targets, 2, DVec3::ZERO, 1.0, 1);
-    assert_eq!(renderer.targets.stats().patch_uploads, 5);
-    assert_eq!(renderer.targets.len(), 4);
+    renderer.targets.flush();
+    assert_eq!(renderer.targets.stats().patch_uploads, 7);
+    assert_eq!(renderer.targets.stats().batch_uploads, 3);
+    assert_eq!(renderer.targets.len(), 6);
     renderer.targets.remove_patch(3);
-    assert_eq!(renderer.targets.len(), 3);
-    assert_eq!(renderer.targets.stats().patch_uploads, 5);
+    renderer.targets.flush();
+    assert_eq!(renderer.targets.len(), 5);
+    assert_eq!(renderer.targets.stats().patch_uploads, 7);
+    assert_eq!(renderer.targets.stats().batch_uploads, 4);
+    // Removing a whole batch's patches removes the batch.
+    renderer.targets.remove_patch(other);
+    renderer.targets.remove_patch(other + 1);
+    renderer.targets.flush();
+    assert_eq!(renderer.targets.batches().count(), 1);
     // Bad input is dropped rather than sent to the GPU: out-of-range and NaN vertices.
     renderer.targets.begin_patch(9);
     let a = renderer.targets.push_vertex(MeshVertex {
@@ -290,4 +305,6 @@ fn only_changed_patches_are_uploaded() {
     renderer.targets.push_triangle(a, a + 5, a);
     renderer.targets.end_patch();
     assert_eq!(renderer.targets.len(), 3);
+    renderer.targets.flush();
+    assert_eq!(renderer.targets.batches().count(), 1);
 }

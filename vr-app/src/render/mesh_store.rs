@@ -1,11 +1,24 @@
-//! GPU-side mesh storage: a [`MeshSink`] whose patches live in their own vertex and
-//! index buffers, so that re-tessellating one patch uploads only that patch.
+//! GPU-side mesh storage: a [`MeshSink`] that keeps each patch on the CPU and packs
+//! patches into GPU batches, so that re-tessellating a patch re-uploads only its batch
+//! and a frame needs one draw call per batch, not per patch.
+//!
+//! A batch holds the patches whose keys share all but the low [`BATCH_SHIFT`] bits (the
+//! tessellator numbers a target's root cells consecutively, so a batch is up to 64
+//! neighbouring cells). Writes only mark batches dirty; [`GpuMeshStore::flush`] (called
+//! by the renderer before drawing) rebuilds the dirty ones.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use bytemuck::{Pod, Zeroable};
 use sculpt_core::mesh::{MeshSink, MeshVertex, PatchKey};
 use wgpu::util::DeviceExt;
+
+/// Patches whose keys agree above these low bits share a GPU batch.
+pub const BATCH_SHIFT: u32 = 6;
+
+fn batch_of(key: PatchKey) -> u64 {
+    key >> BATCH_SHIFT
+}
 
 /// The GPU vertex layout (same fields as [`MeshVertex`], 32 bytes).
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
@@ -28,7 +41,7 @@ impl GpuVertex {
     };
 }
 
-/// One uploaded patch.
+/// One uploaded batch of patches.
 #[derive(Debug)]
 pub struct GpuPatch {
     /// Vertex buffer.
@@ -46,17 +59,27 @@ pub struct GpuPatch {
 /// Upload counters, to check that only changed patches reach the GPU.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct UploadStats {
-    /// Patches uploaded since creation.
+    /// Patches written since creation (each marks its batch for re-upload).
     pub patch_uploads: u64,
+    /// Batches uploaded since creation.
+    pub batch_uploads: u64,
     /// Bytes uploaded since creation.
     pub bytes: u64,
+}
+
+#[derive(Debug, Default)]
+struct CpuPatch {
+    vertices: Vec<GpuVertex>,
+    triangles: Vec<[u32; 3]>,
 }
 
 /// A set of patches on the GPU, written through [`MeshSink`].
 #[derive(Debug)]
 pub struct GpuMeshStore {
     device: wgpu::Device,
-    patches: BTreeMap<PatchKey, GpuPatch>,
+    patches: BTreeMap<PatchKey, CpuPatch>,
+    batches: BTreeMap<u64, GpuPatch>,
+    dirty: BTreeSet<u64>,
     current: Option<(PatchKey, Vec<GpuVertex>, Vec<[u32; 3]>)>,
     stats: UploadStats,
 }
@@ -67,14 +90,21 @@ impl GpuMeshStore {
         Self {
             device: device.clone(),
             patches: BTreeMap::new(),
+            batches: BTreeMap::new(),
+            dirty: BTreeSet::new(),
             current: None,
             stats: UploadStats::default(),
         }
     }
 
-    /// The uploaded patches.
-    pub fn patches(&self) -> impl Iterator<Item = (PatchKey, &GpuPatch)> {
-        self.patches.iter().map(|(k, p)| (*k, p))
+    /// The uploaded batches, for drawing (call [`Self::flush`] first).
+    pub fn batches(&self) -> impl Iterator<Item = &GpuPatch> {
+        self.batches.values()
+    }
+
+    /// The keys of the patches held.
+    pub fn keys(&self) -> impl Iterator<Item = PatchKey> + '_ {
+        self.patches.keys().copied()
     }
 
     /// Number of patches.
@@ -91,7 +121,7 @@ impl GpuMeshStore {
     pub fn triangle_count(&self) -> u64 {
         self.patches
             .values()
-            .map(|p| u64::from(p.triangle_index_count / 3))
+            .map(|p| p.triangles.len() as u64)
             .sum()
     }
 
@@ -103,10 +133,12 @@ impl GpuMeshStore {
     /// Removes every patch.
     pub fn clear(&mut self) {
         self.patches.clear();
+        self.batches.clear();
+        self.dirty.clear();
         self.current = None;
     }
 
-    fn upload(&mut self, key: PatchKey, vertices: Vec<GpuVertex>, triangles: Vec<[u32; 3]>) {
+    fn store(&mut self, key: PatchKey, vertices: Vec<GpuVertex>, triangles: Vec<[u32; 3]>) {
         // Drop triangles that index past the patch or touch a non-finite vertex: bad
         // input must not reach the GPU.
         let n = vertices.len() as u32;
@@ -118,45 +150,76 @@ impl GpuMeshStore {
             .into_iter()
             .filter(|t| t.iter().all(|&i| i < n && finite[i as usize]))
             .collect();
+        self.dirty.insert(batch_of(key));
         if triangles.is_empty() {
             self.patches.remove(&key);
             return;
         }
-        let mut edges: Vec<[u32; 2]> = triangles
-            .iter()
-            .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
-            .map(|[a, b]| if a < b { [a, b] } else { [b, a] })
-            .collect();
-        edges.sort_unstable();
-        edges.dedup();
-        let make = |label: &str, bytes: &[u8], usage| {
-            self.device
-                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(label),
-                    contents: bytes,
-                    usage,
-                })
-        };
-        let vb = bytemuck::cast_slice::<GpuVertex, u8>(&vertices);
-        let tb = bytemuck::cast_slice::<[u32; 3], u8>(&triangles);
-        let eb = bytemuck::cast_slice::<[u32; 2], u8>(&edges);
-        let patch = GpuPatch {
-            vertices: make("patch vertices", vb, wgpu::BufferUsages::VERTEX),
-            triangles: make("patch triangles", tb, wgpu::BufferUsages::INDEX),
-            triangle_index_count: (triangles.len() * 3) as u32,
-            edges: make("patch edges", eb, wgpu::BufferUsages::INDEX),
-            edge_index_count: (edges.len() * 2) as u32,
-        };
         self.stats.patch_uploads += 1;
-        self.stats.bytes += (vb.len() + tb.len() + eb.len()) as u64;
-        self.patches.insert(key, patch);
+        self.patches.insert(
+            key,
+            CpuPatch {
+                vertices,
+                triangles,
+            },
+        );
+    }
+
+    /// Rebuilds and uploads the batches whose patches changed since the last flush.
+    pub fn flush(&mut self) {
+        if let Some((k, v, t)) = self.current.take() {
+            self.store(k, v, t);
+        }
+        for batch in std::mem::take(&mut self.dirty) {
+            let lo = batch << BATCH_SHIFT;
+            let hi = lo | ((1u64 << BATCH_SHIFT) - 1);
+            let mut vertices: Vec<GpuVertex> = Vec::new();
+            let mut triangles: Vec<[u32; 3]> = Vec::new();
+            for p in self.patches.range(lo..=hi).map(|(_, p)| p) {
+                let base = vertices.len() as u32;
+                vertices.extend_from_slice(&p.vertices);
+                triangles.extend(p.triangles.iter().map(|t| t.map(|i| i + base)));
+            }
+            if triangles.is_empty() {
+                self.batches.remove(&batch);
+                continue;
+            }
+            let mut edges: Vec<[u32; 2]> = triangles
+                .iter()
+                .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+                .map(|[a, b]| if a < b { [a, b] } else { [b, a] })
+                .collect();
+            edges.sort_unstable();
+            edges.dedup();
+            let make = |label: &str, bytes: &[u8], usage| {
+                self.device
+                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some(label),
+                        contents: bytes,
+                        usage,
+                    })
+            };
+            let vb = bytemuck::cast_slice::<GpuVertex, u8>(&vertices);
+            let tb = bytemuck::cast_slice::<[u32; 3], u8>(&triangles);
+            let eb = bytemuck::cast_slice::<[u32; 2], u8>(&edges);
+            let gpu = GpuPatch {
+                vertices: make("batch vertices", vb, wgpu::BufferUsages::VERTEX),
+                triangles: make("batch triangles", tb, wgpu::BufferUsages::INDEX),
+                triangle_index_count: (triangles.len() * 3) as u32,
+                edges: make("batch edges", eb, wgpu::BufferUsages::INDEX),
+                edge_index_count: (edges.len() * 2) as u32,
+            };
+            self.stats.batch_uploads += 1;
+            self.stats.bytes += (vb.len() + tb.len() + eb.len()) as u64;
+            self.batches.insert(batch, gpu);
+        }
     }
 }
 
 impl MeshSink for GpuMeshStore {
     fn begin_patch(&mut self, key: PatchKey) {
         if let Some((k, v, t)) = self.current.take() {
-            self.upload(k, v, t);
+            self.store(k, v, t);
         }
         self.current = Some((key, Vec::new(), Vec::new()));
     }
@@ -182,11 +245,13 @@ impl MeshSink for GpuMeshStore {
 
     fn end_patch(&mut self) {
         if let Some((k, v, t)) = self.current.take() {
-            self.upload(k, v, t);
+            self.store(k, v, t);
         }
     }
 
     fn remove_patch(&mut self, key: PatchKey) {
-        self.patches.remove(&key);
+        if self.patches.remove(&key).is_some() {
+            self.dirty.insert(batch_of(key));
+        }
     }
 }

@@ -1,9 +1,10 @@
 //! The wgpu renderer: shaded meshes, optional wireframe, wand cursor lines and a HUD,
 //! drawn for each eye and composed into the outputs of the chosen [`OutputMode`].
 //!
-//! Geometry arrives only through [`MeshSink`](sculpt_core::mesh::MeshSink): the two
-//! [`GpuMeshStore`]s (targets and stroke surfaces) keep one buffer set per patch, so an
-//! edit re-uploads only the patches it changed. The same code renders to windows and
+//! Geometry arrives only through [`MeshSink`](sculpt_core::mesh::MeshSink): the
+//! [`GpuMeshStore`]s (the document at each detail, and the live preview) pack patches
+//! into batches of neighbouring patches, so an edit re-uploads only the batches it
+//! changed and a frame draws one call per batch. The same code renders to windows and
 //! offscreen; [`Renderer::render_offscreen`] returns both eyes and the composite as
 //! images for PNG output (it runs on lavapipe, Mesa's CPU Vulkan driver).
 //!
@@ -165,8 +166,10 @@ pub struct OffscreenFrame {
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct FrameStats {
     /// CPU time for uniform and buffer updates plus command encoding and submission,
-    /// both eyes.
+    /// both eyes. (On lavapipe, submission runs part of the software rasteriser.)
     pub cpu: Duration,
+    /// The same up to the end of encoding, without the submission.
+    pub encode: Duration,
     /// Triangles drawn per eye.
     pub triangles: u64,
 }
@@ -693,6 +696,9 @@ impl Renderer {
     /// are sized for the first output (half its width for side by side).
     pub fn render(&mut self, input: &FrameInput<'_>, outputs: &[OutputTarget<'_>]) -> FrameStats {
         let start = Instant::now();
+        for store in [&mut self.targets, &mut self.interactive, &mut self.preview] {
+            store.flush();
+        }
         let outputs = &outputs[..outputs.len().min(MAX_OUTPUTS)];
         let Some(first) = outputs.first() else {
             return FrameStats::default();
@@ -773,14 +779,14 @@ impl Renderer {
             ] {
                 pass.set_pipeline(&self.mesh_pipeline);
                 pass.set_bind_group(1, material, &[]);
-                for (_, p) in store.patches() {
+                for p in store.batches() {
                     pass.set_vertex_buffer(0, p.vertices.slice(..));
                     pass.set_index_buffer(p.triangles.slice(..), wgpu::IndexFormat::Uint32);
                     pass.draw_indexed(0..p.triangle_index_count, 0, 0..1);
                 }
                 if self.wireframe {
                     pass.set_pipeline(&self.wire_pipeline);
-                    for (_, p) in store.patches() {
+                    for p in store.batches() {
                         pass.set_vertex_buffer(0, p.vertices.slice(..));
                         pass.set_index_buffer(p.edges.slice(..), wgpu::IndexFormat::Uint32);
                         pass.draw_indexed(0..p.edge_index_count, 0, 0..1);
@@ -862,13 +868,17 @@ impl Renderer {
                 pass.draw(0..hud_vertices.len() as u32, 0..1);
             }
         }
-        self.queue.submit([encoder.finish()]);
+        let command_buffer = encoder.finish();
+        let encode = start.elapsed();
+        self.queue.submit([command_buffer]);
         let stats = FrameStats {
             cpu: start.elapsed(),
+            encode,
             triangles: self.document_store().triangle_count() + self.preview.triangle_count(),
         };
         tracing::trace!(
             cpu_us = stats.cpu.as_micros() as u64,
+            encode_us = stats.encode.as_micros() as u64,
             triangles = stats.triangles,
             "frame"
         );
