@@ -29,6 +29,9 @@ pub enum Error {
     /// The replay configuration is invalid.
     #[error("config: {0}")]
     Config(String),
+    /// Rendering through vr-app's headless renderer failed (no adapter, bad size).
+    #[error("render: {0}")]
+    Render(String),
     /// A base scene or session could not be used.
     #[error("{0}")]
     Session(String),

@@ -33,6 +33,7 @@ pub mod error;
 pub mod import;
 pub mod output;
 pub mod pipeline;
+pub mod render;
 pub mod serve;
 pub mod sessions;
 pub mod tilt;

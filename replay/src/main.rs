@@ -13,6 +13,7 @@ use std::time::Duration;
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use replay::config::ReplayConfig;
+use replay::render::{SceneRenderer, every, parse_times};
 use replay::serve::{Endpoint, ServeOptions};
 use sculpt_core::sculpt::document::Document;
 use tracking::poselog::{PoseLog, RecordKind};
@@ -51,9 +52,57 @@ struct Cli {
     /// With --serve/--connect: seconds to wait for the display server.
     #[arg(long, default_value_t = 30.0)]
     wait: f64,
+    /// Also render left and right eye PNGs at these session times (seconds since the
+    /// first frame, comma-separated, e.g. `2.5,5.0`) through vr-app's headless renderer.
+    #[arg(long, value_name = "TIMES", conflicts_with = "render_every")]
+    render: Option<String>,
+    /// Render every S seconds of the session (0, S, 2S, ...).
+    #[arg(long, value_name = "S")]
+    render_every: Option<f64>,
+    /// Size of each rendered eye image.
+    #[arg(long, value_name = "WxH", default_value = "640x360")]
+    render_size: String,
+    /// The display server's config (`wandsculpt` TOML) for the rendered screen, stereo
+    /// rig and fixed head; default: vr-app's defaults.
+    #[arg(long, value_name = "FILE")]
+    render_config: Option<PathBuf>,
     /// No progress bar.
     #[arg(long, short)]
     quiet: bool,
+}
+
+/// The render times and the renderer asked for, if any.
+fn renderer(
+    cli: &Cli,
+    bytes: &[u8],
+    out: &std::path::Path,
+) -> Result<Option<(Vec<f64>, SceneRenderer)>> {
+    let times = match (&cli.render, cli.render_every) {
+        (Some(list), _) => parse_times(list)?,
+        (None, Some(step)) => {
+            let log = PoseLog::from_bytes(bytes).context("reading the pose log")?;
+            let span = match (log.records.first(), log.records.last()) {
+                (Some(a), Some(b)) => (b.time - a.time).as_secs_f64(),
+                _ => 0.0,
+            };
+            every(step, span)?
+        }
+        (None, None) => return Ok(None),
+    };
+    let (w, h) = cli
+        .render_size
+        .split_once('x')
+        .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
+        .with_context(|| format!("--render-size {}: want WxH", cli.render_size))?;
+    let display = match &cli.render_config {
+        Some(p) => {
+            vr_app::config::Config::load(p).with_context(|| format!("in {}", p.display()))?
+        }
+        None => vr_app::config::Config::default(),
+    };
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let r = SceneRenderer::new(&display, w, h, &out.join(".render-session"))?;
+    Ok(Some((times, r)))
 }
 
 fn main() -> ExitCode {
@@ -122,8 +171,32 @@ fn run(cli: Cli) -> Result<ExitCode> {
             b.set_position(at);
         }
     };
-    let outcome =
-        replay::pipeline::replay_log(&bytes, &cfg, base, &name, cli.realtime, Some(&mut tick))?;
+    let outcome = match renderer(&cli, &bytes, out)? {
+        None => {
+            replay::pipeline::replay_log(&bytes, &cfg, base, &name, cli.realtime, Some(&mut tick))?
+        }
+        Some((times, mut r)) => {
+            let mut shots = 0;
+            let outcome = replay::pipeline::replay_log_rendering(
+                &bytes,
+                &cfg,
+                base,
+                &name,
+                &times,
+                &mut |t, replayer| {
+                    r.render(replayer)?.save(out, t)?;
+                    shots += 1;
+                    Ok(())
+                },
+            )?;
+            println!(
+                "rendered {shots} stereo pairs ({}) into {}",
+                r.adapter(),
+                out.display()
+            );
+            outcome
+        }
+    };
     if let Some(b) = &bar {
         b.finish_and_clear();
     }

@@ -246,6 +246,11 @@ impl Replayer {
         self.last_t
     }
 
+    /// Seconds since the first frame.
+    pub fn elapsed(&self) -> f64 {
+        self.first_t.map_or(0.0, |t0| self.last_t - t0)
+    }
+
     /// Feeds one pose-log record.
     pub fn feed(&mut self, rec: &Record) {
         self.metrics.frames.records += 1;
@@ -445,12 +450,50 @@ pub fn replay_log(
     base: Document,
     session: &str,
     realtime: bool,
+    progress: Option<&mut dyn FnMut(u64, u64)>,
+) -> Result<Outcome> {
+    run_log(
+        bytes,
+        cfg,
+        base,
+        session,
+        realtime,
+        progress,
+        &[],
+        &mut |_, _| Ok(()),
+    )
+}
+
+/// Replays like [`replay_log`] and calls `at(t, replayer)` once for each of the sorted
+/// session times `times` (seconds since the first frame): at the first frame at or
+/// after `t`, or at the end for times past it. `--render` uses it.
+pub fn replay_log_rendering(
+    bytes: &[u8],
+    cfg: &ReplayConfig,
+    base: Document,
+    session: &str,
+    times: &[f64],
+    at: &mut dyn FnMut(f64, &Replayer) -> Result<()>,
+) -> Result<Outcome> {
+    run_log(bytes, cfg, base, session, false, None, times, at)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn run_log(
+    bytes: &[u8],
+    cfg: &ReplayConfig,
+    base: Document,
+    session: &str,
+    realtime: bool,
     mut progress: Option<&mut dyn FnMut(u64, u64)>,
+    times: &[f64],
+    at: &mut dyn FnMut(f64, &Replayer) -> Result<()>,
 ) -> Result<Outcome> {
     let started = Instant::now();
     let mut reader = PoseLogReader::new(bytes).map_err(|e| Error::Tracking(e.to_string()))?;
     let mut replayer = Replayer::new(cfg, base, session)?;
     let mut corrupt = 0;
+    let mut due = times.iter().copied().peekable();
     let total = bytes.iter().filter(|&&b| b == b'\n').count() as u64;
     for (k, item) in reader.by_ref().enumerate() {
         match item {
@@ -463,7 +506,10 @@ pub fn replay_log(
                         std::thread::sleep(due - now);
                     }
                 }
-                replayer.feed(&rec)
+                replayer.feed(&rec);
+                while let Some(t) = due.next_if(|&t| t <= replayer.elapsed()) {
+                    at(t, &replayer)?;
+                }
             }
             Err(tracking::TrackingError::PoseLogLine { .. }) => corrupt += 1,
             Err(e) => return Err(Error::Tracking(e.to_string())),
@@ -473,6 +519,9 @@ pub fn replay_log(
         {
             cb((k as u64 + 2).min(total), total);
         }
+    }
+    for t in due {
+        at(t, &replayer)?;
     }
     let truncated = reader.truncated_tail();
     let mut outcome = replayer.finish(corrupt, truncated);

@@ -241,3 +241,49 @@ fn connect_and_serial_send_the_same_bytes() {
         "the pty carried different bytes"
     );
 }
+
+#[test]
+fn render_writes_decodable_stereo_pairs_at_the_chosen_times() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = replay()
+        .arg(session("patch-carve"))
+        .arg("--out")
+        .arg(dir.path())
+        .args(["--render", "5.0,2.5", "--render-size", "160x90", "-q"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let load = |t: &str, eye: &str| {
+        image::open(dir.path().join(format!("render-{t}-{eye}.png")))
+            .unwrap_or_else(|e| panic!("render-{t}-{eye}.png: {e}"))
+            .to_rgba8()
+    };
+    let (l1, r1) = (load("2.500", "left"), load("2.500", "right"));
+    let (l2, r2) = (load("5.000", "left"), load("5.000", "right"));
+    assert_eq!(l1.dimensions(), (160, 90));
+    assert_eq!(r2.dimensions(), (160, 90));
+    assert_ne!(
+        l1.as_raw(),
+        r1.as_raw(),
+        "head-tracked stereo: the eyes differ"
+    );
+    assert_ne!(l2.as_raw(), r2.as_raw());
+    // Between 2.5 s and 5 s a groove was carved: the picture changed.
+    assert_ne!(l1.as_raw(), l2.as_raw());
+    // The session's scratch directory is gone.
+    assert!(!dir.path().join(".render-session").exists());
+    // Bad times are a clear error.
+    let bad = replay()
+        .arg(session("patch-carve"))
+        .arg("--out")
+        .arg(dir.path())
+        .args(["--render", "soon", "-q"])
+        .output()
+        .unwrap();
+    assert_eq!(bad.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("soon"));
+}

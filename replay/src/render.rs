@@ -1,0 +1,186 @@
+//! `--render`: left and right eye PNGs of the replayed scene at chosen session times,
+//! through vr-app's headless renderer (`vr_app::render`, wgpu; lavapipe in CI).
+//!
+//! At each time the renderer is given what the display server would show at that
+//! moment: the replayed [`Document`](sculpt_core::sculpt::document::Document), the
+//! interaction (wand cursor, live stroke preview) and the tracked head pose, for
+//! head-tracked off-axis stereo on the configured screen. Times are session seconds
+//! from the first frame; a time is rendered at the first frame at or after it (times
+//! past the end show the last frame).
+//!
+//! ```no_run
+//! use replay::{config::ReplayConfig, pipeline, render::{SceneRenderer, parse_times}};
+//! let log = std::fs::read("tests/data/sessions/patch-carve.poselog")?;
+//! let times = parse_times("2.5,5.0")?;
+//! let mut renderer = SceneRenderer::new(&vr_app::config::Config::default(), 320, 180, "out/.render".as_ref())?;
+//! let mut shots = Vec::new();
+//! pipeline::replay_log_rendering(&log, &ReplayConfig::default(), pipeline::default_document(), "s", &times,
+//!     &mut |t, r| { shots.push((t, renderer.render(r)?)); Ok(()) })?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use vr_app::app::{AppState, TrackingState};
+use vr_app::config::Config;
+use vr_app::projection::HeadPose;
+use vr_app::render::{FrameInput, Gpu, OutputMode, Renderer};
+
+use crate::error::{Error, Result};
+use crate::pipeline::Replayer;
+
+/// Most render times one run may ask for.
+pub const MAX_RENDER_TIMES: usize = 1000;
+
+/// Parses `--render` times: comma-separated non-negative seconds (`2.5,5.0`), sorted.
+pub fn parse_times(text: &str) -> Result<Vec<f64>> {
+    let mut times = Vec::new();
+    for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let t: f64 = part
+            .parse()
+            .map_err(|_| Error::Config(format!("--render: `{part}` is not a number of seconds")))?;
+        if !(t.is_finite() && t >= 0.0) {
+            return Err(Error::Config(format!("--render: {t} must be >= 0 seconds")));
+        }
+        times.push(t);
+    }
+    if times.is_empty() || times.len() > MAX_RENDER_TIMES {
+        return Err(Error::Config(format!(
+            "--render needs 1 to {MAX_RENDER_TIMES} times"
+        )));
+    }
+    times.sort_by(f64::total_cmp);
+    Ok(times)
+}
+
+/// `--render-every S` over a session of `duration` seconds: 0, S, 2S, ... up to the end.
+pub fn every(step: f64, duration: f64) -> Result<Vec<f64>> {
+    if !(step.is_finite() && step > 0.0) {
+        return Err(Error::Config(format!("--render-every {step} must be > 0")));
+    }
+    let n = (duration.max(0.0) / step).floor() as usize + 1;
+    if n > MAX_RENDER_TIMES {
+        return Err(Error::Config(format!(
+            "--render-every {step}: {n} images, more than {MAX_RENDER_TIMES}"
+        )));
+    }
+    Ok((0..n).map(|k| k as f64 * step).collect())
+}
+
+/// The stereo pair at one time.
+#[derive(Debug, Clone)]
+pub struct StereoShot {
+    /// Left eye.
+    pub left: image::RgbaImage,
+    /// Right eye.
+    pub right: image::RgbaImage,
+}
+
+impl StereoShot {
+    /// Writes `render-<T>-left.png` and `render-<T>-right.png` (T in seconds, three
+    /// decimals) into `dir` and returns their paths.
+    pub fn save(&self, dir: &Path, t: f64) -> Result<[PathBuf; 2]> {
+        let name = |eye: &str| dir.join(format!("render-{t:.3}-{eye}.png"));
+        let paths = [name("left"), name("right")];
+        for (img, path) in [(&self.left, &paths[0]), (&self.right, &paths[1])] {
+            img.save(path)
+                .map_err(|e| Error::Render(format!("{}: {e}", path.display())))?;
+        }
+        Ok(paths)
+    }
+}
+
+/// vr-app's headless renderer, set up once for a replay.
+pub struct SceneRenderer {
+    gpu: Gpu,
+    config: Config,
+    width: u32,
+    height: u32,
+}
+
+impl SceneRenderer {
+    /// A renderer for eye images of `width` x `height` with `display`'s screen, stereo
+    /// rig and fixed head (its tracking and files settings are not used). `scratch` is
+    /// a directory the display server's session may use (its journal goes there; it
+    /// is created and removed again around each render).
+    pub fn new(display: &Config, width: u32, height: u32, scratch: &Path) -> Result<Self> {
+        if width == 0 || height == 0 || width > 8192 || height > 8192 {
+            return Err(Error::Render(format!(
+                "image size {width}x{height} must be 1..=8192 each way"
+            )));
+        }
+        let gpu = Gpu::headless().map_err(|e| Error::Render(e.to_string()))?;
+        let mut config = display.clone();
+        config.tracking = None;
+        config.files.dir = scratch.to_path_buf();
+        config.files.scene = None;
+        config.files.autosave_every = 0;
+        config.display.hud = false;
+        Ok(Self {
+            gpu,
+            config,
+            width,
+            height,
+        })
+    }
+
+    /// The adapter in use, for logs.
+    pub fn adapter(&self) -> String {
+        self.gpu.describe()
+    }
+
+    /// Renders both eyes of what the display server would show now.
+    pub fn render(&mut self, replayer: &Replayer) -> Result<StereoShot> {
+        let err = |e: vr_app::VrError| Error::Render(e.to_string());
+        let dir = self.config.files.dir.clone();
+        let _ = std::fs::remove_dir_all(&dir);
+        let mut app = AppState::new(self.config.clone()).map_err(err)?;
+        app.session.doc = replayer.document().clone();
+        app.session.interaction = replayer.interaction().clone();
+        app.tracking = if replayer.interaction().is_tracked() {
+            TrackingState::Ok
+        } else {
+            TrackingState::Lost
+        };
+        if let Some(h) = replayer.head() {
+            app.set_head(Some(HeadPose {
+                position: h.pose.position_m,
+                orientation: h.pose.orientation,
+            }));
+        }
+        let mut renderer = Renderer::new(&self.gpu, wgpu::TextureFormat::Rgba8Unorm);
+        renderer.sync(&mut app);
+        let views = app.views().map_err(err)?;
+        let lines = app.overlay_lines();
+        let input = FrameInput {
+            views: &views,
+            lines: &lines,
+            hud: &[],
+        };
+        let frame = renderer
+            .render_offscreen(&input, OutputMode::Dual, self.width, self.height)
+            .map_err(err)?;
+        drop(app);
+        let _ = std::fs::remove_dir_all(&dir);
+        Ok(StereoShot {
+            left: frame.left,
+            right: frame.right,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn times_are_parsed_sorted_and_checked() {
+        assert_eq!(parse_times("5, 2.5,").unwrap(), vec![2.5, 5.0]);
+        for bad in ["", "x", "-1", "nan", "inf"] {
+            assert!(parse_times(bad).is_err(), "{bad}");
+        }
+        assert_eq!(every(2.0, 5.0).unwrap(), vec![0.0, 2.0, 4.0]);
+        assert!(every(0.0, 5.0).is_err());
+        assert!(every(1e-6, 60.0).is_err(), "too many images");
+    }
+}
