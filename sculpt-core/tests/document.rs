@@ -124,6 +124,46 @@ fn undo_redo_back_to_the_start_and_incremental_equals_fresh() {
     assert!(!doc.can_redo());
 }
 
+/// Applying, undoing and redoing a short stroke rewrites only the root cells it touches
+/// (and their neighbours), not the whole target.
+#[test]
+fn edits_rewrite_only_the_cells_of_the_affected_stroke() {
+    let mut doc = Document::new();
+    let t = doc.add_target("plane", plane());
+    let mut live = PatchMesh::new();
+    let all = doc
+        .tessellate(Detail::Interactive, &mut live)
+        .patches_written;
+    assert_eq!(all, doc.patch_count(Detail::Interactive));
+    assert!(all >= 64);
+    stroke(
+        &mut doc,
+        t,
+        DVec3::new(0.3, 0.3, 0.0),
+        DVec3::new(0.4, 0.3, 0.0),
+        Mode::Carve,
+    )
+    .unwrap();
+    let apply = doc
+        .tessellate(Detail::Interactive, &mut live)
+        .patches_written;
+    assert!(doc.undo());
+    let undo = doc
+        .tessellate(Detail::Interactive, &mut live)
+        .patches_written;
+    assert!(doc.redo());
+    let redo = doc
+        .tessellate(Detail::Interactive, &mut live)
+        .patches_written;
+    for (what, n) in [("apply", apply), ("undo", undo), ("redo", redo)] {
+        assert!(
+            n > 0 && n <= all / 4,
+            "{what}: {n} of {all} patches rewritten"
+        );
+    }
+    assert_eq!(live, doc.mesh(Detail::Interactive));
+}
+
 #[test]
 fn json_round_trip_and_bad_files() {
     let mut doc = Document::new();

@@ -87,6 +87,11 @@ impl Detail {
 /// Largest root grid, cells per side.
 pub const MAX_GRID: u32 = 64;
 
+/// Smallest root grid, cells per side: root cells are the unit of incremental
+/// re-tessellation, so even a flat target is cut into `8 x 8` of them to keep an edit's
+/// work local.
+pub const MIN_GRID: u32 = 8;
+
 /// The deviation the grid is planned for, as a fraction of the stated tolerance: the
 /// chord error is measured at cell midpoints, where it peaks for smooth patches; the
 /// margin covers higher-order terms between them.
@@ -114,7 +119,7 @@ impl GridPlan {
     /// the surface and the chord through the cell's corners (both diagonals at the
     /// centre) ([`chord_errors`]). Tangential parametric distortion (a clamped knot
     /// vector, a rational weight) moves no vertex off the surface and does not count.
-    /// The uniform root grid `n` (2 to [`MAX_GRID`]) is grown until 95 % of the cells
+    /// The uniform root grid `n` ([`MIN_GRID`] to [`MAX_GRID`]) is grown until 95 % of the cells
     /// hold (the error of a smooth patch falls as `1 / n^2`); the cells that still do
     /// not (creases, tight spots) are refined by `log2(error / goal)` levels, at most
     /// [`MAX_REFINE`] (the error falls at least by half per level).
@@ -133,7 +138,8 @@ impl GridPlan {
         if !d.is_finite() {
             return Self::uniform(MAX_GRID);
         }
-        let mut n = ((f64::from(probe) * (d / goal).sqrt()).ceil() as u32).clamp(2, MAX_GRID);
+        let mut n =
+            ((f64::from(probe) * (d / goal).sqrt()).ceil() as u32).clamp(MIN_GRID, MAX_GRID);
         loop {
             let errors = chord_errors(surface, n);
             let q = quantile(&errors);
@@ -556,6 +562,19 @@ impl TargetTessellation {
                     by_root[root as usize].push(k);
                 }
             });
+        }
+        // A canonical order, by geometry: the polygon boolean may renumber an outline's
+        // segments when another footprint joins it far away, and a root whose
+        // segments did not change must get the same input (same vertex order).
+        let key = |k: &u32| {
+            let (s, kind) = segs[*k as usize];
+            (
+                [s[0].x, s[0].y, s[1].x, s[1].y].map(f64::to_bits),
+                kind == Kind::Rim,
+            )
+        };
+        for list in &mut by_root {
+            list.sort_by_key(key);
         }
         Segments { segs, by_root }
     }
