@@ -51,7 +51,9 @@ pub fn replay_session(name: &str) -> Outcome {
 }
 
 /// A workspace binary, built now (a no-op when it is fresh) with the profile this test
-/// was built with, so an e2e test never runs a stale program. `package` and `bin` name
+/// was built with (`test`, or `release` under `cargo test --release`), so an e2e test
+/// never runs a stale program. Build every binary a test needs *before* starting any
+/// process that waits on another: the first build can take minutes on a CI machine. `package` and `bin` name
 /// it as in `cargo build -p PACKAGE --bin BIN`.
 pub fn workspace_bin(package: &str, bin: &str) -> PathBuf {
     // target/<profile>/deps/<test exe>
@@ -66,9 +68,9 @@ pub fn workspace_bin(package: &str, bin: &str) -> PathBuf {
     let mut cmd = std::process::Command::new(cargo);
     cmd.current_dir(workspace_root())
         .args(["build", "--quiet", "-p", package, "--bin", bin]);
-    if release {
-        cmd.arg("--release");
-    }
+    // The profile `cargo test` used for this exe, so the build reuses its artifacts
+    // instead of compiling the workspace again at another optimisation level.
+    cmd.args(["--profile", if release { "release" } else { "test" }]);
     let status = cmd
         .status()
         .unwrap_or_else(|e| panic!("cargo build -p {package} --bin {bin}: {e}"));

@@ -28,9 +28,24 @@ fn session(name: &str) -> PathBuf {
     sessions_dir().join(format!("{name}.poselog"))
 }
 
+/// The two programs, built once per test process before any of them starts: a
+/// `replay --serve` waiting for its client must never wait on a compiler.
+struct Bins {
+    replay: PathBuf,
+    wandsculpt: PathBuf,
+}
+
+fn bins() -> &'static Bins {
+    static BINS: std::sync::OnceLock<Bins> = std::sync::OnceLock::new();
+    BINS.get_or_init(|| Bins {
+        replay: workspace_bin("replay", "replay"),
+        wandsculpt: workspace_bin("vr-app", "wandsculpt"),
+    })
+}
+
 /// `replay SESSION --out DIR`: the offline outputs.
 fn offline(name: &str, dir: &Path) -> Vec<u8> {
-    let status = Command::new(workspace_bin("replay", "replay"))
+    let status = Command::new(&bins().replay)
         .arg(session(name))
         .arg("--out")
         .arg(dir)
@@ -45,9 +60,9 @@ fn offline(name: &str, dir: &Path) -> Vec<u8> {
 /// `replay SESSION --serve tcp://127.0.0.1:0`, and the address it listens on.
 fn serve_tcp(name: &str, speed: f64) -> (ChildGuard, String) {
     let mut child = ChildGuard::spawn(
-        Command::new(workspace_bin("replay", "replay"))
+        Command::new(&bins().replay)
             .arg(session(name))
-            .args(["--serve", "tcp://127.0.0.1:0", "--wait", "60", "-q"])
+            .args(["--serve", "tcp://127.0.0.1:0", "--wait", "120", "-q"])
             .args(["--speed", &speed.to_string()])
             .stdout(Stdio::piped()),
     );
@@ -92,7 +107,7 @@ addr = "{addr}"
 
 fn wandsculpt(config: &Path, out: &Path) -> ChildGuard {
     ChildGuard::spawn(
-        Command::new(workspace_bin("vr-app", "wandsculpt"))
+        Command::new(&bins().wandsculpt)
             .arg("--headless")
             .arg("--config")
             .arg(config)
