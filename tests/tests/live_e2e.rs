@@ -1,9 +1,10 @@
 //! End to end with real processes: `replay --serve` plays a shipped session as the
-//! tracking server over loopback TCP into `wandsculpt --headless`.
+//! tracking server over loopback TCP (or a socat pty pair) into `wandsculpt --headless`.
 //!
 //! - live path: the saved document equals the offline replay's `scene.json` byte for
 //!   byte (both run `tracking::stage::FrameStage` → `sculpt_core::interaction::Interaction`
 //!   → `sculpt_core::editor::apply`, with the frames' own DTrack times);
+//! - serial path: the same through a pseudo-terminal pair and a `serial-dtrack` source;
 //! - crash and recovery: the display server is killed with SIGKILL mid-session and
 //!   restarted on the same session directory; every operation its journal acknowledged
 //!   is in the final document exactly once.
@@ -81,6 +82,11 @@ fn serve_tcp(name: &str, speed: f64) -> (ChildGuard, String) {
 
 /// A headless display server config reading DTrack2 from `addr` (connecting out).
 fn display_config(dir: &Path, addr: &str) -> PathBuf {
+    display_config_with(dir, &format!("kind = \"tcp-connect\"\naddr = \"{addr}\""))
+}
+
+/// A headless display server config with one tracking source (its TOML keys).
+fn display_config_with(dir: &Path, source: &str) -> PathBuf {
     let path = dir.join("wandsculpt.toml");
     std::fs::write(
         &path,
@@ -96,8 +102,7 @@ wand = "wand0"
 head = "body0"
 
 [[tracking.input.source]]
-kind = "tcp-connect"
-addr = "{addr}"
+{source}
 "#
         ),
     )
@@ -106,6 +111,10 @@ addr = "{addr}"
 }
 
 fn wandsculpt(config: &Path, out: &Path) -> ChildGuard {
+    wandsculpt_logging(config, out, Stdio::piped())
+}
+
+fn wandsculpt_logging(config: &Path, out: &Path, log: Stdio) -> ChildGuard {
     ChildGuard::spawn(
         Command::new(&bins().wandsculpt)
             .arg("--headless")
@@ -115,7 +124,7 @@ fn wandsculpt(config: &Path, out: &Path) -> ChildGuard {
             .arg(out)
             .args(["--idle-exit", "1.0", "--duration", "100"])
             .stdout(Stdio::null())
-            .stderr(Stdio::piped()),
+            .stderr(log),
     )
 }
 
@@ -245,4 +254,86 @@ fn a_display_server_killed_mid_session_recovers_every_acknowledged_operation() {
         .filter(|e| matches!(e.edit, Edit::Stroke(_)))
         .count();
     assert_eq!(doc.strokes().len(), journal_strokes, "{log}");
+}
+
+/// A socat pseudo-terminal pair (`socat -d -d pty,raw,echo=0 pty,raw,echo=0`), killed
+/// when dropped.
+struct PtyPair {
+    socat: ChildGuard,
+    ends: [String; 2],
+}
+
+fn pty_pair() -> PtyPair {
+    let mut socat = ChildGuard::spawn(
+        Command::new("socat")
+            .args(["-d", "-d", "pty,raw,echo=0", "pty,raw,echo=0"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped()),
+    );
+    let mut log = BufReader::new(socat.0.stderr.take().expect("socat stderr")).lines();
+    let mut ends = Vec::new();
+    while ends.len() < 2 {
+        let line = log
+            .next()
+            .expect("socat exited before naming its ptys (is socat installed?)")
+            .expect("socat stderr");
+        if let Some((_, path)) = line.split_once("PTY is ") {
+            ends.push(path.trim().to_string());
+        }
+    }
+    // Keep draining its log so socat never blocks on a full pipe.
+    std::thread::spawn(move || log.for_each(drop));
+    PtyPair {
+        socat,
+        ends: [ends[0].clone(), ends[1].clone()],
+    }
+}
+
+#[test]
+fn a_session_served_over_a_serial_pty_builds_the_offline_document() {
+    let name = "patch-overlaps";
+    let dir = tempfile::tempdir().unwrap();
+    let expected = offline(name, &dir.path().join("offline"));
+    let pair = pty_pair();
+    let config = display_config_with(
+        dir.path(),
+        &format!("kind = \"serial-dtrack\"\nport = \"{}\"", pair.ends[1]),
+    );
+    let live = dir.path().join("live");
+    let log_path = dir.path().join("wandsculpt.log");
+    let log = std::fs::File::create(&log_path).unwrap();
+    let mut app = wandsculpt_logging(&config, &live, log.into());
+    // Serve only once the display server holds its end open, so no frame is lost.
+    let deadline = std::time::Instant::now() + TIMEOUT;
+    while !std::fs::read_to_string(&log_path).is_ok_and(|l| l.contains(": opened")) {
+        assert!(
+            matches!(app.0.try_wait(), Ok(None)),
+            "wandsculpt exited early:\n{}",
+            std::fs::read_to_string(&log_path).unwrap_or_default()
+        );
+        assert!(
+            std::time::Instant::now() < deadline,
+            "the pty was never opened"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let mut server = ChildGuard::spawn(
+        Command::new(&bins().replay)
+            .arg(session(name))
+            .arg("--serve")
+            .arg(format!("serial://{}", pair.ends[0]))
+            .args(["--speed", "3", "-q"])
+            .stdout(Stdio::null()),
+    );
+    assert!(server.wait_for("replay --serve serial", TIMEOUT).success());
+    let status = app.wait_for("wandsculpt", TIMEOUT);
+    let log = std::fs::read_to_string(&log_path).unwrap_or_default();
+    assert!(status.success(), "wandsculpt failed:\n{log}");
+    let saved = std::fs::read(live.join(DOCUMENT_FILE)).unwrap();
+    assert!(
+        saved == expected,
+        "the serial document differs from the offline scene.json: {}\n{log}",
+        first_difference(&saved, &expected)
+    );
+    drop(pair.socat);
 }

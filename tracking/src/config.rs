@@ -78,6 +78,15 @@ pub enum SourceConfig {
         #[serde(default = "buttons_default")]
         button_count: u8,
     },
+    /// DTrack2 ASCII frames over a serial line (a tracking server, or `replay --serve
+    /// serial://...`, writing to a serial port or pseudo-terminal).
+    SerialDtrack {
+        /// Port path, e.g. `/dev/ttyUSB0`.
+        port: String,
+        /// Baud rate (default 115200).
+        #[serde(default = "baud_default")]
+        baud: u32,
+    },
 }
 
 impl SourceConfig {
@@ -88,6 +97,7 @@ impl SourceConfig {
             SourceConfig::TcpConnect { addr } => format!("tcp-connect {addr}"),
             SourceConfig::Udp { addr } => format!("udp {addr}"),
             SourceConfig::Serial { port, baud, .. } => format!("serial {port}@{baud}"),
+            SourceConfig::SerialDtrack { port, baud } => format!("serial-dtrack {port}@{baud}"),
         }
     }
 }

@@ -158,6 +158,10 @@ pub async fn start_with_hub(hub: Hub, config: &TrackingConfig) -> Result<Running
                     opts,
                 )),
             ),
+            SourceConfig::SerialDtrack { port, baud } => (
+                None,
+                tokio::spawn(serial_dtrack(hub.clone(), src, port, baud, opts)),
+            ),
         };
         running.local_addrs.push(addr);
         running.tasks.push(task);
@@ -330,6 +334,26 @@ async fn serial(
                 backoff = opts.backoff_min;
                 let end = pump_serial(&hub, src, stream, wand_id, button_count, &opts).await;
                 tracing::info!("serial {port}: {end:?}; reopening");
+            }
+            Err(e) => tracing::debug!("open serial {port}: {e}"),
+        }
+        tokio::time::sleep(backoff).await;
+        backoff = (backoff * 2).min(opts.backoff_max);
+    }
+}
+
+/// DTrack2 frames from a serial port: opened (and reopened with backoff after an
+/// error or a quiet spell of the read timeout) and pumped like a TCP stream.
+async fn serial_dtrack(hub: Hub, src: SourceId, port: String, baud: u32, opts: TransportOptions) {
+    use tokio_serial::SerialPortBuilderExt;
+    let mut backoff = opts.backoff_min;
+    loop {
+        match tokio_serial::new(&port, baud).open_native_async() {
+            Ok(stream) => {
+                backoff = opts.backoff_min;
+                tracing::info!("serial-dtrack {port}: opened");
+                let end = pump_dtrack(&hub, src, stream, &opts).await;
+                tracing::info!("serial-dtrack {port}: {end:?}; reopening");
             }
             Err(e) => tracing::debug!("open serial {port}: {e}"),
         }
