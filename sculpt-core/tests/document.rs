@@ -165,6 +165,62 @@ fn edits_rewrite_only_the_cells_of_the_affected_stroke() {
 }
 
 #[test]
+fn a_preview_carves_only_the_interactive_mesh_and_leaves_no_trace() {
+    let mut doc = Document::new();
+    let t = doc.add_target("plane", plane());
+    let (mut live, mut fin) = (PatchMesh::new(), PatchMesh::new());
+    doc.tessellate(Detail::Interactive, &mut live);
+    doc.tessellate(Detail::Final, &mut fin);
+    let (live_before, fin_before) = (live.clone(), fin.clone());
+    let input = StrokeInput {
+        samples: line(DVec3::new(0.3, 0.5, 0.0), DVec3::new(0.7, 0.5, 0.0)),
+        tool: tool(Mode::Carve),
+    };
+    // A growing stroke, previewed as it is drawn.
+    for n in [10, 30, 60] {
+        let partial = StrokeInput {
+            samples: input.samples[..n].to_vec(),
+            tool: input.tool.clone(),
+        };
+        doc.set_preview(t, &partial).unwrap();
+        let written = doc
+            .tessellate(Detail::Interactive, &mut live)
+            .patches_written;
+        assert!(
+            written > 0 && written <= doc.patch_count(Detail::Interactive) / 4,
+            "{n} samples: {written} patches rewritten"
+        );
+    }
+    let hit = |m: &PatchMesh| m.first_hit([0.5, 0.5, 1.0], [0.0, 0.0, -1.0]).unwrap();
+    sculpt_core::assert_near!(hit(&live), 1.0 + 0.01, 1e-3);
+    assert_eq!(doc.tessellate(Detail::Final, &mut fin).patches_written, 0);
+    assert_eq!(fin, fin_before, "the final detail never shows a preview");
+    assert!(doc.strokes().is_empty() && !doc.can_redo());
+    assert_eq!(doc.to_json(), {
+        let mut plain = Document::new();
+        plain.add_target("plane", plane());
+        plain.to_json()
+    });
+    // The preview looks exactly like the stroke once applied.
+    let previewed = live.clone();
+    doc.clear_preview();
+    doc.apply_stroke(t, input.clone()).unwrap();
+    doc.tessellate(Detail::Interactive, &mut live);
+    assert_eq!(live, previewed);
+    assert!(doc.undo());
+    doc.tessellate(Detail::Interactive, &mut live);
+    assert_eq!(live, live_before, "clearing the preview restores the mesh");
+    // A rejected preview says why and leaves none behind.
+    let off = StrokeInput {
+        samples: line(DVec3::new(0.3, 0.5, 5.0), DVec3::new(0.7, 0.5, 5.0)),
+        tool: tool(Mode::Carve),
+    };
+    assert!(doc.set_preview(t, &off).is_err());
+    assert!(doc.preview().is_none());
+    assert!(doc.set_preview(t + 100, &input).is_err());
+}
+
+#[test]
 fn json_round_trip_and_bad_files() {
     let mut doc = Document::new();
     let t = doc.add_target("plane", plane());

@@ -55,6 +55,10 @@ pub struct MeshSync {
     pub patches_written: usize,
     /// Whether a preview is shown.
     pub preview: bool,
+    /// Whether the preview is the real groove or ridge, carved by the core into the
+    /// interactive detail (otherwise it is the ribbon along the wand path, shown while
+    /// the core rejects the stroke so far: too short, or off the surface).
+    pub preview_carved: bool,
 }
 
 /// The app state of one display server.
@@ -77,6 +81,9 @@ pub struct AppState {
     fixed_head: HeadPose,
     primed: bool,
     preview_shown: bool,
+    /// Samples of the live stroke last handed to `Document::set_preview` (0: none).
+    previewed_samples: usize,
+    preview_carved: bool,
     inverter: Option<(TargetId, SurfaceInverter)>,
 }
 
@@ -102,6 +109,8 @@ impl AppState {
             fixed_head: head,
             primed: false,
             preview_shown: false,
+            previewed_samples: 0,
+            preview_carved: false,
             inverter: None,
         })
     }
@@ -138,7 +147,31 @@ impl AppState {
         } else {
             Detail::Final
         };
+        let live_stroke = self
+            .session
+            .interaction
+            .live_stroke()
+            .filter(|s| s.samples.len() >= 2);
         let doc = &mut self.session.doc;
+        // The stroke being drawn is carved into the interactive detail by the core, as
+        // it will be once applied; re-done only when it gained samples.
+        match &live_stroke {
+            Some(stroke) if stroke.samples.len() != self.previewed_samples => {
+                self.previewed_samples = stroke.samples.len();
+                let target = doc.targets().get(stroke.target as usize).map(|t| t.id);
+                self.preview_carved = target.is_some_and(|id| {
+                    doc.set_preview(id, &sculpt_core::editor::stroke_input(stroke))
+                        .is_ok()
+                });
+            }
+            Some(_) => {}
+            None if self.previewed_samples > 0 => {
+                doc.clear_preview();
+                self.previewed_samples = 0;
+                self.preview_carved = false;
+            }
+            None => {}
+        }
         let mut written = 0;
         if !self.primed || shown == Detail::Interactive {
             written += doc
@@ -151,22 +184,22 @@ impl AppState {
                 .patches_written;
         }
         self.primed = true;
-        let live_stroke = self
-            .session
-            .interaction
-            .live_stroke()
-            .filter(|s| s.samples.len() >= 2);
-        if let Some(stroke) = live_stroke {
-            write_stroke_ribbon(&stroke, self.facing(), PREVIEW_KEY, sinks.preview);
-            self.preview_shown = true;
-        } else if self.preview_shown {
-            sinks.preview.remove_patch(PREVIEW_KEY);
-            self.preview_shown = false;
+        match live_stroke {
+            Some(stroke) if !self.preview_carved => {
+                write_stroke_ribbon(&stroke, self.facing(), PREVIEW_KEY, sinks.preview);
+                self.preview_shown = true;
+            }
+            _ if self.preview_shown => {
+                sinks.preview.remove_patch(PREVIEW_KEY);
+                self.preview_shown = false;
+            }
+            _ => {}
         }
         MeshSync {
             shown,
             patches_written: written,
-            preview: self.preview_shown,
+            preview: self.preview_shown || self.preview_carved,
+            preview_carved: self.preview_carved,
         }
     }
 
@@ -357,10 +390,19 @@ mod tests {
         for i in 0..=10 {
             wand(&mut app, i as f64 * 0.01, -0.1 + 0.02 * i as f64, 1);
         }
+        let interactive_before = m.interactive.clone();
         let live = m.sync(&mut app);
         assert_eq!(live.shown, Detail::Interactive);
-        assert!(live.preview);
-        assert!(m.preview.patches().any(|(k, _)| k == PREVIEW_KEY));
+        assert!(live.preview && live.preview_carved, "{live:?}");
+        assert!(
+            !m.preview.patches().any(|(k, _)| k == PREVIEW_KEY),
+            "no ribbon while the core carves the preview"
+        );
+        assert_ne!(
+            m.interactive, interactive_before,
+            "the live stroke is carved into the interactive detail"
+        );
+        assert!(app.session.doc.strokes().is_empty(), "but not applied yet");
         assert!(app.hud_lines()[0].contains("carving"));
         app.session
             .handle(&WandEvent::sample(0.15, WandSample::lost(1)))

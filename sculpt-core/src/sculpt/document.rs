@@ -130,7 +130,14 @@ pub struct Document {
     removed: Vec<(Detail, Vec<u64>)>,
     /// The grid of each target at each detail, planned once.
     grids: HashMap<(TargetId, Detail), GridPlan>,
+    /// The stroke being drawn, shown at interactive detail only (never saved or undone).
+    preview: Option<(TargetId, StrokeId, Stroke)>,
+    /// Preview updates so far (each gets a fresh id, so the tessellator sees it change).
+    preview_serial: u64,
 }
+
+/// Preview strokes take ids from here up; document strokes never get this far.
+pub const PREVIEW_IDS: StrokeId = 1 << 62;
 
 /// How far (metres) a wand sample may be from the target and still count as on it:
 /// twice the tool width, but at least 5 % of the target's size.
@@ -304,6 +311,42 @@ impl Document {
         }
     }
 
+    /// Shows `input` on `target` as the stroke being drawn: it is carved into the
+    /// [`Detail::Interactive`] tessellation (only the cells it touches, and the cells of
+    /// the preview it replaces, are rewritten) but it is not part of the document: not
+    /// in [`Self::strokes`], the history, the final detail, the exports or the JSON.
+    /// A stroke the sculpting layer rejects clears the preview and says why.
+    pub fn set_preview(&mut self, target: TargetId, input: &StrokeInput) -> Result<()> {
+        self.clear_preview();
+        let surface = &self
+            .targets
+            .iter()
+            .find(|t| t.id == target)
+            .ok_or(Error::NotFound {
+                kind: "target",
+                id: target,
+            })?
+            .surface;
+        let snap = snap_distance(&input.tool, surface.size());
+        let stroke = Stroke::build(surface, input, snap)?;
+        self.preview_serial += 1;
+        self.mark_dirty(target, stroke.bounds);
+        self.preview = Some((target, PREVIEW_IDS + self.preview_serial, stroke));
+        Ok(())
+    }
+
+    /// Removes the preview stroke, if any.
+    pub fn clear_preview(&mut self) {
+        if let Some((target, _, stroke)) = self.preview.take() {
+            self.mark_dirty(target, stroke.bounds);
+        }
+    }
+
+    /// The preview stroke and its target.
+    pub fn preview(&self) -> Option<(TargetId, &Stroke)> {
+        self.preview.as_ref().map(|(t, _, s)| (*t, s))
+    }
+
     /// The strokes on one target, in order, as the tessellator takes them.
     pub fn strokes_on(&self, target: TargetId) -> Vec<StrokeRef<'_>> {
         self.strokes
@@ -345,6 +388,12 @@ impl Document {
                 .iter()
                 .filter(|s| s.target == t.id)
                 .filter_map(|s| self.built.get(&s.id).map(|b| (s.id, b)))
+                .chain(
+                    self.preview
+                        .iter()
+                        .filter(|(target, ..)| detail == Detail::Interactive && *target == t.id)
+                        .map(|(_, id, stroke)| (*id, stroke)),
+                )
                 .collect();
             let s = view.update_strokes(&t.surface, &strokes, sink);
             stats.patches_written += s.patches_written;
