@@ -1,7 +1,10 @@
 //! Replay configuration (`--config display.toml`).
 //!
-//! The file is the display server's TOML config; replay reads the tables that decide
-//! what a session does and ignores the rest (screens, windows):
+//! The file is the display server's TOML config (`vr-app/config/wall.toml`, the file
+//! `wandsculpt --config` reads): replay takes its `[tracking]` wand, head, timeout,
+//! calibration and filter, its `[tool]` and its `[interaction]`, and ignores the
+//! screens and windows ([`ReplayConfig::from_display`]). It also reads a flat layout of
+//! its own, for sessions recorded without a display config:
 //!
 //! ```toml
 //! [calibration]            # tracker -> display frame (tracking::calibration)
@@ -61,7 +64,7 @@ use crate::error::{Error, Result};
 
 /// Which tracker devices are the wand and the head, and when the wand counts as lost.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct TrackingSection {
     /// Flystick id of the wand.
     pub wand_id: u32,
@@ -125,7 +128,7 @@ impl ToolSection {
 
 /// Everything replay reads from the display config.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct ReplayConfig {
     /// Tracker-to-display transform (the tracking crate's calibration).
     pub calibration: Calibration,
@@ -140,11 +143,49 @@ pub struct ReplayConfig {
 }
 
 impl ReplayConfig {
-    /// Parses and validates TOML text.
+    /// Parses and validates TOML text: the display server's own config (the file
+    /// `wandsculpt --config` takes, read as [`vr_app::config::Config`]), or the flat
+    /// layout above. A file that is neither gets both reasons.
     pub fn from_toml_str(text: &str) -> Result<Self> {
-        let cfg: Self = toml::from_str(text).map_err(|e| Error::Config(e.to_string()))?;
+        let cfg = match vr_app::config::Config::from_toml_str(text) {
+            Ok(display) => Self::from_display(&display)?,
+            Err(display) => toml::from_str::<Self>(text).map_err(|flat| {
+                Error::Config(format!(
+                    "neither a display server config ({display}) nor a replay config ({flat})"
+                ))
+            })?,
+        };
         cfg.validate()?;
         Ok(cfg)
+    }
+
+    /// What replay takes from a display server config: the frame stage of its
+    /// `[tracking]` (wand, head, timeout, and the calibration and filter of
+    /// `[tracking.input]`; the stage's defaults without `[tracking]`), its `[tool]` and
+    /// its `[interaction]`: exactly what the live app runs with.
+    pub fn from_display(display: &vr_app::config::Config) -> Result<Self> {
+        let stage = match &display.tracking {
+            Some(t) => t.stage_config().map_err(|e| Error::Config(e.to_string()))?,
+            None => StageConfig::default(),
+        };
+        let tool = display.tool.tool();
+        Ok(Self {
+            tracking: TrackingSection {
+                wand_id: stage.wand_id,
+                head_id: stage.head_id,
+                timeout: stage.timeout_s,
+            },
+            calibration: stage.calibration,
+            filter: stage.filter,
+            tool: ToolSection {
+                mode: display.tool.mode,
+                profile: tool.profile,
+                width: tool.width,
+                depth: tool.depth,
+                taper: tool.taper,
+            },
+            interaction: display.interaction,
+        })
     }
 
     /// The frame stage's config (wand and head ids, timeout, calibration, filter).
@@ -219,6 +260,29 @@ impl ReplayConfig {
 mod tests {
     use super::*;
     use glam::DVec3;
+
+    #[test]
+    fn the_display_servers_own_config_is_read_as_the_live_app_reads_it() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../vr-app/config/wall.toml");
+        let text = std::fs::read_to_string(path).unwrap();
+        let cfg = ReplayConfig::from_toml_str(&text).unwrap();
+        let display = vr_app::config::Config::from_toml_str(&text).unwrap();
+        let live = display.tracking.as_ref().unwrap().stage_config().unwrap();
+        assert_eq!(cfg.stage(), live, "the same frame stage as wandsculpt");
+        assert_eq!(cfg.tracking.wand_id, 1, "wall.toml's wand is wand1");
+        assert_eq!(cfg.tool.tool(), display.tool.tool());
+        assert_eq!(cfg.interaction, display.interaction);
+        // A display config with a wand the stage cannot read is refused, not ignored.
+        let e = ReplayConfig::from_toml_str(&text.replace("\"wand1\"", "\"body3\"")).unwrap_err();
+        assert!(e.to_string().contains("Flystick"), "{e}");
+        // Neither kind of config: both reasons.
+        let e = ReplayConfig::from_toml_str("[screen]\nbogus = 1\n[tool]\nwidth = \"x\"\n")
+            .unwrap_err();
+        assert!(
+            e.to_string().contains("neither a display server config"),
+            "{e}"
+        );
+    }
 
     #[test]
     fn bad_settings_are_named() {

@@ -46,8 +46,14 @@ fn bins() -> &'static Bins {
 
 /// `replay SESSION --out DIR`: the offline outputs.
 fn offline(name: &str, dir: &Path) -> Vec<u8> {
+    offline_with(name, dir, &[])
+}
+
+/// `replay SESSION ARGS.. --out DIR`: the offline outputs.
+fn offline_with(name: &str, dir: &Path, args: &[&std::ffi::OsStr]) -> Vec<u8> {
     let status = Command::new(&bins().replay)
         .arg(session(name))
+        .args(args)
         .arg("--out")
         .arg(dir)
         .arg("-q")
@@ -293,11 +299,16 @@ fn pty_pair() -> PtyPair {
 fn a_session_served_over_a_serial_pty_builds_the_offline_document() {
     let name = "patch-overlaps";
     let dir = tempfile::tempdir().unwrap();
-    let expected = offline(name, &dir.path().join("offline"));
     let pair = pty_pair();
     let config = display_config_with(
         dir.path(),
         &format!("kind = \"serial-dtrack\"\nport = \"{}\"", pair.ends[1]),
+    );
+    // Offline with the display server's own config file, as a lab would replay it.
+    let expected = offline_with(
+        name,
+        &dir.path().join("offline"),
+        &["--config".as_ref(), config.as_os_str()],
     );
     let live = dir.path().join("live");
     let log_path = dir.path().join("wandsculpt.log");
