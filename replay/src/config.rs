@@ -85,46 +85,9 @@ impl Default for TrackingSection {
     }
 }
 
-/// The starting tool: the interaction's mode and [`Tool`] settings.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ToolSection {
-    /// Starting mode.
-    pub mode: Mode,
-    /// `v` or `u`.
-    pub profile: Profile,
-    /// Width, metres.
-    pub width: f64,
-    /// Depth or height, metres.
-    pub depth: f64,
-    /// End taper length, metres.
-    pub taper: f64,
-}
-
-impl Default for ToolSection {
-    fn default() -> Self {
-        let tool = Tool::default();
-        Self {
-            mode: Mode::Carve,
-            profile: tool.profile,
-            width: tool.width,
-            depth: tool.depth,
-            taper: tool.taper,
-        }
-    }
-}
-
-impl ToolSection {
-    /// The interaction's tool.
-    pub fn tool(&self) -> Tool {
-        Tool {
-            profile: self.profile,
-            width: self.width,
-            depth: self.depth,
-            taper: self.taper,
-        }
-    }
-}
+/// The starting tool: the display server's own `[tool]` table (mode, profile, width,
+/// depth, taper).
+pub use vr_app::config::ToolConfig as ToolSection;
 
 /// Everything replay reads from the display config.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -168,7 +131,6 @@ impl ReplayConfig {
             Some(t) => t.stage_config().map_err(|e| Error::Config(e.to_string()))?,
             None => StageConfig::default(),
         };
-        let tool = display.tool.tool();
         Ok(Self {
             tracking: TrackingSection {
                 wand_id: stage.wand_id,
@@ -177,13 +139,7 @@ impl ReplayConfig {
             },
             calibration: stage.calibration,
             filter: stage.filter,
-            tool: ToolSection {
-                mode: display.tool.mode,
-                profile: tool.profile,
-                width: tool.width,
-                depth: tool.depth,
-                taper: tool.taper,
-            },
+            tool: display.tool,
             interaction: display.interaction,
         })
     }

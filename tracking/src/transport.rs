@@ -326,34 +326,36 @@ async fn serial(
     button_count: u8,
     opts: TransportOptions,
 ) {
-    use tokio_serial::SerialPortBuilderExt;
-    let mut backoff = opts.backoff_min;
-    loop {
-        match tokio_serial::new(&port, baud).open_native_async() {
-            Ok(stream) => {
-                backoff = opts.backoff_min;
-                let end = pump_serial(&hub, src, stream, wand_id, button_count, &opts).await;
-                tracing::info!("serial {port}: {end:?}; reopening");
-            }
-            Err(e) => tracing::debug!("open serial {port}: {e}"),
-        }
-        tokio::time::sleep(backoff).await;
-        backoff = (backoff * 2).min(opts.backoff_max);
-    }
+    keep_serial_open(&port, baud, &opts, |stream| {
+        pump_serial(&hub, src, stream, wand_id, button_count, &opts)
+    })
+    .await
 }
 
-/// DTrack2 frames from a serial port: opened (and reopened with backoff after an
-/// error or a quiet spell of the read timeout) and pumped like a TCP stream.
+/// DTrack2 frames from a serial port, pumped like a TCP stream.
 async fn serial_dtrack(hub: Hub, src: SourceId, port: String, baud: u32, opts: TransportOptions) {
+    keep_serial_open(&port, baud, &opts, |stream| {
+        pump_dtrack(&hub, src, stream, &opts)
+    })
+    .await
+}
+
+/// Opens `port` and runs `pump` on it; after an open error, a read error or a quiet
+/// spell of the read timeout, re-opens it with exponential backoff, forever.
+async fn keep_serial_open<F, Fut>(port: &str, baud: u32, opts: &TransportOptions, mut pump: F)
+where
+    F: FnMut(tokio_serial::SerialStream) -> Fut,
+    Fut: std::future::Future<Output = StreamEnd>,
+{
     use tokio_serial::SerialPortBuilderExt;
     let mut backoff = opts.backoff_min;
     loop {
-        match tokio_serial::new(&port, baud).open_native_async() {
+        match tokio_serial::new(port, baud).open_native_async() {
             Ok(stream) => {
                 backoff = opts.backoff_min;
-                tracing::info!("serial-dtrack {port}: opened");
-                let end = pump_dtrack(&hub, src, stream, &opts).await;
-                tracing::info!("serial-dtrack {port}: {end:?}; reopening");
+                tracing::info!("serial {port}: opened");
+                let end = pump(stream).await;
+                tracing::info!("serial {port}: {end:?}; reopening");
             }
             Err(e) => tracing::debug!("open serial {port}: {e}"),
         }
