@@ -55,6 +55,23 @@ pub fn clamp_uv(uv: DVec2) -> DVec2 {
     DVec2::new(c(uv.x), c(uv.y))
 }
 
+/// Brings a parameter that left the unit square across the seam of a closed surface
+/// back into it (each coordinate outside `[0, 1]` is taken modulo 1); coordinates inside
+/// are unchanged, so for open surfaces, whose parameters never leave the square, this is
+/// the identity. NaN becomes 0.5, as in [`clamp_uv`].
+pub fn wrap_uv(uv: DVec2) -> DVec2 {
+    let w = |x: f64| {
+        if !x.is_finite() {
+            0.5
+        } else if (0.0..=1.0).contains(&x) {
+            x
+        } else {
+            x.rem_euclid(1.0)
+        }
+    };
+    DVec2::new(w(uv.x), w(uv.y))
+}
+
 /// The unit normal `Su x Sv / |Su x Sv|` at `uv`.
 ///
 /// At a degenerate point (a pole, where one derivative vanishes, or a fold) the normal
@@ -318,5 +335,25 @@ mod tests {
         assert_near!(n.to_array(), [0.0, 0.0, -1.0], 1e-3);
         let e = extent(&sph);
         assert!(e.closed_u && !e.closed_v);
+    }
+
+    #[test]
+    fn wrap_uv_brings_seam_crossings_back_and_leaves_the_square_alone() {
+        assert_near!(
+            wrap_uv(DVec2::new(1.25, 0.5)).to_array(),
+            [0.25, 0.5],
+            1e-15
+        );
+        assert_near!(
+            wrap_uv(DVec2::new(-0.25, 1.0)).to_array(),
+            [0.75, 1.0],
+            1e-15
+        );
+        assert_near!(wrap_uv(DVec2::new(0.0, 1.0)).to_array(), [0.0, 1.0], 0.0);
+        assert_near!(
+            wrap_uv(DVec2::new(f64::NAN, 0.2)).to_array(),
+            [0.5, 0.2],
+            0.0
+        );
     }
 }
