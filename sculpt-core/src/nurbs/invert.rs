@@ -7,7 +7,7 @@
 //!
 //! 1. **Cached bounding hierarchy.** The surface is split into Bezier patches (knot
 //!    refinement, P&T A5.4), each patch is subdivided by de Casteljau into a few
-//!    sub-patches (about 8 per surface length, at most 8 per span), and each sub-patch
+//!    sub-patches (about 16 per surface length, at most 16 per span), and each sub-patch
 //!    ("leaf") keeps the axis-aligned box of its control points and a thin oriented box
 //!    in a frame fitted to it. Weights are positive, so the boxes contain the sub-patch
 //!    (convex-hull property). A binary tree over the leaf grid holds the unions.
@@ -39,6 +39,18 @@
 //! 5. **Polish.** A last Newton run on the whole domain starts from the best leaf answer;
 //!    in closed directions (the seam of a sphere or torus) it wraps around instead of
 //!    stopping at the seam.
+//! 6. **Global certificate.** A Newton run finds *a* local minimum of its leaf; a query
+//!    near a centre of curvature can see two in one leaf, and the farther one may be the
+//!    one found. So the answer is proven global, or beaten: for every leaf the search
+//!    reached whose box could still hold a closer point, `g = w^2 (|S - P|^2 - d*^2)`
+//!    must be `>= 0`. A leaf whose `g` is convex (an O(1) test from precomputed bounds
+//!    of its second differences) has one minimum, the answer or its own run's, and is
+//!    cleared at once; otherwise the Bernstein net of `g` (`distance_net.rs`) clears it
+//!    when no coefficient is negative, or when the net is convex and its tangent plane
+//!    at the answer stays above zero, or else it is split in four, up to
+//!    `MAX_CERTIFY_DEPTH` levels, where a bounded Newton run from the lowest coefficient
+//!    decides. A closer point found on the way becomes the answer and the certificate
+//!    runs again. Points closer by less than `CERTIFY_TOL` (1e-10 m) are not sought.
 //!
 //! Stopping rules are P&T's: point coincidence `|S - P| <= POINT_EPS` (criterion 1),
 //! zero cosine `|S_u . (S - P)| <= COSINE_EPS |S_u| |S - P|` and the same for `v`
@@ -57,6 +69,7 @@
 
 use glam::{DVec2, DVec3, DVec4};
 
+use super::distance_net::{DistanceNets, MAX_SIDE, convex_bound_at, is_convex, net_min, split4};
 use super::power::PowerPatches;
 use super::surface::{NurbsSurface, SurfaceDerivs};
 use crate::tolerance::{COSINE_EPS, POINT_EPS};
@@ -113,6 +126,55 @@ impl Candidate {
                 on_leaf_edge: true,
             };
         }
+    }
+}
+
+/// The leaves one query's search reached (those whose boxes could hold a point closer
+/// than the best so far), with the interior minimum the leaf's run found, if it
+/// converged. The certificate only needs these leaves: every other one was skipped by
+/// a lower bound no smaller than a real surface point's distance. A leaf whose net is
+/// convex is cleared by its tangent plane at the recorded minimum, with no new run.
+#[derive(Debug, Clone, Copy)]
+struct Visited {
+    leaves: [(u32, Option<DVec2>); 32],
+    len: usize,
+    /// More leaves were reached than recorded: the certificate walks the tree instead.
+    overflow: bool,
+}
+
+impl Visited {
+    fn new() -> Self {
+        Self {
+            leaves: [(0, None); 32],
+            len: 0,
+            overflow: false,
+        }
+    }
+
+    fn reach(&mut self, leaf: u32) {
+        if self.len < self.leaves.len() {
+            self.leaves[self.len] = (leaf, None);
+            self.len += 1;
+        } else {
+            self.overflow = true;
+        }
+    }
+
+    fn record(&mut self, leaf: usize, uv: DVec2) {
+        if let Some(entry) = self.leaves[..self.len]
+            .iter_mut()
+            .rev()
+            .find(|e| e.0 as usize == leaf)
+        {
+            entry.1 = Some(uv);
+        }
+    }
+
+    fn get(&self, leaf: usize) -> Option<DVec2> {
+        self.leaves[..self.len]
+            .iter()
+            .find(|e| e.0 as usize == leaf)
+            .and_then(|e| e.1)
     }
 }
 
@@ -321,7 +383,20 @@ pub struct SurfaceInverter {
     /// The Bezier patches in power form, for fast Newton steps (`None` only when the
     /// Bezier form is unavailable or too big; B-spline evaluation is used then).
     power: Option<PowerPatches>,
+    /// The distance nets of the leaves, for the global certificate (`None` for degrees
+    /// above 7 or very big surfaces, see [`MAX_NET_COEFFICIENTS`]).
+    nets: Option<DistanceNets>,
 }
+
+/// Largest number of net coefficients kept for the certificate (40 bytes each).
+const MAX_NET_COEFFICIENTS: usize = 1 << 20;
+
+/// Distance (metres) by which a point must beat an answer for the certificate to look
+/// for it: closer points within this are not worth the search.
+const CERTIFY_TOL: f64 = 1e-10;
+
+/// Subdivision depth of a leaf's net before the certificate settles for a Newton run.
+const MAX_CERTIFY_DEPTH: u32 = 6;
 
 fn box_dist2(p: DVec3, lo: DVec3, hi: DVec3) -> f64 {
     let d = (lo - p).max(p - hi).max(DVec3::ZERO);
@@ -422,6 +497,7 @@ impl SurfaceInverter {
             corners: [(u0, v0), (u0, v1), (u1, v0), (u1, v1)]
                 .map(|(u, v)| (DVec2::new(u, v), surface.point(u, v))),
             power: None,
+            nets: None,
         };
         inv.build();
         inv
@@ -507,14 +583,16 @@ impl SurfaceInverter {
             })
             .collect();
         // Split every span into pieces no longer than a target length (a fraction of
-        // the surface size), at most 8 per span, keeping the tree modest for big nets.
+        // the surface size), at most 16 per span, keeping the tree modest for big nets.
+        // Small leaves are nearly flat, so most pass the certificate's O(1) convexity
+        // test and need no net (see `certify`).
         let total_len = len_u.iter().sum::<f64>().max(len_v.iter().sum::<f64>());
-        let mut target = total_len / 8.0;
+        let mut target = total_len / 16.0;
         let pieces_of = |len: &[f64], target: f64| -> Vec<usize> {
             len.iter()
                 .map(|&l| {
                     if target > 0.0 {
-                        ((l / target).ceil() as usize).clamp(1, 8)
+                        ((l / target).ceil() as usize).clamp(1, 16)
                     } else {
                         1
                     }
@@ -538,6 +616,9 @@ impl SurfaceInverter {
         };
         let (off_u, off_v) = (offsets(&su), offsets(&sv));
         let (lu, lv): (usize, usize) = (su.iter().sum(), sv.iter().sum());
+        let mut nets = (lu * lv * (2 * p + 1) * (2 * q + 1) <= MAX_NET_COEFFICIENTS)
+            .then(|| DistanceNets::new(p + 1, q + 1, lu * lv))
+            .flatten();
         let mut leaf_boxes = vec![(DVec3::ZERO, DVec3::ZERO); lu * lv];
         let mut side_data = vec![[(DVec3::ZERO, DVec3::ZERO); 4]; lu * lv];
         let mut leaf_data = Vec::new();
@@ -573,6 +654,9 @@ impl SurfaceInverter {
                         let (leaf, aabb, sides) =
                             Leaf::from_piece(piece, p + 1, q + 1, uv_lo, uv_hi);
                         leaf_data[gi * lv + gj] = leaf;
+                        if let Some(nets) = nets.as_mut() {
+                            nets.set(gi * lv + gj, piece);
+                        }
                         side_data[gi * lv + gj] = sides;
                         leaf_boxes[gi * lv + gj] = aabb;
                     }
@@ -581,6 +665,7 @@ impl SurfaceInverter {
         }
         self.leaves = leaf_data;
         self.sides = side_data;
+        self.nets = nets;
         self.nodes.reserve(2 * lu * lv);
         self.build_node(&leaf_boxes, lv, 0, lu, 0, lv);
     }
@@ -645,8 +730,9 @@ impl SurfaceInverter {
         if !p.is_finite() {
             return self.invalid_query();
         }
-        let best = self.search(p, None);
-        self.finish(p, best)
+        let mut solved = Visited::new();
+        let best = self.search(p, None, &mut solved);
+        self.finish(p, best, &solved)
     }
 
     /// Like [`Self::closest_point`], but first runs Newton from `seed_uv` (for example
@@ -667,8 +753,9 @@ impl SurfaceInverter {
                 self.closed,
             )
         };
-        let best = self.search(p, Some(seed));
-        self.finish(p, best)
+        let mut solved = Visited::new();
+        let best = self.search(p, Some(seed), &mut solved);
+        self.finish(p, best, &solved)
     }
 
     /// Local Newton only, from `seed_uv`, on the whole domain (wrapping in closed
@@ -749,11 +836,19 @@ impl SurfaceInverter {
         }
     }
 
-    /// Polishes the best leaf answer on the whole domain and converts it.
-    fn finish(&self, p: DVec3, best: Candidate) -> Projection {
+    /// Polishes the best leaf answer on the whole domain, proves it global (or finds
+    /// the closer point the leaf runs missed, see [`Self::certify`]) and converts it.
+    fn finish(&self, p: DVec3, best: Candidate, solved: &Visited) -> Projection {
+        let polished = self.polish(p, best);
+        self.to_projection(self.certify(p, polished, solved))
+    }
+
+    /// A last Newton run on the whole domain from a leaf answer (wrapping in closed
+    /// directions); the better of the two.
+    fn polish(&self, p: DVec3, best: Candidate) -> Candidate {
         if best.converged && !best.on_leaf_edge && !self.closed[0] && !self.closed[1] {
             // Already a converged answer of the whole-domain problem.
-            return self.to_projection(best);
+            return best;
         }
         let polished = self.newton(p, best.uv, self.domain_lo, self.domain_hi, self.closed);
         // Rounding: the polish evaluates with the power form, which can differ from the
@@ -770,7 +865,243 @@ impl SurfaceInverter {
             best
         };
         out.iters = best.iters + polished.iters;
-        self.to_projection(out)
+        out
+    }
+
+    /// The global certificate (see `distance_net`): proves that no point of the surface
+    /// is closer to `p` than `best` by more than [`CERTIFY_TOL`], or finds one and
+    /// starts again from it.
+    ///
+    /// A leaf's Newton run finds one local minimum; when a sub-patch holds two (a query
+    /// near a centre of curvature), the other can be the global one. For every leaf whose
+    /// box could still hold a closer point, the Bernstein net of
+    /// `g = w^2 (|S - P|^2 - |S* - P|^2)` decides: no negative coefficient proves the
+    /// leaf clear; a convex `g` is cleared by its tangent plane at the answer (or at the
+    /// box's own Newton minimum, which is the closer point if there is one); otherwise
+    /// the net is split in four and each quarter is decided the same way, down to
+    /// [`MAX_CERTIFY_DEPTH`] levels, where a bounded Newton run has the last word.
+    fn certify(&self, p: DVec3, mut best: Candidate, solved: &Visited) -> Candidate {
+        let Some(nets) = &self.nets else {
+            return best;
+        };
+        for _ in 0..4 {
+            let Some(closer) = self.find_closer(nets, p, &best, solved) else {
+                return best;
+            };
+            let iters = best.iters;
+            best = self.polish(p, closer);
+            best.iters += iters;
+        }
+        best
+    }
+
+    /// A point closer than `best` by more than [`CERTIFY_TOL`] in a leaf that cannot be
+    /// cleared, or `None` when every leaf is cleared. Only the leaves the search reached
+    /// can hold a closer point; when there were too many to record, the tree is walked.
+    fn find_closer(
+        &self,
+        nets: &DistanceNets,
+        p: DVec3,
+        best: &Candidate,
+        visited: &Visited,
+    ) -> Option<Candidate> {
+        if !visited.overflow {
+            return visited.leaves[..visited.len]
+                .iter()
+                .find_map(|&(index, run)| self.closer_in_leaf(nets, p, best, index as usize, run));
+        }
+        let mut stack = [0u32; 128];
+        let mut top = 1usize;
+        while top > 0 {
+            top -= 1;
+            let node = self.nodes[stack[top] as usize];
+            if box_dist2(p, node.lo, node.hi) >= best.dist2 {
+                continue;
+            }
+            if node.right == u32::MAX {
+                let index = node.left as usize;
+                let found = self.closer_in_leaf(nets, p, best, index, visited.get(index));
+                if found.is_some() {
+                    return found;
+                }
+            } else if top + 2 <= stack.len() {
+                stack[top] = node.left;
+                stack[top + 1] = node.right;
+                top += 2;
+            }
+        }
+        None
+    }
+
+    /// Decides one leaf; `run` is the interior minimum the search's run found in it.
+    fn closer_in_leaf(
+        &self,
+        nets: &DistanceNets,
+        p: DVec3,
+        best: &Candidate,
+        index: usize,
+        run: Option<DVec2>,
+    ) -> Option<Candidate> {
+        let leaf = &self.leaves[index];
+        if box_dist2(to_frame(&leaf.frame, p), leaf.obb.0, leaf.obb.1) >= best.dist2 {
+            return None;
+        }
+        // A convex leaf has one minimum: the answer, when it lies in the leaf, or the
+        // one the search's run found in it. Either clears the leaf without a net.
+        if best.converged
+            && (run.is_some() || self.holds(leaf, best.uv))
+            && nets.leaf_is_convex(index, p, best.dist2)
+        {
+            return None;
+        }
+        let (m1, n1) = nets.size();
+        let mut buf = [0.0; MAX_SIDE * MAX_SIDE];
+        let net = &mut buf[..m1 * n1];
+        let threshold = nets.query(index, p, best.dist2, CERTIFY_TOL, net);
+        self.closer_in_net(
+            p,
+            best,
+            net,
+            (m1, n1),
+            (leaf.uv_lo, leaf.uv_hi),
+            threshold,
+            run,
+            0,
+        )
+    }
+
+    /// True when the leaf's parameter box holds `uv` (or its copy across a seam).
+    fn holds(&self, leaf: &Leaf, uv: DVec2) -> bool {
+        let period = self.domain_hi - self.domain_lo;
+        (0..2).all(|k| {
+            let inside = |x: f64| x >= leaf.uv_lo[k] && x <= leaf.uv_hi[k];
+            inside(uv[k])
+                || (self.closed[k] && (inside(uv[k] + period[k]) || inside(uv[k] - period[k])))
+        })
+    }
+
+    /// Decides one (sub-)patch with its net (see [`Self::certify`]).
+    #[allow(clippy::too_many_arguments)]
+    fn closer_in_net(
+        &self,
+        p: DVec3,
+        best: &Candidate,
+        net: &[f64],
+        (m1, n1): (usize, usize),
+        (lo, hi): (DVec2, DVec2),
+        threshold: f64,
+        hint: Option<DVec2>,
+        depth: u32,
+    ) -> Option<Candidate> {
+        if net_min(net) >= threshold {
+            return None;
+        }
+        let local = |uv: DVec2| ((uv - lo) / (hi - lo)).clamp(DVec2::ZERO, DVec2::ONE);
+        let convex = is_convex(net, m1, n1);
+        if convex {
+            // The tangent plane at the answer (or its copy across a seam), clamped into
+            // the box.
+            let period = self.domain_hi - self.domain_lo;
+            let shifts: &[f64] = if self.closed[0] || self.closed[1] {
+                &[0.0, -1.0, 1.0]
+            } else {
+                &[0.0]
+            };
+            for &shift in shifts {
+                let mut uv = best.uv;
+                for k in 0..2 {
+                    if self.closed[k] {
+                        uv[k] += shift * period[k];
+                    }
+                }
+                let st = local(uv);
+                if convex_bound_at(net, m1, n1, st.x, st.y) >= threshold {
+                    return None;
+                }
+            }
+            // The leaf's own minimum, found by the search's run in it.
+            if let Some(uv) = hint {
+                let st = local(uv);
+                if convex_bound_at(net, m1, n1, st.x, st.y) >= threshold {
+                    return None;
+                }
+            }
+        }
+        if convex || depth >= MAX_CERTIFY_DEPTH {
+            // The box's own minimum, from its smallest coefficient.
+            let k = (0..m1 * n1)
+                .min_by(|&a, &b| net[a].total_cmp(&net[b]))
+                .unwrap_or(0);
+            let st = DVec2::new(
+                (k / n1) as f64 / (m1 - 1) as f64,
+                (k % n1) as f64 / (n1 - 1) as f64,
+            );
+            let c = self.newton(p, lo + st * (hi - lo), lo, hi, [false; 2]);
+            if c.dist2.sqrt() < best.dist2.sqrt() - CERTIFY_TOL {
+                return Some(c);
+            }
+            let st = local(c.uv);
+            if depth >= MAX_CERTIFY_DEPTH || convex_bound_at(net, m1, n1, st.x, st.y) >= threshold {
+                return None;
+            }
+        }
+        // Quarter nets on the stack, sized for bicubic patches when they fit.
+        if m1 * n1 <= 49 {
+            self.closer_in_quarters::<49>(p, best, net, (m1, n1), (lo, hi), threshold, depth)
+        } else {
+            self.closer_in_quarters::<{ MAX_SIDE * MAX_SIDE }>(
+                p,
+                best,
+                net,
+                (m1, n1),
+                (lo, hi),
+                threshold,
+                depth,
+            )
+        }
+    }
+
+    /// Splits a net in four and decides each quarter, the lowest first. `L` is the
+    /// length of the stack buffers (at least `m1 * n1`).
+    #[allow(clippy::too_many_arguments)]
+    fn closer_in_quarters<const L: usize>(
+        &self,
+        p: DVec3,
+        best: &Candidate,
+        net: &[f64],
+        (m1, n1): (usize, usize),
+        (lo, hi): (DVec2, DVec2),
+        threshold: f64,
+        depth: u32,
+    ) -> Option<Candidate> {
+        let mid = (lo + hi) * 0.5;
+        let boxes = [
+            (lo, mid),
+            (DVec2::new(mid.x, lo.y), DVec2::new(hi.x, mid.y)),
+            (DVec2::new(lo.x, mid.y), DVec2::new(mid.x, hi.y)),
+            (mid, hi),
+        ];
+        let mut quarters = [[0.0; L]; 4];
+        split4(net, m1, n1, &mut quarters);
+        let mut order = [0usize, 1, 2, 3];
+        let mins = quarters.each_ref().map(|q| net_min(&q[..m1 * n1]));
+        order.sort_unstable_by(|&a, &b| mins[a].total_cmp(&mins[b]));
+        for q in order {
+            let found = self.closer_in_net(
+                p,
+                best,
+                &quarters[q][..m1 * n1],
+                (m1, n1),
+                boxes[q],
+                threshold,
+                None,
+                depth + 1,
+            );
+            if found.is_some() {
+                return found;
+            }
+        }
+        None
     }
 
     /// The closer of `start` and the domain corners. The corners are candidates of their
@@ -800,7 +1131,7 @@ impl SurfaceInverter {
     /// the first bound no smaller than the best answer. Every skip compares a lower bound
     /// of the distance to a sub-patch with the distance to a real surface point, so no
     /// closer point is ever skipped.
-    fn search(&self, p: DVec3, start: Option<Candidate>) -> Candidate {
+    fn search(&self, p: DVec3, start: Option<Candidate>, solved: &mut Visited) -> Candidate {
         let mut best = self.best_corner(p, start);
         let mut iters = best.iters;
         // Leaves to solve: (lower bound of the squared distance, leaf index).
@@ -831,8 +1162,9 @@ impl SurfaceInverter {
                 best.offer_point(hi, c11, p);
                 found[n_found] = (bound, node.left);
                 n_found += 1;
+                solved.reach(node.left);
                 if n_found == found.len() {
-                    self.solve_leaves(p, &mut found, &mut best, &mut iters);
+                    self.solve_leaves(p, &mut found, &mut best, &mut iters, solved);
                     n_found = 0;
                 }
                 continue;
@@ -851,7 +1183,7 @@ impl SurfaceInverter {
                 top += 2;
             }
         }
-        self.solve_leaves(p, &mut found[..n_found], &mut best, &mut iters);
+        self.solve_leaves(p, &mut found[..n_found], &mut best, &mut iters, solved);
         best.iters = iters;
         best
     }
@@ -864,13 +1196,16 @@ impl SurfaceInverter {
         leaves: &mut [(f64, u32)],
         best: &mut Candidate,
         iters: &mut u32,
+        solved: &mut Visited,
     ) {
         leaves.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
         for &(bound, index) in leaves.iter() {
             if bound >= best.dist2 {
                 break;
             }
-            self.solve_leaf(p, index as usize, best, iters, true);
+            if let Some(uv) = self.solve_leaf(p, index as usize, best, iters, true) {
+                solved.record(index as usize, uv);
+            }
         }
     }
 
@@ -885,7 +1220,7 @@ impl SurfaceInverter {
         best: &mut Candidate,
         iters: &mut u32,
         prune: bool,
-    ) {
+    ) -> Option<DVec2> {
         let leaf = &self.leaves[index];
         let p_local = to_frame(&leaf.frame, p);
         let (r_lo, r_hi) = (leaf.obb.0 - p_local, leaf.obb.1 - p_local);
@@ -954,6 +1289,7 @@ impl SurfaceInverter {
                 *best = c;
             }
         }
+        interior_uv
     }
 
     /// The closest point with no pruning at all: the domain corners, then every leaf's
@@ -963,11 +1299,15 @@ impl SurfaceInverter {
     fn closest_point_exhaustive(&self, p: DVec3) -> Projection {
         let mut best = self.best_corner(p, None);
         let mut iters = 0;
+        let mut solved = Visited::new();
+        solved.overflow = true;
         for index in 0..self.leaves.len() {
-            self.solve_leaf(p, index, &mut best, &mut iters, false);
+            if let Some(uv) = self.solve_leaf(p, index, &mut best, &mut iters, false) {
+                solved.record(index, uv);
+            }
         }
         best.iters = iters;
-        self.finish(p, best)
+        self.finish(p, best, &solved)
     }
 
     /// True when the leaf's side `at_hi` in direction `k` lies on a domain edge that is
@@ -1479,5 +1819,41 @@ mod tests {
             }
         }
         assert_eq!(checked, 9_600);
+    }
+
+    /// The certificate on its own: started from the farther of two local minima in one
+    /// sub-patch (the answer a single Newton run gave before the certificate existed),
+    /// it must find the closer one. Surfaces and queries from the brute-force stress
+    /// (`tests/nurbs_inversion.rs`, seeds `0x5EED_7777` and `0x5EED_8888`).
+    #[test]
+    fn the_certificate_finds_the_closer_of_two_minima_in_one_sub_patch() {
+        let cases = [
+            (
+                include_str!("../../tests/data/two-minima-7777.json"),
+                DVec3::new(0.14254816814439428, 0.7308498353856546, -0.405004002983505),
+                DVec2::new(0.029900237998824058, 0.6363834357135493),
+                0.18909275928916175,
+            ),
+            (
+                include_str!("../../tests/data/two-minima-8888.json"),
+                DVec3::new(0.5125582972693886, 0.530029542421877, 0.006136924500610902),
+                DVec2::new(0.41903973422145674, 0.26001628760683676),
+                0.0938234741809953,
+            ),
+        ];
+        for (json, p, wrong_uv, brute_force) in cases {
+            let s = NurbsSurface::from_json(json).expect("valid surface");
+            let inv = s.inverter();
+            let wrong = inv.newton(p, wrong_uv, inv.domain_lo, inv.domain_hi, inv.closed);
+            assert!(wrong.converged && wrong.dist2.sqrt() > brute_force + 1e-8);
+            let mut visited = Visited::new();
+            visited.overflow = true;
+            let fixed = inv.certify(p, wrong, &visited);
+            assert!(
+                fixed.dist2.sqrt() <= brute_force + 1e-9,
+                "{} vs brute force {brute_force}",
+                fixed.dist2.sqrt()
+            );
+        }
     }
 }

@@ -14,7 +14,8 @@
 //! - Fitting ([`fit`]): grid interpolation (A9.4), grid least squares (A9.7 style),
 //!   scattered-point approximation (least squares / minimum-norm pseudo-inverse).
 //! - [`SurfaceInverter`]: closest points / point inversion (eqs. 6.5 to 6.7), correct on
-//!   domain edges, corners, seams and poles; see [`invert`] for the method.
+//!   domain edges, corners, seams and poles, and proven global by a Bernstein-net
+//!   certificate; see [`invert`] for the method.
 //!
 //! # JSON
 //!
@@ -66,6 +67,7 @@
 
 pub mod construct;
 pub mod curve;
+mod distance_net;
 pub mod fit;
 pub mod invert;
 pub mod knots;
