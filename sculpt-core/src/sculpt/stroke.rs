@@ -68,6 +68,9 @@ pub const CORNER_ANGLE_DEG: f64 = 50.0;
 pub const MAX_SAMPLES: usize = 2000;
 /// At most this many input samples are accepted.
 pub const MAX_INPUT_SAMPLES: usize = 1_000_000;
+/// On a closed target, the most whole-period copies per direction of a footprint piece
+/// or a depth query (a stroke may wind round a torus a few times).
+const MAX_PERIODS: i64 = 8;
 
 /// Cross-section of the chisel.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -673,21 +676,21 @@ fn bounds_of(poly: &[DVec2]) -> Rect {
 }
 
 /// The whole-period shifts (zero in open directions) that bring a copy of `rect` to
-/// meet the closed unit square; at most three per direction.
+/// meet the closed unit square.
 fn period_shifts(rect: &Rect, closed: [bool; 2]) -> impl Iterator<Item = DVec2> + use<> {
     let (u0, u1) = whole_range(-rect.max.x, 1.0 - rect.min.x, closed[0]);
     let (v0, v1) = whole_range(-rect.max.y, 1.0 - rect.min.y, closed[1]);
     (v0..=v1).flat_map(move |kv| (u0..=u1).map(move |ku| DVec2::new(ku as f64, kv as f64)))
 }
 
-/// The whole numbers in `[a, b]`, at most three, as an inclusive range; `(0, 0)` in an
-/// open direction (`closed` false), empty when `a` or `b` is not finite.
+/// The whole numbers in `[a, b]`, at most [`MAX_PERIODS`], as an inclusive range;
+/// `(0, 0)` in an open direction (`closed` false), empty when `a` or `b` is not finite.
 fn whole_range(a: f64, b: f64, closed: bool) -> (i64, i64) {
     let (a, b) = (a.ceil(), b.floor());
     if !closed {
         (0, 0)
     } else if a.is_finite() && b.is_finite() {
-        (a as i64, (b as i64).min(a as i64 + 2))
+        (a as i64, (b as i64).min(a as i64 + MAX_PERIODS - 1))
     } else {
         (0, -1)
     }
@@ -934,7 +937,7 @@ impl Buckets {
     }
 
     /// Per direction, the range of whole-period shifts `k` for which `uv + k` lies in
-    /// the padded bounds (only `0` in an open direction; at most three).
+    /// the padded bounds (only `0` in an open direction).
     fn shifts(&self, uv: DVec2) -> [(i64, i64); 2] {
         let pad = self.pad();
         let (lo, hi) = (self.bounds.min - pad, self.bounds.max + pad);
@@ -1165,6 +1168,38 @@ mod tests {
             let uv = DVec2::new(u, 0.5);
             assert_near!(st.depth_at(uv, s(wrap_uv(uv)).p), 0.02, 1e-4, "{u}");
         }
+    }
+
+    #[test]
+    fn a_stroke_back_at_its_start_is_an_untapered_loop() {
+        let s = plane(1.0);
+        let circle = |turns: f64| -> Vec<(f64, DVec3)> {
+            (0..=100)
+                .map(|i| {
+                    let a = i as f64 / 100.0 * turns * std::f64::consts::TAU;
+                    (
+                        i as f64,
+                        DVec3::new(0.5 + 0.2 * a.cos(), 0.5 + 0.2 * a.sin(), 0.0),
+                    )
+                })
+                .collect()
+        };
+        let mut tapered = tool();
+        tapered.taper = 0.1;
+        let input = |samples| StrokeInput {
+            samples,
+            tool: tapered.clone(),
+        };
+        let round = Stroke::build(&s, &input(circle(1.0)), 0.1).unwrap();
+        assert!(round.is_loop());
+        assert!(round.depth.iter().all(|&d| d == 0.02));
+        // Full depth at the join (the start, at angle 0).
+        let join = DVec2::new(0.7, 0.5);
+        assert_near!(round.depth_at(join, join.extend(0.0)), 0.02, 1e-9);
+        // Three quarters of a turn is no loop: its ends taper.
+        let open = Stroke::build(&s, &input(circle(0.75)), 0.1).unwrap();
+        assert!(!open.is_loop());
+        assert_eq!(open.depth[0], 0.0);
     }
 
     #[test]
