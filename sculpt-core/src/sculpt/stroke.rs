@@ -939,6 +939,9 @@ impl Buckets {
     /// Per direction, the range of whole-period shifts `k` for which `uv + k` lies in
     /// the padded bounds (only `0` in an open direction).
     fn shifts(&self, uv: DVec2) -> [(i64, i64); 2] {
+        if self.closed == [false, false] {
+            return [(0, 0); 2];
+        }
         let pad = self.pad();
         let (lo, hi) = (self.bounds.min - pad, self.bounds.max + pad);
         [
