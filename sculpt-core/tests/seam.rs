@@ -182,7 +182,7 @@ fn carve_across_the_sphere_seam_is_one_groove() {
     let (away, away_id) = carve(sphere(), arc(std::f64::consts::PI), tool(0.01));
     let a = s.footprint.area();
     let b = away.stroke(away_id).expect("stroke").footprint.area();
-    assert_near!(a, b, 1e-3 * b);
+    assert_near!(a, b, 1e-6 * b);
     assert!(
         s.footprint
             .contours()
