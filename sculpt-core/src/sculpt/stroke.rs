@@ -12,15 +12,30 @@
 //! 3. **Project** every sample onto the target by Newton point inversion seeded from the
 //!    previous sample ([`project_seeded`]). Samples farther than the snap distance from
 //!    the surface are off the surface; the longest run on the surface is kept (the
-//!    stroke is clipped), and a stroke with no run is rejected. On a closed surface
-//!    (sphere, torus) a crossing of the seam also ends a run, and rim points that fall
-//!    across it are moved back onto it: strokes are clipped at the seam, not wrapped.
+//!    stroke is clipped), and a stroke with no run is rejected.
 //! 4. Compute the **rims**: the 3D points `C +- w/2 B` (`B = N x T`, the side direction)
 //!    projected onto the surface. Tapered ends scale the width and depth smoothly to
-//!    zero over the taper length, so the groove starts and ends cleanly.
-//! 5. The **footprint** is the union of the strip's triangles (and round end caps when
+//!    zero over the taper length, so the groove starts and ends cleanly. A stroke whose
+//!    end comes back within half a tool width of its start is a **loop**: it is closed
+//!    by one more segment and has no tapered ends, so it carves one continuous groove.
+//! 5. The **footprint** is the union of the strip's quads (and round end caps when
 //!    there is no taper), made simple by a polygon boolean and clipped to the domain;
 //!    self-crossing or reversing paths give a simple outline (possibly with holes).
+//!
+//! **Closed targets wrap.** On a target closed in u or v (a sphere around its axis, a
+//! torus both ways: [`extent_sampled`]'s `closed_u`, `closed_v`) a stroke crosses the
+//! seam as the user expects. The projected centreline is **unwrapped**: the seeded
+//! Newton projection runs on the target recentred at the previous sample, so a
+//! parameter continues past 1 or below 0 instead of jumping ([`Stroke::centre_uv`] and
+//! [`Stroke::rims_uv`] are unwrapped; the target is only ever evaluated at
+//! [`wrap_uv`]`(uv)`). Rims and footprint pieces are built in that unwrapped plane, and
+//! the footprint is brought into the square by taking each piece's copies shifted by
+//! whole periods (-1, 0, +1 ...) that meet the square, uniting them and clipping the
+//! union to the square. Piece bounds are the shifted copies' bounds, the depth lookup
+//! queries the shifted copies of its parameter, and [`Stroke::centre_segments`] splits
+//! the centreline exactly on the seam: the depth field is continuous across the seam and
+//! the tessellation stays crack-free (watertight on a closed target) there. Poles (a
+//! sphere's collapsed edges) and open directions are clamped as before.
 //!
 //! The groove's depth at a surface point `p = S(uv)` is a chisel sweep: with `r` the
 //! distance from `p` to the projected centreline and `w(s), d(s)` the tapered half-width
@@ -37,7 +52,10 @@
 //! ```
 
 use super::jordan::{Rect, Region, signed_area};
-use super::surface::{ParamSurface, extent_sampled, normal_at, project, project_seeded};
+use super::surface::{
+    ParamSurface, Projection, SurfacePoint, extent_sampled, normal_at, project, project_seeded,
+    wrap_uv,
+};
 use crate::error::{Error, Result};
 use glam::{DVec2, DVec3};
 use i_overlay::core::fill_rule::FillRule;
@@ -50,6 +68,9 @@ pub const CORNER_ANGLE_DEG: f64 = 50.0;
 pub const MAX_SAMPLES: usize = 2000;
 /// At most this many input samples are accepted.
 pub const MAX_INPUT_SAMPLES: usize = 1_000_000;
+/// On a closed target, the most whole-period copies per direction of a footprint piece
+/// or a depth query (a stroke may wind round a torus a few times).
+const MAX_PERIODS: i64 = 8;
 
 /// Cross-section of the chisel.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -178,26 +199,34 @@ pub struct StrokeInput {
 pub struct Stroke {
     /// The chisel.
     pub tool: Tool,
-    /// Centreline parameters on the target.
+    /// Centreline parameters on the target, **unwrapped**: on a closed target (sphere,
+    /// torus) a parameter continues past 1 or below 0 where the stroke crosses the
+    /// seam, so consecutive samples are never more than half a period apart. Evaluate
+    /// the target at [`wrap_uv`]`(uv)`; on an open target every value lies in the square.
     pub centre_uv: Vec<DVec2>,
     /// Centreline points `S(centre_uv)`.
     pub centre: Vec<DVec3>,
     /// Unit surface normals at the centreline.
     pub normals: Vec<DVec3>,
-    /// Left and right rim parameters.
+    /// Left and right rim parameters, unwrapped like [`Self::centre_uv`]: each within
+    /// half a period of its centre sample (evaluate the target at [`wrap_uv`]`(uv)`).
     pub rims_uv: [Vec<DVec2>; 2],
     /// Tapered half-width per sample, metres.
     pub half_width: Vec<f64>,
     /// Tapered depth per sample, metres.
     pub depth: Vec<f64>,
-    /// The simple footprint outline, clipped to the domain.
+    /// The simple footprint outline in the square: on a closed target the union of the
+    /// unwrapped footprint's copies shifted by whole periods, clipped to the square.
     pub footprint: Region,
     /// Bounding rectangle of the footprint in UV.
     pub bounds: Rect,
     /// Bounding rectangles of the pieces whose union is the footprint (strip quads and
     /// end caps): together they cover the footprint, the centreline and the profile
     /// sample lines, so a quadtree cell that meets none of them is untouched.
+    /// On a closed target these are the pieces' copies shifted into the square.
     pieces: Vec<Rect>,
+    centre_segments: Vec<[DVec2; 2]>,
+    is_loop: bool,
     buckets: Buckets,
 }
 
@@ -318,20 +347,23 @@ impl Stroke {
         }
         let pts = resample(&raw, tool.width * 0.25);
         // Project, seeded from the previous sample; keep the longest on-surface run.
-        // On a closed surface a seeded projection stops at the seam: the point is then
-        // projected afresh, and a jump across the seam ends the run (strokes are
-        // clipped at the seam, not wrapped across it).
+        // In a closed direction the parameter is unwrapped: the seeded projection runs
+        // on the target recentred at the previous sample, so it crosses the seam and
+        // the parameter continues past 1 (or below 0) instead of jumping.
         let closed = [ext.closed_u, ext.closed_v];
         let mut runs: Vec<Vec<(DVec2, DVec3)>> = vec![Vec::new()];
-        let mut seed = None;
+        let mut seed: Option<DVec2> = None;
         for &p in &pts {
             let pr = match seed {
                 Some(s) => {
-                    let pr = project_seeded(surface, p, s);
-                    if pr.distance > snap || on_seam(pr.uv, closed) {
+                    let pr = project_near(surface, closed, p, s, s);
+                    if pr.distance > snap || at_view_edge(pr.uv - s, closed) {
                         let fresh = project(surface, p);
                         if fresh.distance < pr.distance {
-                            fresh
+                            Projection {
+                                uv: unwrap_near(fresh.uv, s, closed),
+                                ..fresh
+                            }
                         } else {
                             pr
                         }
@@ -341,7 +373,8 @@ impl Stroke {
                 }
                 None => project(surface, p),
             };
-            if pr.distance <= snap && pr.p.is_finite() {
+            if pr.distance <= snap && pr.p.is_finite() && pr.uv.is_finite() {
+                // Only an open direction can jump (a fresh projection far away).
                 let jump = seed.is_some_and(|s: DVec2| (pr.uv - s).abs().max_element() > 0.5);
                 if jump {
                     runs.push(Vec::new());
@@ -357,12 +390,21 @@ impl Stroke {
                 }
             }
         }
-        let run = runs.into_iter().max_by_key(|r| r.len()).unwrap_or_default();
+        let mut run = runs.into_iter().max_by_key(|r| r.len()).unwrap_or_default();
         let run_len: f64 = run.windows(2).map(|w| w[0].1.distance(w[1].1)).sum();
         if run.len() < 2 || run_len <= tool.width * 1e-3 {
             return Err(reject("the stroke does not lie on the surface"));
         }
-        Self::from_centreline(surface, tool, run, closed)
+        // A stroke whose end comes back to its start is a loop: it is closed with one
+        // more segment and carved without tapered ends, one continuous groove.
+        let (first, last) = (run[0], run[run.len() - 1]);
+        let is_loop = run.len() > 3
+            && run_len > 2.0 * tool.width
+            && first.1.distance(last.1) <= 0.5 * tool.width;
+        if is_loop && first.1.distance(last.1) > crate::tolerance::POINT_EPS {
+            run.push((unwrap_near(first.0, last.0, closed), first.1));
+        }
+        Self::from_centreline(surface, tool, run, closed, is_loop)
     }
 
     fn from_centreline(
@@ -370,17 +412,26 @@ impl Stroke {
         tool: Tool,
         run: Vec<(DVec2, DVec3)>,
         closed: [bool; 2],
+        is_loop: bool,
     ) -> Result<Self> {
         let n = run.len();
         let centre_uv: Vec<DVec2> = run.iter().map(|r| r.0).collect();
         let centre: Vec<DVec3> = run.iter().map(|r| r.1).collect();
-        let normals: Vec<DVec3> = centre_uv.iter().map(|&uv| normal_at(surface, uv)).collect();
+        // The target is evaluated at wrapped parameters only.
+        let normals: Vec<DVec3> = centre_uv
+            .iter()
+            .map(|&uv| normal_at(surface, wrap_uv(uv)))
+            .collect();
         let mut cum = vec![0.0];
         for w in centre.windows(2) {
             cum.push(cum.last().copied().unwrap_or(0.0) + w[0].distance(w[1]));
         }
         let total = cum[n - 1];
-        let taper_len = tool.taper.min(total * 0.5);
+        let taper_len = if is_loop {
+            0.0
+        } else {
+            tool.taper.min(total * 0.5)
+        };
         let taper = |s: f64| -> f64 {
             if taper_len <= 0.0 {
                 return 1.0;
@@ -390,57 +441,69 @@ impl Stroke {
         };
         let half_width: Vec<f64> = cum.iter().map(|&s| 0.5 * tool.width * taper(s)).collect();
         let depth: Vec<f64> = cum.iter().map(|&s| tool.depth * taper(s)).collect();
+        // A rim point: the 3D point `centre[i] + offset` projected onto the target, seeded
+        // by the parameter step that best realises the offset, in the unwrapped plane
+        // within half a period of the centre.
+        let rim_of = |i: usize, sp: &SurfacePoint, offset: DVec3| -> DVec2 {
+            let seed = centre_uv[i] + uv_step(sp.du, sp.dv, offset);
+            project_near(surface, closed, centre[i] + offset, centre_uv[i], seed).uv
+        };
         let mut rims_uv = [Vec::with_capacity(n), Vec::with_capacity(n)];
         for i in 0..n {
             let t = (centre[(i + 1).min(n - 1)] - centre[i.saturating_sub(1)]).normalize_or_zero();
             let side = normals[i].cross(t).normalize_or_zero();
-            let sp = surface.eval(centre_uv[i]);
+            let sp = surface.eval(wrap_uv(centre_uv[i]));
             for (k, sign) in [(0, 1.0), (1, -1.0)] {
-                let target = centre[i] + side * (sign * half_width[i]);
-                let seed = centre_uv[i] + uv_step(sp.du, sp.dv, target - centre[i]);
-                let rim = project_seeded(surface, target, seed).uv;
-                rims_uv[k].push(seam_side(rim, centre_uv[i], closed));
+                rims_uv[k].push(rim_of(i, &sp, side * (sign * half_width[i])));
             }
         }
-        // Footprint: the union of the strip's triangles plus round caps, clipped.
-        let mut pieces: Vec<Vec<[f64; 2]>> = Vec::new();
-        let mut piece_bounds: Vec<Rect> = Vec::new();
-        let mut push = |tri: Vec<DVec2>| {
-            let mut tri = tri;
-            let r = tri.iter().fold(Rect::new(tri[0], tri[0]), |r, &p| {
-                Rect::new(r.min.min(p), r.max.max(p))
-            });
-            piece_bounds.push(r);
-            let a = signed_area(&tri);
-            if a.abs() < 1e-18 {
-                return;
-            }
-            if a < 0.0 {
-                tri.reverse();
-            }
-            pieces.push(tri.into_iter().map(|p| [p.x, p.y]).collect());
-        };
+        // Footprint pieces in the unwrapped plane: the strip's quads plus round caps.
+        let mut polys: Vec<Vec<DVec2>> = Vec::with_capacity(2 * n + 2);
         let [l, r] = &rims_uv;
         for i in 0..n - 1 {
             let c = [centre_uv[i], centre_uv[i + 1]];
-            push(vec![l[i], l[i + 1], c[1], c[0]]);
-            push(vec![r[i], c[0], c[1], r[i + 1]]);
+            polys.push(vec![l[i], l[i + 1], c[1], c[0]]);
+            polys.push(vec![r[i], c[0], c[1], r[i + 1]]);
         }
         if taper_len <= 0.0 {
             for (end, next) in [(0, 1), (n - 1, n - 2)] {
                 let t = (centre[end] - centre[next]).normalize_or_zero();
                 let side = normals[end].cross(t).normalize_or_zero();
-                let sp = surface.eval(centre_uv[end]);
+                let sp = surface.eval(wrap_uv(centre_uv[end]));
                 let mut cap = vec![centre_uv[end]];
                 for k in 0..=16 {
                     let a = std::f64::consts::PI * k as f64 / 16.0;
                     let dir = side * a.cos() + t * a.sin();
-                    let target = centre[end] + dir * half_width[end];
-                    let seed = centre_uv[end] + uv_step(sp.du, sp.dv, target - centre[end]);
-                    let rim = project_seeded(surface, target, seed).uv;
-                    cap.push(seam_side(rim, centre_uv[end], closed));
+                    cap.push(rim_of(end, &sp, dir * half_width[end]));
                 }
-                push(cap);
+                polys.push(cap);
+            }
+        }
+        // Into the square: each piece's copies shifted by whole periods in the closed
+        // directions, those meeting the square kept; their union clipped to the square.
+        let mut pieces: Vec<Vec<[f64; 2]>> = Vec::with_capacity(polys.len());
+        let mut piece_bounds: Vec<Rect> = Vec::with_capacity(polys.len());
+        let mut unwrapped = Rect::new(centre_uv[0], centre_uv[0]);
+        for poly in &polys {
+            let rect = bounds_of(poly);
+            unwrapped = Rect::new(unwrapped.min.min(rect.min), unwrapped.max.max(rect.max));
+            for shift in period_shifts(&rect, closed) {
+                piece_bounds.push(Rect::new(
+                    (rect.min + shift).max(DVec2::ZERO),
+                    (rect.max + shift).min(DVec2::ONE),
+                ));
+                let mut piece: Vec<DVec2> = poly.iter().map(|&p| p + shift).collect();
+                if shift != DVec2::ZERO {
+                    piece = clip_to_box(&piece, DVec2::splat(-1.0), DVec2::splat(2.0));
+                }
+                let a = signed_area(&piece);
+                if piece.len() < 3 || a.abs() < 1e-18 || !a.is_finite() {
+                    continue;
+                }
+                if a < 0.0 {
+                    piece.reverse();
+                }
+                pieces.push(piece.into_iter().map(|p| [p.x, p.y]).collect());
             }
         }
         let square = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
@@ -458,8 +521,8 @@ impl Stroke {
                 bounds.max = bounds.max.max(p);
             }
         }
-        let buckets = Buckets::new(&centre_uv, &rims_uv, bounds);
-        let pieces = piece_bounds;
+        let buckets = Buckets::new(&centre_uv, &rims_uv, unwrapped, closed);
+        let centre_segments = wrapped_segments(&centre_uv, closed);
         Ok(Self {
             tool,
             centre_uv,
@@ -470,7 +533,9 @@ impl Stroke {
             depth,
             footprint,
             bounds,
-            pieces,
+            is_loop,
+            pieces: piece_bounds,
+            centre_segments,
             buckets,
         })
     }
@@ -481,11 +546,34 @@ impl Stroke {
         &self.pieces
     }
 
+    /// The centreline brought into the square: the segments of [`Self::centre_uv`]
+    /// split where they cross the seam of a closed direction and shifted by whole
+    /// periods into the square. A split point lies exactly on the seam (`0.0` or `1.0`)
+    /// with the same other coordinate on both sides. Zero-length segments are left out.
+    /// On an open target these are the segments of `centre_uv`.
+    pub fn centre_segments(&self) -> &[[DVec2; 2]] {
+        &self.centre_segments
+    }
+
+    /// True when the stroke closes on itself (its end came back to its start): the
+    /// centreline's last point is its first (up to whole periods on a closed target) and
+    /// the ends are not tapered.
+    pub fn is_loop(&self) -> bool {
+        self.is_loop
+    }
+
     /// The groove depth (carve) or ridge height (emboss) at the surface point `p = S(uv)`;
     /// zero outside the footprint. Always finite and non-negative.
+    ///
+    /// `uv` may lie in the square or in the unwrapped plane of [`Self::centre_uv`]: on a
+    /// closed target the stroke is found from both sides of the seam (the depth is
+    /// measured in 3D, so it is continuous across the seam).
     pub fn depth_at(&self, uv: DVec2, p: DVec3) -> f64 {
         let mut best: f64 = 0.0;
-        for &i in self.buckets.candidates(uv) {
+        let [(u0, u1), (v0, v1)] = self.buckets.shifts(uv);
+        let shifts =
+            (v0..=v1).flat_map(|kv| (u0..=u1).map(move |ku| DVec2::new(ku as f64, kv as f64)));
+        for &i in shifts.flat_map(|k| self.buckets.candidates(uv + k)) {
             let i = i as usize;
             let (a, b) = (self.centre[i], self.centre[i + 1]);
             let d = b - a;
@@ -519,25 +607,185 @@ impl Stroke {
     }
 }
 
-/// True when `uv` lies on the seam of a closed direction (`closed` = [u, v]).
-fn on_seam(uv: DVec2, closed: [bool; 2]) -> bool {
-    (closed[0] && (uv.x <= 0.0 || uv.x >= 1.0)) || (closed[1] && (uv.y <= 0.0 || uv.y >= 1.0))
+/// A closed target with its parameter origin moved: `S'(uv) = S(wrap(uv + offset))`.
+/// Newton iteration on it, seeded near the middle of the square, runs across the
+/// target's seam, which now lies half a period away.
+struct Recentred<'a> {
+    surface: &'a dyn ParamSurface,
+    offset: DVec2,
 }
 
-/// A rim point that projected across the seam of a closed direction, moved back onto
-/// the seam on its centre's side: the groove is clipped at the seam.
-fn seam_side(rim: DVec2, centre: DVec2, closed: [bool; 2]) -> DVec2 {
-    let fix = |r: f64, c: f64, closed: bool| {
-        if closed && (r - c).abs() > 0.5 {
-            if c > 0.5 { 1.0 } else { 0.0 }
-        } else {
-            r
-        }
+impl ParamSurface for Recentred<'_> {
+    fn eval(&self, uv: DVec2) -> SurfacePoint {
+        self.surface.eval(wrap_uv(uv + self.offset))
+    }
+}
+
+/// Seeded point inversion in the unwrapped plane: Newton from `seed` on the target
+/// recentred at `about` (both unwrapped) in its closed directions, so that it may cross
+/// the seam. The foot point's parameter is unwrapped, within half a period of `about`;
+/// open directions are clamped to the square as by [`project_seeded`].
+fn project_near(
+    surface: &dyn ParamSurface,
+    closed: [bool; 2],
+    q: DVec3,
+    about: DVec2,
+    seed: DVec2,
+) -> Projection {
+    if closed == [false, false] {
+        return project_seeded(surface, q, seed);
+    }
+    let offset = DVec2::new(
+        if closed[0] { about.x - 0.5 } else { 0.0 },
+        if closed[1] { about.y - 0.5 } else { 0.0 },
+    );
+    let offset = if offset.is_finite() {
+        offset
+    } else {
+        DVec2::ZERO
     };
-    DVec2::new(
-        fix(rim.x, centre.x, closed[0]),
-        fix(rim.y, centre.y, closed[1]),
-    )
+    let view = Recentred { surface, offset };
+    let pr = project_seeded(&view, q, seed - offset);
+    Projection {
+        uv: pr.uv + offset,
+        ..pr
+    }
+}
+
+/// True when a seeded step `d` from the seed ran to the edge of the recentred view in a
+/// closed direction (half a period): the projection may have stopped there short of
+/// the foot point, so a fresh projection is tried.
+fn at_view_edge(d: DVec2, closed: [bool; 2]) -> bool {
+    (closed[0] && d.x.abs() >= 0.5 - 1e-9) || (closed[1] && d.y.abs() >= 0.5 - 1e-9)
+}
+
+/// `uv` moved by whole periods in the closed directions to lie nearest `near`.
+fn unwrap_near(uv: DVec2, near: DVec2, closed: [bool; 2]) -> DVec2 {
+    let f = |x: f64, n: f64, c: bool| {
+        let k = (n - x).round();
+        if c && k.is_finite() { x + k } else { x }
+    };
+    DVec2::new(f(uv.x, near.x, closed[0]), f(uv.y, near.y, closed[1]))
+}
+
+/// Bounding rectangle of a non-empty polygon.
+fn bounds_of(poly: &[DVec2]) -> Rect {
+    poly.iter().fold(Rect::new(poly[0], poly[0]), |r, &p| {
+        Rect::new(r.min.min(p), r.max.max(p))
+    })
+}
+
+/// The whole-period shifts (zero in open directions) that bring a copy of `rect` to
+/// meet the closed unit square.
+fn period_shifts(rect: &Rect, closed: [bool; 2]) -> impl Iterator<Item = DVec2> + use<> {
+    let (u0, u1) = whole_range(-rect.max.x, 1.0 - rect.min.x, closed[0]);
+    let (v0, v1) = whole_range(-rect.max.y, 1.0 - rect.min.y, closed[1]);
+    (v0..=v1).flat_map(move |kv| (u0..=u1).map(move |ku| DVec2::new(ku as f64, kv as f64)))
+}
+
+/// The whole numbers in `[a, b]`, at most [`MAX_PERIODS`], as an inclusive range;
+/// `(0, 0)` in an open direction (`closed` false), empty when `a` or `b` is not finite.
+fn whole_range(a: f64, b: f64, closed: bool) -> (i64, i64) {
+    let (a, b) = (a.ceil(), b.floor());
+    if !closed {
+        (0, 0)
+    } else if a.is_finite() && b.is_finite() {
+        (a as i64, (b as i64).min(a as i64 + MAX_PERIODS - 1))
+    } else {
+        (0, -1)
+    }
+}
+
+/// Sutherland-Hodgman clipping of a polygon against the box `[lo, hi]` (any simple or
+/// self-touching polygon; the result may have zero-width spikes, which a non-zero fill
+/// ignores). Keeps shifted pieces on the polygon boolean's grid (see
+/// [`domain_overlay`]) without moving their part inside the square.
+fn clip_to_box(poly: &[DVec2], lo: DVec2, hi: DVec2) -> Vec<DVec2> {
+    let mut out = poly.to_vec();
+    // (axis, bound, keep-below)
+    for (axis, bound, below) in [
+        (0, lo.x, false),
+        (0, hi.x, true),
+        (1, lo.y, false),
+        (1, hi.y, true),
+    ] {
+        let input = std::mem::take(&mut out);
+        let inside = |p: DVec2| {
+            if below {
+                p[axis] <= bound
+            } else {
+                p[axis] >= bound
+            }
+        };
+        let cut = |a: DVec2, b: DVec2| {
+            let t = (bound - a[axis]) / (b[axis] - a[axis]);
+            let mut p = a + (b - a) * t;
+            p[axis] = bound;
+            p
+        };
+        for (k, &b) in input.iter().enumerate() {
+            let a = input[(k + input.len() - 1) % input.len()];
+            match (inside(a), inside(b)) {
+                (true, true) => out.push(b),
+                (true, false) => out.push(cut(a, b)),
+                (false, true) => {
+                    out.push(cut(a, b));
+                    out.push(b);
+                }
+                (false, false) => {}
+            }
+        }
+        if out.is_empty() {
+            break;
+        }
+    }
+    out
+}
+
+/// The segments of an unwrapped polyline brought into the square (see
+/// [`Stroke::centre_segments`]).
+fn wrapped_segments(line: &[DVec2], closed: [bool; 2]) -> Vec<[DVec2; 2]> {
+    let mut out = Vec::with_capacity(line.len());
+    let mut cuts: Vec<(f64, DVec2)> = Vec::new();
+    for w in line.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        if a == b || !(a.is_finite() && b.is_finite()) {
+            continue;
+        }
+        // Where a closed coordinate crosses a whole number, the point with that
+        // coordinate exact.
+        cuts.clear();
+        cuts.push((0.0, a));
+        cuts.push((1.0, b));
+        for axis in 0..2 {
+            if !closed[axis] || a[axis] == b[axis] {
+                continue;
+            }
+            let (lo, hi) = (a[axis].min(b[axis]), a[axis].max(b[axis]));
+            let mut m = lo.floor() + 1.0;
+            while m < hi && cuts.len() < 16 {
+                let t = (m - a[axis]) / (b[axis] - a[axis]);
+                let mut p = a + (b - a) * t;
+                p[axis] = m;
+                cuts.push((t, p));
+                m += 1.0;
+            }
+        }
+        cuts.sort_by(|x, y| x.0.total_cmp(&y.0));
+        for c in cuts.windows(2) {
+            let (p, q) = (c[0].1, c[1].1);
+            if p == q {
+                continue;
+            }
+            let mid = (p + q) * 0.5;
+            let shift = DVec2::new(
+                if closed[0] { -mid.x.floor() } else { 0.0 },
+                if closed[1] { -mid.y.floor() } else { 0.0 },
+            );
+            out.push([p + shift, q + shift]);
+        }
+    }
+    out
 }
 
 /// Parameter step that best realises the 3D displacement `d` (least squares on `[Su Sv]`).
@@ -635,21 +883,26 @@ pub fn domain_overlay(
     overlay.overlay(rule, FillRule::NonZero)
 }
 
-/// A uniform grid over the stroke's bounds listing the centreline segments near each
-/// cell, so that [`Stroke::depth_at`] tests only a few segments.
+/// A uniform grid over the stroke's unwrapped bounds (centreline, rims and caps in the
+/// plane of [`Stroke::centre_uv`]) listing the centreline segments near each cell, so
+/// that [`Stroke::depth_at`] tests only a few segments. On a closed target a query is
+/// also made at its copies shifted by whole periods ([`Self::shifts`]), so the stroke is
+/// found from both sides of the seam.
 #[derive(Debug, Clone)]
 struct Buckets {
     bounds: Rect,
+    closed: [bool; 2],
     n: usize,
     cells: Vec<Vec<u32>>,
 }
 
 impl Buckets {
-    fn new(centre: &[DVec2], rims: &[Vec<DVec2>; 2], bounds: Rect) -> Self {
+    fn new(centre: &[DVec2], rims: &[Vec<DVec2>; 2], bounds: Rect, closed: [bool; 2]) -> Self {
         let n = 32usize;
         let mut cells = vec![Vec::new(); n * n];
         let mut me = Self {
             bounds,
+            closed,
             n,
             cells: Vec::new(),
         };
@@ -672,6 +925,10 @@ impl Buckets {
         me
     }
 
+    fn pad(&self) -> DVec2 {
+        (self.bounds.max - self.bounds.min) * 0.25 + DVec2::splat(1e-9)
+    }
+
     fn cell_of(&self, p: DVec2) -> (usize, usize) {
         let size = (self.bounds.max - self.bounds.min).max(DVec2::splat(1e-12));
         let f = ((p - self.bounds.min) / size * self.n as f64).floor();
@@ -679,8 +936,22 @@ impl Buckets {
         (c(f.x), c(f.y))
     }
 
+    /// Per direction, the range of whole-period shifts `k` for which `uv + k` lies in
+    /// the padded bounds (only `0` in an open direction).
+    fn shifts(&self, uv: DVec2) -> [(i64, i64); 2] {
+        if self.closed == [false, false] {
+            return [(0, 0); 2];
+        }
+        let pad = self.pad();
+        let (lo, hi) = (self.bounds.min - pad, self.bounds.max + pad);
+        [
+            whole_range(lo.x - uv.x, hi.x - uv.x, self.closed[0]),
+            whole_range(lo.y - uv.y, hi.y - uv.y, self.closed[1]),
+        ]
+    }
+
     fn candidates(&self, uv: DVec2) -> &[u32] {
-        let pad = (self.bounds.max - self.bounds.min) * 0.25 + DVec2::splat(1e-9);
+        let pad = self.pad();
         if !uv.is_finite()
             || uv.cmplt(self.bounds.min - pad).any()
             || uv.cmpgt(self.bounds.max + pad).any()
@@ -849,24 +1120,126 @@ mod tests {
         assert!(st.centre_uv.iter().all(|c| c.x <= 1.0));
     }
 
-    #[test]
-    fn stroke_across_the_seam_of_a_sphere_is_clipped_there() {
-        use crate::sculpt::surface::test_surfaces::sphere;
-        let s = sphere(1.0);
-        // Along the equator from -30 to +25 degrees: the seam u = 0 = 1 is at 0 degrees.
-        let samples = (0..56)
+    /// Along the equator of the unit sphere from `from` to `to` degrees (the seam
+    /// u = 0 = 1 is at 0 degrees), one sample per degree.
+    fn equator(from: f64, to: f64) -> Vec<(f64, DVec3)> {
+        let n = (to - from).round() as usize + 1;
+        (0..n)
             .map(|k| {
-                let a = (-30.0 + k as f64).to_radians();
+                let a = (from + k as f64).to_radians();
                 (k as f64, DVec3::new(a.cos(), a.sin(), 0.0))
             })
-            .collect();
-        let st = build(&s, samples);
-        // The longer part, before the seam, is kept; nothing wraps across the domain.
-        assert!(st.bounds.min.x > 0.5, "{:?}", st.bounds);
-        assert!(st.centre_uv.iter().all(|c| c.x > 0.5));
-        assert!(st.rims_uv.iter().flatten().all(|c| c.x > 0.5));
-        let length = 30f64.to_radians() / std::f64::consts::TAU;
-        assert!(st.bounds.max.x - st.bounds.min.x < length * 1.5);
+            .collect()
+    }
+
+    #[test]
+    fn stroke_across_the_seam_of_a_sphere_wraps() {
+        use crate::sculpt::surface::test_surfaces::sphere;
+        let s = sphere(1.0);
+        let st = build(&s, equator(-30.0, 25.0));
+        // One run, unwrapped: u continues past 1 instead of jumping back to 0.
+        assert!(
+            st.centre_uv
+                .windows(2)
+                .all(|w| (w[1] - w[0]).length() < 0.01)
+        );
+        let turn = |deg: f64| deg / 360.0;
+        assert_near!(st.centre_uv[0].x, 1.0 - turn(30.0), 1e-6);
+        assert_near!(st.centre_uv.last().unwrap().x, 1.0 + turn(25.0), 1e-6);
+        // The footprint in the square covers both sides of the seam.
+        for u in [0.002, 0.05, 0.95, 0.998] {
+            assert_eq!(
+                st.footprint.locate(DVec2::new(u, 0.5)),
+                Location::Inside,
+                "{u}"
+            );
+        }
+        assert!(
+            st.footprint
+                .contours()
+                .iter()
+                .flatten()
+                .all(|p| (0.0..=1.0).contains(&p.x))
+        );
+        // Same area as the stroke turned half-way round, away from the seam.
+        let away = build(&s, equator(150.0, 205.0));
+        assert_near!(st.footprint.area(), away.footprint.area(), 1e-6);
+        // Full depth on the centreline either side of the seam, from either copy (the
+        // depth is measured from the centreline's chords: their sag, spacing^2 / 8R, is
+        // under 1e-4 m).
+        for u in [0.999, 0.001, 1.001, -0.001] {
+            let uv = DVec2::new(u, 0.5);
+            assert_near!(st.depth_at(uv, s(wrap_uv(uv)).p), 0.02, 1e-4, "{u}");
+        }
+    }
+
+    #[test]
+    fn a_stroke_back_at_its_start_is_an_untapered_loop() {
+        let s = plane(1.0);
+        let circle = |turns: f64| -> Vec<(f64, DVec3)> {
+            (0..=100)
+                .map(|i| {
+                    let a = i as f64 / 100.0 * turns * std::f64::consts::TAU;
+                    (
+                        i as f64,
+                        DVec3::new(0.5 + 0.2 * a.cos(), 0.5 + 0.2 * a.sin(), 0.0),
+                    )
+                })
+                .collect()
+        };
+        let mut tapered = tool();
+        tapered.taper = 0.1;
+        let input = |samples| StrokeInput {
+            samples,
+            tool: tapered.clone(),
+        };
+        let round = Stroke::build(&s, &input(circle(1.0)), 0.1).unwrap();
+        assert!(round.is_loop());
+        assert!(round.depth.iter().all(|&d| d == 0.02));
+        // Full depth at the join (the start, at angle 0).
+        let join = DVec2::new(0.7, 0.5);
+        assert_near!(round.depth_at(join, join.extend(0.0)), 0.02, 1e-9);
+        // Three quarters of a turn is no loop: its ends taper.
+        let open = Stroke::build(&s, &input(circle(0.75)), 0.1).unwrap();
+        assert!(!open.is_loop());
+        assert_eq!(open.depth[0], 0.0);
+    }
+
+    #[test]
+    fn wrapped_centre_segments_split_exactly_on_the_seam() {
+        let line = [
+            DVec2::new(0.9, 0.95),
+            DVec2::new(1.1, 1.05),
+            DVec2::new(1.1, 1.05),
+            DVec2::new(1.3, 1.2),
+        ];
+        let segs = wrapped_segments(&line, [true, true]);
+        // Cut at u = 1 and at v = 1 (both at t = 0.5 here: one corner point), then
+        // shifted into the square; the repeated point gives no segment.
+        assert_eq!(segs.len(), 3, "{segs:?}");
+        assert_eq!(segs[0], [DVec2::new(0.9, 0.95), DVec2::new(1.0, 1.0)]);
+        assert_eq!(segs[1][0], DVec2::new(0.0, 0.0));
+        assert!(
+            segs.iter()
+                .flatten()
+                .all(|p| (0.0..=1.0).contains(&p.x) && (0.0..=1.0).contains(&p.y))
+        );
+        // Open directions are left alone.
+        let open = wrapped_segments(&line[..2], [false, false]);
+        assert_eq!(open, vec![[line[0], line[1]]]);
+    }
+
+    #[test]
+    fn clip_to_box_keeps_the_part_inside() {
+        let tri = [
+            DVec2::new(-2.0, 0.0),
+            DVec2::new(1.0, 0.0),
+            DVec2::new(1.0, 1.0),
+        ];
+        let c = clip_to_box(&tri, DVec2::splat(-1.0), DVec2::splat(2.0));
+        assert!(c.iter().all(|p| p.x >= -1.0));
+        // The triangle's area right of x = -1: the integral of (x + 2) / 3 over [-1, 1].
+        assert_near!(signed_area(&c).abs(), 4.0 / 3.0, 1e-12);
     }
 
     #[test]

@@ -22,14 +22,16 @@
 //! uniform at the finer side's leaf level, plus the crossings of outline and centreline
 //! segments with the side line, computed by one formula from the global segment list.
 //! Both cells therefore put identical vertices on their common side. For a surface closed
-//! in u or v the two seam sides are treated as neighbours.
+//! in u or v the two seam sides are treated as neighbours; strokes wrap across the seam
+//! (their centrelines split exactly on it, [`Stroke::centre_segments`]), and the
+//! outline edges where a wrapped footprint was cut into the square are not rims.
 //!
 //! **Incremental.** Each patch's inputs are hashed; after an edit only patches whose hash
 //! changed are triangulated and written (the sink replaces them by key).
 
 use super::jordan::{Location, NodeClass, Rect, Region};
 use super::stroke::{Mode, Stroke};
-use super::surface::{ParamSurface, SurfaceExtent, extent, normal_from};
+use super::surface::{ParamSurface, SurfaceExtent, extent, normal_from, wrap_uv};
 use super::uvmap::UvMap;
 use crate::mesh::{MeshSink, MeshVertex, PatchKey};
 use glam::{DVec2, DVec3};
@@ -540,7 +542,19 @@ impl TargetTessellation {
         let mut by_root = vec![Vec::new(); (n * n) as usize];
         let mut segs: Vec<([DVec2; 2], Kind)> = Vec::new();
         let near = |r: &Rect| self.roots_near(r).any(|root| mask[root as usize]);
-        let hidden = self.hidden().segments().iter().map(|s| (*s, Kind::Rim));
+        // Outline edges lying on a seam are where a wrapped footprint was cut into the
+        // square, not a rim: the groove runs on across them.
+        let on_seam = |s: &[DVec2; 2]| {
+            let on = |a: f64, b: f64| a == b && (a == 0.0 || a == 1.0);
+            (self.extent.closed_u && on(s[0].x, s[1].x))
+                || (self.extent.closed_v && on(s[0].y, s[1].y))
+        };
+        let hidden = self
+            .hidden()
+            .segments()
+            .iter()
+            .filter(|s| !on_seam(s))
+            .map(|s| (*s, Kind::Rim));
         let centres = strokes
             .iter()
             .filter(|(id, _)| {
@@ -548,9 +562,8 @@ impl TargetTessellation {
                     .get(id)
                     .is_none_or(|t| t.iter().any(|&r| mask[r as usize]))
             })
-            .flat_map(|(_, s)| s.centre_uv.windows(2))
-            .filter(|w| w[0] != w[1])
-            .map(|w| ([w[0], w[1]], Kind::Plain));
+            .flat_map(|(_, s)| s.centre_segments().iter().copied())
+            .map(|w| (w, Kind::Plain));
         for (s, kind) in hidden.chain(centres) {
             if !near(&Rect::of_segment(s[0], s[1])) {
                 continue;
@@ -689,7 +702,7 @@ impl TargetTessellation {
             for i in 0..s.centre_uv.len() {
                 for rim in &s.rims_uv {
                     for &f in fracs {
-                        let uv = s.centre_uv[i].lerp(rim[i], f);
+                        let uv = wrap_uv(s.centre_uv[i].lerp(rim[i], f));
                         if rect_strictly_contains(&rect, uv) {
                             input.point(uv, Kind::Plain);
                         }
@@ -1338,14 +1351,19 @@ mod tests {
             DVec3::new(-1.0, 0.1, -0.3),
             t.clone(),
         );
-        // Across the seam (u = 0 = 1 at +x): clipped there, still watertight.
+        // Across the seam (u = 0 = 1 at +x): the groove wraps, still watertight.
         let c = stroke(
             &s,
             DVec3::new(0.9, -0.45, 0.1),
             DVec3::new(0.9, 0.4, -0.1),
             t,
         );
-        assert!(c.bounds.max.x - c.bounds.min.x < 0.5, "{:?}", c.bounds);
+        assert_eq!(
+            (c.bounds.min.x, c.bounds.max.x),
+            (0.0, 1.0),
+            "{:?}",
+            c.bounds
+        );
         let mut tess = TargetTessellation::new(&s, 0, Detail::Final);
         let mut mesh = PatchMesh::new();
         tess.update(&s, &[(1, &a), (2, &b), (3, &c)], None, &mut mesh);
