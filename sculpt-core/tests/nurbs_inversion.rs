@@ -105,7 +105,7 @@ fn brute_force(s: &NurbsSurface, p: DVec3) -> (f64, DVec2) {
 /// Query `t` of a surface: even ones anywhere around the patch (many project onto an
 /// edge), odd ones off the surface along its normal (mostly interior answers).
 fn random_query(rng: &mut Rng, s: &NurbsSurface, t: usize) -> DVec3 {
-    if t % 2 == 0 {
+    if t.is_multiple_of(2) {
         DVec3::new(
             rng.range(-0.6, 1.6),
             rng.range(-0.6, 1.6),

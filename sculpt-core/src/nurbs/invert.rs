@@ -398,6 +398,31 @@ const CERTIFY_TOL: f64 = 1e-10;
 /// Subdivision depth of a leaf's net before the certificate settles for a Newton run.
 const MAX_CERTIFY_DEPTH: u32 = 6;
 
+/// Net splits one certificate round may make before every patch left is settled by a
+/// Newton run (bounds the work where the distance is nearly constant: a query near a
+/// sphere's centre, or over a pole, where the parametrisation degenerates).
+const MAX_CERTIFY_SPLITS: u32 = 16;
+
+/// One certificate round: the query, the answer to beat, and the splits left.
+struct Probe<'a> {
+    p: DVec3,
+    best: &'a Candidate,
+    splits_left: std::cell::Cell<u32>,
+}
+
+/// A (sub-)patch's net of `g` with its parameter box and clearing threshold.
+#[derive(Clone, Copy)]
+struct NetPatch<'a> {
+    net: &'a [f64],
+    /// Net rows and columns.
+    size: (usize, usize),
+    lo: DVec2,
+    hi: DVec2,
+    /// A coefficient at or above this proves nothing closer there (see
+    /// `DistanceNets::query`).
+    threshold: f64,
+}
+
 fn box_dist2(p: DVec3, lo: DVec3, hi: DVec3) -> f64 {
     let d = (lo - p).max(p - hi).max(DVec3::ZERO);
     d.length_squared()
@@ -905,10 +930,15 @@ impl SurfaceInverter {
         best: &Candidate,
         visited: &Visited,
     ) -> Option<Candidate> {
+        let probe = Probe {
+            p,
+            best,
+            splits_left: std::cell::Cell::new(MAX_CERTIFY_SPLITS),
+        };
         if !visited.overflow {
             return visited.leaves[..visited.len]
                 .iter()
-                .find_map(|&(index, run)| self.closer_in_leaf(nets, p, best, index as usize, run));
+                .find_map(|&(index, run)| self.closer_in_leaf(nets, &probe, index as usize, run));
         }
         let mut stack = [0u32; 128];
         let mut top = 1usize;
@@ -920,7 +950,7 @@ impl SurfaceInverter {
             }
             if node.right == u32::MAX {
                 let index = node.left as usize;
-                let found = self.closer_in_leaf(nets, p, best, index, visited.get(index));
+                let found = self.closer_in_leaf(nets, &probe, index, visited.get(index));
                 if found.is_some() {
                     return found;
                 }
@@ -937,11 +967,11 @@ impl SurfaceInverter {
     fn closer_in_leaf(
         &self,
         nets: &DistanceNets,
-        p: DVec3,
-        best: &Candidate,
+        probe: &Probe<'_>,
         index: usize,
         run: Option<DVec2>,
     ) -> Option<Candidate> {
+        let (p, best) = (probe.p, probe.best);
         let leaf = &self.leaves[index];
         if box_dist2(to_frame(&leaf.frame, p), leaf.obb.0, leaf.obb.1) >= best.dist2 {
             return None;
@@ -958,16 +988,14 @@ impl SurfaceInverter {
         let mut buf = [0.0; MAX_SIDE * MAX_SIDE];
         let net = &mut buf[..m1 * n1];
         let threshold = nets.query(index, p, best.dist2, CERTIFY_TOL, net);
-        self.closer_in_net(
-            p,
-            best,
+        let patch = NetPatch {
             net,
-            (m1, n1),
-            (leaf.uv_lo, leaf.uv_hi),
+            size: (m1, n1),
+            lo: leaf.uv_lo,
+            hi: leaf.uv_hi,
             threshold,
-            run,
-            0,
-        )
+        };
+        self.closer_in_net(probe, &patch, run, 0)
     }
 
     /// True when the leaf's parameter box holds `uv` (or its copy across a seam).
@@ -980,19 +1008,23 @@ impl SurfaceInverter {
         })
     }
 
-    /// Decides one (sub-)patch with its net (see [`Self::certify`]).
-    #[allow(clippy::too_many_arguments)]
+    /// Decides one (sub-)patch with its net (see [`Self::certify`]); `hint` is a known
+    /// minimum of the patch (the search's run in a leaf).
     fn closer_in_net(
         &self,
-        p: DVec3,
-        best: &Candidate,
-        net: &[f64],
-        (m1, n1): (usize, usize),
-        (lo, hi): (DVec2, DVec2),
-        threshold: f64,
+        probe: &Probe<'_>,
+        patch: &NetPatch<'_>,
         hint: Option<DVec2>,
         depth: u32,
     ) -> Option<Candidate> {
+        let NetPatch {
+            net,
+            size: (m1, n1),
+            lo,
+            hi,
+            threshold,
+        } = *patch;
+        let (p, best) = (probe.p, probe.best);
         if net_min(net) >= threshold {
             return None;
         }
@@ -1000,34 +1032,32 @@ impl SurfaceInverter {
         let convex = is_convex(net, m1, n1);
         if convex {
             // The tangent plane at the answer (or its copy across a seam), clamped into
-            // the box.
+            // the box, then at the patch's known minimum.
             let period = self.domain_hi - self.domain_lo;
             let shifts: &[f64] = if self.closed[0] || self.closed[1] {
                 &[0.0, -1.0, 1.0]
             } else {
                 &[0.0]
             };
-            for &shift in shifts {
+            let shifted = shifts.iter().map(|&shift| {
                 let mut uv = best.uv;
                 for k in 0..2 {
                     if self.closed[k] {
                         uv[k] += shift * period[k];
                     }
                 }
-                let st = local(uv);
-                if convex_bound_at(net, m1, n1, st.x, st.y) >= threshold {
-                    return None;
-                }
-            }
-            // The leaf's own minimum, found by the search's run in it.
-            if let Some(uv) = hint {
+                uv
+            });
+            for uv in shifted.chain(hint) {
                 let st = local(uv);
                 if convex_bound_at(net, m1, n1, st.x, st.y) >= threshold {
                     return None;
                 }
             }
         }
-        if convex || depth >= MAX_CERTIFY_DEPTH {
+        // Out of depth or of the query's split budget: a bounded Newton run decides.
+        let last = depth >= MAX_CERTIFY_DEPTH || probe.splits_left.get() == 0;
+        if convex || last {
             // The box's own minimum, from its smallest coefficient.
             let k = (0..m1 * n1)
                 .min_by(|&a, &b| net[a].total_cmp(&net[b]))
@@ -1041,39 +1071,28 @@ impl SurfaceInverter {
                 return Some(c);
             }
             let st = local(c.uv);
-            if depth >= MAX_CERTIFY_DEPTH || convex_bound_at(net, m1, n1, st.x, st.y) >= threshold {
+            if last || convex_bound_at(net, m1, n1, st.x, st.y) >= threshold {
                 return None;
             }
         }
+        probe.splits_left.set(probe.splits_left.get() - 1);
         // Quarter nets on the stack, sized for bicubic patches when they fit.
         if m1 * n1 <= 49 {
-            self.closer_in_quarters::<49>(p, best, net, (m1, n1), (lo, hi), threshold, depth)
+            self.closer_in_quarters::<49>(probe, patch, depth)
         } else {
-            self.closer_in_quarters::<{ MAX_SIDE * MAX_SIDE }>(
-                p,
-                best,
-                net,
-                (m1, n1),
-                (lo, hi),
-                threshold,
-                depth,
-            )
+            self.closer_in_quarters::<{ MAX_SIDE * MAX_SIDE }>(probe, patch, depth)
         }
     }
 
-    /// Splits a net in four and decides each quarter, the lowest first. `L` is the
-    /// length of the stack buffers (at least `m1 * n1`).
-    #[allow(clippy::too_many_arguments)]
+    /// Splits a patch's net in four and decides each quarter, the lowest first. `L` is
+    /// the length of the stack buffers (at least `m1 * n1`).
     fn closer_in_quarters<const L: usize>(
         &self,
-        p: DVec3,
-        best: &Candidate,
-        net: &[f64],
-        (m1, n1): (usize, usize),
-        (lo, hi): (DVec2, DVec2),
-        threshold: f64,
+        probe: &Probe<'_>,
+        patch: &NetPatch<'_>,
         depth: u32,
     ) -> Option<Candidate> {
+        let (lo, hi, (m1, n1)) = (patch.lo, patch.hi, patch.size);
         let mid = (lo + hi) * 0.5;
         let boxes = [
             (lo, mid),
@@ -1082,21 +1101,18 @@ impl SurfaceInverter {
             (mid, hi),
         ];
         let mut quarters = [[0.0; L]; 4];
-        split4(net, m1, n1, &mut quarters);
+        split4(patch.net, m1, n1, &mut quarters);
         let mut order = [0usize, 1, 2, 3];
         let mins = quarters.each_ref().map(|q| net_min(&q[..m1 * n1]));
         order.sort_unstable_by(|&a, &b| mins[a].total_cmp(&mins[b]));
         for q in order {
-            let found = self.closer_in_net(
-                p,
-                best,
-                &quarters[q][..m1 * n1],
-                (m1, n1),
-                boxes[q],
-                threshold,
-                None,
-                depth + 1,
-            );
+            let quarter = NetPatch {
+                net: &quarters[q][..m1 * n1],
+                lo: boxes[q].0,
+                hi: boxes[q].1,
+                ..*patch
+            };
+            let found = self.closer_in_net(probe, &quarter, None, depth + 1);
             if found.is_some() {
                 return found;
             }
