@@ -8,7 +8,7 @@
 //       -o iges_check -lTKIGES -lTKXSBase -lTKBRep -lTKTopAlgo -lTKGeomAlgo -lTKG3d \
 //       -lTKG2d -lTKMath -lTKernel
 //
-// Usage: iges_check FILE.igs [--queries Q.txt] [--timeout SECONDS]
+// Usage: iges_check FILE.igs [--queries Q.txt] [--area-eps E] [--timeout SECONDS]
 //   Q.txt has one query per line, asked of every face:
 //     uv U V      U, V in the surface's normalised parameter square [0, 1]^2 (mapped onto
 //                 the face's underlying surface bounds); reports IN/OUT/ON and the
@@ -16,6 +16,8 @@
 //     xyz X Y Z   a 3D point (file units are converted to metres); reports IN/OUT/ON of
 //                 its projection onto the face.
 //   Blank lines and lines starting with '#' are ignored.
+//   --area-eps E: relative error asked of OCCT's adaptive area integration (default
+//   1e-9; above 1e-3 OCCT integrates non-adaptively).
 //
 // Output, one JSON object per line:
 //   {"kind":"file",...}          totals: roots, transferred roots, faces, load/transfer
@@ -139,7 +141,8 @@ void print_checks(const char* phase, const Interface_CheckIterator& checks,
   }
 }
 
-void report_face(int root, int index, const TopoDS_Face& face, const std::vector<Query>& queries) {
+void report_face(int root, int index, const TopoDS_Face& face, const std::vector<Query>& queries,
+                 double area_eps) {
   std::ostringstream o;
   o << "{\"kind\":\"face\",\"root\":" << root << ",\"face\":" << index;
   bool valid = false;
@@ -152,7 +155,7 @@ void report_face(int root, int index, const TopoDS_Face& face, const std::vector
   GProp_GProps props;
   double area_error = -1.0;
   try {
-    area_error = BRepGProp::SurfaceProperties(face, props, 1e-9);
+    area_error = BRepGProp::SurfaceProperties(face, props, area_eps);
     o << ",\"area\":" << num(props.Mass()) << ",\"area_error\":" << num(area_error);
   } catch (const Standard_Failure& e) {
     o << ",\"area\":null,\"area_message\":" << json_string(e.GetMessageString());
@@ -215,20 +218,23 @@ int main(int argc, char** argv) {
   const char* path = nullptr;
   const char* query_path = nullptr;
   unsigned timeout = 120;
+  double area_eps = 1e-9;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--queries") && i + 1 < argc) {
       query_path = argv[++i];
+    } else if (!std::strcmp(argv[i], "--area-eps") && i + 1 < argc) {
+      area_eps = std::strtod(argv[++i], nullptr);
     } else if (!std::strcmp(argv[i], "--timeout") && i + 1 < argc) {
       timeout = static_cast<unsigned>(std::strtoul(argv[++i], nullptr, 10));
     } else if (argv[i][0] != '-' && !path) {
       path = argv[i];
     } else {
-      std::fprintf(stderr, "usage: iges_check FILE.igs [--queries Q.txt] [--timeout SECONDS]\n");
+      std::fprintf(stderr, "usage: iges_check FILE.igs [--queries Q.txt] [--area-eps E] [--timeout SECONDS]\n");
       return 3;
     }
   }
   if (!path) {
-    std::fprintf(stderr, "usage: iges_check FILE.igs [--queries Q.txt] [--timeout SECONDS]\n");
+    std::fprintf(stderr, "usage: iges_check FILE.igs [--queries Q.txt] [--area-eps E] [--timeout SECONDS]\n");
     return 3;
   }
   std::signal(SIGALRM, on_alarm);
@@ -308,7 +314,7 @@ int main(int argc, char** argv) {
                   error.empty() ? "" : ",\"message\":", error.empty() ? "" : json_string(error.c_str()).c_str());
       std::fflush(stdout);
       if (ok) ++transferred;
-      for (size_t k = 0; k < root_faces.size(); ++k) report_face(i, static_cast<int>(k), root_faces[k], queries);
+      for (size_t k = 0; k < root_faces.size(); ++k) report_face(i, static_cast<int>(k), root_faces[k], queries, area_eps);
       faces += static_cast<int>(root_faces.size());
       std::fflush(stdout);
     }
