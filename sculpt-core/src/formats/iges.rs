@@ -8,6 +8,12 @@
 //! with its outer loop and holes as degree-1 parameter-space curves; stroke surfaces are
 //! written as plain 128 entities. [`read`] parses the entities back for checking.
 //!
+//! Loops are cleaned before writing (repeated points and an explicit closing point
+//! dropped, loops enclosing no area skipped) and oriented as readers expect: outer
+//! counter-clockwise, holes clockwise in parameter space. Parameter-space curves carry
+//! entity use flag 05 (2D parametric). The files are checked by an independent CAD
+//! kernel, OpenCASCADE, in `tests/tests/iges_occt.rs` (see `tools/occt-iges-check/`).
+//!
 //! ```
 //! use glam::DVec3;
 //! use sculpt_core::formats::iges::{self, IgesSurface, NurbsPatch};
@@ -62,9 +68,9 @@ impl NurbsPatch {
 /// One visible face of a trimmed surface, in normalised `[0, 1]^2` parameters.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Face {
-    /// Outer loop (counter-clockwise).
+    /// Outer loop (written counter-clockwise, whichever way it is given).
     pub outer: Vec<DVec2>,
-    /// Holes (clockwise).
+    /// Holes (written clockwise).
     pub holes: Vec<Vec<DVec2>>,
 }
 
@@ -126,7 +132,7 @@ fn real(x: f64) -> String {
 /// point dropped (each would be a zero-length span of the degree-1 curve), and turned
 /// to the orientation IGES readers expect of a face's boundary in parameter space:
 /// counter-clockwise for the outer loop, clockwise for holes. `None` when fewer than
-/// three distinct points remain.
+/// three distinct points remain or they enclose no area.
 fn clean_loop(points: &[DVec2], outer: bool) -> Option<Vec<DVec2>> {
     let mut pts: Vec<DVec2> = Vec::with_capacity(points.len());
     for &p in points {
@@ -146,6 +152,14 @@ fn clean_loop(points: &[DVec2], outer: bool) -> Option<Vec<DVec2>> {
     let twice_area: f64 = (0..pts.len())
         .map(|k| pts[k].perp_dot(pts[(k + 1) % pts.len()]))
         .sum();
+    // Collinear points enclose no area; rounding leaves a tiny one of either sign.
+    let (lo, hi) = pts
+        .iter()
+        .fold((pts[0], pts[0]), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    let size = (hi - lo).max_element();
+    if twice_area.is_nan() || twice_area.abs() <= 1e-12 * size * size {
+        return None;
+    }
     if (twice_area > 0.0) != outer {
         pts.reverse();
     }
@@ -773,6 +787,40 @@ mod tests {
     }
 
     proptest! {
+        /// Any loops a caller hands in (repeated points, either orientation, NaN,
+        /// degenerate) are written as valid boundaries or dropped: the file reads back,
+        /// no span has zero length, outer loops turn counter-clockwise and holes clockwise.
+        #[test]
+        fn any_loops_are_written_clean_and_oriented(
+            raw in proptest::collection::vec(
+                proptest::collection::vec((0u8..6, 0u8..6, 0u8..20), 0..12), 1..4)
+        ) {
+            let loops: Vec<Vec<DVec2>> = raw
+                .iter()
+                .map(|l| {
+                    l.iter()
+                        .map(|&(x, y, nan)| {
+                            if nan == 0 { DVec2::NAN } else { DVec2::new(x as f64 / 5.0, y as f64 / 5.0) }
+                        })
+                        .collect()
+                })
+                .collect();
+            let face = Face { outer: loops[0].clone(), holes: loops[1..].to_vec() };
+            let m = read(&write(&[IgesSurface { name: "p".into(), patch: patch(), faces: Some(vec![face]) }])).unwrap();
+            let mut curve = 0;
+            for &(_, count) in &m.trimmed {
+                for k in 0..count {
+                    let c = &m.curves[curve + k];
+                    prop_assert!(c.windows(2).all(|w| w[0] != w[1]));
+                    let open = &c[..c.len() - 1];
+                    let a = signed_area(open);
+                    prop_assert!(a != 0.0);
+                    prop_assert_eq!(a > 0.0, k == 0, "loop {} area {}", k, a);
+                }
+                curve += count;
+            }
+        }
+
         #[test]
         fn damaged_files_never_panic(cut in 0usize..3000, flip in 0usize..3000, val in 32u8..127) {
             let mut bytes = write(&[IgesSurface { name: "p".into(), patch: patch(), faces: None }]);
