@@ -213,6 +213,10 @@ fn gauss8() -> [(f64, f64); 8] {
     out
 }
 
+/// Gauss pieces per knot span in our area integration. Raising it to 4 or 16 changes
+/// no area of the exports by more than 1e-14 relative (checked): ours is converged.
+const SUBSPANS: usize = 1;
+
 /// A surface of the export as our kernel evaluates it, with its knots in normalised
 /// parameters (where the integrand is only piecewise smooth).
 struct Ours {
@@ -232,6 +236,8 @@ impl Ours {
             p.weights.clone(),
         )
         .unwrap();
+        // Knots, each span further split in SUBSPANS (the area element is only as
+        // smooth as sqrt allows where a span is nearly degenerate).
         let breaks = |k: &[f64], (a, b): (f64, f64)| {
             let mut v: Vec<f64> = k
                 .iter()
@@ -239,7 +245,13 @@ impl Ours {
                 .filter(|x| (0.0..=1.0).contains(x))
                 .collect();
             v.dedup();
-            v
+            let mut fine = vec![0.0];
+            for w in v.windows(2) {
+                fine.extend(
+                    (1..=SUBSPANS).map(|i| w[0] + (w[1] - w[0]) * i as f64 / SUBSPANS as f64),
+                );
+            }
+            fine
         };
         let breaks_u = breaks(surface.knots_u().knots(), surface.domain_u());
         let breaks_v = breaks(surface.knots_v().knots(), surface.domain_v());
@@ -364,10 +376,11 @@ fn distance_to_loops(faces: &[Face], p: DVec2) -> f64 {
 /// asked: "well inside" and "well outside" only.
 const MARGIN_UV: f64 = 0.004;
 /// OCCT's face area against ours (Green's theorem over the same loops, 8-point Gauss
-/// per knot span): relative. Both are converged integrals of the same region; OCCT's
-/// adaptive integration is asked for 1e-8 (`--area-eps`); the exports agree to 1.4e-8
-/// or better, but for a 1.2e-8 m^2 sliver face (8e-7, 1e-14 m^2).
-const AREA_REL: f64 = 1e-6;
+/// per knot span): relative. Ours is converged to 1e-14; OCCT's adaptive integration
+/// is asked for 1e-8 (`--area-eps`) but on cubic stroke surfaces stays up to 2.4e-6 off
+/// while reporting 2e-7 to 1.3e-6, so this is 5e-6 plus twice the error it reports. A
+/// misread loop or surface changes an area by far more.
+const AREA_REL: f64 = 5e-6;
 /// The area tolerance's floor for sliver faces, m^2 (a square micrometre).
 const AREA_ABS: f64 = 1e-12;
 /// OCCT's surface points against our kernel's, relative to the surface's size.
@@ -464,11 +477,14 @@ fn check_export(
         let ours_area = ours[*k].area(face);
         let occt_area = f["area"].as_f64().unwrap_or(f64::NAN);
         let rel = (occt_area - ours_area).abs() / ours_area;
+        // OCCT's adaptive integration says how far it got (relative); on some cubic
+        // stroke surfaces it stalls near 1e-6 whatever is asked.
+        let occt_error = f["area_error"].as_f64().unwrap_or(0.0).max(0.0);
         sculpt_core::assert_near!(
             occt_area,
             ours_area,
-            AREA_REL * ours_area + AREA_ABS,
-            "{what}: OCCT area {occt_area} m^2, ours {ours_area} m^2"
+            (AREA_REL + 2.0 * occt_error) * ours_area + AREA_ABS,
+            "{what}: OCCT area {occt_area} m^2 (its error estimate {occt_error:e}), ours {ours_area} m^2"
         );
         seen.worst_area_rel = seen.worst_area_rel.max(rel);
 
