@@ -8,6 +8,12 @@
 //! with its outer loop and holes as degree-1 parameter-space curves; stroke surfaces are
 //! written as plain 128 entities. [`read`] parses the entities back for checking.
 //!
+//! Loops are cleaned before writing (repeated points and an explicit closing point
+//! dropped, loops enclosing no area skipped) and oriented as readers expect: outer
+//! counter-clockwise, holes clockwise in parameter space. Parameter-space curves carry
+//! entity use flag 05 (2D parametric). The files are checked by an independent CAD
+//! kernel, OpenCASCADE, in `tests/tests/iges_occt.rs` (see `tools/occt-iges-check/`).
+//!
 //! ```
 //! use glam::DVec3;
 //! use sculpt_core::formats::iges::{self, IgesSurface, NurbsPatch};
@@ -62,9 +68,9 @@ impl NurbsPatch {
 /// One visible face of a trimmed surface, in normalised `[0, 1]^2` parameters.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Face {
-    /// Outer loop (counter-clockwise).
+    /// Outer loop (written counter-clockwise, whichever way it is given).
     pub outer: Vec<DVec2>,
-    /// Holes (clockwise).
+    /// Holes (written clockwise).
     pub holes: Vec<Vec<DVec2>>,
 }
 
@@ -92,17 +98,72 @@ pub struct IgesModel {
     pub curves: Vec<Vec<DVec3>>,
 }
 
+// Directory-entry status numbers (IGES 5.3 section 2.2.4.3.9): blank, subordinate,
+// entity use, hierarchy, two digits each.
+
+/// An independent geometry entity (a root: untrimmed 128, trimmed 144).
+const STATUS_INDEPENDENT: &str = "00000000";
+/// Physically dependent geometry (a 128 under its 144, a 142 under its 144).
+const STATUS_DEPENDENT: &str = "00010000";
+/// Physically dependent, entity use 05 "2D parametric": a boundary curve in a surface's
+/// parameter space (the 126 under a 142).
+const STATUS_PARAMETRIC: &str = "00010500";
+
 struct Entity {
     kind: u32,
     form: u32,
-    dependent: bool,
+    status: &'static str,
     label: String,
     params: Vec<String>,
 }
 
+/// A real in IGES form: shortest round-trip digits, always with a decimal point before
+/// the exponent (IGES 5.3 section 2.2.2.2: `1.E0`, `-2.5E-3`, never `1E0`).
 fn real(x: f64) -> String {
     let x = if x.is_finite() { x } else { 0.0 };
-    format!("{x:E}")
+    let s = format!("{x:E}");
+    match s.split_once('E') {
+        Some((mantissa, exp)) if !mantissa.contains('.') => format!("{mantissa}.E{exp}"),
+        _ => s,
+    }
+}
+
+/// A trimming loop ready to write: consecutive repeated points and an explicit closing
+/// point dropped (each would be a zero-length span of the degree-1 curve), and turned
+/// to the orientation IGES readers expect of a face's boundary in parameter space:
+/// counter-clockwise for the outer loop, clockwise for holes. `None` when fewer than
+/// three distinct points remain or they enclose no area.
+fn clean_loop(points: &[DVec2], outer: bool) -> Option<Vec<DVec2>> {
+    let mut pts: Vec<DVec2> = Vec::with_capacity(points.len());
+    for &p in points {
+        if !p.is_finite() {
+            return None;
+        }
+        if pts.last() != Some(&p) {
+            pts.push(p);
+        }
+    }
+    while pts.len() > 1 && pts.first() == pts.last() {
+        pts.pop();
+    }
+    if pts.len() < 3 {
+        return None;
+    }
+    let twice_area: f64 = (0..pts.len())
+        .map(|k| pts[k].perp_dot(pts[(k + 1) % pts.len()]))
+        .sum();
+    // Collinear points enclose no area; rounding leaves a tiny one of either sign.
+    let (lo, hi) = pts
+        .iter()
+        .fold((pts[0], pts[0]), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    let size = (hi - lo).max_element();
+    if twice_area.is_nan() || twice_area.abs() <= 1e-12 * size * size {
+        return None;
+    }
+    if (twice_area > 0.0) != outer {
+        pts.reverse();
+    }
+    Some(pts)
 }
 
 fn patch_params(p: &NurbsPatch, out: &mut Vec<String>) {
@@ -193,24 +254,33 @@ pub fn write(surfaces: &[IgesSurface]) -> Vec<u8> {
         entities.push(Entity {
             kind: 128,
             form: 0,
-            dependent: s.faces.is_some(),
+            status: if s.faces.is_some() {
+                STATUS_DEPENDENT
+            } else {
+                STATUS_INDEPENDENT
+            },
             label: label.clone(),
             params,
         });
         let (lo, hi) = s.patch.domain();
         for face in s.faces.iter().flatten() {
             let mut boundaries = Vec::new();
-            for lp in std::iter::once(&face.outer).chain(&face.holes) {
-                if lp.len() < 3 {
+            let loops =
+                std::iter::once((&face.outer, true)).chain(face.holes.iter().map(|h| (h, false)));
+            for (lp, outer) in loops {
+                let Some(lp) = clean_loop(lp, outer) else {
+                    if outer {
+                        break;
+                    }
                     continue;
-                }
+                };
                 let in_domain: Vec<DVec2> = lp.iter().map(|q| lo + *q * (hi - lo)).collect();
                 let mut cparams = Vec::new();
                 loop_params(&in_domain, &mut cparams);
                 entities.push(Entity {
                     kind: 126,
                     form: 0,
-                    dependent: true,
+                    status: STATUS_PARAMETRIC,
                     label: "TRIMUV".into(),
                     params: cparams,
                 });
@@ -226,7 +296,7 @@ pub fn write(surfaces: &[IgesSurface]) -> Vec<u8> {
                 entities.push(Entity {
                     kind: 142,
                     form: 0,
-                    dependent: true,
+                    status: STATUS_DEPENDENT,
                     label: "TRIMLOOP".into(),
                     params,
                 });
@@ -245,7 +315,7 @@ pub fn write(surfaces: &[IgesSurface]) -> Vec<u8> {
             entities.push(Entity {
                 kind: 144,
                 form: 0,
-                dependent: false,
+                status: STATUS_INDEPENDENT,
                 label: label.clone(),
                 params,
             });
@@ -283,7 +353,7 @@ pub fn write(surfaces: &[IgesSurface]) -> Vec<u8> {
         "1.".into(),
         h("20260101.000000"),
         "1.E-9".into(),
-        "1000.".into(),
+        real(max_coordinate(surfaces)),
         h("wandsculpt"),
         h("wandsculpt"),
         "11".into(),
@@ -312,7 +382,7 @@ pub fn write(surfaces: &[IgesSurface]) -> Vec<u8> {
         }
     }
     for (i, e) in entities.iter().enumerate() {
-        let status = if e.dependent { "00010000" } else { "00000000" };
+        let status = e.status;
         let l1 = format!(
             "{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}",
             e.kind, pointers[i].0, 0, 0, 0, 0, 0, 0, status
@@ -338,6 +408,17 @@ pub fn write(surfaces: &[IgesSurface]) -> Vec<u8> {
     let mut out = lines.join("\n");
     out.push('\n');
     out.into_bytes()
+}
+
+/// The largest absolute coordinate of any control point (global parameter 20); the
+/// surfaces lie in the convex hull of their control points.
+fn max_coordinate(surfaces: &[IgesSurface]) -> f64 {
+    surfaces
+        .iter()
+        .flat_map(|s| s.patch.control_points.iter().flatten())
+        .map(|p| p.abs().max_element())
+        .filter(|m| m.is_finite())
+        .fold(0.0, f64::max)
 }
 
 /// Splits free-format text into lines of at most `width` columns, breaking after a
@@ -562,7 +643,184 @@ mod tests {
         assert_eq!(m.curves[1][0], DVec3::new(0.4, 1.2, 0.0));
     }
 
+    fn square(c: f64, h: f64) -> Vec<DVec2> {
+        vec![
+            DVec2::new(c - h, c - h),
+            DVec2::new(c + h, c - h),
+            DVec2::new(c + h, c + h),
+            DVec2::new(c - h, c + h),
+        ]
+    }
+
+    fn signed_area(c: &[DVec3]) -> f64 {
+        (0..c.len())
+            .map(|k| c[k].truncate().perp_dot(c[(k + 1) % c.len()].truncate()))
+            .sum::<f64>()
+            / 2.0
+    }
+
+    /// Regression: `{:E}` writes `1E0`; IGES 5.3 section 2.2.2.2 reals carry a decimal
+    /// point (`1.E0`), which strict readers require.
+    #[test]
+    fn reals_always_have_a_decimal_point() {
+        assert_eq!(real(1.0), "1.E0");
+        assert_eq!(real(0.0), "0.E0");
+        assert_eq!(real(-2.0e-3), "-2.E-3");
+        assert_eq!(real(0.123456789012345), "1.23456789012345E-1");
+        assert_eq!(real(f64::NAN), "0.E0");
+        for x in [1.0, -0.5, 1e-300, 123456.789, 0.1 + 0.2] {
+            assert_eq!(real(x).parse::<f64>().unwrap(), x, "round trip of {x}");
+        }
+        let bytes = write(&[IgesSurface {
+            name: "p".into(),
+            patch: patch(),
+            faces: None,
+        }]);
+        let text = std::str::from_utf8(&bytes).unwrap();
+        for line in text.lines().filter(|l| &l[72..73] == "P") {
+            for token in line[..64].split([',', ';']) {
+                let token = token.trim();
+                if token.contains('E') {
+                    assert!(token.contains('.'), "real without a decimal point: {token}");
+                }
+            }
+        }
+    }
+
+    /// Regression: a loop given with its first point repeated at the end, or with a
+    /// point repeated, was written with zero-length spans in its degree-1 curve.
+    #[test]
+    fn loops_drop_repeated_and_closing_points() {
+        let mut outer = square(0.5, 0.5);
+        outer.insert(2, outer[1]);
+        outer.push(outer[0]);
+        let face = Face {
+            outer,
+            holes: vec![vec![DVec2::splat(0.5); 3], square(0.5, 0.1)],
+        };
+        let m = read(&write(&[IgesSurface {
+            name: "t".into(),
+            patch: patch(),
+            faces: Some(vec![face]),
+        }]))
+        .unwrap();
+        // The degenerate hole is dropped; the outer loop has 4 corners plus its close.
+        assert_eq!(m.trimmed, vec![(0, 2)]);
+        assert_eq!(m.curves[0].len(), 5);
+        for c in &m.curves {
+            for w in c.windows(2) {
+                assert_ne!(w[0], w[1], "zero-length span");
+            }
+        }
+    }
+
+    /// Regression: loops were written in whatever orientation the caller gave; IGES
+    /// readers expect the outer boundary counter-clockwise in parameter space and holes
+    /// clockwise.
+    #[test]
+    fn loops_are_written_outer_counter_clockwise_holes_clockwise() {
+        let face = Face {
+            outer: square(0.5, 0.5).into_iter().rev().collect(),
+            holes: vec![square(0.5, 0.1)],
+        };
+        let m = read(&write(&[IgesSurface {
+            name: "t".into(),
+            patch: patch(),
+            faces: Some(vec![face]),
+        }]))
+        .unwrap();
+        assert!(signed_area(&m.curves[0]) > 0.0, "outer counter-clockwise");
+        assert!(signed_area(&m.curves[1]) < 0.0, "hole clockwise");
+    }
+
+    /// Regression: the 126 curves under a 142 had entity use flag 00 (geometry); IGES
+    /// 5.3 section 2.2.4.3.9 flags parameter-space curves 05 (2D parametric).
+    #[test]
+    fn parameter_space_curves_are_flagged_2d_parametric() {
+        let bytes = write(&[IgesSurface {
+            name: "t".into(),
+            patch: patch(),
+            faces: Some(vec![Face {
+                outer: square(0.5, 0.5),
+                holes: vec![],
+            }]),
+        }]);
+        let text = std::str::from_utf8(&bytes).unwrap();
+        let status: Vec<(&str, &str)> = text
+            .lines()
+            .filter(|l| &l[72..73] == "D")
+            .step_by(2)
+            .map(|l| (l[..8].trim(), &l[64..72]))
+            .collect();
+        assert_eq!(
+            status,
+            vec![
+                ("128", "00010000"),
+                ("126", "00010500"),
+                ("142", "00010000"),
+                ("144", "00000000"),
+            ]
+        );
+    }
+
+    /// Regression: global parameter 20 (maximum coordinate) was a fixed 1000; it is the
+    /// model's largest absolute coordinate.
+    #[test]
+    fn global_max_coordinate_is_the_models() {
+        let mut p = patch();
+        p.control_points[2][1].y = -1234.5;
+        let bytes = write(&[IgesSurface {
+            name: "t".into(),
+            patch: p,
+            faces: None,
+        }]);
+        let global: String = std::str::from_utf8(&bytes)
+            .unwrap()
+            .lines()
+            .filter(|l| &l[72..73] == "G")
+            .map(|l| l[..72].trim_end())
+            .collect();
+        // Parameters 19 (resolution) and 20 follow each other.
+        let after_resolution = global.split_once("1.E-9,").map(|(_, rest)| rest);
+        let max = after_resolution.and_then(|r| r.split([',', ';']).next());
+        assert_eq!(max, Some("1.2345E3"), "global section {global}");
+    }
+
     proptest! {
+        /// Any loops a caller hands in (repeated points, either orientation, NaN,
+        /// degenerate) are written as valid boundaries or dropped: the file reads back,
+        /// no span has zero length, outer loops turn counter-clockwise and holes clockwise.
+        #[test]
+        fn any_loops_are_written_clean_and_oriented(
+            raw in proptest::collection::vec(
+                proptest::collection::vec((0u8..6, 0u8..6, 0u8..20), 0..12), 1..4)
+        ) {
+            let loops: Vec<Vec<DVec2>> = raw
+                .iter()
+                .map(|l| {
+                    l.iter()
+                        .map(|&(x, y, nan)| {
+                            if nan == 0 { DVec2::NAN } else { DVec2::new(x as f64 / 5.0, y as f64 / 5.0) }
+                        })
+                        .collect()
+                })
+                .collect();
+            let face = Face { outer: loops[0].clone(), holes: loops[1..].to_vec() };
+            let m = read(&write(&[IgesSurface { name: "p".into(), patch: patch(), faces: Some(vec![face]) }])).unwrap();
+            let mut curve = 0;
+            for &(_, count) in &m.trimmed {
+                for k in 0..count {
+                    let c = &m.curves[curve + k];
+                    prop_assert!(c.windows(2).all(|w| w[0] != w[1]));
+                    let open = &c[..c.len() - 1];
+                    let a = signed_area(open);
+                    prop_assert!(a != 0.0);
+                    prop_assert_eq!(a > 0.0, k == 0, "loop {} area {}", k, a);
+                }
+                curve += count;
+            }
+        }
+
         #[test]
         fn damaged_files_never_panic(cut in 0usize..3000, flip in 0usize..3000, val in 32u8..127) {
             let mut bytes = write(&[IgesSurface { name: "p".into(), patch: patch(), faces: None }]);
