@@ -391,6 +391,7 @@ impl Stroke {
             }
         }
         let mut run = runs.into_iter().max_by_key(|r| r.len()).unwrap_or_default();
+        run = through_poles(&run);
         let run_len: f64 = run.windows(2).map(|w| w[0].1.distance(w[1].1)).sum();
         if run.len() < 2 || run_len <= tool.width * 1e-3 {
             return Err(reject("the stroke does not lie on the surface"));
@@ -574,23 +575,40 @@ impl Stroke {
         let shifts =
             (v0..=v1).flat_map(|kv| (u0..=u1).map(move |ku| DVec2::new(ku as f64, kv as f64)));
         for &i in shifts.flat_map(|k| self.buckets.candidates(uv + k)) {
-            let i = i as usize;
-            let (a, b) = (self.centre[i], self.centre[i + 1]);
-            let d = b - a;
-            let l2 = d.length_squared();
-            let t = if l2 > 0.0 {
-                ((p - a).dot(d) / l2).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            let r = p.distance(a + d * t);
-            let hw = self.half_width[i] + (self.half_width[i + 1] - self.half_width[i]) * t;
-            if hw > 0.0 && r < hw {
-                let dep = self.depth[i] + (self.depth[i + 1] - self.depth[i]) * t;
-                best = best.max(dep * self.tool.profile.shape(r / hw));
-            }
+            best = best.max(self.segment_depth(i as usize, p));
         }
         if best.is_finite() { best } else { 0.0 }
+    }
+
+    /// [`Self::depth_at`] found from the 3D point alone, over every centreline segment
+    /// (no parameter buckets): for a pole of the target, one point for a whole side of
+    /// the square, which must get one depth whichever parameter it is reached from.
+    pub fn depth_at_point(&self, p: DVec3) -> f64 {
+        let best = (0..self.centre.len().saturating_sub(1))
+            .map(|i| self.segment_depth(i, p))
+            .fold(0.0, f64::max);
+        if best.is_finite() { best } else { 0.0 }
+    }
+
+    /// The depth segment `i` of the centreline gives the point `p` (zero beyond its
+    /// half-width).
+    fn segment_depth(&self, i: usize, p: DVec3) -> f64 {
+        let (a, b) = (self.centre[i], self.centre[i + 1]);
+        let d = b - a;
+        let l2 = d.length_squared();
+        let t = if l2 > 0.0 {
+            ((p - a).dot(d) / l2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let r = p.distance(a + d * t);
+        let hw = self.half_width[i] + (self.half_width[i + 1] - self.half_width[i]) * t;
+        if hw > 0.0 && r < hw {
+            let dep = self.depth[i] + (self.depth[i + 1] - self.depth[i]) * t;
+            dep * self.tool.profile.shape(r / hw)
+        } else {
+            0.0
+        }
     }
 
     /// Memory held by this stroke, bytes (approximate).
@@ -655,6 +673,30 @@ fn project_near(
 /// True when a seeded step `d` from the seed ran to the edge of the recentred view in a
 /// closed direction (half a period): the projection may have stopped there short of
 /// the foot point, so a fresh projection is tried.
+/// The centreline through a pole: where a step leaves (or reaches) the side `v = 0`
+/// or `v = 1` with a jump in `u`, the projection went over a pole (a whole side of the
+/// square that is one point), and the centreline first runs along that side to the new
+/// `u`, a step of no 3D length, so that no segment cuts across the cells round the
+/// pole.
+fn through_poles(run: &[(DVec2, DVec3)]) -> Vec<(DVec2, DVec3)> {
+    let mut out: Vec<(DVec2, DVec3)> = Vec::with_capacity(run.len() + 2);
+    for (k, &(uv, p)) in run.iter().enumerate() {
+        if let Some(&(prev, q)) = out.last()
+            && k > 0
+            && (uv.x - prev.x).abs() > 0.25
+        {
+            let side = |y: f64| y == 0.0 || y == 1.0;
+            if side(prev.y) {
+                out.push((DVec2::new(uv.x, prev.y), q));
+            } else if side(uv.y) {
+                out.push((DVec2::new(prev.x, uv.y), p));
+            }
+        }
+        out.push((uv, p));
+    }
+    out
+}
+
 fn at_view_edge(d: DVec2, closed: [bool; 2]) -> bool {
     (closed[0] && d.x.abs() >= 0.5 - 1e-9) || (closed[1] && d.y.abs() >= 0.5 - 1e-9)
 }

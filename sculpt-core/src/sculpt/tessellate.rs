@@ -237,6 +237,12 @@ pub struct TargetTessellation {
     key: u32,
     detail: Detail,
     extent: SurfaceExtent,
+    /// The sides of the square (0 u-min, 1 u-max, 2 v-min, 3 v-max) that are poles:
+    /// the whole side maps to one point.
+    poles: [bool; 4],
+    /// The displacement at each pole in the last pass (bits), to rewrite the cells
+    /// around a pole when a stroke far along it in parameter changes it.
+    pole_heights: [u64; 4],
     map: UvMap,
     /// `unions[k]`: the id of the k-th stroke and the union of the footprints of
     /// strokes `0..=k`. Applying a stroke unions one footprint into the last entry;
@@ -288,6 +294,8 @@ impl TargetTessellation {
             key,
             detail,
             extent,
+            poles: pole_sides(surface, &extent),
+            pole_heights: [0; 4],
             signatures: vec![None; (n * n) as usize],
             triangles: vec![0; (n * n) as usize],
             root_strokes: vec![Vec::new(); (n * n) as usize],
@@ -444,6 +452,24 @@ impl TargetTessellation {
                 self.for_roots_meeting(s, |r| dirty[r as usize] = true);
             }
         }
+        // The poles: one displacement each, from every stroke, whichever cell reaches
+        // it; a change rewrites the whole row of cells around the pole.
+        let mut cache = EvalCache::default();
+        let mut pole_rows = Vec::new();
+        for side in (0..4).filter(|&k| self.poles[k]) {
+            let uv = pole_uv(side);
+            let (p, nrm, h) = pole_point(surface, strokes, side);
+            cache.insert((uv.x.to_bits(), uv.y.to_bits()), (p, nrm, h));
+            if h.to_bits() != self.pole_heights[side] {
+                self.pole_heights[side] = h.to_bits();
+                pole_rows.push(side);
+            }
+        }
+        for r in 0..n * n {
+            if pole_rows.iter().any(|&side| self.root_on_side(r, side)) {
+                dirty[r as usize] = true;
+            }
+        }
         let hidden = self.unions.last().map_or(&self.empty, |u| &u.1);
         let dirty_roots: Vec<u32> = (0..n * n).filter(|&r| dirty[r as usize]).collect();
         self.map
@@ -454,7 +480,6 @@ impl TargetTessellation {
         let by_id: FxMap<u64, &Stroke> = strokes.iter().map(|&(id, s)| (id, s)).collect();
         let segments = self.segments(strokes, &indexed);
         let mut stats = TessStats::default();
-        let mut cache = EvalCache::default();
         let mut here: Vec<StrokeRef<'_>> = Vec::new();
         for root in (0..n * n).filter(|&r| recheck[r as usize]) {
             here.clear();
@@ -468,6 +493,9 @@ impl TargetTessellation {
             input.hash_into(&mut h);
             for (id, _) in &here {
                 id.hash(&mut h);
+            }
+            for side in (0..4).filter(|&k| self.root_on_side(root, k) && self.poles[k]) {
+                self.pole_heights[side].hash(&mut h);
             }
             let sig = h.finish();
             if self.signatures[root as usize] == Some(sig) {
@@ -536,6 +564,25 @@ impl TargetTessellation {
         out
     }
 
+    /// True when root cell `root` lies along side `side` of the square (0 u-min, 1 u-max,
+    /// 2 v-min, 3 v-max).
+    fn root_on_side(&self, root: u32, side: usize) -> bool {
+        let n = self.map.n();
+        let (i, j) = (root % n, root / n);
+        match side {
+            0 => i == 0,
+            1 => i + 1 == n,
+            2 => j == 0,
+            _ => j + 1 == n,
+        }
+    }
+
+    /// True when the segment lies on a pole (a side of the square that is one point).
+    fn on_pole(&self, s: &[DVec2; 2]) -> bool {
+        let [a, b] = s.map(|p| pole_of(self.poles, p));
+        a.is_some() && a == b
+    }
+
     /// The outline and centreline segments, indexed for the roots in `mask`.
     fn segments(&self, strokes: &[StrokeRef<'_>], mask: &[bool]) -> Segments {
         let n = self.map.n();
@@ -544,10 +591,14 @@ impl TargetTessellation {
         let near = |r: &Rect| self.roots_near(r).any(|root| mask[root as usize]);
         // Outline edges lying on a seam are where a wrapped footprint was cut into the
         // square, not a rim: the groove runs on across them.
+        // So are those on a pole, a side of the square that is one point.
         let on_seam = |s: &[DVec2; 2]| {
-            let on = |a: f64, b: f64| a == b && (a == 0.0 || a == 1.0);
-            (self.extent.closed_u && on(s[0].x, s[1].x))
-                || (self.extent.closed_v && on(s[0].y, s[1].y))
+            let on = |a: f64, b: f64, side: f64| a == b && a == side;
+            let [p0, p1, p2, p3] = self.poles;
+            ((self.extent.closed_u || p0) && on(s[0].x, s[1].x, 0.0))
+                || ((self.extent.closed_u || p1) && on(s[0].x, s[1].x, 1.0))
+                || ((self.extent.closed_v || p2) && on(s[0].y, s[1].y, 0.0))
+                || ((self.extent.closed_v || p3) && on(s[0].y, s[1].y, 1.0))
         };
         let hidden = self
             .hidden()
@@ -563,6 +614,7 @@ impl TargetTessellation {
                     .is_none_or(|t| t.iter().any(|&r| mask[r as usize]))
             })
             .flat_map(|(_, s)| s.centre_segments().iter().copied())
+            .filter(|w| !self.on_pole(w))
             .map(|w| (w, Kind::Plain));
         for (s, kind) in hidden.chain(centres) {
             if !near(&Rect::of_segment(s[0], s[1])) {
@@ -738,8 +790,10 @@ impl TargetTessellation {
         for v in cdt.vertices() {
             let p = v.position();
             let uv = super::surface::clamp_uv(DVec2::new(p.x, p.y));
-            let (s, n, h) = evaluate(cache, surface, strokes, uv);
-            let on_rim = rims.contains(&(p.x.to_bits(), p.y.to_bits()));
+            let (s, n, h) = evaluate(cache, surface, strokes, self.poles, uv);
+            // A pole takes its one displacement even where an outline reaches it.
+            let on_rim =
+                rims.contains(&(p.x.to_bits(), p.y.to_bits())) && pole_of(self.poles, uv).is_none();
             let h = if on_rim { 0.0 } else { h };
             let pos = s + n * h;
             let pos = if pos.is_finite() { pos } else { DVec3::ZERO };
@@ -798,7 +852,7 @@ impl TargetTessellation {
             .iter()
             .map(|(p, _)| {
                 let uv = *p;
-                let (s, n, h) = evaluate(cache, surface, strokes, uv);
+                let (s, n, h) = evaluate(cache, surface, strokes, self.poles, uv);
                 (s + n * h, n, uv)
             })
             .collect();
@@ -823,13 +877,22 @@ impl TargetTessellation {
     }
 }
 
-/// `S(uv)`, the normal and the combined displacement, through the pass's cache.
+/// `S(uv)`, the normal and the combined displacement, through the pass's cache. A
+/// parameter on a pole (see [`pole_sides`]) is evaluated at the pole's one parameter
+/// ([`pole_uv`]), so that every cell meeting the pole puts it at one point.
 fn evaluate(
     cache: &mut EvalCache,
     surface: &dyn ParamSurface,
     strokes: &[StrokeRef<'_>],
+    poles: [bool; 4],
     uv: DVec2,
 ) -> (DVec3, DVec3, f64) {
+    if let Some(side) = pole_of(poles, uv) {
+        let uv = pole_uv(side);
+        return *cache
+            .entry((uv.x.to_bits(), uv.y.to_bits()))
+            .or_insert_with(|| pole_point(surface, strokes, side));
+    }
     *cache
         .entry((uv.x.to_bits(), uv.y.to_bits()))
         .or_insert_with(|| {
@@ -853,6 +916,96 @@ pub fn height(strokes: &[StrokeRef<'_>], uv: DVec2, p: DVec3) -> f64 {
             continue;
         }
         let d = s.depth_at(uv, p);
+        if d > 0.0 {
+            h = match s.tool.mode {
+                Mode::Carve => h.min(-d),
+                Mode::Emboss => h.max(d),
+            };
+        }
+    }
+    h
+}
+
+/// The sides of the square (0 u-min, 1 u-max, 2 v-min, 3 v-max) whose points all
+/// coincide (within 1e-9 of the target's size): the poles of a sphere.
+fn pole_sides(surface: &dyn ParamSurface, extent: &SurfaceExtent) -> [bool; 4] {
+    let tol = 1e-9 * extent.diagonal();
+    let side = |k: usize| {
+        let at = |t: f64| {
+            surface
+                .eval(match k {
+                    0 => DVec2::new(0.0, t),
+                    1 => DVec2::new(1.0, t),
+                    2 => DVec2::new(t, 0.0),
+                    _ => DVec2::new(t, 1.0),
+                })
+                .p
+        };
+        let first = at(0.0);
+        first.is_finite() && (1..=8).all(|i| at(f64::from(i) / 8.0).distance(first) <= tol)
+    };
+    [side(0), side(1), side(2), side(3)]
+}
+
+/// The one parameter a pole on side `side` is evaluated at: the side's midpoint.
+fn pole_uv(side: usize) -> DVec2 {
+    match side {
+        0 => DVec2::new(0.0, 0.5),
+        1 => DVec2::new(1.0, 0.5),
+        2 => DVec2::new(0.5, 0.0),
+        _ => DVec2::new(0.5, 1.0),
+    }
+}
+
+/// The pole side `uv` lies on, if any (within [`SNAP_EPS`]: a cell side summed from
+/// the grid may stop one rounding short of the square's side).
+fn pole_of(poles: [bool; 4], uv: DVec2) -> Option<usize> {
+    let near = |a: f64, b: f64| (a - b).abs() <= SNAP_EPS;
+    let on = [
+        near(uv.x, 0.0),
+        near(uv.x, 1.0),
+        near(uv.y, 0.0),
+        near(uv.y, 1.0),
+    ];
+    (0..4).find(|&k| poles[k] && on[k])
+}
+
+/// [`height`] at a pole `p`: each stroke's depth from the 3D point alone (the pole is
+/// in a footprint wherever it lies within the stroke's half-width), since the footprint
+/// in the square meets the pole's side along part of it only.
+/// The point, normal and displacement of the pole on side `side`.
+fn pole_point(
+    surface: &dyn ParamSurface,
+    strokes: &[StrokeRef<'_>],
+    side: usize,
+) -> (DVec3, DVec3, f64) {
+    let uv = pole_uv(side);
+    let p = surface.eval(uv).p;
+    // The normal: the mean of the normals on a small ring round the pole (at the pole
+    // itself one derivative vanishes and the cross product is rounding noise).
+    let ring: DVec3 = (0..8)
+        .map(|k| {
+            let t = f64::from(k) / 8.0;
+            let (a, b) = (1e-4, 1.0 - 1e-4);
+            let q = match side {
+                0 => DVec2::new(a, t),
+                1 => DVec2::new(b, t),
+                2 => DVec2::new(t, a),
+                _ => DVec2::new(t, b),
+            };
+            normal_from(surface, q, &surface.eval(q))
+        })
+        .sum();
+    let n = ring
+        .try_normalize()
+        .unwrap_or_else(|| normal_from(surface, uv, &surface.eval(uv)));
+    (p, n, pole_height(strokes, p))
+}
+
+fn pole_height(strokes: &[StrokeRef<'_>], p: DVec3) -> f64 {
+    let mut h: f64 = 0.0;
+    for (_, s) in strokes {
+        let d = s.depth_at_point(p);
         if d > 0.0 {
             h = match s.tool.mode {
                 Mode::Carve => h.min(-d),
