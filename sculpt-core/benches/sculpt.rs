@@ -1,7 +1,9 @@
 //! Sculpting benches (issue 3 targets):
 //! - `stroke_interactive`: one 200-sample stroke on a bicubic 16 x 16 target at
 //!   interactive depth, including the incremental re-tessellation (target <= 2 ms);
-//! - `scene4_final`: final-depth tessellation of the mask-face scene (target <= 100 ms).
+//! - `scene4_final`: final-depth tessellation of the mask-face scene (target <= 100 ms);
+//! - `scene4_stroke_surfaces`: building the 7 stroke surfaces of the mask-face scene
+//!   (fit, trim against the overlapping strokes, UV maps), as the first export does.
 //!
 //! Run: `cargo bench -p sculpt-core --bench sculpt`. Triangle counts and memory per
 //! stroke are printed once at start-up.
@@ -98,6 +100,20 @@ fn report() {
             doc.memory_bytes() / 1024 / doc.strokes().len().max(1)
         );
     }
+    let target = doc.targets()[0].id;
+    let surfaces = doc.stroke_surfaces(target);
+    for detail in [Detail::Interactive, Detail::Final] {
+        let triangles = doc.stroke_surfaces_mesh(detail, &mut PatchMesh::new());
+        println!(
+            "scene 4 stroke surfaces, {detail:?}: {} surfaces, {triangles} triangles, {} KiB",
+            surfaces.len(),
+            surfaces
+                .iter()
+                .map(|(_, s)| s.memory_bytes())
+                .sum::<usize>()
+                / 1024
+        );
+    }
 }
 
 fn benches(c: &mut Criterion) {
@@ -122,6 +138,18 @@ fn benches(c: &mut Criterion) {
     let doc = scene4();
     c.bench_function("scene4_final", |b| {
         b.iter(|| black_box(doc.mesh(Detail::Final)))
+    });
+    // A fresh clone has no stroke surfaces yet: each iteration builds all of them.
+    let target = doc.targets()[0].id;
+    c.bench_function("scene4_stroke_surfaces", |b| {
+        b.iter_batched(
+            || doc.clone(),
+            |d| {
+                black_box(d.stroke_surfaces(target).len());
+                d
+            },
+            BatchSize::LargeInput,
+        )
     });
 }
 

@@ -223,3 +223,59 @@ fn usage_errors_exit_non_zero() {
     let help = String::from_utf8_lossy(&out.stdout);
     assert!(help.contains("eval") && help.contains("project"));
 }
+
+/// `mesh --part` writes the sculpted target (default), the stroke surfaces, or both;
+/// each file read back by the crate's own reader matches the library's tessellation.
+#[test]
+fn mesh_part_selects_target_strokes_or_all() {
+    use sculpt_core::formats::MeshFormat;
+    use sculpt_core::mesh::PatchMesh;
+    use sculpt_core::sculpt::document::Document;
+    use sculpt_core::sculpt::tessellate::Detail;
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../tests/data/scenes/sphere-overlaps.json"
+    );
+    let doc = Document::from_json(&std::fs::read(scene).unwrap()).unwrap();
+    let target = doc.mesh(Detail::Final).triangle_count();
+    let mut strokes = PatchMesh::new();
+    let stroke_tris = doc.stroke_surfaces_mesh(Detail::Final, &mut strokes);
+    assert!(stroke_tris > 0);
+    let dir = tempfile::tempdir().unwrap();
+    let mut counts = Vec::new();
+    for part in [None, Some("target"), Some("strokes"), Some("all")] {
+        let out = dir
+            .path()
+            .join(format!("{}.obj", part.unwrap_or("default")));
+        let out = out.to_str().unwrap();
+        let mut args = vec!["mesh", "--scene", scene, "--out", out];
+        if let Some(p) = part {
+            args.extend(["--part", p]);
+        }
+        let run = run(&args, None);
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let back = MeshFormat::Obj.read(&std::fs::read(out).unwrap()).unwrap();
+        counts.push(back.triangles.len());
+    }
+    // Welding may drop a few collapsed slivers at tapered ends: compare loosely there.
+    let near = |got: usize, want: usize| got <= want && got * 100 >= want * 99;
+    assert!(near(counts[0], target), "default {} vs {target}", counts[0]);
+    assert_eq!(counts[0], counts[1], "the default is the target");
+    assert!(
+        near(counts[2], stroke_tris),
+        "strokes {} vs {stroke_tris}",
+        counts[2]
+    );
+    assert!(near(counts[3], target + stroke_tris), "all {}", counts[3]);
+    let bad = run(
+        &[
+            "mesh", "--scene", scene, "--out", "x.obj", "--part", "wings",
+        ],
+        None,
+    );
+    assert_eq!(bad.status.code(), Some(2), "a usage error");
+}

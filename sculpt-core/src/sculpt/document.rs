@@ -63,8 +63,9 @@
 //! reject are errors that say which entry is wrong. Scene files are documents.
 
 use super::jordan::Rect;
-use super::stroke::{Mode, Stroke, StrokeInput, Tool};
-use super::surface::{ParamSurface, extent, normal_at};
+use super::stroke::{Stroke, StrokeInput, Tool};
+use super::stroke_surface::StrokeSurface;
+use super::surface::extent;
 use super::tessellate::{Detail, GridPlan, StrokeRef, TargetTessellation, TessStats};
 use crate::error::{Error, Result};
 use crate::formats::iges::{Face, IgesSurface, NurbsPatch};
@@ -73,6 +74,7 @@ use crate::nurbs::NurbsSurface;
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
 
 /// The format tag of document files.
 pub const FORMAT: &str = "wandsculpt-document";
@@ -134,6 +136,36 @@ pub struct Document {
     preview: Option<(TargetId, StrokeId, Stroke)>,
     /// Preview updates so far (each gets a fresh id, so the tessellator sees it change).
     preview_serial: u64,
+    /// Stroke surfaces, built lazily when first asked for (export, stroke meshes).
+    surfaces: SurfaceCache,
+}
+
+/// A stroke's cached surface: the strokes (ids, document order, itself included) whose
+/// bounds met its own when it was trimmed, and the surface (`None` when the stroke is
+/// too degenerate to have one).
+#[derive(Debug, Clone)]
+struct CachedSurface {
+    overlaps: Vec<StrokeId>,
+    surface: Option<Arc<StrokeSurface>>,
+}
+
+/// The stroke-surface cache: filled through `&self` (exports take `&Document`), hence
+/// the lock; cloning a document clones the cache.
+#[derive(Debug, Default)]
+struct SurfaceCache(Mutex<HashMap<StrokeId, CachedSurface>>);
+
+impl SurfaceCache {
+    fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<StrokeId, CachedSurface>> {
+        self.0
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+}
+
+impl Clone for SurfaceCache {
+    fn clone(&self) -> Self {
+        Self(Mutex::new(self.lock().clone()))
+    }
 }
 
 /// Preview strokes take ids from here up; document strokes never get this far.
@@ -296,6 +328,7 @@ impl Document {
 
     fn pop_stroke(&mut self) -> Option<Step> {
         let s = self.strokes.pop()?;
+        self.surfaces.lock().remove(&s.id);
         if let Some(stroke) = self.built.remove(&s.id) {
             self.mark_dirty(s.target, stroke.bounds);
         }
@@ -442,37 +475,133 @@ impl Document {
 
     /// Every surface for IGES export: each target as trimmed faces (the domain minus
     /// the strokes' footprints, entity 144) or whole (128) when untouched, and each
-    /// stroke surface as a B-spline surface (128) through its swept profile grid.
+    /// stroke surface ([`StrokeSurface`]: cubic along the stroke) trimmed by its
+    /// visible faces (144) where other strokes remove part of it, or whole (128).
+    /// Strokes without a stroke surface (degenerate) and stroke surfaces wholly removed
+    /// by others are left out.
     pub fn iges_surfaces(&self) -> Vec<IgesSurface> {
         let mut out = Vec::new();
         for t in &self.targets {
             let strokes = self.strokes_on(t.id);
-            let patch = NurbsPatch {
-                degree_u: t.surface.degree_u(),
-                degree_v: t.surface.degree_v(),
-                knots_u: t.surface.knots_u().knots().to_vec(),
-                knots_v: t.surface.knots_v().knots().to_vec(),
-                control_points: t.surface.control_points(),
-                weights: t.surface.is_rational().then(|| t.surface.weights()),
-            };
             let faces = (!strokes.is_empty()).then(|| {
                 let regions: Vec<_> = strokes.iter().map(|s| &s.1.footprint).collect();
                 visible_faces(&super::stroke::union(&regions))
             });
             out.push(IgesSurface {
                 name: t.name.clone(),
-                patch,
+                patch: patch_of(&t.surface),
                 faces,
             });
-            for (id, s) in &strokes {
+            for (id, surface) in self.stroke_surfaces(t.id) {
+                let faces = (!surface.trim().is_empty()).then(|| visible_faces(surface.trim()));
+                if faces.as_ref().is_some_and(Vec::is_empty) {
+                    continue;
+                }
                 out.push(IgesSurface {
                     name: format!("stroke{id}"),
-                    patch: stroke_surface(&t.surface, s),
-                    faces: None,
+                    patch: patch_of(surface.surface()),
+                    faces,
                 });
             }
         }
         out
+    }
+
+    /// The stroke surface of a stroke, trimmed against the strokes overlapping it (see
+    /// [`super::stroke_surface`]); `None` for an unknown id or a stroke too degenerate
+    /// to have one. Built on first use and cached; only strokes whose overlaps changed
+    /// (an overlapping stroke applied or undone) are trimmed again.
+    pub fn stroke_surface(&self, id: StrokeId) -> Option<Arc<StrokeSurface>> {
+        let record = self.strokes.iter().find(|s| s.id == id)?;
+        self.stroke_surfaces(record.target)
+            .into_iter()
+            .find(|(sid, _)| *sid == id)
+            .map(|(_, s)| s)
+    }
+
+    /// The stroke surfaces of every stroke on a target, in document order (strokes
+    /// without one are left out). See [`Self::stroke_surface`].
+    pub fn stroke_surfaces(&self, target: TargetId) -> Vec<(StrokeId, Arc<StrokeSurface>)> {
+        let Some(t) = self.targets.iter().find(|t| t.id == target) else {
+            return Vec::new();
+        };
+        let strokes = self.strokes_on(target);
+        let ext = extent(&t.surface);
+        let closed = [ext.closed_u, ext.closed_v];
+        let mut cache = self.surfaces.lock();
+        let mut out = Vec::new();
+        for (k, &(id, stroke)) in strokes.iter().enumerate() {
+            let overlaps: Vec<StrokeId> = strokes
+                .iter()
+                .filter(|(_, o)| bounds_meet(&o.bounds, &stroke.bounds, closed))
+                .map(|(oid, _)| *oid)
+                .collect();
+            let entry = cache.entry(id).or_insert_with(|| CachedSurface {
+                overlaps: Vec::new(),
+                surface: StrokeSurface::build(&t.surface, stroke).ok().map(Arc::new),
+            });
+            if let Some(surface) = &mut entry.surface {
+                if entry.overlaps != overlaps {
+                    Arc::make_mut(surface).trim_against(&t.surface, &strokes, k, closed);
+                    entry.overlaps = overlaps;
+                }
+                out.push((id, Arc::clone(surface)));
+            }
+        }
+        out
+    }
+
+    /// Tessellates the visible part of one stroke surface through its UV map at
+    /// `detail` into `sink`, as one patch keyed by [`stroke_patch_key`]. Returns the
+    /// triangles written (0, and nothing written, when the stroke has no surface).
+    pub fn stroke_surface_mesh(
+        &self,
+        stroke: StrokeId,
+        detail: Detail,
+        sink: &mut dyn MeshSink,
+    ) -> usize {
+        self.stroke_surface(stroke)
+            .map_or(0, |s| s.tessellate(detail, stroke_patch_key(stroke), sink))
+    }
+
+    /// [`Self::stroke_surface_mesh`] for every stroke of the document. Returns the
+    /// triangles written.
+    pub fn stroke_surfaces_mesh(&self, detail: Detail, sink: &mut dyn MeshSink) -> usize {
+        self.targets
+            .iter()
+            .flat_map(|t| self.stroke_surfaces(t.id))
+            .map(|(id, s)| s.tessellate(detail, stroke_patch_key(id), sink))
+            .sum()
+    }
+}
+
+/// The patch key of a stroke surface's mesh: the high bit set, so it never meets a
+/// target patch's key.
+pub fn stroke_patch_key(stroke: StrokeId) -> u64 {
+    (1 << 63) | stroke
+}
+
+/// True when two strokes' parameter bounds meet, also across the seams of closed
+/// directions.
+fn bounds_meet(a: &Rect, b: &Rect, closed: [bool; 2]) -> bool {
+    let shift = |c: bool| if c { vec![-1.0, 0.0, 1.0] } else { vec![0.0] };
+    shift(closed[0]).into_iter().any(|dx| {
+        shift(closed[1]).into_iter().any(|dy| {
+            let d = DVec2::new(dx, dy);
+            Rect::new(a.min + d, a.max + d).touches(b)
+        })
+    })
+}
+
+/// A kernel surface in the IGES writer's layout.
+fn patch_of(s: &NurbsSurface) -> NurbsPatch {
+    NurbsPatch {
+        degree_u: s.degree_u(),
+        degree_v: s.degree_v(),
+        knots_u: s.knots_u().knots().to_vec(),
+        knots_v: s.knots_v().knots().to_vec(),
+        control_points: s.control_points(),
+        weights: s.is_rational().then(|| s.weights()),
     }
 }
 
@@ -508,56 +637,6 @@ fn visible_faces(hidden: &super::jordan::Region) -> Vec<Face> {
             holes: s[1..].iter().map(to).collect(),
         })
         .collect()
-}
-
-/// Fractions across the profile (-1 left rim, 0 centre, 1 right rim) of the stroke
-/// surface's control grid.
-const ACROSS: [f64; 9] = [-1.0, -0.75, -0.5, -0.25, 0.0, 0.25, 0.5, 0.75, 1.0];
-
-/// The stroke surface as a degree (1, 1) B-spline through the swept profile: `u` along
-/// the stroke, `v` across it; its rims lie on the target, its centre at the tool depth.
-pub fn stroke_surface(surface: &dyn ParamSurface, s: &Stroke) -> NurbsPatch {
-    let n = s.centre_uv.len();
-    let sign = match s.tool.mode {
-        Mode::Carve => -1.0,
-        Mode::Emboss => 1.0,
-    };
-    let control_points: Vec<Vec<DVec3>> = (0..n)
-        .map(|i| {
-            ACROSS
-                .iter()
-                .map(|&f| {
-                    let rim = if f < 0.0 {
-                        &s.rims_uv[0]
-                    } else {
-                        &s.rims_uv[1]
-                    };
-                    let uv = s.centre_uv[i].lerp(rim[i], f.abs());
-                    let p = surface.eval(uv).p;
-                    let d = if f.abs() == 1.0 {
-                        0.0
-                    } else {
-                        s.depth_at(uv, p)
-                    };
-                    p + normal_at(surface, uv) * (sign * d)
-                })
-                .collect()
-        })
-        .collect();
-    let clamped = |count: usize| {
-        let mut k = vec![0.0];
-        k.extend((0..count).map(|i| i as f64 / (count - 1) as f64));
-        k.push(1.0);
-        k
-    };
-    NurbsPatch {
-        degree_u: 1,
-        degree_v: 1,
-        knots_u: clamped(n),
-        knots_v: clamped(ACROSS.len()),
-        control_points,
-        weights: None,
-    }
 }
 
 // ---- JSON ----

@@ -3,6 +3,7 @@
 pub mod document;
 pub mod jordan;
 pub mod stroke;
+pub mod stroke_surface;
 pub mod surface;
 pub mod tessellate;
 pub mod uvmap;

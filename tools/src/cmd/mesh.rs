@@ -1,5 +1,7 @@
 //! `sculpt-tools mesh`: tessellate a scene (a wandsculpt document) and write the sculpted
-//! mesh as OBJ, binary STL or glTF binary, chosen by the output's extension.
+//! mesh as OBJ, binary STL or glTF binary, chosen by the output's extension. `--part`
+//! picks what is written: the sculpted target (the default), the visible parts of the
+//! stroke surfaces, or both.
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
@@ -22,6 +24,22 @@ pub struct MeshArgs {
     /// Output file: `.obj`, `.stl` or `.glb`.
     #[arg(long)]
     pub out: PathBuf,
+    /// What to write: `target` (the sculpted target, grooves and ridges included),
+    /// `strokes` (each stroke surface's visible part, trimmed where other strokes
+    /// remove it) or `all` (both).
+    #[arg(long, value_enum, default_value_t = PartArg::Target)]
+    pub part: PartArg,
+}
+
+/// The `--part` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PartArg {
+    /// The sculpted target mesh (as rendered).
+    Target,
+    /// The stroke surfaces' visible parts.
+    Strokes,
+    /// Both.
+    All,
 }
 
 /// The `--depth` values.
@@ -103,7 +121,15 @@ pub fn run(args: MeshArgs) -> Result<()> {
         );
     };
     let mut doc = load_scene(&args.scene)?;
-    let mesh = tessellate_with_progress(&mut doc, args.depth.into());
+    let detail = Detail::from(args.depth);
+    let mut mesh = if args.part == PartArg::Strokes {
+        PatchMesh::new()
+    } else {
+        tessellate_with_progress(&mut doc, detail)
+    };
+    if args.part != PartArg::Target {
+        doc.stroke_surfaces_mesh(detail, &mut mesh);
+    }
     let size = doc
         .targets()
         .iter()
