@@ -1048,6 +1048,8 @@ struct PatchInput {
     rect: Rect,
     points: Vec<(DVec2, Kind)>,
     index: FxMap<(u64, u64), usize>,
+    /// The points by [`MERGE_EPS`] grid cell, to find near-duplicates.
+    near: FxMap<(i64, i64), Vec<usize>>,
     constraints: Vec<([usize; 2], Kind)>,
     interior_hidden: bool,
 }
@@ -1055,6 +1057,12 @@ struct PatchInput {
 /// Distance (normalised parameter units) below which a vertex counts as lying on a
 /// constraint segment, and a crossing as lying on a segment's end.
 const SNAP_EPS: f64 = 1e-12;
+
+/// Distance (normalised parameter units) below which two points of a cell are one
+/// vertex. Crossings of nearly parallel outline segments beside a shared outline vertex
+/// come out a few 1e-12 apart; kept apart, they make sliver triangles whose welded
+/// edges are shared by four triangles (a round-ended U stroke on the sphere).
+const MERGE_EPS: f64 = 1e-10;
 
 /// Orientation of `c` against the line `a -> b` (twice the signed triangle area).
 fn orient(a: DVec2, b: DVec2, c: DVec2) -> f64 {
@@ -1079,6 +1087,7 @@ impl PatchInput {
             rect,
             points: Vec::new(),
             index: FxMap::default(),
+            near: FxMap::default(),
             constraints: Vec::new(),
             interior_hidden: false,
         };
@@ -1098,15 +1107,29 @@ impl PatchInput {
         // index must agree, so such values become 0.0.
         let p = DVec2::new(p.x, p.y).map(|x| if x.abs() < 1e-30 { 0.0 } else { x });
         let key = (p.x.to_bits(), p.y.to_bits());
-        if let Some(&i) = self.index.get(&key) {
+        let cell = (
+            (p.x / MERGE_EPS).floor() as i64,
+            (p.y / MERGE_EPS).floor() as i64,
+        );
+        let existing = self.index.get(&key).copied().or_else(|| {
+            (-1..=1)
+                .flat_map(|dx| (-1..=1).map(move |dy| (cell.0 + dx, cell.1 + dy)))
+                .filter_map(|c| self.near.get(&c))
+                .flatten()
+                .copied()
+                .find(|&i| self.points[i].0.distance(p) <= MERGE_EPS)
+        });
+        if let Some(i) = existing {
             if kind == Kind::Rim {
                 self.points[i].1 = Kind::Rim;
             }
             return i;
         }
+        let i = self.points.len();
         self.points.push((p, kind));
-        self.index.insert(key, self.points.len() - 1);
-        self.points.len() - 1
+        self.index.insert(key, i);
+        self.near.entry(cell).or_default().push(i);
+        i
     }
 
     /// Makes the constraints a planar straight-line graph: every crossing of two
