@@ -32,6 +32,9 @@
 //! Coordinates are taken relative to the patch's centroid, so the cancellation in `g_k`
 //! is of the patch's size, not of the distance from the world origin.
 
+// The kernels index nets by their Bernstein indices, as the formulas do.
+#![allow(clippy::needless_range_loop)]
+
 use glam::{DVec3, DVec4};
 
 /// Largest net side the certificate handles (degree 5 per direction, as the power form:
@@ -46,9 +49,11 @@ pub(crate) struct DistanceNets {
     n1: usize,
     /// Centroid of each leaf's control points (the origin of its nets).
     origins: Vec<DVec3>,
-    /// Coefficients of `|A'|^2`, `A' w` and `w^2` (`A' = A - origin w`), leaf after leaf.
+    /// Coefficients of `|A'|^2`, `A' w` and `w^2` (`A' = A - origin w`), leaf after leaf;
+    /// `A' w` by coordinate (`x` of every coefficient of a leaf, then `y`, then `z`), so
+    /// a query's loop runs on whole vectors.
     aa: Vec<f64>,
-    aw: Vec<DVec3>,
+    aw: Vec<f64>,
     ww: Vec<f64>,
     /// Smallest `w^2` coefficient per leaf (a lower bound of `w^2` on the leaf).
     ww_min: Vec<f64>,
@@ -107,7 +112,7 @@ impl DistanceNets {
             n1,
             origins: vec![DVec3::ZERO; leaves],
             aa: vec![0.0; leaves * m1 * n1],
-            aw: vec![DVec3::ZERO; leaves * m1 * n1],
+            aw: vec![0.0; 3 * leaves * m1 * n1],
             ww: vec![0.0; leaves * m1 * n1],
             ww_min: vec![0.0; leaves],
             scales: vec![[0.0; 3]; leaves],
@@ -135,10 +140,9 @@ impl DistanceNets {
         let origin = piece.iter().map(|h| h.truncate() / h.w).sum::<DVec3>() / piece.len() as f64;
         let a: Vec<DVec3> = piece.iter().map(|h| h.truncate() - origin * h.w).collect();
         let w: Vec<f64> = piece.iter().map(|h| h.w).collect();
-        let base = leaf * m1 * n1;
-        for k in base..base + m1 * n1 {
-            (self.aa[k], self.aw[k], self.ww[k]) = (0.0, DVec3::ZERO, 0.0);
-        }
+        let len = m1 * n1;
+        let base = leaf * len;
+        let (mut aa, mut aw, mut ww) = (vec![0.0; len], vec![DVec3::ZERO; len], vec![0.0; len]);
         let factors = |d: usize| -> Vec<f64> {
             let mut f = vec![0.0; (d + 1) * (d + 1)];
             for i in 0..=d {
@@ -156,28 +160,32 @@ impl DistanceNets {
                     for l in 0..q1 {
                         let c = cu * fv[j * q1 + l];
                         let (x, y) = (i * q1 + j, k * q1 + l);
-                        let at = base + (i + k) * n1 + (j + l);
-                        self.aa[at] += c * a[x].dot(a[y]);
-                        self.aw[at] += c * a[x] * w[y];
-                        self.ww[at] += c * w[x] * w[y];
+                        let at = (i + k) * n1 + (j + l);
+                        aa[at] += c * a[x].dot(a[y]);
+                        aw[at] += c * a[x] * w[y];
+                        ww[at] += c * w[x] * w[y];
                     }
                 }
             }
         }
-        let range = base..base + m1 * n1;
-        self.ww_min[leaf] = net_min(&self.ww[range.clone()]);
+        self.aa[base..base + len].copy_from_slice(&aa);
+        self.ww[base..base + len].copy_from_slice(&ww);
+        for (axis, coords) in self.aw[3 * base..3 * (base + len)]
+            .chunks_exact_mut(len)
+            .enumerate()
+        {
+            for (c, v) in coords.iter_mut().zip(&aw) {
+                *c = v[axis];
+            }
+        }
+        self.ww_min[leaf] = net_min(&ww);
         let max = |it: &mut dyn Iterator<Item = f64>| it.fold(0.0, f64::max);
         self.scales[leaf] = [
-            max(&mut self.aa[range.clone()].iter().map(|x| x.abs())),
-            max(&mut self.aw[range.clone()].iter().map(|x| x.length())),
-            max(&mut self.ww[range].iter().copied()),
+            max(&mut aa.iter().map(|x| x.abs())),
+            max(&mut aw.iter().map(|x| x.length())),
+            max(&mut ww.iter().copied()),
         ];
         self.origins[leaf] = origin;
-        let (aa, aw, ww) = (
-            &self.aa[base..base + m1 * n1],
-            &self.aw[base..base + m1 * n1],
-            &self.ww[base..base + m1 * n1],
-        );
         let mut bounds = CurvatureBounds {
             diffs: [DiffRange::EMPTY; 3],
         };
@@ -226,13 +234,13 @@ impl DistanceNets {
         let base = leaf * len;
         let q = p - self.origins[leaf];
         let q2 = q.length_squared() - f_star;
-        let (aa, aw, ww) = (
-            &self.aa[base..base + len],
-            &self.aw[base..base + len],
-            &self.ww[base..base + len],
-        );
+        // Slices of one length: no bounds checks in the loop, which then vectorises.
+        let (aa, ww) = (&self.aa[base..base + len], &self.ww[base..base + len]);
+        let aw = &self.aw[3 * base..3 * (base + len)];
+        let (ax, ay, az) = (&aw[..len], &aw[len..2 * len], &aw[2 * len..3 * len]);
+        let out = &mut out[..len];
         for k in 0..len {
-            out[k] = aa[k] - 2.0 * q.dot(aw[k]) + q2 * ww[k];
+            out[k] = aa[k] - 2.0 * (q.x * ax[k] + q.y * ay[k] + q.z * az[k]) + q2 * ww[k];
         }
         let [s_aa, s_aw, s_ww] = self.scales[leaf];
         let noise = s_aa + 2.0 * q.length() * s_aw + (q2.abs() + f_star) * s_ww;
@@ -271,7 +279,40 @@ fn binomial(n: usize, k: usize) -> f64 {
 
 /// The smallest coefficient of a net.
 pub(crate) fn net_min(net: &[f64]) -> f64 {
-    net.iter().copied().fold(f64::INFINITY, f64::min)
+    net.iter().copied().fold(f64::INFINITY, lesser)
+}
+
+/// Dispatches on the net size: `by_net_size!(m1, n1, sized[PRE], any(args))` calls
+/// `sized::<PRE, M, N>(args)` when the net is `M x N` with `M` and `N` in 3, 5 and 7
+/// (degrees 1 to 3 in each direction: the kernels unroll completely), and `any(args)`
+/// for any other size.
+macro_rules! by_net_size {
+    ($m1:expr, $n1:expr, $sized:ident[$($pre:ident),*], $any:ident($($arg:expr),*)) => {
+        match ($m1, $n1) {
+            (3, 3) => $sized::<$($pre,)* 3, 3>($($arg),*),
+            (3, 5) => $sized::<$($pre,)* 3, 5>($($arg),*),
+            (3, 7) => $sized::<$($pre,)* 3, 7>($($arg),*),
+            (5, 3) => $sized::<$($pre,)* 5, 3>($($arg),*),
+            (5, 5) => $sized::<$($pre,)* 5, 5>($($arg),*),
+            (5, 7) => $sized::<$($pre,)* 5, 7>($($arg),*),
+            (7, 3) => $sized::<$($pre,)* 7, 3>($($arg),*),
+            (7, 5) => $sized::<$($pre,)* 7, 5>($($arg),*),
+            (7, 7) => $sized::<$($pre,)* 7, 7>($($arg),*),
+            _ => $any($($arg),*),
+        }
+    };
+}
+
+/// `min` and `max` by one comparison: the nets hold no NaN, and these compile to single
+/// instructions where `f64::min` also tests for NaN.
+#[inline(always)]
+fn lesser(a: f64, b: f64) -> f64 {
+    if b < a { b } else { a }
+}
+
+#[inline(always)]
+fn greater(a: f64, b: f64) -> f64 {
+    if b > a { b } else { a }
 }
 
 /// True when the net's polynomial is convex on its whole patch, by bounds of its second
@@ -280,6 +321,43 @@ pub(crate) fn net_min(net: &[f64]) -> f64 {
 /// net. With `a = m (m-1) min D_uu`, `c = n (n-1) min D_vv`, `b = m n max |D_uv|`, the
 /// Hessian is positive definite everywhere when `a > 0`, `c > 0` and `a c > b^2`.
 pub(crate) fn is_convex(net: &[f64], m1: usize, n1: usize) -> bool {
+    by_net_size!(m1, n1, is_convex_sized[], is_convex_any(net, m1, n1))
+}
+
+/// [`is_convex`] for an `M x N` net known at compile time (the common degrees 1 to 3):
+/// fully unrolled, the same arithmetic as [`is_convex_any`].
+fn is_convex_sized<const M: usize, const N: usize>(net: &[f64], _: usize, _: usize) -> bool {
+    let rows: &[[f64; N]] = net.as_chunks::<N>().0;
+    // Most nets that fail, fail along u already.
+    let mut a = f64::INFINITY;
+    for i in 0..M - 2 {
+        for j in 0..N {
+            a = lesser(a, rows[i + 2][j] - 2.0 * rows[i + 1][j] + rows[i][j]);
+        }
+    }
+    if a <= 0.0 {
+        return false;
+    }
+    let mut c = f64::INFINITY;
+    let mut b = 0.0f64;
+    for i in 0..M {
+        for j in 0..N - 2 {
+            c = lesser(c, rows[i][j + 2] - 2.0 * rows[i][j + 1] + rows[i][j]);
+        }
+        if i + 1 < M {
+            for j in 0..N - 1 {
+                let twist = rows[i + 1][j + 1] - rows[i + 1][j] - rows[i][j + 1] + rows[i][j];
+                b = greater(b, twist.abs());
+            }
+        }
+    }
+    let (m, n) = ((M - 1) as f64, (N - 1) as f64);
+    let (a2, c2, b2) = (m * (m - 1.0) * a, n * (n - 1.0) * c, m * n * b);
+    c > 0.0 && a2 * c2 > b2 * b2
+}
+
+/// [`is_convex`] for any net size.
+fn is_convex_any(net: &[f64], m1: usize, n1: usize) -> bool {
     if m1 < 3 || n1 < 3 {
         return false;
     }
@@ -317,9 +395,10 @@ pub(crate) fn is_convex(net: &[f64], m1: usize, n1: usize) -> bool {
 
 /// Bernstein basis values and derivatives of degree `len - 1` at `x`, into the first
 /// `len` entries of the arrays (the triangle of de Casteljau, P&T A1.3).
-fn basis(len: usize, x: f64) -> ([f64; MAX_SIDE], [f64; MAX_SIDE]) {
-    let mut b = [0.0; MAX_SIDE];
-    let mut d = [0.0; MAX_SIDE];
+#[inline(always)]
+fn basis<const CAP: usize>(len: usize, x: f64) -> ([f64; CAP], [f64; CAP]) {
+    let mut b = [0.0; CAP];
+    let mut d = [0.0; CAP];
     b[0] = 1.0;
     for r in 1..len {
         if r == len - 1 {
@@ -347,8 +426,26 @@ pub(crate) fn eval_with_gradient(
     s: f64,
     t: f64,
 ) -> (f64, f64, f64) {
-    let (bs, ds) = basis(m1, s);
-    let (bt, dt) = basis(n1, t);
+    by_net_size!(m1, n1, eval_with_gradient_sized[], eval_with_gradient_any(net, m1, n1, s, t))
+}
+
+/// [`eval_with_gradient`] for an `M x N` net known at compile time: the sizes reach
+/// the inlined kernel as constants, and its loops unroll.
+fn eval_with_gradient_sized<const M: usize, const N: usize>(
+    net: &[f64],
+    _: usize,
+    _: usize,
+    s: f64,
+    t: f64,
+) -> (f64, f64, f64) {
+    eval_with_gradient_any(net, M, N, s, t)
+}
+
+/// [`eval_with_gradient`] for any net size.
+#[inline(always)]
+fn eval_with_gradient_any(net: &[f64], m1: usize, n1: usize, s: f64, t: f64) -> (f64, f64, f64) {
+    let (bs, ds) = basis::<MAX_SIDE>(m1, s);
+    let (bt, dt) = basis::<MAX_SIDE>(n1, t);
     let (mut g, mut gs, mut gt) = (0.0, 0.0, 0.0);
     for i in 0..m1 {
         let row = &net[i * n1..(i + 1) * n1];
@@ -364,6 +461,100 @@ pub(crate) fn eval_with_gradient(
     (g, gs, gt)
 }
 
+/// A side of a patch: `u = lo`, `u = hi`, `v = lo` or `v = hi` of its parameter box.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Side {
+    ULo,
+    UHi,
+    VLo,
+    VHi,
+}
+
+impl Side {
+    /// The parameter that runs along the side: `v` (1) on the `u` sides, `u` (0) on the
+    /// `v` sides.
+    pub(crate) fn along(self) -> usize {
+        match self {
+            Side::ULo | Side::UHi => 1,
+            Side::VLo | Side::VHi => 0,
+        }
+    }
+}
+
+/// The side that holds the minimum of the net's polynomial `g` on its patch, when the
+/// net shows `g` monotone across the patch in one direction (a query beyond a domain
+/// edge, say). The Bernstein coefficients of `g_u` are `m (c[i+1][j] - c[i][j])`: when
+/// none is negative, `g(u, v) >= g(lo, v)` everywhere and the minimum lies on the side
+/// `u = lo`; likewise for the other three sides.
+pub(crate) fn monotone_side(net: &[f64], m1: usize, n1: usize) -> Option<Side> {
+    let (mut up_u, mut down_u, mut up_v, mut down_v) = (true, true, true, true);
+    for i in 0..m1 {
+        let row = &net[i * n1..(i + 1) * n1];
+        if i + 1 < m1 {
+            let next = &net[(i + 1) * n1..(i + 2) * n1];
+            for j in 0..n1 {
+                let d = next[j] - row[j];
+                up_u &= d >= 0.0;
+                down_u &= d <= 0.0;
+            }
+        }
+        for j in 0..n1 - 1 {
+            let d = row[j + 1] - row[j];
+            up_v &= d >= 0.0;
+            down_v &= d <= 0.0;
+        }
+    }
+    [
+        (up_u, Side::ULo),
+        (down_u, Side::UHi),
+        (up_v, Side::VLo),
+        (down_v, Side::VHi),
+    ]
+    .into_iter()
+    .find_map(|(holds, side)| holds.then_some(side))
+}
+
+/// The net of `g` restricted to a side: the matching row or column of the patch's net
+/// (in the first `len` entries; returns `len`).
+pub(crate) fn side_net(
+    net: &[f64],
+    m1: usize,
+    n1: usize,
+    side: Side,
+    out: &mut [f64; MAX_SIDE],
+) -> usize {
+    match side {
+        Side::ULo | Side::UHi => {
+            let i = if side == Side::ULo { 0 } else { m1 - 1 };
+            out[..n1].copy_from_slice(&net[i * n1..(i + 1) * n1]);
+            n1
+        }
+        Side::VLo | Side::VHi => {
+            let j = if side == Side::VLo { 0 } else { n1 - 1 };
+            for i in 0..m1 {
+                out[i] = net[i * n1 + j];
+            }
+            m1
+        }
+    }
+}
+
+/// True when a curve's net (one parameter on `[0, 1]`) proves its polynomial `>=
+/// threshold` there: no coefficient below it, or the net convex (no negative second
+/// difference) and its tangent line at one of `at` above it at both ends.
+pub(crate) fn curve_clears(net: &[f64], threshold: f64, at: impl IntoIterator<Item = f64>) -> bool {
+    if net_min(net) >= threshold {
+        return true;
+    }
+    if net.len() < 3 || net.windows(3).any(|w| w[2] - 2.0 * w[1] + w[0] < 0.0) {
+        return false;
+    }
+    at.into_iter().any(|t| {
+        let (g, _, gt) = eval_with_gradient(net, 1, net.len(), 0.0, t);
+        g + (-gt * t).min(gt * (1.0 - t)) >= threshold
+    })
+}
+
 /// A lower bound of a convex net's polynomial on its patch from the tangent plane at
 /// `(s, t)`: `g(x) >= g(x0) + grad g(x0) . (x - x0)` for a convex `g`, and the plane's
 /// minimum over the patch is at a corner. Only valid when [`is_convex`] holds.
@@ -376,6 +567,64 @@ pub(crate) fn convex_bound_at(net: &[f64], m1: usize, n1: usize, s: f64, t: f64)
 /// into the nets of the quarters `[u low v low, u high v low, u low v high, u high v
 /// high]` (each in the first `m1 * n1` entries of `out`; `L >= m1 * n1`).
 pub(crate) fn split4<const L: usize>(net: &[f64], m1: usize, n1: usize, out: &mut [[f64; L]; 4]) {
+    by_net_size!(m1, n1, split4_sized[L], split4_any(net, m1, n1, out))
+}
+
+/// [`split4`] for an `M x N` net known at compile time: the halving runs on whole rows
+/// (along `u`), then on whole rows of the transposed halves (along `v`), so every step
+/// is a short fixed-length vector operation. The same arithmetic as [`split4_any`].
+fn split4_sized<const L: usize, const M: usize, const N: usize>(
+    net: &[f64],
+    _: usize,
+    _: usize,
+    out: &mut [[f64; L]; 4],
+) {
+    let mut rows = [[0.0; N]; M];
+    for (row, src) in rows.iter_mut().zip(net.as_chunks::<N>().0) {
+        *row = *src;
+    }
+    let (u_lo, u_hi) = halve_rows(rows);
+    for (half, (q_lo, q_hi)) in [(u_lo, (0, 2)), (u_hi, (1, 3))] {
+        let mut cols = [[0.0; M]; N];
+        for i in 0..M {
+            for j in 0..N {
+                cols[j][i] = half[i][j];
+            }
+        }
+        let (v_lo, v_hi) = halve_rows(cols);
+        for (q, quarter) in [(q_lo, v_lo), (q_hi, v_hi)] {
+            for i in 0..M {
+                for j in 0..N {
+                    out[q][i * N + j] = quarter[j][i];
+                }
+            }
+        }
+    }
+}
+
+/// de Casteljau at 1/2 across `R` rows of `C` coefficients each (row `i` is control
+/// point `i` of `C` curves at once): the rows of the left and right halves.
+fn halve_rows<const R: usize, const C: usize>(
+    mut rows: [[f64; C]; R],
+) -> ([[f64; C]; R], [[f64; C]; R]) {
+    let mut left = [[0.0; C]; R];
+    let mut right = [[0.0; C]; R];
+    left[0] = rows[0];
+    right[R - 1] = rows[R - 1];
+    for r in 1..R {
+        for i in 0..R - r {
+            for c in 0..C {
+                rows[i][c] = 0.5 * (rows[i][c] + rows[i + 1][c]);
+            }
+        }
+        left[r] = rows[0];
+        right[R - 1 - r] = rows[R - 1 - r];
+    }
+    (left, right)
+}
+
+/// [`split4`] for any net size.
+fn split4_any<const L: usize>(net: &[f64], m1: usize, n1: usize, out: &mut [[f64; L]; 4]) {
     let [q0, q1, q2, q3] = out;
     // Along u, column by column, into the quarters' v-low slots; then along v, row by
     // row, from each u half into its v-low and v-high quarter.
@@ -519,6 +768,74 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn sized_kernels_match_the_generic_ones_bit_for_bit() {
+        let mut state = 0x9E37_79B9_7F4A_7C15_u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.3
+        };
+        for m1 in [3, 5, 7] {
+            for n1 in [3, 5, 7] {
+                for trial in 0..50 {
+                    // Mostly convex bowls plus noise, so both answers of the test occur.
+                    let net: Vec<f64> = (0..m1 * n1)
+                        .map(|k| {
+                            let (s, t) = ((k / n1) as f64 - 2.0, (k % n1) as f64 - 3.0);
+                            (s * s + t * t) * (trial % 3) as f64 + next()
+                        })
+                        .collect();
+                    assert_eq!(is_convex(&net, m1, n1), is_convex_any(&net, m1, n1));
+                    let (s, t) = (next() + 0.3, next() + 0.3);
+                    assert_eq!(
+                        eval_with_gradient(&net, m1, n1, s, t),
+                        eval_with_gradient_any(&net, m1, n1, s, t)
+                    );
+                    let mut fast = [[0.0; MAX_SIDE * MAX_SIDE]; 4];
+                    let mut slow = [[0.0; MAX_SIDE * MAX_SIDE]; 4];
+                    split4(&net, m1, n1, &mut fast);
+                    split4_any(&net, m1, n1, &mut slow);
+                    for q in 0..4 {
+                        assert_eq!(fast[q][..m1 * n1], slow[q][..m1 * n1], "{m1}x{n1} q{q}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_net_rising_away_from_a_side_is_decided_on_that_side() {
+        // g(s, t) = s + (t - 0.6)^2 - 0.01 on the unit square, biquadratic: its minimum
+        // -0.01 lies on the side s = 0, where g is a convex parabola in t.
+        let g = |s: f64, t: f64| s + (t - 0.6) * (t - 0.6) - 0.01;
+        // Coefficients of s are [0, 1/2, 1], of t^2 are [0, 0, 1], of t are [0, 1/2, 1].
+        let net: Vec<f64> = (0..9)
+            .map(|k| {
+                let (i, j) = (k / 3, k % 3);
+                let s = [0.0, 0.5, 1.0][i];
+                let (t2, t) = ([0.0, 0.0, 1.0][j], [0.0, 0.5, 1.0][j]);
+                s + t2 - 1.2 * t + 0.36 - 0.01
+            })
+            .collect();
+        assert_near!(eval(&net, 3, 3, 0.3, 0.2), g(0.3, 0.2), 1e-12);
+        assert_eq!(monotone_side(&net, 3, 3), Some(Side::ULo));
+        let mut side = [0.0; MAX_SIDE];
+        let len = side_net(&net, 3, 3, Side::ULo, &mut side);
+        assert_eq!(len, 3);
+        // Below the minimum: cleared by the tangent line at the minimum, not at t = 0.
+        assert!(curve_clears(&side[..len], -0.0101, [0.6]));
+        assert!(!curve_clears(&side[..len], -0.0101, [0.0]));
+        // Above the minimum: never cleared.
+        assert!(!curve_clears(&side[..len], -0.0099, [0.6, 0.0, 1.0]));
+        // A saddle-free but two-way net has no monotone side.
+        let bowl: Vec<f64> = (0..9)
+            .map(|k| ((k / 3) as f64 - 1.0).powi(2) + ((k % 3) as f64 - 1.0).powi(2))
+            .collect();
+        assert_eq!(monotone_side(&bowl, 3, 3), None);
     }
 
     #[test]

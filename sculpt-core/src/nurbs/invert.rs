@@ -19,9 +19,13 @@
 //!    at the first bound no smaller than the best distance. Every skip compares a lower
 //!    bound of a sub-patch's distance (convex hull) with the distance to a real surface
 //!    point, so a closer point is never skipped.
-//! 3. **Exclusion test.** A leaf whose derivative cone shows that `(S - P) . S_u` (or
+//! 3. **Exclusion tests.** A leaf whose derivative cone shows that `(S - P) . S_u` (or
 //!    `. S_v`) cannot vanish inside it holds no stationary point and is skipped (see
-//!    `Leaf`); the domain corners are always candidates.
+//!    `Leaf`); the domain corners are always candidates. Once a run has converged, a
+//!    leaf whose distance net (step 6) has no coefficient below zero holds nothing
+//!    closer and is skipped for good (most leaves after the first are such neighbours
+//!    of the answer's leaf), and a leaf that holds the converged answer is left to the
+//!    certificate (its run would only find the answer again).
 //! 4. **Bounded Newton per leaf.** In each remaining leaf, Newton's method on
 //!    `f(u,v) = |S(u,v) - P|^2 / 2` (the system of eq. 6.5 with the Jacobian of eq. 6.6,
 //!    update eq. 6.7) runs inside the leaf's parameter box. When a step wants to leave
@@ -30,10 +34,11 @@
 //!    domain, and corners, are found exactly. A halving line search keeps every step
 //!    descending, and an indefinite Hessian is shifted to positive definite.
 //!    The start is the nearest point of the bilinear patch through the leaf's corners.
-//!    Leaves on a domain edge also run Newton along that edge alone, so a boundary
-//!    minimum is found even when the leaf's interior holds another local minimum,
-//!    unless the box of that side (its Bezier control points) is no closer than the
-//!    best distance. Each Newton step evaluates `S` and its derivatives from the Bezier
+//!    Leaves on a domain edge whose interior holds no stationary point run Newton along
+//!    that edge alone, unless the box of that side (its Bezier control points) is no
+//!    closer than the best distance. A leaf that holds two local minima (one on a domain
+//!    edge, say) needs no second run: the certificate finds the other one. Each Newton
+//!    step evaluates `S` and its derivatives from the Bezier
 //!    patches converted once to power form (`power.rs`): a few Horner sweeps, with no
 //!    span search and no basis-function divisions.
 //! 5. **Polish.** A last Newton run on the whole domain starts from the best leaf answer;
@@ -46,10 +51,11 @@
 //!    must be `>= 0`. A leaf whose `g` is convex (an O(1) test from precomputed bounds
 //!    of its second differences) has one minimum, the answer or its own run's, and is
 //!    cleared at once; otherwise the Bernstein net of `g` (`distance_net.rs`) clears it
-//!    when no coefficient is negative, or when the net is convex and its tangent plane
-//!    at the answer stays above zero, or else it is split in four, up to
-//!    `MAX_CERTIFY_DEPTH` levels, where a bounded Newton run from the lowest coefficient
-//!    decides. A closer point found on the way becomes the answer and the certificate
+//!    when no coefficient is negative; or when the net rises monotonically away from one
+//!    side (a query beyond a domain edge) and that side's net, a curve's, clears it;
+//!    or when the net is convex and its tangent plane at the answer stays above zero;
+//!    or else it is split in four, up to `MAX_CERTIFY_DEPTH` levels, where a bounded
+//!    Newton run from the lowest coefficient decides. A closer point found on the way becomes the answer and the certificate
 //!    runs again. Points closer by less than `CERTIFY_TOL` (1e-10 m) are not sought.
 //!
 //! Stopping rules are P&T's: point coincidence `|S - P| <= POINT_EPS` (criterion 1),
@@ -69,7 +75,10 @@
 
 use glam::{DVec2, DVec3, DVec4};
 
-use super::distance_net::{DistanceNets, MAX_SIDE, convex_bound_at, is_convex, net_min, split4};
+use super::distance_net::{
+    DistanceNets, MAX_SIDE, convex_bound_at, curve_clears, is_convex, monotone_side, net_min,
+    side_net, split4,
+};
 use super::power::PowerPatches;
 use super::surface::{NurbsSurface, SurfaceDerivs};
 use crate::tolerance::{COSINE_EPS, POINT_EPS};
@@ -129,14 +138,27 @@ impl Candidate {
     }
 }
 
+/// What the search learnt of one leaf it reached.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Reached {
+    /// No interior minimum: the leaf was not solved, or its run did not converge inside.
+    Open,
+    /// The interior minimum the leaf's Newton run converged to.
+    Minimum(DVec2),
+    /// Its distance net proved that no point of the leaf is closer than the best
+    /// distance at the time, less [`CERTIFY_TOL`]. The best distance only decreases, so
+    /// the proof stands for the final answer: the certificate skips the leaf.
+    Cleared,
+}
+
 /// The leaves one query's search reached (those whose boxes could hold a point closer
-/// than the best so far), with the interior minimum the leaf's run found, if it
-/// converged. The certificate only needs these leaves: every other one was skipped by
-/// a lower bound no smaller than a real surface point's distance. A leaf whose net is
-/// convex is cleared by its tangent plane at the recorded minimum, with no new run.
+/// than the best so far), with what the search learnt of each. The certificate only
+/// needs these leaves: every other one was skipped by a lower bound no smaller than a
+/// real surface point's distance. A leaf whose net is convex is cleared by its tangent
+/// plane at the recorded minimum, with no new run.
 #[derive(Debug, Clone, Copy)]
 struct Visited {
-    leaves: [(u32, Option<DVec2>); 32],
+    leaves: [(u32, Reached); 32],
     len: usize,
     /// More leaves were reached than recorded: the certificate walks the tree instead.
     overflow: bool,
@@ -145,7 +167,7 @@ struct Visited {
 impl Visited {
     fn new() -> Self {
         Self {
-            leaves: [(0, None); 32],
+            leaves: [(0, Reached::Open); 32],
             len: 0,
             overflow: false,
         }
@@ -153,28 +175,28 @@ impl Visited {
 
     fn reach(&mut self, leaf: u32) {
         if self.len < self.leaves.len() {
-            self.leaves[self.len] = (leaf, None);
+            self.leaves[self.len] = (leaf, Reached::Open);
             self.len += 1;
         } else {
             self.overflow = true;
         }
     }
 
-    fn record(&mut self, leaf: usize, uv: DVec2) {
+    fn record(&mut self, leaf: usize, what: Reached) {
         if let Some(entry) = self.leaves[..self.len]
             .iter_mut()
             .rev()
             .find(|e| e.0 as usize == leaf)
         {
-            entry.1 = Some(uv);
+            entry.1 = what;
         }
     }
 
-    fn get(&self, leaf: usize) -> Option<DVec2> {
+    fn get(&self, leaf: usize) -> Reached {
         self.leaves[..self.len]
             .iter()
             .find(|e| e.0 as usize == leaf)
-            .and_then(|e| e.1)
+            .map_or(Reached::Open, |e| e.1)
     }
 }
 
@@ -901,8 +923,10 @@ impl SurfaceInverter {
     /// near a centre of curvature), the other can be the global one. For every leaf whose
     /// box could still hold a closer point, the Bernstein net of
     /// `g = w^2 (|S - P|^2 - |S* - P|^2)` decides: no negative coefficient proves the
-    /// leaf clear; a convex `g` is cleared by its tangent plane at the answer (or at the
-    /// box's own Newton minimum, which is the closer point if there is one); otherwise
+    /// leaf clear; a net monotone across the box leaves its minimum on one side, whose
+    /// own net (a curve's) decides the same way; a convex `g` is cleared by its tangent
+    /// plane at the answer (or at the box's own Newton minimum, which is the closer
+    /// point if there is one); otherwise
     /// the net is split in four and each quarter is decided the same way, down to
     /// [`MAX_CERTIFY_DEPTH`] levels, where a bounded Newton run has the last word.
     fn certify(&self, p: DVec3, mut best: Candidate, solved: &Visited) -> Candidate {
@@ -938,7 +962,9 @@ impl SurfaceInverter {
         if !visited.overflow {
             return visited.leaves[..visited.len]
                 .iter()
-                .find_map(|&(index, run)| self.closer_in_leaf(nets, &probe, index as usize, run));
+                .find_map(|&(index, what)| {
+                    self.closer_in_leaf(nets, &probe, index as usize, what)
+                });
         }
         let mut stack = [0u32; 128];
         let mut top = 1usize;
@@ -963,14 +989,19 @@ impl SurfaceInverter {
         None
     }
 
-    /// Decides one leaf; `run` is the interior minimum the search's run found in it.
+    /// Decides one leaf, given what the search learnt of it.
     fn closer_in_leaf(
         &self,
         nets: &DistanceNets,
         probe: &Probe<'_>,
         index: usize,
-        run: Option<DVec2>,
+        what: Reached,
     ) -> Option<Candidate> {
+        let run = match what {
+            Reached::Cleared => return None,
+            Reached::Minimum(uv) => Some(uv),
+            Reached::Open => None,
+        };
         let (p, best) = (probe.p, probe.best);
         let leaf = &self.leaves[index];
         if box_dist2(to_frame(&leaf.frame, p), leaf.obb.0, leaf.obb.1) >= best.dist2 {
@@ -996,6 +1027,26 @@ impl SurfaceInverter {
             threshold,
         };
         self.closer_in_net(probe, &patch, run, 0)
+    }
+
+    /// `uv`, then its copies one period away in the closed directions (across a seam).
+    fn copies(&self, uv: DVec2) -> impl Iterator<Item = DVec2> {
+        let period = self.domain_hi - self.domain_lo;
+        let shifts: &[f64] = if self.closed[0] || self.closed[1] {
+            &[0.0, -1.0, 1.0]
+        } else {
+            &[0.0]
+        };
+        let closed = self.closed;
+        shifts.iter().map(move |&shift| {
+            let mut copy = uv;
+            for k in 0..2 {
+                if closed[k] {
+                    copy[k] += shift * period[k];
+                }
+            }
+            copy
+        })
     }
 
     /// True when the leaf's parameter box holds `uv` (or its copy across a seam).
@@ -1029,26 +1080,22 @@ impl SurfaceInverter {
             return None;
         }
         let local = |uv: DVec2| ((uv - lo) / (hi - lo)).clamp(DVec2::ZERO, DVec2::ONE);
+        // `g` monotone across the patch (a query beyond a domain edge, whose answer lies
+        // on the edge): the side that holds its minimum decides, by its own net.
+        if let Some(side) = monotone_side(net, m1, n1) {
+            let mut edge = [0.0; MAX_SIDE];
+            let len = side_net(net, m1, n1, side, &mut edge);
+            let k = side.along();
+            let at = self.copies(best.uv).chain(hint).map(|uv| local(uv)[k]);
+            if curve_clears(&edge[..len], threshold, at) {
+                return None;
+            }
+        }
         let convex = is_convex(net, m1, n1);
         if convex {
             // The tangent plane at the answer (or its copy across a seam), clamped into
             // the box, then at the patch's known minimum.
-            let period = self.domain_hi - self.domain_lo;
-            let shifts: &[f64] = if self.closed[0] || self.closed[1] {
-                &[0.0, -1.0, 1.0]
-            } else {
-                &[0.0]
-            };
-            let shifted = shifts.iter().map(|&shift| {
-                let mut uv = best.uv;
-                for k in 0..2 {
-                    if self.closed[k] {
-                        uv[k] += shift * period[k];
-                    }
-                }
-                uv
-            });
-            for uv in shifted.chain(hint) {
+            for uv in self.copies(best.uv).chain(hint) {
                 let st = local(uv);
                 if convex_bound_at(net, m1, n1, st.x, st.y) >= threshold {
                     return None;
@@ -1191,12 +1238,17 @@ impl SurfaceInverter {
             );
             let dl = (node.left, box_dist2(p, l.lo, l.hi));
             let dr = (node.right, box_dist2(p, r.lo, r.hi));
-            // Push the farther child first so the nearer one is examined first.
-            let (first, second) = if dl.1 <= dr.1 { (dr, dl) } else { (dl, dr) };
-            if top + 2 <= stack.len() {
-                stack[top] = first;
-                stack[top + 1] = second;
-                top += 2;
+            // Push the farther child first so the nearer one is examined first; a child
+            // no nearer than the best point so far is written but not kept. Branch-free:
+            // which child is nearer is a coin toss to the branch predictor. The stack
+            // holds at most one node per level of the tree plus one, far below its size.
+            let pair = [dl, dr];
+            let nearer = usize::from(dr.1 < dl.1);
+            for child in [pair[1 - nearer], pair[nearer]] {
+                if top < stack.len() {
+                    stack[top] = child;
+                    top += usize::from(child.1 < best.dist2);
+                }
             }
         }
         self.solve_leaves(p, &mut found[..n_found], &mut best, &mut iters, solved);
@@ -1219,10 +1271,37 @@ impl SurfaceInverter {
             if bound >= best.dist2 {
                 break;
             }
+            if best.converged {
+                // A leaf that holds a stationary answer (the seed's, or one on a shared
+                // side) would only find it again: the certificate decides the leaf.
+                if !best.on_leaf_edge && self.holds(&self.leaves[index as usize], best.uv) {
+                    continue;
+                }
+                // Most leaves left are neighbours of the answer's leaf with nothing
+                // closer in them: the distance net proves that with one dot product per
+                // coefficient, more cheaply than their Newton runs.
+                if self.net_clears(p, index as usize, best.dist2) {
+                    solved.record(index as usize, Reached::Cleared);
+                    continue;
+                }
+            }
             if let Some(uv) = self.solve_leaf(p, index as usize, best, iters, true) {
-                solved.record(index as usize, uv);
+                solved.record(index as usize, Reached::Minimum(uv));
             }
         }
+    }
+
+    /// True when the leaf's distance net has no coefficient below its threshold: no
+    /// point of the leaf is closer to `p` than `sqrt(f_star) - CERTIFY_TOL`.
+    fn net_clears(&self, p: DVec3, index: usize, f_star: f64) -> bool {
+        let Some(nets) = &self.nets else {
+            return false;
+        };
+        let (m1, n1) = nets.size();
+        let mut buf = [0.0; MAX_SIDE * MAX_SIDE];
+        let net = &mut buf[..m1 * n1];
+        let threshold = nets.query(index, p, f_star, CERTIFY_TOL, net);
+        net_min(net) >= threshold
     }
 
     /// The Newton runs of one leaf: its interior (when the exclusion test allows a
@@ -1244,7 +1323,8 @@ impl SurfaceInverter {
         let fixed_v = prune && sign_is_fixed(r_lo, r_hi, leaf.dv);
         let mut interior_uv = None;
         let start = leaf.estimate(p);
-        if !fixed_u && !fixed_v {
+        let ran_interior = !fixed_u && !fixed_v;
+        if ran_interior {
             let c = self.newton(p, start, leaf.uv_lo, leaf.uv_hi, [false; 2]);
             *iters += c.iters;
             if c.converged {
@@ -1261,8 +1341,9 @@ impl SurfaceInverter {
             }
             // A start on a domain edge can stay on the edge, at a minimum of the edge, and
             // miss an interior minimum of the same leaf (both are local minima of the
-            // domain): run again from the leaf's centre.
-            if slid_along_edge {
+            // domain): run again from the leaf's centre. With the certificate's nets
+            // there is no need: it proves the leaf holds nothing closer, or finds it.
+            if slid_along_edge && !(prune && self.nets.is_some()) {
                 let centre = (leaf.uv_lo + leaf.uv_hi) * 0.5;
                 let c = self.newton(p, centre, leaf.uv_lo, leaf.uv_hi, [false; 2]);
                 *iters += c.iters;
@@ -1293,6 +1374,11 @@ impl SurfaceInverter {
             if prune && interior_uv.is_some_and(|uv| uv[k] == edge_value) {
                 continue;
             }
+            // The interior run found the leaf's minimum, unless the leaf holds two; the
+            // certificate's nets then find the other one.
+            if prune && ran_interior && self.nets.is_some() {
+                continue;
+            }
             let (mut lo, mut hi) = (leaf.uv_lo, leaf.uv_hi);
             if at_hi {
                 lo[k] = hi[k];
@@ -1319,7 +1405,7 @@ impl SurfaceInverter {
         solved.overflow = true;
         for index in 0..self.leaves.len() {
             if let Some(uv) = self.solve_leaf(p, index, &mut best, &mut iters, false) {
-                solved.record(index, uv);
+                solved.record(index, Reached::Minimum(uv));
             }
         }
         best.iters = iters;
