@@ -7,13 +7,14 @@
 //! within the stated `Detail::Final.tolerance(size)` (0.1 % of the size), the chord
 //! error the grid is planned for.
 
+mod common;
+use common::height_along_normal;
 use glam::DVec2;
 use sculpt_core::assert_near;
-use sculpt_core::mesh::PatchMesh;
 use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::jordan::Location;
 use sculpt_core::sculpt::stroke::Mode;
-use sculpt_core::sculpt::surface::{ParamSurface, normal_at};
+use sculpt_core::sculpt::surface::ParamSurface;
 use sculpt_core::sculpt::tessellate::{Detail, height};
 
 fn load(name: &str) -> Document {
@@ -30,17 +31,6 @@ fn tol(doc: &Document) -> f64 {
         .map(|s| s.input.tool.depth)
         .fold(f64::INFINITY, f64::min);
     (1e-3 * size).min(0.1 * depth)
-}
-
-/// Signed displacement measured by a ray coming down the normal at `uv`.
-fn measured(mesh: &PatchMesh, surface: &dyn ParamSurface, uv: DVec2, lift: f64) -> f64 {
-    let p = surface.eval(uv).p;
-    let n = normal_at(surface, uv);
-    let o = p + n * lift;
-    let t = mesh
-        .first_hit(o.to_array(), (-n).to_array())
-        .unwrap_or_else(|| panic!("no hit at {uv}"));
-    lift - t
 }
 
 struct Checked {
@@ -120,7 +110,7 @@ fn check_scene(name: &str, closed: bool) -> Checked {
                     assert_near!(expect, sign * deepest, 1e-9, "{name}: overlap");
                 }
             }
-            let got = measured(&mesh, surface, uv, lift);
+            let got = height_along_normal(&mesh, surface, uv, lift);
             assert_near!(got, expect, tol, "{name}: stroke {id} sample {i} at {uv}");
             c.centre += 1;
         }
@@ -139,7 +129,7 @@ fn check_scene(name: &str, closed: bool) -> Checked {
             });
             if clear && hidden.locate(uv) == Location::Outside {
                 assert_near!(
-                    measured(&mesh, surface, uv, lift),
+                    height_along_normal(&mesh, surface, uv, lift),
                     0.0,
                     Detail::Final.tolerance(surface.size()),
                     "{name}: outside at {uv}"
@@ -261,7 +251,11 @@ fn centreline_crossing_its_outline_at_a_hooked_tapered_end_tessellates() {
     let surface = &doc.targets()[0].surface;
     let mid = stroke.centre_uv[stroke.centre_uv.len() / 2];
     let depth = stroke.depth[stroke.centre_uv.len() / 2];
-    assert_near!(measured(&mesh, surface, mid, 0.02), -depth, tol(&doc));
+    assert_near!(
+        height_along_normal(&mesh, surface, mid, 0.02),
+        -depth,
+        tol(&doc)
+    );
 }
 
 /// The bare target's mesh lies within the stated tolerance of the surface at both
@@ -293,7 +287,7 @@ fn bare_targets_lie_within_the_stated_tolerance() {
             for j in 1..k {
                 for i in 1..k {
                     let uv = DVec2::new(i as f64 / k as f64, j as f64 / k as f64);
-                    worst = worst.max(measured(&mesh, surface, uv, 0.05 * size).abs());
+                    worst = worst.max(height_along_normal(&mesh, surface, uv, 0.05 * size).abs());
                 }
             }
             assert!(worst <= tol, "{name} {detail:?}: {worst} > {tol}");

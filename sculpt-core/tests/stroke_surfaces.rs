@@ -12,6 +12,8 @@
 //! closer than twice the fit tolerance to the trim outline (by the visibility margin)
 //! are not judged.
 
+mod common;
+use common::height_along_normal;
 use glam::{DVec2, DVec3};
 use sculpt_core::assert_near;
 use sculpt_core::formats::iges;
@@ -53,17 +55,6 @@ fn mesh_tol(doc: &Document, profile: &Profile, depth: f64) -> f64 {
         Profile::V => 1e-3 * size,
         _ => 0.1 * depth + 1e-3 * size,
     }
-}
-
-/// Signed height above the target along its normal at `uv` of the mesh's first hit.
-fn mesh_height(mesh: &PatchMesh, surface: &dyn ParamSurface, uv: DVec2, lift: f64) -> f64 {
-    let p = surface.eval(uv).p;
-    let n = normal_at(surface, uv);
-    let o = p + n * lift;
-    let t = mesh
-        .first_hit(o.to_array(), (-n).to_array())
-        .unwrap_or_else(|| panic!("no hit at {uv}"));
-    lift - t
 }
 
 /// Every stroke of every paper scene gets a stroke surface within the stated fit
@@ -201,7 +192,7 @@ fn check_trims(name: &str, doc: &Document) -> Tally {
                 let n = normal_at(surface, w);
                 let h_surface = (ss.point(st) - base).dot(n);
                 let h_final = height(&strokes, w, base);
-                let h_mesh = mesh_height(&mesh, surface, w, lift);
+                let h_mesh = height_along_normal(&mesh, surface, w, lift);
                 let mesh_ok = (h_mesh - h_final).abs() <= tol;
                 let visible = ss.is_visible(st);
                 assert_eq!(
