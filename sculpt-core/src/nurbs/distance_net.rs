@@ -230,24 +230,83 @@ impl DistanceNets {
         tol: f64,
         out: &mut [f64],
     ) -> f64 {
+        let terms = self.terms(leaf, p, f_star);
+        let out = &mut out[..terms.aa.len()];
+        for (k, g) in out.iter_mut().enumerate() {
+            *g = terms.at(k);
+        }
+        self.threshold(leaf, &terms, f_star, tol)
+    }
+
+    /// The smallest coefficient of the net [`Self::query`] would write, and its
+    /// threshold, without writing the net: the test that clears a whole leaf.
+    pub(crate) fn query_min(&self, leaf: usize, p: DVec3, f_star: f64, tol: f64) -> (f64, f64) {
+        let terms = self.terms(leaf, p, f_star);
+        let len = terms.aa.len();
+        // Two running minima, one per SSE2 lane.
+        let mut low = [f64::INFINITY; 2];
+        for k in (0..len.saturating_sub(1)).step_by(2) {
+            low[0] = lesser(low[0], terms.at(k));
+            low[1] = lesser(low[1], terms.at(k + 1));
+        }
+        if len % 2 == 1 {
+            low[0] = lesser(low[0], terms.at(len - 1));
+        }
+        (
+            lesser(low[0], low[1]),
+            self.threshold(leaf, &terms, f_star, tol),
+        )
+    }
+
+    /// The slices of leaf `leaf` and the query's factors, for [`NetTerms::at`].
+    #[inline(always)]
+    fn terms(&self, leaf: usize, p: DVec3, f_star: f64) -> NetTerms<'_> {
         let len = self.m1 * self.n1;
         let base = leaf * len;
         let q = p - self.origins[leaf];
-        let q2 = q.length_squared() - f_star;
-        // Slices of one length: no bounds checks in the loop, which then vectorises.
-        let (aa, ww) = (&self.aa[base..base + len], &self.ww[base..base + len]);
         let aw = &self.aw[3 * base..3 * (base + len)];
-        let (ax, ay, az) = (&aw[..len], &aw[len..2 * len], &aw[2 * len..3 * len]);
-        let out = &mut out[..len];
-        for k in 0..len {
-            out[k] = aa[k] - 2.0 * (q.x * ax[k] + q.y * ay[k] + q.z * az[k]) + q2 * ww[k];
+        NetTerms {
+            q,
+            q2: q.length_squared() - f_star,
+            aa: &self.aa[base..base + len],
+            ww: &self.ww[base..base + len],
+            ax: &aw[..len],
+            ay: &aw[len..2 * len],
+            az: &aw[2 * len..3 * len],
         }
+    }
+
+    /// See [`Self::query`]: `-(tol's share of g + the rounding error of the net)`.
+    #[inline(always)]
+    fn threshold(&self, leaf: usize, terms: &NetTerms<'_>, f_star: f64, tol: f64) -> f64 {
         let [s_aa, s_aw, s_ww] = self.scales[leaf];
-        let noise = s_aa + 2.0 * q.length() * s_aw + (q2.abs() + f_star) * s_ww;
+        let noise = s_aa + 2.0 * terms.q.length() * s_aw + (terms.q2.abs() + f_star) * s_ww;
         // f < f* - tol  <=>  g < -(2 sqrt(f*) tol - tol^2) w^2, and w^2 >= ww_min.
         let sqrt_f = f_star.sqrt();
         let gap = (2.0 * sqrt_f * tol - tol * tol).max(0.0);
         -(gap * self.ww_min[leaf] + 64.0 * f64::EPSILON * noise)
+    }
+}
+
+/// One leaf's precomputed products and one query's factors: coefficient `k` of the net
+/// of `g` is `|A|^2 - 2 q . (A w) + (|q|^2 - f*) w^2` (slices of one length, so the
+/// loops over them have no bounds checks and vectorise).
+struct NetTerms<'a> {
+    q: DVec3,
+    q2: f64,
+    aa: &'a [f64],
+    ww: &'a [f64],
+    ax: &'a [f64],
+    ay: &'a [f64],
+    az: &'a [f64],
+}
+
+impl NetTerms<'_> {
+    #[inline(always)]
+    fn at(&self, k: usize) -> f64 {
+        let q = self.q;
+        self.aa[k] - 2.0 * (q.x * self.ax[k] + q.y * self.ay[k] + q.z * self.az[k])
+            + self.q2 * self.ww[k]
     }
 }
 

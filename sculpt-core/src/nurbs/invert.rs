@@ -158,7 +158,7 @@ enum Reached {
 /// plane at the recorded minimum, with no new run.
 #[derive(Debug, Clone, Copy)]
 struct Visited {
-    leaves: [(u32, Reached); 32],
+    leaves: [(u32, Reached); 16],
     len: usize,
     /// More leaves were reached than recorded: the certificate walks the tree instead.
     overflow: bool,
@@ -167,7 +167,7 @@ struct Visited {
 impl Visited {
     fn new() -> Self {
         Self {
-            leaves: [(0, Reached::Open); 32],
+            leaves: [(0, Reached::Open); 16],
             len: 0,
             overflow: false,
         }
@@ -377,14 +377,50 @@ fn group_boxes(piece: &[DVec3], p1: usize, q1: usize, along_u: bool) -> Vec<(DVe
         .collect()
 }
 
-/// A tree node: a box; either two children or one leaf.
+/// Marks a leaf in a child slot or a stack entry of the tree walk; the other bits are
+/// the leaf's index.
+const LEAF: u32 = 1 << 31;
+
+/// Stack entries of the tree walks. A depth-first walk that pushes both children of a
+/// node holds at most one entry per level plus one. The tree bisects an `lu x lv` grid
+/// of leaves, so it is `ceil(log2 lu) + ceil(log2 lv)` levels deep: at most 16 within
+/// [`MAX_LEAVES`], and at most 33 for any grid whose leaf indices fit below [`LEAF`].
+const STACK_LEN: usize = 36;
+
+/// Leaves the hierarchy aims to stay within: the leaf size grows on big surfaces, down
+/// to one leaf per Bezier patch.
+const MAX_LEAVES: usize = 16_384;
+
+/// An inner node of the tree: the boxes of its two children side by side, lane `k` for
+/// child `k`, so both lower bounds come from one pass that the compiler runs on SSE2
+/// pairs.
 #[derive(Debug, Clone, Copy)]
 struct Node {
-    lo: DVec3,
-    hi: DVec3,
-    /// Left child, or the leaf index when `right == u32::MAX`.
-    left: u32,
-    right: u32,
+    /// `lo[axis][k]` and `hi[axis][k]`: the box of child `k`.
+    lo: [[f64; 2]; 3],
+    hi: [[f64; 2]; 3],
+    /// Child `k`: a node index, or [`LEAF`] `|` a leaf index.
+    child: [u32; 2],
+}
+
+impl Node {
+    /// The squared distances from `p` to the two children's boxes (zero inside).
+    #[inline(always)]
+    fn child_dist2(&self, p: DVec3) -> [f64; 2] {
+        // Comparisons rather than `f64::max`, whose NaN rule costs four instructions a
+        // lane: every value here is finite.
+        let max = |a: f64, b: f64| if a > b { a } else { b };
+        let p = p.to_array();
+        let mut d2 = [0.0; 2];
+        for axis in 0..3 {
+            let (lo, hi) = (self.lo[axis], self.hi[axis]);
+            for k in 0..2 {
+                let d = max(max(lo[k] - p[axis], p[axis] - hi[k]), 0.0);
+                d2[k] += d * d;
+            }
+        }
+        d2
+    }
 }
 
 /// Cached acceleration structure for closest-point queries on one surface.
@@ -393,7 +429,10 @@ struct Node {
 #[derive(Debug, Clone)]
 pub struct SurfaceInverter {
     surface: NurbsSurface,
+    /// Inner nodes of the tree; the walk starts at `root`.
     nodes: Vec<Node>,
+    /// Node 0, or [`LEAF`] `|` 0 when the tree is one leaf.
+    root: u32,
     leaves: Vec<Leaf>,
     /// The side boxes of each leaf (kept apart: only edge leaves read them).
     sides: Vec<SideBoxes>,
@@ -536,6 +575,7 @@ impl SurfaceInverter {
         let mut inv = Self {
             surface: surface.clone(),
             nodes: Vec::new(),
+            root: LEAF,
             leaves: Vec::new(),
             sides: Vec::new(),
             domain_lo: DVec2::new(u0, v0),
@@ -586,12 +626,7 @@ impl SurfaceInverter {
             self.leaves
                 .push(Leaf::whole(self.domain_lo, self.domain_hi, lo, hi));
             self.sides.push([(lo, hi); 4]);
-            self.nodes.push(Node {
-                lo,
-                hi,
-                left: 0,
-                right: u32::MAX,
-            });
+            self.root = LEAF;
             return;
         };
         let (n_u, n_v) = (bz.count_u(), bz.count_v());
@@ -647,7 +682,9 @@ impl SurfaceInverter {
                 .collect()
         };
         let (mut su, mut sv) = (pieces_of(&len_u, target), pieces_of(&len_v, target));
-        while su.iter().sum::<usize>() * sv.iter().sum::<usize>() > 16_384 && target > 0.0 {
+        while su.iter().sum::<usize>() * sv.iter().sum::<usize>() > MAX_LEAVES
+            && su.iter().chain(&sv).any(|&n| n > 1)
+        {
             target *= 2.0;
             su = pieces_of(&len_u, target);
             sv = pieces_of(&len_v, target);
@@ -713,11 +750,13 @@ impl SurfaceInverter {
         self.leaves = leaf_data;
         self.sides = side_data;
         self.nets = nets;
-        self.nodes.reserve(2 * lu * lv);
-        self.build_node(&leaf_boxes, lv, 0, lu, 0, lv);
+        self.nodes.reserve(lu * lv);
+        self.root = self.build_node(&leaf_boxes, lv, 0, lu, 0, lv).0;
     }
 
-    /// Builds the node for leaf-grid rows `i0..i1`, columns `j0..j1`; returns its index.
+    /// Builds the subtree for leaf-grid rows `i0..i1`, columns `j0..j1` (halving the
+    /// longer side); returns its entry (a node index, or [`LEAF`] `|` a leaf index) and
+    /// box.
     fn build_node(
         &mut self,
         boxes: &[(DVec3, DVec3)],
@@ -726,46 +765,41 @@ impl SurfaceInverter {
         i1: usize,
         j0: usize,
         j1: usize,
-    ) -> u32 {
-        let idx = self.nodes.len() as u32;
+    ) -> (u32, DVec3, DVec3) {
         if i1 - i0 == 1 && j1 - j0 == 1 {
             let leaf = i0 * lv + j0;
             let (lo, hi) = boxes[leaf];
-            self.nodes.push(Node {
-                lo,
-                hi,
-                left: leaf as u32,
-                right: u32::MAX,
-            });
-            return idx;
+            return (LEAF | leaf as u32, lo, hi);
         }
+        let idx = self.nodes.len() as u32;
         self.nodes.push(Node {
-            lo: DVec3::ZERO,
-            hi: DVec3::ZERO,
-            left: 0,
-            right: 0,
+            lo: [[0.0; 2]; 3],
+            hi: [[0.0; 2]; 3],
+            child: [0; 2],
         });
-        let (l, r) = if i1 - i0 >= j1 - j0 {
+        let children = if i1 - i0 >= j1 - j0 {
             let im = (i0 + i1) / 2;
-            (
+            [
                 self.build_node(boxes, lv, i0, im, j0, j1),
                 self.build_node(boxes, lv, im, i1, j0, j1),
-            )
+            ]
         } else {
             let jm = (j0 + j1) / 2;
-            (
+            [
                 self.build_node(boxes, lv, i0, i1, j0, jm),
                 self.build_node(boxes, lv, i0, i1, jm, j1),
-            )
+            ]
         };
-        let (ln, rn) = (self.nodes[l as usize], self.nodes[r as usize]);
-        self.nodes[idx as usize] = Node {
-            lo: ln.lo.min(rn.lo),
-            hi: ln.hi.max(rn.hi),
-            left: l,
-            right: r,
-        };
-        idx
+        let node = &mut self.nodes[idx as usize];
+        for (k, &(entry, lo, hi)) in children.iter().enumerate() {
+            node.child[k] = entry;
+            for axis in 0..3 {
+                node.lo[axis][k] = lo[axis];
+                node.hi[axis][k] = hi[axis];
+            }
+        }
+        let [(_, lo0, hi0), (_, lo1, hi1)] = children;
+        (idx, lo0.min(lo1), hi0.max(hi1))
     }
 
     /// The closest point of the surface to `p` (global: branch and bound over the
@@ -966,24 +1000,27 @@ impl SurfaceInverter {
                     self.closer_in_leaf(nets, &probe, index as usize, what)
                 });
         }
-        let mut stack = [0u32; 128];
+        let mut stack = [(self.root, 0.0f64); STACK_LEN];
         let mut top = 1usize;
         while top > 0 {
             top -= 1;
-            let node = self.nodes[stack[top] as usize];
-            if box_dist2(p, node.lo, node.hi) >= best.dist2 {
+            let (entry, bound) = stack[top];
+            if bound >= best.dist2 {
                 continue;
             }
-            if node.right == u32::MAX {
-                let index = node.left as usize;
+            if entry & LEAF != 0 {
+                let index = (entry & !LEAF) as usize;
                 let found = self.closer_in_leaf(nets, &probe, index, visited.get(index));
                 if found.is_some() {
                     return found;
                 }
-            } else if top + 2 <= stack.len() {
-                stack[top] = node.left;
-                stack[top + 1] = node.right;
-                top += 2;
+                continue;
+            }
+            let node = &self.nodes[entry as usize];
+            let d2 = node.child_dist2(p);
+            for k in 0..2 {
+                stack[top] = (node.child[k], d2[k]);
+                top += 1;
             }
         }
         None
@@ -1198,20 +1235,20 @@ impl SurfaceInverter {
         let mut best = self.best_corner(p, start);
         let mut iters = best.iters;
         // Leaves to solve: (lower bound of the squared distance, leaf index).
-        let mut found = [(0.0f64, 0u32); 32];
+        let mut found = [(0.0f64, 0u32); 16];
         let mut n_found = 0;
-        // Nodes to visit with the lower bound of their squared distance.
-        let mut stack = [(0u32, 0.0f64); 128];
+        // Entries to visit with the lower bound of their squared distance.
+        let mut stack = [(self.root, 0.0f64); STACK_LEN];
         let mut top = 1usize;
         while top > 0 {
             top -= 1;
-            let (index, bound) = stack[top];
+            let (entry, bound) = stack[top];
             if bound >= best.dist2 {
                 continue;
             }
-            let node = self.nodes[index as usize];
-            if node.right == u32::MAX {
-                let leaf = &self.leaves[node.left as usize];
+            if entry & LEAF != 0 {
+                let index = entry & !LEAF;
+                let leaf = &self.leaves[index as usize];
                 let p_local = to_frame(&leaf.frame, p);
                 let bound = box_dist2(p_local, leaf.obb.0, leaf.obb.1);
                 if bound >= best.dist2 {
@@ -1223,32 +1260,25 @@ impl SurfaceInverter {
                 best.offer_point(DVec2::new(hi.x, lo.y), c10, p);
                 best.offer_point(DVec2::new(lo.x, hi.y), c01, p);
                 best.offer_point(hi, c11, p);
-                found[n_found] = (bound, node.left);
+                found[n_found] = (bound, index);
                 n_found += 1;
-                solved.reach(node.left);
+                solved.reach(index);
                 if n_found == found.len() {
                     self.solve_leaves(p, &mut found, &mut best, &mut iters, solved);
                     n_found = 0;
                 }
                 continue;
             }
-            let (l, r) = (
-                self.nodes[node.left as usize],
-                self.nodes[node.right as usize],
-            );
-            let dl = (node.left, box_dist2(p, l.lo, l.hi));
-            let dr = (node.right, box_dist2(p, r.lo, r.hi));
+            let node = &self.nodes[entry as usize];
+            let d2 = node.child_dist2(p);
             // Push the farther child first so the nearer one is examined first; a child
             // no nearer than the best point so far is written but not kept. Branch-free:
             // which child is nearer is a coin toss to the branch predictor. The stack
-            // holds at most one node per level of the tree plus one, far below its size.
-            let pair = [dl, dr];
-            let nearer = usize::from(dr.1 < dl.1);
-            for child in [pair[1 - nearer], pair[nearer]] {
-                if top < stack.len() {
-                    stack[top] = child;
-                    top += usize::from(child.1 < best.dist2);
-                }
+            // holds at most one entry per level of the tree plus one (`STACK_LEN`).
+            let nearer = usize::from(d2[1] < d2[0]);
+            for k in [1 - nearer, nearer] {
+                stack[top] = (node.child[k], d2[k]);
+                top += usize::from(d2[k] < best.dist2);
             }
         }
         self.solve_leaves(p, &mut found[..n_found], &mut best, &mut iters, solved);
@@ -1297,11 +1327,8 @@ impl SurfaceInverter {
         let Some(nets) = &self.nets else {
             return false;
         };
-        let (m1, n1) = nets.size();
-        let mut buf = [0.0; MAX_SIDE * MAX_SIDE];
-        let net = &mut buf[..m1 * n1];
-        let threshold = nets.query(index, p, f_star, CERTIFY_TOL, net);
-        net_min(net) >= threshold
+        let (low, threshold) = nets.query_min(index, p, f_star, CERTIFY_TOL);
+        low >= threshold
     }
 
     /// The Newton runs of one leaf: its interior (when the exclusion test allows a
@@ -1425,7 +1452,26 @@ impl SurfaceInverter {
     }
 
     /// Bounded Newton with an active set (see the module docs).
+    #[inline]
     fn newton(&self, p: DVec3, start: DVec2, lo: DVec2, hi: DVec2, wrap: [bool; 2]) -> Candidate {
+        // Leaf runs never wrap: their copy has no wrap-around code at all.
+        if wrap == [false; 2] {
+            self.bounded_newton::<false>(p, start, lo, hi, wrap)
+        } else {
+            self.bounded_newton::<true>(p, start, lo, hi, wrap)
+        }
+    }
+
+    /// [`Self::newton`], with `WRAP` false when no direction wraps.
+    fn bounded_newton<const WRAP: bool>(
+        &self,
+        p: DVec3,
+        start: DVec2,
+        lo: DVec2,
+        hi: DVec2,
+        wrap: [bool; 2],
+    ) -> Candidate {
+        let wrap = if WRAP { wrap } else { [false; 2] };
         let mut uv = start.clamp(lo, hi);
         let mut d = self.derivs(uv);
         let mut r = d.point - p;
@@ -1892,6 +1938,72 @@ mod tests {
     /// 9,600 hard queries neither may ever be farther than the unpruned reference that
     /// runs Newton in every leaf and along every domain edge. (An earlier attempt to skip
     /// the sub-patch holding the seed failed once in 9,600 such queries.)
+    /// The piecewise bilinear surface through a grid, with uniform clamped knots.
+    fn degree_one(pts: Vec<Vec<DVec3>>) -> NurbsSurface {
+        let knots = |n: usize| {
+            let mut k = vec![0.0];
+            k.extend((0..n).map(|i| i as f64 / (n - 1) as f64));
+            k.push(1.0);
+            k
+        };
+        let (nu, nv) = (pts.len(), pts[0].len());
+        NurbsSurface::new(1, 1, knots(nu), knots(nv), pts, None).expect("valid grid")
+    }
+
+    /// Regression: a surface with more Bezier patches than `MAX_LEAVES` hung the build
+    /// (the leaf size kept doubling while every patch was already one leaf).
+    #[test]
+    fn more_patches_than_the_leaf_cap_build_and_invert() {
+        let n = 130; // 129 x 129 = 16,641 bilinear patches
+        let pts: Vec<Vec<DVec3>> = (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|j| {
+                        let (x, y) = (i as f64 / (n - 1) as f64, j as f64 / (n - 1) as f64);
+                        DVec3::new(x, y, 0.05 * (9.0 * x).sin() * (7.0 * y).cos())
+                    })
+                    .collect()
+            })
+            .collect();
+        let s = degree_one(pts);
+        let inv = s.inverter();
+        assert!(inv.leaf_count() > MAX_LEAVES);
+        for (u, v) in [(0.1, 0.2), (0.5, 0.5), (0.93, 0.71)] {
+            let on = s.point(u, v);
+            let pr = inv.closest_point(on + DVec3::Z * 1e-3);
+            assert!(pr.distance <= 1e-3 + 1e-12, "{pr:?}");
+        }
+    }
+
+    /// The walks' fixed stacks hold one entry per tree level plus one: the deepest
+    /// trees (a long strip, and a grid at the leaf cap) must fit, or a dropped push would
+    /// skip part of the surface.
+    #[test]
+    fn the_deepest_trees_fit_the_walk_stacks() {
+        fn depth(inv: &SurfaceInverter, entry: u32) -> usize {
+            if entry & LEAF != 0 {
+                return 0;
+            }
+            let node = inv.nodes[entry as usize];
+            1 + depth(inv, node.child[0]).max(depth(inv, node.child[1]))
+        }
+        for (nu, nv) in [(2000, 2), (130, 130)] {
+            let pts: Vec<Vec<DVec3>> = (0..nu)
+                .map(|i| {
+                    (0..nv)
+                        .map(|j| DVec3::new(i as f64, j as f64, ((i * j) % 3) as f64))
+                        .collect()
+                })
+                .collect();
+            let inv = degree_one(pts).inverter();
+            let d = depth(&inv, inv.root);
+            // A balanced bisection: at most two levels over log2 of the leaf count.
+            let balanced = inv.leaf_count().next_power_of_two().ilog2() as usize + 2;
+            assert!(d <= balanced, "depth {d}, {} leaves", inv.leaf_count());
+            assert!(d < STACK_LEN, "depth {d}");
+        }
+    }
+
     #[test]
     fn pruned_search_never_loses_to_the_exhaustive_reference() {
         let mut rng = Rng(0x5EED_2026);
