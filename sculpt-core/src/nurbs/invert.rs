@@ -1315,8 +1315,20 @@ impl SurfaceInverter {
                     continue;
                 }
             }
+            let before = best.dist2;
             if let Some(uv) = self.solve_leaf(p, index as usize, best, iters, true) {
                 solved.record(index as usize, Reached::Minimum(uv));
+            }
+            // The leaf's run stopped on its edge: the minimum lies beyond, usually in the
+            // next leaf. Newton on the whole domain goes on from there, more cheaply
+            // than that leaf's own run from its bilinear start; the leaf is then left
+            // to the certificate, as it holds the answer.
+            if best.on_leaf_edge && best.dist2 < before {
+                let c = self.newton(p, best.uv, self.domain_lo, self.domain_hi, self.closed);
+                *iters += c.iters;
+                if c.dist2 < best.dist2 {
+                    *best = c;
+                }
             }
         }
     }
