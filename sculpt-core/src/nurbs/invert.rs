@@ -229,12 +229,12 @@ struct Leaf {
 
 impl Leaf {
     /// A Newton start for `p`: the parameter of the nearest point of the bilinear patch
-    /// through the leaf's corners (three Gauss-Newton steps, no surface evaluation).
+    /// through the leaf's corners (two Gauss-Newton steps, no surface evaluation).
     #[inline]
     fn estimate(&self, p: DVec3) -> DVec2 {
         let [c00, c10, c01, c11] = self.corners;
         let mut st = DVec2::splat(0.5);
-        for _ in 0..3 {
+        for _ in 0..2 {
             let (s, t) = (st.x, st.y);
             let b = c00 * ((1.0 - s) * (1.0 - t))
                 + c10 * (s * (1.0 - t))
