@@ -10,7 +10,9 @@
 //!    sub-patches (about 16 per surface length, at most 16 per span), and each sub-patch
 //!    ("leaf") keeps the axis-aligned box of its control points and a thin oriented box
 //!    in a frame fitted to it. Weights are positive, so the boxes contain the sub-patch
-//!    (convex-hull property). A binary tree over the leaf grid holds the unions.
+//!    (convex-hull property). A binary tree over the leaf grid holds the unions; each
+//!    inner node stores its two children's boxes side by side, so one SSE2 pass gives
+//!    both lower bounds.
 //! 2. **Branch and bound.** A query walks the tree nearest box first and skips every box
 //!    farther than the best distance found so far. The leaves it reaches are collected
 //!    with the lower bound their oriented box gives, and their Bezier corners (surface
@@ -34,6 +36,9 @@
 //!    domain, and corners, are found exactly. A halving line search keeps every step
 //!    descending, and an indefinite Hessian is shifted to positive definite.
 //!    The start is the nearest point of the bilinear patch through the leaf's corners.
+//!    A run that stops on its leaf's edge (the minimum lies beyond) goes on with Newton
+//!    on the whole domain from there; the leaf holding that minimum is then left to the
+//!    certificate.
 //!    Leaves on a domain edge whose interior holds no stationary point run Newton along
 //!    that edge alone, unless the box of that side (its Bezier control points) is no
 //!    closer than the best distance. A leaf that holds two local minima (one on a domain
