@@ -227,6 +227,31 @@ fn seeded_queries_along_a_stroke_match_unseeded() {
     }
 }
 
+/// A batch of many rayon chunks answers every query as a single query would, in the
+/// input order, non-finite queries included.
+#[test]
+fn a_big_batch_answers_in_input_order() {
+    let mut rng = Rng(0x5EED_0005);
+    let s = random_surface(&mut rng, false);
+    let inv = s.inverter();
+    let mut pts: Vec<DVec3> = (0..3000)
+        .map(|_| {
+            DVec3::new(
+                rng.range(-0.3, 1.3),
+                rng.range(-0.3, 1.3),
+                rng.range(-0.5, 0.5),
+            )
+        })
+        .collect();
+    pts[17] = DVec3::NAN;
+    pts[2500] = DVec3::new(f64::INFINITY, 0.0, 0.0);
+    let batch = inv.closest_points(&pts);
+    assert_eq!(batch.len(), pts.len());
+    for (p, b) in pts.iter().zip(&batch) {
+        assert_eq!(inv.closest_point(*p), *b, "{p:?}");
+    }
+}
+
 #[test]
 fn non_finite_queries_are_safe() {
     let mut rng = Rng(7);
