@@ -1,5 +1,6 @@
-//! Criterion benches of the NURBS kernel hot paths on the test patch: a wavy
-//! bicubic 6x6 rational surface.
+//! Criterion benches of the NURBS kernel hot paths on a wavy bicubic 6x6 patch: the
+//! polynomial B-spline [`wavy_patch`] (all weights 1) and, for the rational code paths,
+//! the same net with uneven weights ([`wavy_rational_patch`]).
 //!
 //! `cargo bench -p sculpt-core --bench nurbs`
 
@@ -24,6 +25,23 @@ pub fn wavy_patch() -> NurbsSurface {
         .collect();
     let k = vec![0., 0., 0., 0., 1. / 3., 2. / 3., 1., 1., 1., 1.];
     NurbsSurface::new(3, 3, k.clone(), k, pts, None).expect("valid patch")
+}
+
+/// [`wavy_patch`] made truly rational: weights from 0.5 to 2 across the net, so every
+/// evaluation divides by a non-constant `w(u, v)`.
+pub fn wavy_rational_patch() -> NurbsSurface {
+    let p = wavy_patch();
+    let (nu, nv) = (p.count_u(), p.count_v());
+    let weights: Vec<Vec<f64>> = (0..nu)
+        .map(|i| {
+            (0..nv)
+                .map(|j| 1.25 + 0.75 * (1.3 * i as f64 - 0.9 * j as f64).sin())
+                .collect()
+        })
+        .collect();
+    let k = vec![0., 0., 0., 0., 1. / 3., 2. / 3., 1., 1., 1., 1.];
+    NurbsSurface::new(3, 3, k.clone(), k, p.control_points(), Some(weights))
+        .expect("valid rational patch")
 }
 
 /// Deterministic query points around the patch: about a third project onto an edge.
@@ -93,6 +111,26 @@ fn bench(c: &mut Criterion) {
     g.bench_function("invert_seeded_stroke_1024", |b| {
         b.iter(|| black_box(inv.closest_points_along(&stroke)))
     });
+    let r = wavy_rational_patch();
+    g.bench_function("eval_rational_1024", |b| {
+        b.iter(|| {
+            let mut acc = DVec3::ZERO;
+            for uv in &uvs {
+                acc += r.point(uv.x, uv.y);
+            }
+            black_box(acc)
+        })
+    });
+    let rinv = r.inverter();
+    g.bench_function("invert_rational_1024", |b| {
+        b.iter(|| {
+            let mut acc = 0.0;
+            for q in &qs {
+                acc += rinv.closest_point(*q).distance;
+            }
+            black_box(acc)
+        })
+    });
     g.finish();
 
     let big = queries(65_536);
@@ -106,6 +144,9 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("nurbs_setup");
     g.measurement_time(Duration::from_secs(2));
     g.bench_function("build_inverter", |b| b.iter(|| black_box(s.inverter())));
+    g.bench_function("build_inverter_rational", |b| {
+        b.iter(|| black_box(r.inverter()))
+    });
     g.finish();
 }
 

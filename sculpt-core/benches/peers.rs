@@ -198,6 +198,38 @@ fn bench(c: &mut Criterion) {
         })
     });
     g.finish();
+
+    // Regression: the figures above leave out our inverter's build, which the peers do
+    // not need. Here it is timed with the queries it serves, for the stroke sizes the
+    // app sees (a short flick, a typical stroke, the resampling cap), seeded along the
+    // stroke as the sculpting path queries. The document builds one inverter per target
+    // and keeps it, so a session pays the build once per surface, not per stroke.
+    let mut g = c.benchmark_group("peers_build_amortised");
+    g.measurement_time(Duration::from_secs(3))
+        .warm_up_time(Duration::from_millis(300))
+        .sample_size(10);
+    g.bench_function("wandsculpt_build_only", |b| {
+        b.iter(|| black_box(s.inverter()))
+    });
+    for n in [32_usize, 200, 2000] {
+        let stroke: Vec<DVec3> = (0..n)
+            .map(|i| {
+                let t = i as f64 / (n - 1) as f64;
+                s.point(t, 0.5 + 0.3 * (6.0 * t).sin()) + DVec3::Z * 0.01
+            })
+            .collect();
+        g.bench_function(format!("wandsculpt_build_and_stroke_{n}"), |b| {
+            b.iter(|| black_box(s.inverter().closest_points_along(&stroke).len()))
+        });
+    }
+    g.bench_function("truck_no_hint_32", |b| {
+        b.iter(|| {
+            q32.iter()
+                .filter_map(|q| black_box(truck_project(&t, *q, None)))
+                .count()
+        })
+    });
+    g.finish();
 }
 
 criterion_group!(benches, bench);

@@ -7,9 +7,11 @@
 //! Two threads: a sender writing one frame per millisecond (timestamped just before
 //! `write_all`), and a current-thread tokio runtime running the TCP listener, the hub
 //! and an observer task awaiting the wand's `watch` receiver, which timestamps each new
-//! frame counter it sees (so the figure includes the consumer's wake-up). Latency =
-//! seen − sent, per frame; frames the observer did not see individually (overwritten
-//! before it looked) are counted, not guessed.
+//! frame counter it sees (so the figure includes the consumer's wake-up). Latency of
+//! frame `n` = the first time the observer saw frame `n` *or a later one* − the time
+//! `n` was sent. Every frame counts: one that a later frame overwrote before the observer
+//! looked (about one in eight) became readable only with that later frame, so it gets
+//! that frame's time. Frames never covered by any observed frame are reported as lost.
 
 use glam::DVec3;
 use std::io::Write;
@@ -97,16 +99,35 @@ fn main() {
     let seen = rt.block_on(observer);
     let sent = sender.join().unwrap();
 
-    let mut lat: Vec<f64> = sent
+    // Regression: the percentiles once covered only the frames seen one by one,
+    // leaving out the overwritten ones, which are the slow ones.
+    let mut first_seen_from = vec![None::<Instant>; seen.len() + 1];
+    for n in (0..seen.len()).rev() {
+        first_seen_from[n] = match (seen[n], first_seen_from[n + 1]) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
+    }
+    let individually = sent
         .iter()
         .zip(&seen)
+        .filter(|(s, r)| s.is_some() && r.is_some())
+        .count();
+    let mut lat: Vec<f64> = sent
+        .iter()
+        .zip(&first_seen_from)
         .filter_map(|(s, r)| Some(r.as_ref()?.duration_since(*s.as_ref()?).as_secs_f64() * 1e6))
         .collect();
     lat.sort_by(f64::total_cmp);
+    if lat.is_empty() {
+        println!("tcp->filtered pose latency: no frame was observed");
+        std::process::exit(1);
+    }
     let q = |p: f64| lat[((lat.len() - 1) as f64 * p).round() as usize];
     println!(
-        "tcp->filtered pose latency at 1 kHz: frames sent {frames}, observed individually {} ({} overwritten before observed)",
+        "tcp->filtered pose latency at 1 kHz: frames sent {frames}, counted {} ({individually} observed individually, {} readable only through a later frame), lost {}",
         lat.len(),
+        lat.len() - individually,
         frames - lat.len()
     );
     println!(

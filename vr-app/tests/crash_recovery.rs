@@ -5,8 +5,11 @@ use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+use sculpt_core::editor::{self, Applied};
+use sculpt_core::interaction::Edit;
+use vr_app::config::Config;
 use vr_app::journal::Journal;
-use vr_app::session::JOURNAL_FILE;
+use vr_app::session::{JOURNAL_FILE, Session};
 
 fn wandsculpt() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_wandsculpt"));
@@ -60,6 +63,34 @@ fn kill_9_mid_session_loses_no_committed_operation() {
         journalled.len() >= 2,
         "committed operations missing: {journalled:?}"
     );
+    // Regression: `recovered` counted journal lines read, whether or not they applied.
+    // The recovered document must be the default document with every journalled edit
+    // applied, and each of those edits must apply (none refused on recovery).
+    let mut expected = editor::default_document();
+    let mut changed = 0;
+    for entry in &journalled {
+        if matches!(entry.edit, Edit::SelectTarget { .. }) {
+            continue;
+        }
+        match editor::apply(&mut expected, &entry.edit) {
+            Applied::Rejected(e) => panic!("journalled edit {} refused: {e}", entry.seq),
+            applied => changed += usize::from(applied.changed()),
+        }
+    }
+    assert!(
+        changed >= 2 && !expected.strokes().is_empty(),
+        "the journalled demo operations must change the document: {journalled:?}"
+    );
+    let mut cfg = Config::default();
+    cfg.files.dir = out.clone();
+    let recovered = Session::open(&cfg).unwrap();
+    assert_eq!(recovered.recovered, journalled.len());
+    assert_eq!(recovered.rejected, 0);
+    assert!(
+        recovered.doc.to_json() == expected.to_json(),
+        "the recovered document differs from the journalled edits applied in order"
+    );
+    drop(recovered);
     // Restart on the same directory: recovery replays the journal, then the demo runs
     // again on top of it.
     let o = wandsculpt()
