@@ -8,21 +8,24 @@
 //!    the frames' DTrack `ts`, **calibration** of tracker millimetres into the display
 //!    frame with the wand's tool tip, the One Euro **filter**, **tracking loss**
 //!    (quality < 0, no wand, or no frame for longer than the timeout);
-//! 3. **interaction**: [`Interaction`] (`sculpt_core::interaction`) turns wand samples
-//!    into edits and operator events;
-//! 4. **sculpting**: [`editor::apply`] applies each edit to the [`Document`] (strokes
-//!    through the multiresolution trimming, sketches fitted into new targets, undo and
-//!    redo); [`editor::oplog_event`] writes the operator log.
+//! 3. **the edit loop** ([`EditLoop`], `sculpt_core::edit_loop`), fed each stage sample
+//!    as the stage converts it ([`StageWand::wand_event`]): [`Interaction`] turns wand
+//!    samples into edits and operator events, and [`editor::apply`] applies each edit
+//!    to the [`Document`] (strokes through the multiresolution trimming, sketches
+//!    fitted into new targets, undo and redo). The replay counts what each [`Step`]
+//!    did into its metrics, times each stroke's apply ([`EditHooks`]) and writes the
+//!    operator log with [`editor::oplog_event`].
 //!
 //! Time is virtual: the frames' own times, so a replay is deterministic, runs as fast
 //! as the CPU allows, and matches a live run of the same log.
 
+use std::convert::Infallible;
 use std::time::Instant;
 
+use sculpt_core::edit_loop::{EditHooks, EditLoop, LoopError, LoopEvent, Step};
 use sculpt_core::editor::{self, Applied};
 use sculpt_core::interaction::{
-    Edit, EndReason, Interaction, OperatorEvent, Output, Profile, StrokeEdit, StrokeMode,
-    WandEvent, WandSample,
+    Edit, EndReason, Interaction, OperatorEvent, Profile, StrokeEdit, StrokeMode,
 };
 use sculpt_core::oplog::{OpLogHeader, OpLogWriter};
 use sculpt_core::sculpt::document::Document;
@@ -178,21 +181,51 @@ pub struct Outcome {
 
 pub use sculpt_core::editor::{default_document, default_surface, fit_sketch};
 
-/// Feeds records through the pipeline one at a time: [`FrameStage`] →
-/// [`Interaction`] → [`editor::apply`], the same three calls the display server makes.
+/// Times each stroke's apply on the wall clock, for `timing.json`: the one thing the
+/// replay does while the edit loop runs.
+#[derive(Debug, Default)]
+struct ApplyTimer {
+    started: Option<Instant>,
+    stroke_apply_us: Vec<f64>,
+}
+
+impl EditHooks for ApplyTimer {
+    type Error = Infallible;
+
+    fn before_apply(&mut self, _t: f64, _edit: &Edit) -> std::result::Result<(), Infallible> {
+        self.started = Some(Instant::now());
+        Ok(())
+    }
+
+    fn after_apply(
+        &mut self,
+        _t: f64,
+        edit: &Edit,
+        _applied: &Applied,
+        _doc: &Document,
+    ) -> std::result::Result<(), Infallible> {
+        if let (Edit::Stroke(_), Some(started)) = (edit, self.started.take()) {
+            self.stroke_apply_us
+                .push(started.elapsed().as_secs_f64() * 1e6);
+        }
+        Ok(())
+    }
+}
+
+/// Feeds records through the pipeline one at a time: the [`FrameStage`], its samples
+/// converted with [`StageWand::wand_event`], then the [`EditLoop`] ([`Interaction`] →
+/// [`editor::apply`]): the same calls the display server makes.
 pub struct Replayer {
-    doc: Document,
     stage: FrameStage,
-    interaction: Interaction,
+    edit_loop: EditLoop,
+    timer: ApplyTimer,
     oplog: OpLogWriter,
     metrics: Metrics,
-    timing: Timing,
     pause_timeout: f64,
     first_t: Option<f64>,
     last_t: f64,
     head: Option<HeadSample>,
     events: Vec<StageEvent>,
-    outputs: Vec<Output>,
 }
 
 impl Replayer {
@@ -200,40 +233,37 @@ impl Replayer {
     pub fn new(cfg: &ReplayConfig, doc: Document, session: &str) -> Result<Self> {
         cfg.validate()?;
         let stage = FrameStage::new(cfg.stage()).map_err(|e| Error::Config(e.to_string()))?;
-        let mut interaction = Interaction::new(cfg.interaction, cfg.tool.mode, cfg.tool.tool());
-        interaction.set_target_count(target_count(&doc));
+        let interaction = Interaction::new(cfg.interaction, cfg.tool.mode, cfg.tool.tool());
         let oplog = OpLogWriter::new(
             &OpLogHeader::new()
                 .with_source("replay")
                 .with_method(editor::mode_name(cfg.tool.mode)),
         );
         Ok(Self {
-            doc,
             stage,
-            interaction,
+            edit_loop: EditLoop::new(interaction, doc),
+            timer: ApplyTimer::default(),
             oplog,
             metrics: Metrics {
                 session: session.to_string(),
                 ..Metrics::default()
             },
-            timing: Timing::default(),
             pause_timeout: cfg.interaction.pause_timeout,
             first_t: None,
             last_t: 0.0,
             head: None,
             events: Vec::new(),
-            outputs: Vec::new(),
         })
     }
 
     /// The document so far.
     pub fn document(&self) -> &Document {
-        &self.doc
+        &self.edit_loop.doc
     }
 
     /// The interaction state (mode, tool, live stroke, wand).
     pub fn interaction(&self) -> &Interaction {
-        &self.interaction
+        &self.edit_loop.interaction
     }
 
     /// The latest tracked head pose.
@@ -283,47 +313,26 @@ impl Replayer {
     }
 
     fn wand(&mut self, w: &StageWand) {
-        let buttons = (w.buttons & u64::from(u32::MAX)) as u32;
-        let sample = if w.tracked {
-            WandSample::tracked(w.tip_m, w.orientation, buttons)
-        } else {
-            WandSample::lost(buttons)
-        };
-        let paused = self.interaction.gesture_paused();
-        let mut outputs = std::mem::take(&mut self.outputs);
-        outputs.clear();
         // Stage times never go back, so the interaction accepts every sample.
-        if self
-            .interaction
-            .handle(&WandEvent::sample(w.t, sample), &mut outputs)
-            .is_ok()
-        {
-            if paused && !self.interaction.gesture_paused() && self.interaction.gesture_active() {
-                self.metrics.gestures.resumed += 1;
-            }
-            if w.tracked
-                && outputs.iter().any(|o| {
-                    matches!(
-                        o,
-                        Output::Op {
-                            event: OperatorEvent::TrackingLost,
-                            ..
-                        }
-                    )
-                })
-            {
-                self.metrics.tracking.glitches += 1;
-            }
-            self.apply_outputs(&outputs, w.t);
+        match self.edit_loop.handle(&w.wand_event(0), &mut self.timer) {
+            Ok(step) => self.record(&step),
+            Err(LoopError::Refused(_)) => {}
+            Err(LoopError::Hook(never)) => match never {},
         }
-        self.outputs = outputs;
     }
 
-    /// Logs the operator events and applies the edits, all caused at time `t`.
-    fn apply_outputs(&mut self, outputs: &[Output], t: f64) {
-        for out in outputs {
-            match out {
-                Output::Op { t: et, event } => {
+    /// Counts what a step of the edit loop did into the metrics and logs its operator
+    /// events.
+    fn record(&mut self, step: &Step) {
+        if step.resumed {
+            self.metrics.gestures.resumed += 1;
+        }
+        if step.glitch {
+            self.metrics.tracking.glitches += 1;
+        }
+        for event in &step.events {
+            match event {
+                LoopEvent::Operator { t, event } => {
                     let g = &mut self.metrics.gestures;
                     if let OperatorEvent::GestureEnd {
                         committed, reason, ..
@@ -336,26 +345,20 @@ impl Replayer {
                         }
                     }
                     // Times are monotone by construction; a refused event is dropped.
-                    let _ = self.oplog.push(*et, editor::oplog_event(event));
+                    let _ = self.oplog.push(*t, editor::oplog_event(event));
                 }
-                Output::Edit(edit) => self.apply(edit, t),
+                LoopEvent::Edit { edit, applied } => self.applied(edit, applied, step.t),
             }
         }
     }
 
-    fn apply(&mut self, edit: &Edit, t: f64) {
-        let started = Instant::now();
-        let applied = editor::apply(&mut self.doc, edit);
-        if let Edit::Stroke(s) = edit {
-            self.timing
-                .stroke_apply_us
-                .push(started.elapsed().as_secs_f64() * 1e6);
-            if let Applied::Stroke { id, target } = applied {
-                self.stroke_applied(s, id, target, t);
-            }
+    /// Counts one applied edit, caused at time `t`.
+    fn applied(&mut self, edit: &Edit, applied: &Applied, t: f64) {
+        if let (Edit::Stroke(s), Applied::Stroke { id, target }) = (edit, applied) {
+            self.stroke_applied(s, *id, *target, t);
         }
         let g = &mut self.metrics.gestures;
-        match &applied {
+        match applied {
             Applied::Stroke { .. } => g.strokes_applied += 1,
             Applied::Sketch { .. } => g.sketches += 1,
             Applied::Undone => g.undos += 1,
@@ -374,7 +377,6 @@ impl Replayer {
         if applied.changed() {
             self.metrics.operations += 1;
         }
-        self.interaction.set_target_count(target_count(&self.doc));
     }
 
     fn stroke_applied(&mut self, s: &StrokeEdit, id: u64, target: u64, t: f64) {
@@ -407,9 +409,8 @@ impl Replayer {
     /// timeout) and returns the outcome.
     pub fn finish(mut self, corrupt_lines: usize, truncated_tail: bool) -> Outcome {
         let end = self.last_t + self.pause_timeout + 1e-9;
-        let mut outputs = Vec::new();
-        self.interaction.tick(end, &mut outputs);
-        self.apply_outputs(&outputs, end);
+        let Ok(step) = self.edit_loop.tick(end, &mut self.timer);
+        self.record(&step);
         let stage = self.stage.metrics_until(self.last_t);
         let m = &mut self.metrics;
         m.frames.used = stage.used;
@@ -422,23 +423,24 @@ impl Replayer {
         m.tracking.timeouts = stage.timeouts;
         m.tracking.lost_s = stage.lost_s;
         m.duration_s = self.last_t - self.first_t.unwrap_or(self.last_t);
-        m.targets = self.doc.targets().len();
-        m.strokes = self.doc.strokes().len();
-        let mut sorted = self.timing.stroke_apply_us.clone();
+        m.targets = self.edit_loop.doc.targets().len();
+        m.strokes = self.edit_loop.doc.strokes().len();
+        let stroke_apply_us = std::mem::take(&mut self.timer.stroke_apply_us);
+        let mut sorted = stroke_apply_us.clone();
         sorted.sort_by(f64::total_cmp);
-        self.timing.stroke_apply_median_us = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
-        self.timing.stroke_apply_max_us = sorted.last().copied().unwrap_or(0.0);
+        let timing = Timing {
+            stroke_apply_median_us: sorted.get(sorted.len() / 2).copied().unwrap_or(0.0),
+            stroke_apply_max_us: sorted.last().copied().unwrap_or(0.0),
+            stroke_apply_us,
+            ..Timing::default()
+        };
         Outcome {
-            document: self.doc,
+            document: self.edit_loop.doc,
             oplog: self.oplog.take(),
             metrics: self.metrics,
-            timing: self.timing,
+            timing,
         }
     }
-}
-
-fn target_count(doc: &Document) -> u32 {
-    u32::try_from(doc.targets().len()).unwrap_or(u32::MAX)
 }
 
 /// Replays a whole pose log (its bytes) from `base`, as fast as possible or, with

@@ -8,6 +8,7 @@
 //! in and out, and the interaction state machine that turns wand events into edits.
 #![warn(missing_docs)]
 
+pub mod edit_loop;
 pub mod editor;
 pub mod error;
 pub mod formats;

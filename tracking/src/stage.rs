@@ -57,6 +57,7 @@ use crate::filter::{FilterConfig, PoseFilter};
 use crate::frame::{DeviceId, Frame, Pose};
 pub use crate::hub::{COUNTER_RESET_AFTER, REORDER_WINDOW};
 use glam::{DQuat, DVec3};
+use sculpt_core::interaction::{WandEvent, WandSample as InteractionSample};
 use serde::{Deserialize, Serialize};
 use std::time::Duration;
 
@@ -119,6 +120,23 @@ pub struct WandSample {
     pub buttons: u64,
     /// The frame counter it came from (the last accepted one for a timeout).
     pub frame: u64,
+}
+
+impl WandSample {
+    /// This sample as the interaction's input (`sculpt_core::interaction`): a wand
+    /// event at the stage time, tracked at the tool tip with `world_from_wand` when the
+    /// stage tracked the wand, lost otherwise. `extra_buttons` (those of a buttons-only
+    /// source, such as a serial wand) are merged in; the interaction knows buttons 0
+    /// to 31. The display server and `replay` both convert with this.
+    pub fn wand_event(&self, extra_buttons: u64) -> WandEvent {
+        let buttons = ((self.buttons | extra_buttons) & u64::from(u32::MAX)) as u32;
+        let sample = if self.tracked {
+            InteractionSample::tracked(self.tip_m, self.orientation, buttons)
+        } else {
+            InteractionSample::lost(buttons)
+        };
+        WandEvent::sample(self.t, sample)
+    }
 }
 
 /// One tracked head pose in the display frame.
@@ -439,5 +457,52 @@ impl FrameStage {
         let t = t.max(self.emitted);
         self.clock = Some((t, raw, is_ts));
         t
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frame::Wand;
+    use sculpt_core::interaction::WandInput;
+
+    fn frame(n: u64, quality: f64, buttons: u64) -> Frame {
+        let mut f = Frame::new(n);
+        f.tracker_time = Some(n as f64 * 0.01);
+        let mut w = Wand::tracked(0, Pose::from_position_mm(DVec3::new(0.0, 1000.0, 0.0)));
+        w.quality = quality;
+        w.buttons = buttons;
+        f.wands.push(w);
+        f
+    }
+
+    fn sample(event: &WandEvent) -> InteractionSample {
+        match event.input {
+            WandInput::Sample(s) => s,
+            WandInput::Command(c) => panic!("a stage sample became a command: {c:?}"),
+        }
+    }
+
+    #[test]
+    fn stage_samples_become_wand_events_with_the_extra_buttons_merged() {
+        let mut stage = FrameStage::new(StageConfig::default()).unwrap();
+        let mut out = Vec::new();
+        stage.push(&frame(1, 1.0, 0b01), &mut out);
+        stage.push(&frame(2, -1.0, 0b01 | 1 << 40), &mut out);
+        let wands: Vec<&WandSample> = out.iter().filter_map(StageEvent::wand).collect();
+        let tracked = wands[0].wand_event(0b100);
+        assert_eq!(tracked.t, wands[0].t);
+        let s = sample(&tracked);
+        assert!(s.tracked);
+        assert_eq!(s.position, wands[0].tip_m);
+        assert_eq!(s.orientation, wands[0].orientation);
+        assert_eq!(s.buttons, 0b101, "the extra buttons are merged in");
+        let lost = wands[1].wand_event(0);
+        assert_eq!(lost.t, wands[1].t);
+        assert_eq!(
+            sample(&lost),
+            InteractionSample::lost(0b01),
+            "buttons past 31 are dropped and a lost sample carries no pose"
+        );
     }
 }

@@ -23,7 +23,6 @@ use std::time::{Duration, Instant};
 
 use glam::DVec3;
 use sculpt_core::editor;
-use sculpt_core::interaction::{WandEvent, WandSample};
 use serde::{Deserialize, Serialize};
 use tracking::hub::{FrameSubscription, Hub};
 use tracking::poselog::PoseLog;
@@ -41,21 +40,13 @@ use crate::projection::HeadPose;
 /// ended with a tick (keeps ticks safely behind the next frame's time).
 const TICK_MARGIN_S: f64 = 0.25;
 
-/// The inputs for frame-stage events: wand samples (stamped with the stage time, with
-/// `extra_buttons` of a buttons-only source merged in) and tracked head poses. The
-/// live path and any offline feed of the same frames use this one conversion.
+/// The inputs for frame-stage events: wand samples (the stage's own conversion,
+/// [`tracking::stage::WandSample::wand_event`], which `replay` makes too, with
+/// `extra_buttons` of a buttons-only source merged in) and tracked head poses.
 pub fn stage_inputs(events: &[StageEvent], extra_buttons: u64, out: &mut Vec<Input>) {
     for ev in events {
         match ev {
-            StageEvent::Wand(w) => {
-                let buttons = ((w.buttons | extra_buttons) & u64::from(u32::MAX)) as u32;
-                let sample = if w.tracked {
-                    WandSample::tracked(w.tip_m, w.orientation, buttons)
-                } else {
-                    WandSample::lost(buttons)
-                };
-                out.push(Input::Wand(WandEvent::sample(w.t, sample)));
-            }
+            StageEvent::Wand(w) => out.push(Input::Wand(w.wand_event(extra_buttons))),
             StageEvent::Head(h) => out.push(Input::Head(Some(HeadPose {
                 position: h.pose.position_m,
                 orientation: h.pose.orientation,

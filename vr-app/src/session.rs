@@ -1,13 +1,14 @@
-//! The sculpting session: the interaction state machine, the sculpted
-//! [`Document`], the operation journal and the operator log, tied together without any
-//! GPU.
+//! The sculpting session: the shared edit loop ([`EditLoop`]: the interaction state
+//! machine and the sculpted [`Document`]), the operation journal and the operator log,
+//! tied together without any GPU.
 //!
 //! The document starts from a base scene (the shared
 //! [`editor::default_document`], or a `--scene` / `files.scene` file in the
 //! [`Document::to_json`] format). Every edit the state machine emits is appended to the
-//! journal (and fsync'd) *before* it is applied with [`editor::apply`] (the same call
-//! `replay` makes), so an operation the sculptor saw happen survives a crash;
-//! [`Session::open`] re-applies the journal to the base scene to recover.
+//! journal (and fsync'd) *before* the [`EditLoop`] applies it (the loop `replay` runs
+//! too, in an [`EditHooks::before_apply`]), so an operation the sculptor saw happen
+//! survives a crash; [`Session::open`] re-applies the journal to the base scene to
+//! recover.
 //!
 //! Files in the session directory:
 //! - [`JOURNAL_FILE`] (`session.journal`): the operation journal ([`crate::journal`]);
@@ -33,10 +34,12 @@
 
 use std::fs::File;
 use std::io::Write;
+use std::ops::{Deref, DerefMut};
 use std::path::{Path, PathBuf};
 
+use sculpt_core::edit_loop::{EditHooks, EditLoop, LoopError, NoHooks, Step};
 use sculpt_core::editor::{self, Applied};
-use sculpt_core::interaction::{Command, Edit, Interaction, OperatorEvent, Output, WandEvent};
+use sculpt_core::interaction::{Command, Edit, Interaction, OperatorEvent, WandEvent};
 use sculpt_core::oplog::{OpLogHeader, OpLogWriter};
 use sculpt_core::sculpt::document::Document;
 
@@ -131,25 +134,104 @@ impl OperatorLog {
     }
 }
 
-/// A running session.
+/// The session's files, written as the edit loop runs: the journal before each edit
+/// is applied, the operator log per event, the document on a save and the autosave.
 #[derive(Debug)]
-pub struct Session {
-    /// The interaction state machine.
-    pub interaction: Interaction,
-    /// The sculpted document.
-    pub doc: Document,
+struct SessionFiles {
     dir: PathBuf,
     journal: Journal,
     oplog: OperatorLog,
     autosave_every: u32,
     since_autosave: u32,
+    /// Journal sequence number of the edit being applied, for the logs.
+    seq: u64,
+}
+
+impl SessionFiles {
+    fn autosave(&mut self, doc: &Document) -> VrResult<PathBuf> {
+        self.since_autosave = 0;
+        let p = self.dir.join(AUTOSAVE_FILE);
+        write_atomic(&p, &doc.to_json())?;
+        Ok(p)
+    }
+
+    fn save_document(&self, doc: &Document) -> VrResult<PathBuf> {
+        let p = self.dir.join(DOCUMENT_FILE);
+        write_atomic(&p, &doc.to_json())?;
+        Ok(p)
+    }
+}
+
+impl EditHooks for SessionFiles {
+    type Error = VrError;
+
+    fn operator_event(&mut self, t: f64, event: &OperatorEvent) -> VrResult<()> {
+        self.oplog.push(t, event)
+    }
+
+    /// Journals the edit (and fsyncs) before it is applied, so an operation the
+    /// sculptor saw happen survives a crash.
+    fn before_apply(&mut self, t: f64, edit: &Edit) -> VrResult<()> {
+        self.seq = self.journal.append(t, edit)?;
+        tracing::info!(seq = self.seq, "operation committed");
+        Ok(())
+    }
+
+    fn after_apply(
+        &mut self,
+        _t: f64,
+        edit: &Edit,
+        applied: &Applied,
+        doc: &Document,
+    ) -> VrResult<()> {
+        let seq = self.seq;
+        match applied {
+            Applied::Rejected(e) => {
+                tracing::warn!(seq, "the sculpting layer refused an edit: {e}");
+            }
+            a => tracing::debug!(seq, "applied: {a:?}"),
+        }
+        if *edit == Edit::Save {
+            self.save_document(doc)?;
+        }
+        self.since_autosave += 1;
+        if self.autosave_every > 0 && self.since_autosave >= self.autosave_every {
+            self.autosave(doc)?;
+        }
+        Ok(())
+    }
+}
+
+/// A running session: the shared [`EditLoop`] (the interaction state machine and the
+/// sculpted document, read as `session.interaction` and `session.doc` through
+/// [`Deref`]) with the journal, the operator log and the saved documents around it.
+///
+/// Feed it with [`Session::handle`] and [`Session::tick`], which journal each edit
+/// before applying it; the loop's own `handle` and `tick` are shadowed by these.
+#[derive(Debug)]
+pub struct Session {
+    edit_loop: EditLoop,
+    files: SessionFiles,
     /// Operations recovered from the journal at open.
     pub recovered: usize,
     /// Edits the sculpting layer refused (the document stayed as it was).
     pub rejected: usize,
     /// The latest event or tick time accepted.
     time: f64,
-    outputs: Vec<Output>,
+}
+
+impl Deref for Session {
+    type Target = EditLoop;
+
+    fn deref(&self) -> &EditLoop {
+        &self.edit_loop
+    }
+}
+
+impl DerefMut for Session {
+    fn deref_mut(&mut self) -> &mut EditLoop {
+        &mut self.edit_loop
+    }
 }
 
 impl Session {
@@ -159,32 +241,34 @@ impl Session {
     pub fn open(config: &Config) -> VrResult<Self> {
         let dir = config.files.dir.clone();
         std::fs::create_dir_all(&dir).map_err(|e| io_err(&dir, e))?;
-        let mut doc = match &config.files.scene {
+        let doc = match &config.files.scene {
             Some(p) => load_scene(p)?,
             None => editor::default_document(),
         };
+        let interaction =
+            Interaction::new(config.interaction, config.tool.mode, config.tool.tool());
+        let mut edit_loop = EditLoop::new(interaction, doc);
         let (journal, entries) = Journal::open(dir.join(JOURNAL_FILE))?;
         let mut selected = None;
         for e in &entries {
             match &e.edit {
                 Edit::SelectTarget { index } => selected = Some(*index),
                 edit => {
-                    if let Applied::Rejected(err) = editor::apply(&mut doc, edit) {
+                    if let Applied::Rejected(err) = edit_loop.apply(edit) {
                         tracing::debug!(seq = e.seq, "journalled edit refused again: {err}");
                     }
                 }
             }
         }
         let oplog = OperatorLog::create(dir.join(OPLOG_FILE), editor::mode_name(config.tool.mode))?;
-        let mut interaction =
-            Interaction::new(config.interaction, config.tool.mode, config.tool.tool());
-        interaction.set_target_count(doc.targets().len() as u32);
-        if let Some(index) = selected.filter(|&i| (i as usize) < doc.targets().len()) {
-            // At t = 0, so that any live event may follow.
-            interaction.handle(
-                &WandEvent::command(0.0, Command::SelectTarget { index }),
-                &mut Vec::new(),
-            )?;
+        if let Some(index) = selected.filter(|&i| i < edit_loop.target_count()) {
+            // At t = 0, so that any live event may follow; not journalled again.
+            let select = WandEvent::command(0.0, Command::SelectTarget { index });
+            match edit_loop.handle(&select, &mut NoHooks) {
+                Ok(_) => {}
+                Err(LoopError::Refused(e)) => return Err(e.into()),
+                Err(LoopError::Hook(never)) => match never {},
+            }
         }
         if !entries.is_empty() {
             tracing::info!(
@@ -193,28 +277,29 @@ impl Session {
             );
         }
         Ok(Self {
-            interaction,
-            doc,
-            dir,
-            journal,
-            oplog,
-            autosave_every: config.files.autosave_every,
-            since_autosave: 0,
+            edit_loop,
+            files: SessionFiles {
+                dir,
+                journal,
+                oplog,
+                autosave_every: config.files.autosave_every,
+                since_autosave: 0,
+                seq: 0,
+            },
             recovered: entries.len(),
             rejected: 0,
             time: 0.0,
-            outputs: Vec::new(),
         })
     }
 
     /// The session directory.
     pub fn dir(&self) -> &Path {
-        &self.dir
+        &self.files.dir
     }
 
     /// Operations in the journal.
     pub fn operations(&self) -> u64 {
-        self.journal.len()
+        self.files.journal.len()
     }
 
     /// The latest event or tick time the session accepted (session seconds): the
@@ -226,71 +311,44 @@ impl Session {
     /// Feeds one wand event. Invalid events (time going backwards) are logged and
     /// dropped; edits are journalled, then applied. Returns the edits applied.
     pub fn handle(&mut self, ev: &WandEvent) -> VrResult<Vec<Edit>> {
-        self.outputs.clear();
-        if let Err(e) = self.interaction.handle(ev, &mut self.outputs) {
-            tracing::warn!("dropped an input: {e}");
-            return Ok(Vec::new());
-        }
+        let step = match self.edit_loop.handle(ev, &mut self.files) {
+            Ok(step) => step,
+            Err(LoopError::Refused(e)) => {
+                tracing::warn!("dropped an input: {e}");
+                return Ok(Vec::new());
+            }
+            Err(LoopError::Hook(e)) => {
+                self.time = self.time.max(ev.t);
+                return Err(e);
+            }
+        };
         self.time = self.time.max(ev.t);
-        self.consume(ev.t)
+        Ok(self.applied(&step))
     }
 
     /// Advances time with no input (ends strokes paused too long by tracking loss).
     pub fn tick(&mut self, t: f64) -> VrResult<Vec<Edit>> {
-        self.outputs.clear();
-        self.interaction.tick(t, &mut self.outputs);
         if t.is_finite() {
             self.time = self.time.max(t);
         }
-        self.consume(t)
+        let step = self.edit_loop.tick(t, &mut self.files)?;
+        Ok(self.applied(&step))
     }
 
-    fn consume(&mut self, t: f64) -> VrResult<Vec<Edit>> {
-        let outputs = std::mem::take(&mut self.outputs);
-        let mut applied = Vec::new();
-        for o in &outputs {
-            match o {
-                Output::Op { t, event } => self.oplog.push(*t, event)?,
-                Output::Edit(edit) => {
-                    let seq = self.journal.append(t, edit)?;
-                    tracing::info!(seq, "operation committed");
-                    match editor::apply(&mut self.doc, edit) {
-                        Applied::Rejected(e) => {
-                            self.rejected += 1;
-                            tracing::warn!(seq, "the sculpting layer refused an edit: {e}");
-                        }
-                        a => tracing::debug!(seq, "applied: {a:?}"),
-                    }
-                    self.interaction
-                        .set_target_count(self.doc.targets().len() as u32);
-                    if *edit == Edit::Save {
-                        self.save_document()?;
-                    }
-                    self.since_autosave += 1;
-                    if self.autosave_every > 0 && self.since_autosave >= self.autosave_every {
-                        self.autosave()?;
-                    }
-                    applied.push(edit.clone());
-                }
-            }
-        }
-        self.outputs = outputs;
-        Ok(applied)
+    /// The step's edits, counting the refused ones.
+    fn applied(&mut self, step: &Step) -> Vec<Edit> {
+        self.rejected += step.rejections().count();
+        step.edits().map(|(edit, _)| edit.clone()).collect()
     }
 
     /// Writes the autosave document ([`AUTOSAVE_FILE`]).
     pub fn autosave(&mut self) -> VrResult<PathBuf> {
-        self.since_autosave = 0;
-        let p = self.dir.join(AUTOSAVE_FILE);
-        write_atomic(&p, &self.doc.to_json())?;
-        Ok(p)
+        self.files.autosave(&self.edit_loop.doc)
     }
 
     /// Writes the document to the session directory's [`DOCUMENT_FILE`].
     pub fn save_document(&mut self) -> VrResult<PathBuf> {
-        let p = self.dir.join(DOCUMENT_FILE);
-        write_atomic(&p, &self.doc.to_json())?;
-        Ok(p)
+        self.files.save_document(&self.edit_loop.doc)
     }
 }
 

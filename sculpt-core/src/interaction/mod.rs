@@ -575,6 +575,15 @@ impl Interaction {
         }
     }
 
+    /// The live stroke's samples so far, without copying them (see
+    /// [`Interaction::live_stroke`]).
+    pub fn live_stroke_samples(&self) -> Option<&[StrokeSample]> {
+        match &self.gesture {
+            Gesture::Stroke { samples, .. } => Some(samples),
+            _ => None,
+        }
+    }
+
     /// The live sketch grid so far.
     pub fn live_sketch(&self) -> Option<&[Vec<DVec3>]> {
         match &self.gesture {
