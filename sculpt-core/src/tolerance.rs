@@ -12,6 +12,10 @@ pub const COSINE_EPS: f64 = 1e-9;
 pub const PARAM_EPS: f64 = 1e-12;
 /// Exact constructions (rational conics, knot insertion) reproduce shapes to this.
 pub const EXACT_EPS: f64 = 1e-12;
+/// Consecutive feet of a stroke's samples farther apart along the surface than this
+/// many sample spacings jumped to another basin of the distance (see
+/// [`crate::sculpt::stroke`]): the stroke is split there.
+pub const BASIN_JUMP_RATIO: f64 = 4.0;
 /// Finite-difference derivative checks agree to this (relative to the derivative's size).
 pub const FD_EPS: f64 = 1e-5;
 

@@ -182,7 +182,7 @@ fn check_trims(name: &str, doc: &Document) -> Tally {
                     0.5 * (rows[k] + rows[k + 1]),
                     cols[0] + (cols[cols.len() - 1] - cols[0]) * j as f64 / 8.0,
                 );
-                let uv = ss.target_foot(surface, st);
+                let uv = ss.target_foot(target.target_surface(), st);
                 let margin = visibility_margin(surface, &strokes, own, uv, closed);
                 if margin.abs() <= 2.0 * fit {
                     continue; // too close to the trim outline to judge
@@ -593,5 +593,5 @@ fn degenerate_strokes_get_a_defined_result() {
     let (_, stroke) = doc.strokes_on(target.id)[0];
     let mut flat = stroke.clone();
     flat.half_width.iter_mut().for_each(|w| *w = 0.0);
-    assert!(StrokeSurface::build(&target.surface, &flat).is_err());
+    assert!(StrokeSurface::build(target.target_surface(), &flat).is_err());
 }

@@ -109,6 +109,61 @@ pub struct Projection {
     pub converged: bool,
     /// True when `uv` lies on an edge of the domain that is not a seam.
     pub on_boundary: bool,
+    /// How the answer was obtained: proven global, or which exit left it unproven.
+    pub certificate: Certificate,
+}
+
+/// How a [`Projection`] was obtained: [`Certificate::Certified`] when the Bernstein-net
+/// certificate proved that no point of the surface is closer (by more than
+/// `CERTIFY_TOL`, 1e-10 m), otherwise the exit that left the answer unproven. An
+/// unproven answer is still the best point the search found, usually the true one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Certificate {
+    /// Proven global: every leaf that could hold a closer point was cleared by its
+    /// distance net (or its convexity, or its one-sided net).
+    Certified,
+    /// The certificate round spent its split budget (`MAX_CERTIFY_SPLITS` net
+    /// splits): a sub-patch was settled by a bounded Newton run, which proves nothing.
+    SplitBudgetSpent,
+    /// A sub-patch was split down to `MAX_CERTIFY_DEPTH` levels and settled by a
+    /// bounded Newton run, which proves nothing.
+    DepthCap,
+    /// The certificate found a closer point `MAX_CERTIFY_ROUNDS` times in a row; the
+    /// last one was not certified in turn.
+    TooManyImprovements,
+    /// A degree above 5 in `u` or `v`: the nets (degree `2p x 2q`) are not built.
+    DegreeAboveFive,
+    /// More than `MAX_NET_COEFFICIENTS` (2^20) net coefficients: the nets are not
+    /// built.
+    TooManyNetCoefficients,
+    /// The surface could not be split into Bezier patches: no nets (never happens for
+    /// a valid surface).
+    NoBezierForm,
+    /// A local answer by request ([`SurfaceInverter::newton_from`]): no global search.
+    Local,
+    /// A non-finite query point (or seed of [`SurfaceInverter::newton_from`]): no
+    /// answer, `distance` is infinite.
+    InvalidQuery,
+}
+
+impl Certificate {
+    /// Every kind, in declaration order (for counting them).
+    pub const ALL: [Certificate; 9] = [
+        Certificate::Certified,
+        Certificate::SplitBudgetSpent,
+        Certificate::DepthCap,
+        Certificate::TooManyImprovements,
+        Certificate::DegreeAboveFive,
+        Certificate::TooManyNetCoefficients,
+        Certificate::NoBezierForm,
+        Certificate::Local,
+        Certificate::InvalidQuery,
+    ];
+
+    /// True only for [`Certificate::Certified`].
+    pub fn is_certified(self) -> bool {
+        self == Certificate::Certified
+    }
 }
 
 /// A Newton run's result.
@@ -450,8 +505,10 @@ pub struct SurfaceInverter {
     /// Bezier form is unavailable or too big; B-spline evaluation is used then).
     power: Option<PowerPatches>,
     /// The distance nets of the leaves, for the global certificate (`None` for degrees
-    /// above 7 or very big surfaces, see [`MAX_NET_COEFFICIENTS`]).
+    /// above 5 or very big surfaces, see [`MAX_NET_COEFFICIENTS`]).
     nets: Option<DistanceNets>,
+    /// Why `nets` is `None` (the certificate every answer then carries).
+    no_nets: Certificate,
 }
 
 /// Largest number of net coefficients kept for the certificate (40 bytes each).
@@ -464,6 +521,10 @@ const CERTIFY_TOL: f64 = 1e-10;
 /// Subdivision depth of a leaf's net before the certificate settles for a Newton run.
 const MAX_CERTIFY_DEPTH: u32 = 6;
 
+/// Certificate rounds per query: each round that finds a closer point starts another
+/// from it; the answer of the last round is left unproven.
+const MAX_CERTIFY_ROUNDS: u32 = 4;
+
 /// Net splits one certificate round may make before every patch left is settled by a
 /// Newton run (bounds the work where the distance is nearly constant: a query near a
 /// sphere's centre, or over a pole, where the parametrisation degenerates).
@@ -474,6 +535,8 @@ struct Probe<'a> {
     p: DVec3,
     best: &'a Candidate,
     splits_left: std::cell::Cell<u32>,
+    /// The exit that settled a sub-patch without proof, if one did.
+    unproven: std::cell::Cell<Option<Certificate>>,
 }
 
 /// A (sub-)patch's net of `g` with its parameter box and clearing threshold.
@@ -590,6 +653,7 @@ impl SurfaceInverter {
                 .map(|(u, v)| (DVec2::new(u, v), surface.point(u, v))),
             power: None,
             nets: None,
+            no_nets: Certificate::NoBezierForm,
         };
         inv.build();
         inv
@@ -705,9 +769,17 @@ impl SurfaceInverter {
         };
         let (off_u, off_v) = (offsets(&su), offsets(&sv));
         let (lu, lv): (usize, usize) = (su.iter().sum(), sv.iter().sum());
-        let mut nets = (lu * lv * (2 * p + 1) * (2 * q + 1) <= MAX_NET_COEFFICIENTS)
+        let coefficients = lu * lv * (2 * p + 1) * (2 * q + 1);
+        let mut nets = (coefficients <= MAX_NET_COEFFICIENTS)
             .then(|| DistanceNets::new(p + 1, q + 1, lu * lv))
             .flatten();
+        self.no_nets = if nets.is_some() {
+            Certificate::Certified
+        } else if 2 * p + 1 > MAX_SIDE || 2 * q + 1 > MAX_SIDE {
+            Certificate::DegreeAboveFive
+        } else {
+            Certificate::TooManyNetCoefficients
+        };
         let mut leaf_boxes = vec![(DVec3::ZERO, DVec3::ZERO); lu * lv];
         let mut side_data = vec![[(DVec3::ZERO, DVec3::ZERO); 4]; lu * lv];
         let mut leaf_data = Vec::new();
@@ -852,7 +924,7 @@ impl SurfaceInverter {
             return self.invalid_query();
         }
         let c = self.newton(p, seed_uv, self.domain_lo, self.domain_hi, self.closed);
-        self.to_projection(c)
+        self.to_projection(c, Certificate::Local)
     }
 
     /// Closest points for many query points, in parallel (rayon) when the `parallel`
@@ -903,10 +975,11 @@ impl SurfaceInverter {
             iterations: 0,
             converged: false,
             on_boundary: true,
+            certificate: Certificate::InvalidQuery,
         }
     }
 
-    fn to_projection(&self, c: Candidate) -> Projection {
+    fn to_projection(&self, c: Candidate, certificate: Certificate) -> Projection {
         let eps = 1e-12 * (self.domain_hi - self.domain_lo);
         let on = |k: usize| {
             !self.closed[k]
@@ -919,6 +992,7 @@ impl SurfaceInverter {
             iterations: c.iters,
             converged: c.converged,
             on_boundary: on(0) || on(1),
+            certificate,
         }
     }
 
@@ -926,7 +1000,8 @@ impl SurfaceInverter {
     /// the closer point the leaf runs missed, see [`Self::certify`]) and converts it.
     fn finish(&self, p: DVec3, best: Candidate, solved: &Visited) -> Projection {
         let polished = self.polish(p, best);
-        self.to_projection(self.certify(p, polished, solved))
+        let (answer, certificate) = self.certify(p, polished, solved);
+        self.to_projection(answer, certificate)
     }
 
     /// A last Newton run on the whole domain from a leaf answer (wrapping in closed
@@ -968,19 +1043,30 @@ impl SurfaceInverter {
     /// point if there is one); otherwise
     /// the net is split in four and each quarter is decided the same way, down to
     /// [`MAX_CERTIFY_DEPTH`] levels, where a bounded Newton run has the last word.
-    fn certify(&self, p: DVec3, mut best: Candidate, solved: &Visited) -> Candidate {
+    ///
+    /// Returns the answer with how it was obtained: [`Certificate::Certified`], or the
+    /// exit that left it unproven (a Newton run had the last word, the rounds ran out,
+    /// or the surface has no nets).
+    fn certify(&self, p: DVec3, mut best: Candidate, solved: &Visited) -> (Candidate, Certificate) {
         let Some(nets) = &self.nets else {
-            return best;
+            return (best, self.no_nets);
         };
-        for _ in 0..4 {
-            let Some(closer) = self.find_closer(nets, p, &best, solved) else {
-                return best;
+        for _ in 0..MAX_CERTIFY_ROUNDS {
+            let probe = Probe {
+                p,
+                best: &best,
+                splits_left: std::cell::Cell::new(MAX_CERTIFY_SPLITS),
+                unproven: std::cell::Cell::new(None),
+            };
+            let Some(closer) = self.find_closer(nets, &probe, solved) else {
+                let certificate = probe.unproven.get().unwrap_or(Certificate::Certified);
+                return (best, certificate);
             };
             let iters = best.iters;
             best = self.polish(p, closer);
             best.iters += iters;
         }
-        best
+        (best, Certificate::TooManyImprovements)
     }
 
     /// A point closer than `best` by more than [`CERTIFY_TOL`] in a leaf that cannot be
@@ -989,21 +1075,14 @@ impl SurfaceInverter {
     fn find_closer(
         &self,
         nets: &DistanceNets,
-        p: DVec3,
-        best: &Candidate,
+        probe: &Probe<'_>,
         visited: &Visited,
     ) -> Option<Candidate> {
-        let probe = Probe {
-            p,
-            best,
-            splits_left: std::cell::Cell::new(MAX_CERTIFY_SPLITS),
-        };
+        let (p, best) = (probe.p, probe.best);
         if !visited.overflow {
             return visited.leaves[..visited.len]
                 .iter()
-                .find_map(|&(index, what)| {
-                    self.closer_in_leaf(nets, &probe, index as usize, what)
-                });
+                .find_map(|&(index, what)| self.closer_in_leaf(nets, probe, index as usize, what));
         }
         let mut stack = [(self.root, 0.0f64); STACK_LEN];
         let mut top = 1usize;
@@ -1015,7 +1094,7 @@ impl SurfaceInverter {
             }
             if entry & LEAF != 0 {
                 let index = (entry & !LEAF) as usize;
-                let found = self.closer_in_leaf(nets, &probe, index, visited.get(index));
+                let found = self.closer_in_leaf(nets, probe, index, visited.get(index));
                 if found.is_some() {
                     return found;
                 }
@@ -1160,7 +1239,18 @@ impl SurfaceInverter {
                 return Some(c);
             }
             let st = local(c.uv);
-            if last || convex_bound_at(net, m1, n1, st.x, st.y) >= threshold {
+            if convex && convex_bound_at(net, m1, n1, st.x, st.y) >= threshold {
+                return None;
+            }
+            if last {
+                // Settled by the Newton run alone: no proof for this sub-patch.
+                if probe.unproven.get().is_none() {
+                    probe.unproven.set(Some(if depth >= MAX_CERTIFY_DEPTH {
+                        Certificate::DepthCap
+                    } else {
+                        Certificate::SplitBudgetSpent
+                    }));
+                }
                 return None;
             }
         }
@@ -2021,6 +2111,34 @@ mod tests {
         }
     }
 
+    /// Each answer says how it was obtained: proven on an ordinary patch, and the exit
+    /// by name where the certificate cannot run (degree 6 has no nets) or was not asked
+    /// for (local Newton, a non-finite query).
+    #[test]
+    fn answers_name_their_certificate() {
+        let mut rng = Rng(0x5EED_0014);
+        let s = wavy(&mut rng, true);
+        let inv = s.inverter();
+        let p = DVec3::new(0.4, 0.6, 0.3);
+        assert_eq!(inv.closest_point(p).certificate, Certificate::Certified);
+        let seeded = inv.closest_point_from(p, DVec2::new(0.9, 0.1));
+        assert_eq!(seeded.certificate, Certificate::Certified);
+        let local = inv.newton_from(p, DVec2::new(0.9, 0.1));
+        assert_eq!(local.certificate, Certificate::Local);
+        let bad = inv.closest_point(DVec3::new(f64::NAN, 0.0, 0.0));
+        assert_eq!(bad.certificate, Certificate::InvalidQuery);
+        // Degree 6 along u: nets of side 13 exceed MAX_SIDE.
+        let row = |x: f64| vec![DVec3::new(x, 0.0, 0.0), DVec3::new(x, 1.0, 0.1)];
+        let net: Vec<Vec<DVec3>> = (0..7).map(|i| row(i as f64 / 6.0)).collect();
+        let mut ku = vec![0.0; 7];
+        ku.extend([1.0; 7]);
+        let sextic = NurbsSurface::new(6, 1, ku, vec![0.0, 0.0, 1.0, 1.0], net, None)
+            .expect("valid surface");
+        let pr = sextic.inverter().closest_point(p);
+        assert_eq!(pr.certificate, Certificate::DegreeAboveFive);
+        assert!(pr.converged);
+    }
+
     #[test]
     fn pruned_search_never_loses_to_the_exhaustive_reference() {
         let mut rng = Rng(0x5EED_2026);
@@ -2079,7 +2197,7 @@ mod tests {
             assert!(wrong.converged && wrong.dist2.sqrt() > brute_force + 1e-8);
             let mut visited = Visited::new();
             visited.overflow = true;
-            let fixed = inv.certify(p, wrong, &visited);
+            let (fixed, _) = inv.certify(p, wrong, &visited);
             assert!(
                 fixed.dist2.sqrt() <= brute_force + 1e-9,
                 "{} vs brute force {brute_force}",

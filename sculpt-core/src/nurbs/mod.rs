@@ -76,7 +76,7 @@ pub mod refine;
 pub mod surface;
 
 pub use curve::{CurveDerivs, NurbsCurve};
-pub use invert::{CurveProjection, Projection, SurfaceInverter};
+pub use invert::{Certificate, CurveProjection, Projection, SurfaceInverter};
 pub use knots::{KnotVector, MAX_DEGREE};
 pub use refine::Direction;
 pub use surface::{FundamentalForms, NurbsSurface, SurfaceDerivs};

@@ -65,7 +65,7 @@
 use super::jordan::Rect;
 use super::stroke::{Stroke, StrokeInput, Tool};
 use super::stroke_surface::StrokeSurface;
-use super::surface::extent;
+use super::surface::{TargetSurface, extent};
 use super::tessellate::{Detail, GridPlan, StrokeRef, TargetTessellation, TessStats};
 use crate::error::{Error, Result};
 use crate::formats::iges::{Face, IgesSurface, NurbsPatch};
@@ -97,6 +97,28 @@ pub struct TargetRecord {
     pub name: String,
     /// The NURBS surface (never modified by sculpting).
     pub surface: NurbsSurface,
+    /// The surface with its cached inverter, through which every projection onto this
+    /// target goes; built once with the record (the surface never changes after).
+    target: TargetSurface,
+}
+
+impl TargetRecord {
+    /// A record for `surface`, with its inverter built.
+    fn new(id: TargetId, name: String, surface: NurbsSurface) -> Self {
+        let target = TargetSurface::new(&surface);
+        Self {
+            id,
+            name,
+            surface,
+            target,
+        }
+    }
+
+    /// The surface with its cached certified inverter (see [`TargetSurface`]): project
+    /// onto this target through it.
+    pub fn target_surface(&self) -> &TargetSurface {
+        &self.target
+    }
 }
 
 /// A stroke as the user made it.
@@ -205,11 +227,7 @@ impl Document {
     pub fn add_target(&mut self, name: &str, surface: NurbsSurface) -> TargetId {
         let id = self.fresh_id();
         self.redo.clear();
-        self.push_target(TargetRecord {
-            id,
-            name: name.to_string(),
-            surface,
-        });
+        self.push_target(TargetRecord::new(id, name.to_string(), surface));
         id
     }
 
@@ -318,7 +336,7 @@ impl Document {
                     id: record.target,
                 })?;
         let snap = snap_distance(&record.input.tool, target.surface.size());
-        let stroke = Stroke::build(&target.surface, &record.input, snap)?;
+        let stroke = Stroke::build(&target.target, &record.input, snap)?;
         self.mark_dirty(record.target, stroke.bounds);
         self.built.insert(record.id, stroke);
         self.next_id = self.next_id.max(record.id + 1);
@@ -351,17 +369,16 @@ impl Document {
     /// A stroke the sculpting layer rejects clears the preview and says why.
     pub fn set_preview(&mut self, target: TargetId, input: &StrokeInput) -> Result<()> {
         self.clear_preview();
-        let surface = &self
+        let record = self
             .targets
             .iter()
             .find(|t| t.id == target)
             .ok_or(Error::NotFound {
                 kind: "target",
                 id: target,
-            })?
-            .surface;
-        let snap = snap_distance(&input.tool, surface.size());
-        let stroke = Stroke::build(surface, input, snap)?;
+            })?;
+        let snap = snap_distance(&input.tool, record.surface.size());
+        let stroke = Stroke::build(&record.target, input, snap)?;
         self.preview_serial += 1;
         self.mark_dirty(target, stroke.bounds);
         self.preview = Some((target, PREVIEW_IDS + self.preview_serial, stroke));
@@ -538,11 +555,11 @@ impl Document {
                 .collect();
             let entry = cache.entry(id).or_insert_with(|| CachedSurface {
                 overlaps: Vec::new(),
-                surface: StrokeSurface::build(&t.surface, stroke).ok().map(Arc::new),
+                surface: StrokeSurface::build(&t.target, stroke).ok().map(Arc::new),
             });
             if let Some(surface) = &mut entry.surface {
                 if entry.overlaps != overlaps {
-                    Arc::make_mut(surface).trim_against(&t.surface, &strokes, k, closed);
+                    Arc::make_mut(surface).trim_against(&t.target, &strokes, k, closed);
                     entry.overlaps = overlaps;
                 }
                 out.push((id, Arc::clone(surface)));
@@ -744,11 +761,7 @@ impl Document {
                     t.id
                 )));
             }
-            doc.push_target(TargetRecord {
-                id: t.id,
-                name: t.name,
-                surface: t.surface,
-            });
+            doc.push_target(TargetRecord::new(t.id, t.name, t.surface));
         }
         for s in json.strokes {
             if s.id == 0 || doc.targets.iter().any(|t| t.id == s.id) {

@@ -9,10 +9,19 @@
 //!    kept exactly, and the pieces between corners are resampled by arc length at a
 //!    spacing of a quarter of the tool width and smoothed by a few Laplacian passes with
 //!    the corners and ends pinned.
-//! 3. **Project** every sample onto the target by Newton point inversion seeded from the
-//!    previous sample ([`project_seeded`]). Samples farther than the snap distance from
-//!    the surface are off the surface; the longest run on the surface is kept (the
-//!    stroke is clipped), and a stroke with no run is rejected.
+//! 3. **Project** every sample onto the target: its true closest point, through the
+//!    target's cached certified inverter ([`TargetSurface::closest_point_near`], seeded
+//!    from the previous sample's foot; global for the first sample and after a gap).
+//!    Samples farther than the snap distance from the surface are off the surface.
+//!    **Basin jumps**: where the stroke passes over a valley whose far side is nearer
+//!    (a finely waved sheet, a stroke hovering above it), the true closest point jumps
+//!    from one slope to the other; consecutive feet are then much farther apart along
+//!    the surface than the sample spacing justifies (more than
+//!    [`BASIN_JUMP_RATIO`] times it, see `basin_jump`). The stroke is **split into
+//!    runs** at every jump and wherever it leaves the surface, and the **longest run is
+//!    kept** (the stroke is clipped): a groove never bridges a jump, and never follows
+//!    a local minimum that is not the closest point (which a local Newton projection
+//!    did, silently). A stroke with no run is rejected.
 //! 4. Compute the **rims**: the 3D points `C +- w/2 B` (`B = N x T`, the side direction)
 //!    projected onto the surface. Tapered ends scale the width and depth smoothly to
 //!    zero over the taper length, so the groove starts and ends cleanly. A stroke whose
@@ -24,8 +33,9 @@
 //!
 //! **Closed targets wrap.** On a target closed in u or v (a sphere around its axis, a
 //! torus both ways: [`extent_sampled`]'s `closed_u`, `closed_v`) a stroke crosses the
-//! seam as the user expects. The projected centreline is **unwrapped**: the seeded
-//! Newton projection runs on the target recentred at the previous sample, so a
+//! seam as the user expects. The projected centreline is **unwrapped**: the inverter
+//! wraps around the seam, and each foot's parameter is moved by whole periods to lie
+//! within half a period of the previous one ([`unwrap_near`]), so a
 //! parameter continues past 1 or below 0 instead of jumping ([`Stroke::centre_uv`] and
 //! [`Stroke::rims_uv`] are unwrapped; the target is only ever evaluated at
 //! [`wrap_uv`]`(uv)`). Rims and footprint pieces are built in that unwrapped plane, and
@@ -53,10 +63,10 @@
 
 use super::jordan::{Rect, Region, signed_area};
 use super::surface::{
-    ParamSurface, Projection, SurfacePoint, extent_sampled, normal_at, project, project_seeded,
-    wrap_uv,
+    ParamSurface, SurfacePoint, TargetSurface, extent_sampled, normal_at, unwrap_near, wrap_uv,
 };
 use crate::error::{Error, Result};
+use crate::tolerance::BASIN_JUMP_RATIO;
 use glam::{DVec2, DVec3};
 use i_overlay::core::fill_rule::FillRule;
 use i_overlay::core::overlay_rule::OverlayRule;
@@ -66,6 +76,8 @@ use serde::{Deserialize, Serialize};
 pub const CORNER_ANGLE_DEG: f64 = 50.0;
 /// At most this many resampled samples per stroke (longer strokes get a wider spacing).
 pub const MAX_SAMPLES: usize = 2000;
+/// Chords of the surface path between two feet that [`basin_jump`] measures.
+const JUMP_PATH_SEGMENTS: usize = 8;
 /// At most this many input samples are accepted.
 pub const MAX_INPUT_SAMPLES: usize = 1_000_000;
 /// On a closed target, the most whole-period copies per direction of a footprint piece
@@ -319,7 +331,8 @@ fn point_at(pts: &[DVec3], cum: &[f64], s: f64) -> DVec3 {
 impl Stroke {
     /// Runs the pipeline of the module docs. `snap` is the largest distance between a
     /// wand sample and the surface for the sample to count as on it (metres).
-    pub fn build(surface: &dyn ParamSurface, input: &StrokeInput, snap: f64) -> Result<Self> {
+    pub fn build(target: &TargetSurface, input: &StrokeInput, snap: f64) -> Result<Self> {
+        let surface: &dyn ParamSurface = target;
         let tool = input.tool.clone();
         tool.validate()?;
         if input.samples.len() > MAX_INPUT_SAMPLES {
@@ -346,45 +359,33 @@ impl Stroke {
             return Err(reject("the stroke has zero length"));
         }
         let pts = resample(&raw, tool.width * 0.25);
-        // Project, seeded from the previous sample; keep the longest on-surface run.
-        // In a closed direction the parameter is unwrapped: the seeded projection runs
-        // on the target recentred at the previous sample, so it crosses the seam and
-        // the parameter continues past 1 (or below 0) instead of jumping.
+        // Project through the target's certified inverter, seeded from the previous
+        // sample's foot; split into runs where a sample leaves the surface or the feet
+        // jump to another basin; keep the longest run. In a closed direction the
+        // parameter is unwrapped next to the previous foot, so it crosses the seam and
+        // continues past 1 (or below 0) instead of jumping.
         let closed = [ext.closed_u, ext.closed_v];
         let mut runs: Vec<Vec<(DVec2, DVec3)>> = vec![Vec::new()];
-        let mut seed: Option<DVec2> = None;
+        // The previous on-surface sample and its foot (unwrapped parameter, point).
+        let mut prev: Option<(DVec3, DVec2, DVec3)> = None;
         for &p in &pts {
-            let pr = match seed {
-                Some(s) => {
-                    let pr = project_near(surface, closed, p, s, s);
-                    if pr.distance > snap || at_view_edge(pr.uv - s, closed) {
-                        let fresh = project(surface, p);
-                        if fresh.distance < pr.distance {
-                            Projection {
-                                uv: unwrap_near(fresh.uv, s, closed),
-                                ..fresh
-                            }
-                        } else {
-                            pr
-                        }
-                    } else {
-                        pr
-                    }
-                }
-                None => project(surface, p),
+            let pr = match prev {
+                Some((_, uv, _)) => target.closest_point_near(p, closed, uv, uv),
+                None => target.closest_point(p),
             };
-            if pr.distance <= snap && pr.p.is_finite() && pr.uv.is_finite() {
-                // Only an open direction can jump (a fresh projection far away).
-                let jump = seed.is_some_and(|s: DVec2| (pr.uv - s).abs().max_element() > 0.5);
-                if jump {
+            if pr.distance <= snap && pr.point.is_finite() && pr.uv.is_finite() {
+                let foot = (pr.uv, pr.point);
+                if prev.is_some_and(|(q, uv, point)| {
+                    basin_jump(surface, p.distance(q), (uv, point), foot)
+                }) {
                     runs.push(Vec::new());
                 }
-                seed = Some(pr.uv);
+                prev = Some((p, pr.uv, pr.point));
                 if let Some(r) = runs.last_mut() {
-                    r.push((pr.uv, pr.p));
+                    r.push(foot);
                 }
             } else {
-                seed = None;
+                prev = None;
                 if runs.last().is_some_and(|r| !r.is_empty()) {
                     runs.push(Vec::new());
                 }
@@ -405,16 +406,17 @@ impl Stroke {
         if is_loop && first.1.distance(last.1) > crate::tolerance::POINT_EPS {
             run.push((unwrap_near(first.0, last.0, closed), first.1));
         }
-        Self::from_centreline(surface, tool, run, closed, is_loop)
+        Self::from_centreline(target, tool, run, closed, is_loop)
     }
 
     fn from_centreline(
-        surface: &dyn ParamSurface,
+        target: &TargetSurface,
         tool: Tool,
         run: Vec<(DVec2, DVec3)>,
         closed: [bool; 2],
         is_loop: bool,
     ) -> Result<Self> {
+        let surface: &dyn ParamSurface = target;
         let n = run.len();
         let centre_uv: Vec<DVec2> = run.iter().map(|r| r.0).collect();
         let centre: Vec<DVec3> = run.iter().map(|r| r.1).collect();
@@ -447,7 +449,9 @@ impl Stroke {
         // within half a period of the centre.
         let rim_of = |i: usize, sp: &SurfacePoint, offset: DVec3| -> DVec2 {
             let seed = centre_uv[i] + uv_step(sp.du, sp.dv, offset);
-            project_near(surface, closed, centre[i] + offset, centre_uv[i], seed).uv
+            target
+                .closest_point_near(centre[i] + offset, closed, centre_uv[i], seed)
+                .uv
         };
         let mut rims_uv = [Vec::with_capacity(n), Vec::with_capacity(n)];
         for i in 0..n {
@@ -625,54 +629,47 @@ impl Stroke {
     }
 }
 
-/// A closed target with its parameter origin moved: `S'(uv) = S(wrap(uv + offset))`.
-/// Newton iteration on it, seeded near the middle of the square, runs across the
-/// target's seam, which now lies half a period away.
-struct Recentred<'a> {
-    surface: &'a dyn ParamSurface,
-    offset: DVec2,
-}
-
-impl ParamSurface for Recentred<'_> {
-    fn eval(&self, uv: DVec2) -> SurfacePoint {
-        self.surface.eval(wrap_uv(uv + self.offset))
-    }
-}
-
-/// Seeded point inversion in the unwrapped plane: Newton from `seed` on the target
-/// recentred at `about` (both unwrapped) in its closed directions, so that it may cross
-/// the seam. The foot point's parameter is unwrapped, within half a period of `about`;
-/// open directions are clamped to the square as by [`project_seeded`].
-fn project_near(
+/// True when consecutive feet `a` and `b` (unwrapped parameter, point) of samples
+/// `spacing` apart lie in different basins of the distance: the true closest point
+/// jumped (the stroke passed over a valley whose far side is nearer) rather than slid.
+///
+/// The closest-point map moves a foot by `spacing / |1 - d k|` for a query at distance
+/// `d` over a principal curvature `k` (Euler's formula along the motion, do Carmo
+/// section 3-2): no faster than the query over convex or flat ground, unboundedly only
+/// at a focal point, where it tears. So the feet jumped when the way between them
+/// along the surface, the length of the surface path over the straight parameter
+/// segment (an upper bound of the geodesic, sampled at [`JUMP_PATH_SEGMENTS`] chords),
+/// exceeds [`BASIN_JUMP_RATIO`] times the sample spacing. Feet no farther apart in 3D
+/// than the spacing are never a jump (valleys narrower than the sample spacing, a
+/// quarter of the tool width, are below the stroke's resolution).
+fn basin_jump(
     surface: &dyn ParamSurface,
-    closed: [bool; 2],
-    q: DVec3,
-    about: DVec2,
-    seed: DVec2,
-) -> Projection {
-    if closed == [false, false] {
-        return project_seeded(surface, q, seed);
+    spacing: f64,
+    a: (DVec2, DVec3),
+    b: (DVec2, DVec3),
+) -> bool {
+    let limit = BASIN_JUMP_RATIO * spacing;
+    if a.1.distance(b.1) <= spacing {
+        return false;
     }
-    let offset = DVec2::new(
-        if closed[0] { about.x - 0.5 } else { 0.0 },
-        if closed[1] { about.y - 0.5 } else { 0.0 },
-    );
-    let offset = if offset.is_finite() {
-        offset
-    } else {
-        DVec2::ZERO
-    };
-    let view = Recentred { surface, offset };
-    let pr = project_seeded(&view, q, seed - offset);
-    Projection {
-        uv: pr.uv + offset,
-        ..pr
+    let mut length = 0.0;
+    let mut last = a.1;
+    for k in 1..=JUMP_PATH_SEGMENTS {
+        let t = k as f64 / JUMP_PATH_SEGMENTS as f64;
+        let point = if k == JUMP_PATH_SEGMENTS {
+            b.1
+        } else {
+            surface.eval(wrap_uv(a.0.lerp(b.0, t))).p
+        };
+        length += last.distance(point);
+        if length > limit {
+            return true;
+        }
+        last = point;
     }
+    false
 }
 
-/// True when a seeded step `d` from the seed ran to the edge of the recentred view in a
-/// closed direction (half a period): the projection may have stopped there short of
-/// the foot point, so a fresh projection is tried.
 /// The centreline through a pole: where a step leaves (or reaches) the side `v = 0`
 /// or `v = 1` with a jump in `u`, the projection went over a pole (a whole side of the
 /// square that is one point), and the centreline first runs along that side to the new
@@ -695,19 +692,6 @@ fn through_poles(run: &[(DVec2, DVec3)]) -> Vec<(DVec2, DVec3)> {
         out.push((uv, p));
     }
     out
-}
-
-fn at_view_edge(d: DVec2, closed: [bool; 2]) -> bool {
-    (closed[0] && d.x.abs() >= 0.5 - 1e-9) || (closed[1] && d.y.abs() >= 0.5 - 1e-9)
-}
-
-/// `uv` moved by whole periods in the closed directions to lie nearest `near`.
-fn unwrap_near(uv: DVec2, near: DVec2, closed: [bool; 2]) -> DVec2 {
-    let f = |x: f64, n: f64, c: bool| {
-        let k = (n - x).round();
-        if c && k.is_finite() { x + k } else { x }
-    };
-    DVec2::new(f(uv.x, near.x, closed[0]), f(uv.y, near.y, closed[1]))
 }
 
 /// Bounding rectangle of a non-empty polygon.
@@ -1023,7 +1007,7 @@ mod tests {
     }
 
     /// Builds a stroke with the test tool and a snap distance of 0.1.
-    fn build(s: &dyn ParamSurface, samples: Vec<(f64, DVec3)>) -> Stroke {
+    fn build(s: &TargetSurface, samples: Vec<(f64, DVec3)>) -> Stroke {
         Stroke::build(
             s,
             &StrokeInput {
@@ -1163,7 +1147,8 @@ mod tests {
     }
 
     /// Along the equator of the unit sphere from `from` to `to` degrees (the seam
-    /// u = 0 = 1 is at 0 degrees), one sample per degree.
+    /// u = 0 = 1 of the test sphere is at 180 degrees, u growing with the angle), one
+    /// sample per degree.
     fn equator(from: f64, to: f64) -> Vec<(f64, DVec3)> {
         let n = (to - from).round() as usize + 1;
         (0..n)
@@ -1178,16 +1163,23 @@ mod tests {
     fn stroke_across_the_seam_of_a_sphere_wraps() {
         use crate::sculpt::surface::test_surfaces::sphere;
         let s = sphere(1.0);
-        let st = build(&s, equator(-30.0, 25.0));
+        let st = build(&s, equator(150.0, 205.0));
         // One run, unwrapped: u continues past 1 instead of jumping back to 0.
         assert!(
             st.centre_uv
                 .windows(2)
                 .all(|w| (w[1] - w[0]).length() < 0.01)
         );
-        let turn = |deg: f64| deg / 360.0;
-        assert_near!(st.centre_uv[0].x, 1.0 - turn(30.0), 1e-6);
-        assert_near!(st.centre_uv.last().unwrap().x, 1.0 + turn(25.0), 1e-6);
+        let (first, last) = (st.centre_uv[0], st.centre_uv[st.centre_uv.len() - 1]);
+        assert!(first.x < 1.0 && first.x > 0.9, "{first:?}");
+        assert!(last.x > 1.0 && last.x < 1.1, "{last:?}");
+        // On the equator, where the samples are (the ends are exact resampled points).
+        let at = |deg: f64| {
+            let a = f64::to_radians(deg);
+            [a.cos(), a.sin(), 0.0]
+        };
+        assert_near!(s.eval(wrap_uv(first)).p.to_array(), at(150.0), 1e-9);
+        assert_near!(s.eval(wrap_uv(last)).p.to_array(), at(205.0), 1e-9);
         // The footprint in the square covers both sides of the seam.
         for u in [0.002, 0.05, 0.95, 0.998] {
             assert_eq!(
@@ -1203,15 +1195,16 @@ mod tests {
                 .flatten()
                 .all(|p| (0.0..=1.0).contains(&p.x))
         );
-        // Same area as the stroke turned half-way round, away from the seam.
-        let away = build(&s, equator(150.0, 205.0));
+        // Same area as the stroke turned half-way round, away from the seam (the
+        // sphere's four quarter arcs have the same parametrisation).
+        let away = build(&s, equator(-30.0, 25.0));
         assert_near!(st.footprint.area(), away.footprint.area(), 1e-6);
         // Full depth on the centreline either side of the seam, from either copy (the
         // depth is measured from the centreline's chords: their sag, spacing^2 / 8R, is
         // under 1e-4 m).
         for u in [0.999, 0.001, 1.001, -0.001] {
             let uv = DVec2::new(u, 0.5);
-            assert_near!(st.depth_at(uv, s(wrap_uv(uv)).p), 0.02, 1e-4, "{u}");
+            assert_near!(st.depth_at(uv, s.eval(wrap_uv(uv)).p), 0.02, 1e-4, "{u}");
         }
     }
 

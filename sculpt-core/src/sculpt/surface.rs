@@ -1,9 +1,16 @@
 //! The view of a target surface that sculpting needs: position and first derivatives
-//! over the normalised parameter square, a robust normal, and Newton point inversion.
+//! over the normalised parameter square, a robust normal, and closest points.
 //!
-//! Everything in [`crate::sculpt`] works on `&dyn ParamSurface`, so the NURBS kernel's
-//! surfaces and analytic test surfaces are sculpted by the same code.
+//! Evaluation works on `&dyn ParamSurface`, so the NURBS kernel's surfaces and
+//! analytic test surfaces are tessellated by the same code. Projection has one path:
+//! [`TargetSurface`], the target's NURBS surface with its cached, certified
+//! [`SurfaceInverter`] (P&T section 6.1 point inversion inside a branch-and-bound
+//! search proven global by a Bernstein-net certificate, see [`crate::nurbs::invert`]).
 
+use std::sync::Arc;
+
+use crate::nurbs::{NurbsSurface, Projection, SurfaceInverter};
+use crate::tolerance::POINT_EPS;
 use glam::{DVec2, DVec3};
 
 /// Position and first partial derivatives of a surface at one parameter.
@@ -103,94 +110,145 @@ pub fn normal_from(surface: &dyn ParamSurface, uv: DVec2, sp: &SurfacePoint) -> 
     DVec3::Z
 }
 
-/// Result of projecting a point onto a surface.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Projection {
-    /// Foot point parameter, normalised and inside the square.
-    pub uv: DVec2,
-    /// Foot point S(uv).
-    pub p: DVec3,
-    /// Distance from the query point to the foot point.
-    pub distance: f64,
-}
-
-/// Point inversion by Newton iteration, seeded (P&T section 6.1, eq. 6.6-6.8, with the
-/// first-order Jacobian, clamped to the domain as for open surfaces).
+/// A target as sculpting sees it: its NURBS surface over the normalised square, and
+/// the one cached [`SurfaceInverter`] every projection of sculpting goes through
+/// (stroke samples, rims, footprints, the feet of stroke-surface points).
 ///
-/// Minimises `|S(u,v) - q|`; the step solves the 2x2 normal equations `J^T J d = -J^T r`
-/// with `J = [Su Sv]`, halving the step when it does not improve the distance. Stops when
-/// the point coincides (P&T epsilon 1), the residual is orthogonal to both tangents
-/// (epsilon 2), or the parameter stops moving.
-pub fn project_seeded(surface: &dyn ParamSurface, q: DVec3, seed: DVec2) -> Projection {
-    use crate::tolerance::{COSINE_EPS, PARAM_EPS, POINT_EPS};
-    let mut uv = clamp_uv(seed);
-    let mut sp = surface.eval(uv);
-    let mut dist = (sp.p - q).length();
-    for _ in 0..40 {
-        let r = sp.p - q;
-        if r.length() <= POINT_EPS {
-            break;
-        }
-        let (a, b) = (sp.du, sp.dv);
-        let cos_u = a.dot(r).abs() / (a.length() * r.length()).max(f64::MIN_POSITIVE);
-        let cos_v = b.dot(r).abs() / (b.length() * r.length()).max(f64::MIN_POSITIVE);
-        if cos_u <= COSINE_EPS && cos_v <= COSINE_EPS {
-            break;
-        }
-        let (aa, ab, bb) = (a.dot(a), a.dot(b), b.dot(b));
-        let (ga, gb) = (-a.dot(r), -b.dot(r));
-        let det = aa * bb - ab * ab;
-        let step = if det.abs() > 1e-14 * (aa * bb).max(f64::MIN_POSITIVE) {
-            DVec2::new((ga * bb - gb * ab) / det, (aa * gb - ab * ga) / det)
-        } else {
-            // Degenerate Jacobian (pole): gradient step along the usable tangent.
-            DVec2::new(ga / aa.max(1e-300), gb / bb.max(1e-300)) * 0.5
-        };
-        if !step.is_finite() {
-            break;
-        }
-        let mut t = 1.0;
-        let mut improved = false;
-        for _ in 0..8 {
-            let cand = clamp_uv(uv + step * t);
-            let csp = surface.eval(cand);
-            let cd = (csp.p - q).length();
-            if cd < dist {
-                let moved = (cand - uv).length();
-                uv = cand;
-                sp = csp;
-                dist = cd;
-                improved = moved > PARAM_EPS;
-                break;
-            }
-            t *= 0.5;
-        }
-        if !improved {
-            break;
-        }
-    }
-    Projection {
-        uv,
-        p: sp.p,
-        distance: dist,
+/// The inverter is built once and shared (`Arc`): cloning a target, a document or a
+/// stroke's view of it copies a pointer. It owns its copy of the surface, so the two
+/// cannot disagree; a changed surface is a new `TargetSurface`.
+///
+/// Projections are the kernel's [`Projection`] with `uv` in the **normalised square**
+/// `[0, 1]^2` (`uv_in_square = (uv_in_knots - lo) / (hi - lo)` per direction, the
+/// inverse of the map [`ParamSurface::eval`] applies): the closest point proven global
+/// by the Bernstein-net certificate, or, where an exit left it unproven, marked so by
+/// its [`Projection::certificate`].
+#[derive(Debug, Clone)]
+pub struct TargetSurface {
+    inverter: Arc<SurfaceInverter>,
+    /// The knot domain's lower corner and extent.
+    knots_lo: DVec2,
+    knots_size: DVec2,
+}
+
+impl PartialEq for TargetSurface {
+    /// The same surface (the inverter is derived from it).
+    fn eq(&self, other: &Self) -> bool {
+        self.surface() == other.surface()
     }
 }
 
-/// Point inversion without a seed: the best of a coarse `n x n` grid search, refined by
-/// [`project_seeded`].
-pub fn project(surface: &dyn ParamSurface, q: DVec3) -> Projection {
-    let n = 12;
-    let mut best = (f64::INFINITY, DVec2::splat(0.5));
-    for i in 0..=n {
-        for j in 0..=n {
-            let uv = DVec2::new(i as f64 / n as f64, j as f64 / n as f64);
-            let d = surface.eval(uv).p.distance_squared(q);
-            if d < best.0 {
-                best = (d, uv);
-            }
+impl TargetSurface {
+    /// Builds the inverter of `surface` (see [`SurfaceInverter::new`] for its cost).
+    pub fn new(surface: &NurbsSurface) -> Self {
+        Self::from_inverter(Arc::new(surface.inverter()))
+    }
+
+    /// Shares an inverter already built.
+    pub fn from_inverter(inverter: Arc<SurfaceInverter>) -> Self {
+        let s = inverter.surface();
+        let ((u0, u1), (v0, v1)) = (s.domain_u(), s.domain_v());
+        Self {
+            knots_lo: DVec2::new(u0, v0),
+            knots_size: DVec2::new(u1 - u0, v1 - v0),
+            inverter,
         }
     }
-    project_seeded(surface, q, best.1)
+
+    /// The NURBS surface.
+    pub fn surface(&self) -> &NurbsSurface {
+        self.inverter.surface()
+    }
+
+    /// The shared inverter.
+    pub fn inverter(&self) -> &Arc<SurfaceInverter> {
+        &self.inverter
+    }
+
+    /// `uv_in_square` mapped onto the knot domain.
+    fn to_knots(&self, uv_in_square: DVec2) -> DVec2 {
+        self.knots_lo + uv_in_square * self.knots_size
+    }
+
+    /// A kernel answer with its `uv` mapped into the normalised square.
+    fn in_square(&self, pr: Projection) -> Projection {
+        let uv = (pr.uv - self.knots_lo) / self.knots_size;
+        Projection {
+            uv: clamp_uv(uv),
+            ..pr
+        }
+    }
+
+    /// The closest point of the target to `p`, global (no seed).
+    pub fn closest_point(&self, p: DVec3) -> Projection {
+        self.in_square(self.inverter.closest_point(p))
+    }
+
+    /// The closest point of the target to `p`, seeded at `seed_in_square` (brought into
+    /// the square by [`wrap_uv`] first): the seed's Newton answer bounds the search, so
+    /// a good seed (the previous sample of a stroke) makes the query cheap; the answer
+    /// is still the global one.
+    pub fn closest_point_from(&self, p: DVec3, seed_in_square: DVec2) -> Projection {
+        let seed = self.to_knots(clamp_uv(wrap_uv(seed_in_square)));
+        self.in_square(self.inverter.closest_point_from(p, seed))
+    }
+
+    /// [`Self::closest_point_from`] in the **unwrapped plane** of a closed target: the
+    /// seed may lie outside the square across a seam, and the answer's `uv` is moved by
+    /// whole periods in the `closed` directions to lie within half a period of `about`
+    /// (see [`unwrap_near`]). On an open target only the pole rule applies.
+    ///
+    /// **Poles.** On a side of the square that is one point (a sphere's pole), the
+    /// parameter along the side is arbitrary: the answer takes the one of `about`, so a
+    /// stroke's centreline reaches the pole straight and leaves it where the next foot
+    /// says (`stroke`'s `through_poles`).
+    pub fn closest_point_near(
+        &self,
+        p: DVec3,
+        closed: [bool; 2],
+        about: DVec2,
+        seed: DVec2,
+    ) -> Projection {
+        let pr = self.closest_point_from(p, seed);
+        let uv = unwrap_near(pr.uv, about, closed);
+        Projection {
+            uv: self.settle_on_pole(uv, about, pr.point),
+            ..pr
+        }
+    }
+
+    /// `uv` with its parameter along a side of the square replaced by `about`'s when
+    /// the side is a pole: `uv` lies on it and the point there is the same
+    /// (`point = S(uv)`, within [`POINT_EPS`]).
+    fn settle_on_pole(&self, uv: DVec2, about: DVec2, point: DVec3) -> DVec2 {
+        for along in 0..2 {
+            let across = 1 - along;
+            if (uv[across] == 0.0 || uv[across] == 1.0) && uv[along] != about[along] {
+                let mut on_pole = uv;
+                on_pole[along] = about[along];
+                if self.eval(wrap_uv(on_pole)).p.distance(point) <= POINT_EPS {
+                    return on_pole;
+                }
+            }
+        }
+        uv
+    }
+}
+
+impl ParamSurface for TargetSurface {
+    fn eval(&self, uv: DVec2) -> SurfacePoint {
+        self.surface().eval(uv)
+    }
+}
+
+/// `uv` moved by whole periods in the `closed` directions to lie nearest `near` (within
+/// half a period of it); open directions are left alone.
+pub fn unwrap_near(uv: DVec2, near: DVec2, closed: [bool; 2]) -> DVec2 {
+    let f = |x: f64, n: f64, c: bool| {
+        let k = (n - x).round();
+        if c && k.is_finite() { x + k } else { x }
+    };
+    DVec2::new(f(uv.x, near.x, closed[0]), f(uv.y, near.y, closed[1]))
 }
 
 /// Facts about a surface's extent that sculpting needs.
@@ -268,45 +326,39 @@ pub fn extent_sampled(surface: &dyn ParamSurface, n: usize) -> SurfaceExtent {
 
 #[cfg(test)]
 pub(crate) mod test_surfaces {
-    //! Analytic surfaces for unit tests.
+    //! NURBS targets for unit tests (exact where the shape allows).
     use super::*;
 
-    /// The plane z = 0 over [0, 1] x [0, 1] metres... scaled by `size`.
-    pub fn plane(size: f64) -> impl Fn(DVec2) -> SurfacePoint {
-        move |uv: DVec2| SurfacePoint {
-            p: DVec3::new(uv.x * size, uv.y * size, 0.0),
-            du: DVec3::X * size,
-            dv: DVec3::Y * size,
-        }
+    /// The plane z = 0 over [0, size] x [0, size] metres (exact, bilinear).
+    pub fn plane(size: f64) -> TargetSurface {
+        let s = NurbsSurface::plane(DVec3::ZERO, DVec3::X * size, DVec3::Y * size)
+            .expect("valid plane");
+        TargetSurface::new(&s)
     }
 
-    /// A wavy unit square: z = a sin(4 pi u) cos(4 pi v).
-    pub fn wavy(a: f64) -> impl Fn(DVec2) -> SurfacePoint {
+    /// A wavy unit square, z = a sin(4 pi x) cos(4 pi y): the bicubic interpolant of a
+    /// 33 x 33 grid of it (P&T A9.4).
+    pub fn wavy(a: f64) -> TargetSurface {
         use std::f64::consts::PI;
-        move |uv: DVec2| {
-            let (su, cu) = (4.0 * PI * uv.x).sin_cos();
-            let (sv, cv) = (4.0 * PI * uv.y).sin_cos();
-            SurfacePoint {
-                p: DVec3::new(uv.x, uv.y, a * su * cv),
-                du: DVec3::new(1.0, 0.0, a * 4.0 * PI * cu * cv),
-                dv: DVec3::new(0.0, 1.0, -a * 4.0 * PI * su * sv),
-            }
-        }
+        let n = 32;
+        let grid: Vec<Vec<DVec3>> = (0..=n)
+            .map(|i| {
+                (0..=n)
+                    .map(|j| {
+                        let (x, y) = (i as f64 / n as f64, j as f64 / n as f64);
+                        DVec3::new(x, y, a * (4.0 * PI * x).sin() * (4.0 * PI * y).cos())
+                    })
+                    .collect()
+            })
+            .collect();
+        let (s, _, _) = NurbsSurface::interpolate_grid(&grid, 3, 3).expect("valid grid");
+        TargetSurface::new(&s)
     }
 
-    /// A unit sphere, u around the axis, v pole to pole (poles at v = 0 and 1).
-    pub fn sphere(r: f64) -> impl Fn(DVec2) -> SurfacePoint {
-        use std::f64::consts::{PI, TAU};
-        move |uv: DVec2| {
-            let (th, ph) = (uv.x * TAU, uv.y * PI);
-            let (st, ct) = th.sin_cos();
-            let (sp, cp) = ph.sin_cos();
-            SurfacePoint {
-                p: r * DVec3::new(sp * ct, sp * st, -cp),
-                du: r * TAU * DVec3::new(-sp * st, sp * ct, 0.0),
-                dv: r * PI * DVec3::new(cp * ct, cp * st, sp),
-            }
-        }
+    /// The exact rational sphere of radius `r` about the origin: u around the z axis
+    /// (seam at -x, u growing towards -y), v pole to pole (south at v = 0).
+    pub fn sphere(r: f64) -> TargetSurface {
+        TargetSurface::new(&NurbsSurface::sphere(DVec3::ZERO, r).expect("valid sphere"))
     }
 }
 
@@ -316,23 +368,46 @@ mod tests {
     use super::*;
     use crate::assert_near;
 
+    /// Projections come back in the normalised square, through the target's inverter,
+    /// certified; on a sphere, the seeded query across the seam is unwrapped next to
+    /// the seed.
     #[test]
-    fn projects_onto_plane_and_sphere() {
-        let s = plane(2.0);
-        let pr = project(&s, DVec3::new(0.5, 1.5, 0.3));
-        assert_near!(pr.uv.to_array(), [0.25, 0.75], 1e-9);
-        assert_near!(pr.distance, 0.3, 1e-9);
+    fn projects_onto_plane_and_sphere_in_the_square() {
+        use crate::nurbs::Certificate;
+        // A plane whose knot domain is [0, 1]^2, 2 m across.
+        let t = plane(2.0);
+        let pr = t.closest_point(DVec3::new(0.5, 1.5, 0.3));
+        assert_near!(pr.uv.to_array(), [0.25, 0.75], POINT_EPS);
+        assert_near!(pr.distance, 0.3, POINT_EPS);
+        assert_eq!(pr.certificate, Certificate::Certified);
         let sph = sphere(1.0);
         let q = DVec3::new(1.0, 1.0, 0.2) * 2.0;
-        let pr = project(&sph, q);
-        assert_near!(pr.distance, q.length() - 1.0, 1e-7);
+        let pr = sph.closest_point(q);
+        assert_near!(pr.distance, q.length() - 1.0, POINT_EPS);
+        // Just past the seam (u = 0 = 1 at -x, u growing towards -y), seeded just
+        // before it.
+        let a = 0.01f64;
+        let before = sph.closest_point(DVec3::new(-a.cos(), a.sin(), 0.0));
+        let after = sph.closest_point_near(
+            DVec3::new(-a.cos(), -a.sin(), 0.0),
+            [true, false],
+            before.uv,
+            before.uv,
+        );
+        assert!(
+            after.uv.x > 1.0 && after.uv.x - before.uv.x < 0.01,
+            "{after:?}"
+        );
+        assert_near!(after.distance, 0.0, POINT_EPS);
     }
 
     #[test]
     fn pole_normal_is_finite() {
         let sph = sphere(1.0);
+        // At the south pole `Su` vanishes: the normal is taken beside it, along the
+        // axis.
         let n = normal_at(&sph, DVec2::new(0.3, 0.0));
-        assert_near!(n.to_array(), [0.0, 0.0, -1.0], 1e-3);
+        assert_near!(n.z.abs(), 1.0, 1e-9);
         let e = extent(&sph);
         assert!(e.closed_u && !e.closed_v);
     }

@@ -1362,6 +1362,7 @@ mod tests {
     use crate::assert_near;
     use crate::mesh::PatchMesh;
     use crate::sculpt::stroke::{Profile, StrokeInput, Tool};
+    use crate::sculpt::surface::TargetSurface;
     use crate::sculpt::surface::test_surfaces::{plane, sphere, wavy};
 
     fn tool(mode: Mode, profile: Profile) -> Tool {
@@ -1374,7 +1375,7 @@ mod tests {
         }
     }
 
-    fn stroke(s: &dyn ParamSurface, a: DVec3, b: DVec3, t: Tool) -> Stroke {
+    fn stroke(s: &TargetSurface, a: DVec3, b: DVec3, t: Tool) -> Stroke {
         let samples = (0..40)
             .map(|i| {
                 let f = i as f64 / 39.0;
@@ -1527,11 +1528,11 @@ mod tests {
             DVec3::new(-1.0, 0.1, -0.3),
             t.clone(),
         );
-        // Across the seam (u = 0 = 1 at +x): the groove wraps, still watertight.
+        // Across the seam (u = 0 = 1 at -x): the groove wraps, still watertight.
         let c = stroke(
             &s,
-            DVec3::new(0.9, -0.45, 0.1),
-            DVec3::new(0.9, 0.4, -0.1),
+            DVec3::new(-0.9, 0.45, 0.1),
+            DVec3::new(-0.9, -0.4, -0.1),
             t,
         );
         assert_eq!(
