@@ -6,20 +6,6 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 #[non_exhaustive]
 pub enum Error {
-    /// The `.tilt` container (16-byte header and zip archive) is malformed.
-    #[error("not a readable .tilt file: {0}")]
-    TiltContainer(String),
-    /// The `data.sketch` stream inside a `.tilt` file is malformed.
-    #[error("malformed data.sketch at byte {offset}: {reason}")]
-    TiltSketch {
-        /// Byte offset in `data.sketch` where the problem was found.
-        offset: usize,
-        /// What was wrong.
-        reason: String,
-    },
-    /// Import options or the sketch cannot make a wand track.
-    #[error("import: {0}")]
-    Import(String),
     /// A serve endpoint is malformed, or could not be reached or bound.
     #[error("serve: {0}")]
     Endpoint(String),

@@ -9,8 +9,10 @@
 //! - [`config`]: the display config tables replay reads.
 //! - [`check`]: `--check EXPECTED.json` comparisons with a readable diff.
 //! - [`serve`]: tracking-server emulation (a log's raw bytes over TCP or serial, timed).
-//! - [`tilt`]: a total reader (and writer) for Open Brush / Tilt Brush `.tilt` sketches.
-//! - [`import`]: Open Brush strokes as wand motion placed on a target surface.
+//! - [`tilt`], [`import`]: re-exported from [`tracking`], where they live so that pure
+//!   tools (`sculpt-tools tilt2poselog`) read `.tilt` files without this crate's GPU
+//!   dependencies: a total reader (and writer) for Open Brush / Tilt Brush `.tilt`
+//!   sketches, and Open Brush strokes as wand motion placed on a target surface.
 //! - [`sessions`]: the generator of the shipped sessions in `tests/data/sessions/`.
 //!
 //! ```
@@ -30,12 +32,11 @@
 pub mod check;
 pub mod config;
 pub mod error;
-pub mod import;
 pub mod output;
 pub mod pipeline;
 pub mod render;
 pub mod serve;
 pub mod sessions;
-pub mod tilt;
 
 pub use error::{Error, Result};
+pub use tracking::{import, tilt};

@@ -101,7 +101,7 @@ fn renderer(
         None => vr_app::config::Config::default(),
     };
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let r = SceneRenderer::new(&display, w, h, &out.join(".render-session"))?;
+    let r = SceneRenderer::new(&display, w, h)?;
     Ok(Some((times, r)))
 }
 

@@ -1,5 +1,7 @@
 //! `--render`: left and right eye PNGs of the replayed scene at chosen session times,
 //! through vr-app's headless renderer (`vr_app::render`, wgpu; lavapipe in CI).
+//! One [`SceneRenderer`] (one GPU device, one set of pipelines) serves a whole run; no
+//! display-server session or journal is opened.
 //!
 //! At each time the renderer is given what the display server would show at that
 //! moment: the replayed [`Document`](sculpt_core::sculpt::document::Document), the
@@ -12,7 +14,7 @@
 //! use replay::{config::ReplayConfig, pipeline, render::{SceneRenderer, parse_times}};
 //! let log = std::fs::read("tests/data/sessions/patch-carve.poselog")?;
 //! let times = parse_times("2.5,5.0")?;
-//! let mut renderer = SceneRenderer::new(&vr_app::config::Config::default(), 320, 180, "out/.render".as_ref())?;
+//! let mut renderer = SceneRenderer::new(&vr_app::config::Config::default(), 320, 180)?;
 //! let mut shots = Vec::new();
 //! pipeline::replay_log_rendering(&log, &ReplayConfig::default(), pipeline::default_document(), "s", &times,
 //!     &mut |t, r| { shots.push((t, renderer.render(r)?)); Ok(()) })?;
@@ -21,10 +23,11 @@
 
 use std::path::{Path, PathBuf};
 
-use vr_app::app::{AppState, TrackingState};
 use vr_app::config::Config;
-use vr_app::projection::HeadPose;
-use vr_app::render::{FrameInput, Gpu, OutputMode, Renderer};
+use vr_app::output::OutputMode;
+use vr_app::projection::{HeadPose, Screen, StereoRig};
+use vr_app::render::{Gpu, Renderer};
+use vr_app::scene::{FrameInput, SceneState, Views};
 
 use crate::error::{Error, Result};
 use crate::pipeline::Replayer;
@@ -90,35 +93,38 @@ impl StereoShot {
     }
 }
 
-/// vr-app's headless renderer, set up once for a replay.
+/// vr-app's headless renderer, set up once for a replay and reused for every picture.
 pub struct SceneRenderer {
     gpu: Gpu,
-    config: Config,
+    renderer: Renderer,
+    screen: Screen,
+    rig: StereoRig,
+    fixed_head: HeadPose,
     width: u32,
     height: u32,
 }
 
 impl SceneRenderer {
     /// A renderer for eye images of `width` x `height` with `display`'s screen, stereo
-    /// rig and fixed head (its tracking and files settings are not used). `scratch` is
-    /// a directory the display server's session may use (its journal goes there; it
-    /// is created and removed again around each render).
-    pub fn new(display: &Config, width: u32, height: u32, scratch: &Path) -> Result<Self> {
+    /// rig and fixed head (its other settings are not used: no HUD, no session). The
+    /// GPU, the pipelines and the mesh stores are made once, here.
+    pub fn new(display: &Config, width: u32, height: u32) -> Result<Self> {
         if width == 0 || height == 0 || width > 8192 || height > 8192 {
             return Err(Error::Render(format!(
                 "image size {width}x{height} must be 1..=8192 each way"
             )));
         }
-        let gpu = Gpu::headless().map_err(|e| Error::Render(e.to_string()))?;
-        let mut config = display.clone();
-        config.tracking = None;
-        config.files.dir = scratch.to_path_buf();
-        config.files.scene = None;
-        config.files.autosave_every = 0;
-        config.display.hud = false;
+        let err = |e: vr_app::VrError| Error::Render(e.to_string());
+        let screen = display.screen.screen().map_err(err)?;
+        let fixed_head = display.fixed_head().map_err(err)?;
+        let gpu = Gpu::headless().map_err(err)?;
+        let renderer = Renderer::new(&gpu, wgpu::TextureFormat::Rgba8Unorm);
         Ok(Self {
             gpu,
-            config,
+            renderer,
+            screen,
+            rig: display.stereo,
+            fixed_head,
             width,
             height,
         })
@@ -129,39 +135,40 @@ impl SceneRenderer {
         self.gpu.describe()
     }
 
-    /// Renders both eyes of what the display server would show now.
+    /// Renders both eyes of what the display server would show now: the replayed
+    /// document and interaction (wand cursor, footprint, live stroke preview) seen from
+    /// the tracked head (the fixed head when there is none, or it gives no valid
+    /// projection).
     pub fn render(&mut self, replayer: &Replayer) -> Result<StereoShot> {
         let err = |e: vr_app::VrError| Error::Render(e.to_string());
-        let dir = self.config.files.dir.clone();
-        let _ = std::fs::remove_dir_all(&dir);
-        let mut app = AppState::new(self.config.clone()).map_err(err)?;
-        app.session.doc = replayer.document().clone();
-        app.session.interaction = replayer.interaction().clone();
-        app.tracking = if replayer.interaction().is_tracked() {
-            TrackingState::Ok
-        } else {
-            TrackingState::Lost
-        };
-        if let Some(h) = replayer.head() {
-            app.set_head(Some(HeadPose {
+        let interaction = replayer.interaction();
+        // The preview is carved into (a copy of) the document, as the app does.
+        let mut doc = replayer.document().clone();
+        let head = replayer
+            .head()
+            .map(|h| HeadPose {
                 position: h.pose.position_m,
                 orientation: h.pose.orientation,
-            }));
-        }
-        let mut renderer = Renderer::new(&self.gpu, wgpu::TextureFormat::Rgba8Unorm);
-        renderer.sync(&mut app);
-        let views = app.views().map_err(err)?;
-        let lines = app.overlay_lines();
+            })
+            .filter(|h| Views::new(&self.rig, &self.screen, h).is_ok())
+            .unwrap_or(self.fixed_head);
+        let views = Views::new(&self.rig, &self.screen, &head).map_err(err)?;
+        // Each picture is written from scratch: empty stores and a fresh scene state.
+        self.renderer.clear_meshes();
+        let mut scene = SceneState::default();
+        let facing = self.screen.basis().2;
+        self.renderer
+            .sync_with(|sinks| scene.sync_meshes(&mut doc, interaction, facing, sinks));
+        let lines = scene.overlay_lines(&doc, interaction, &self.screen);
         let input = FrameInput {
             views: &views,
             lines: &lines,
             hud: &[],
         };
-        let frame = renderer
+        let frame = self
+            .renderer
             .render_offscreen(&input, OutputMode::Dual, self.width, self.height)
             .map_err(err)?;
-        drop(app);
-        let _ = std::fs::remove_dir_all(&dir);
         Ok(StereoShot {
             left: frame.left,
             right: frame.right,

@@ -14,6 +14,11 @@
 //! - `sculpt-tools tilt2poselog IN.tilt --out OUT.poselog`: Open Brush strokes as a
 //!   recorded wand session.
 //!
+//! Pure: the tools link only `sculpt-core` and the pure layer of `tracking` (the
+//! `.tilt` codec, the importer and pose logs, `default-features = false`), never a GPU,
+//! window system or async runtime (`cargo tree -p sculpt-tools` shows no `wgpu`,
+//! `winit` or `tokio`).
+//!
 //! Input files may be `-` for stdin; `--out FILE` writes to a file instead of stdout.
 //! Any bad input ends with one line on stderr naming the file and line, and exit code 1.
 //!

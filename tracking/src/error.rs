@@ -58,6 +58,7 @@ pub enum TrackingError {
         source: std::io::Error,
     },
     /// A serial port could not be opened or configured.
+    #[cfg(feature = "io")]
     #[error("serial port {port}: {source}")]
     Serial {
         /// The port path.
@@ -66,6 +67,20 @@ pub enum TrackingError {
         #[source]
         source: tokio_serial::Error,
     },
+    /// The `.tilt` container (16-byte header and zip archive) is malformed.
+    #[error("not a readable .tilt file: {0}")]
+    TiltContainer(String),
+    /// The `data.sketch` stream inside a `.tilt` file is malformed.
+    #[error("malformed data.sketch at byte {offset}: {reason}")]
+    TiltSketch {
+        /// Byte offset in `data.sketch` where the problem was found.
+        offset: usize,
+        /// What was wrong.
+        reason: String,
+    },
+    /// Import options or the sketch cannot make a wand track.
+    #[error("import: {0}")]
+    Import(String),
     /// JSON in a pose-log header could not be (de)serialised.
     #[error("JSON: {0}")]
     Json(#[from] serde_json::Error),

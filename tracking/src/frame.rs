@@ -16,6 +16,12 @@ use glam::{DMat3, DQuat, DVec3};
 use serde::{Deserialize, Serialize};
 use std::time::Duration;
 
+/// Frame counters this far behind the newest are out of order; further means a reset
+/// (the rule of the [`stage`](crate::stage) and of the tokio hub).
+pub const REORDER_WINDOW: u64 = 1_000;
+/// A source quiet for this long may restart its frame counter.
+pub const COUNTER_RESET_AFTER: Duration = Duration::from_secs(1);
+
 /// A rigid pose in tracker space: position in millimetres, orientation as the
 /// `tracker_from_body` rotation matrix.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -61,10 +61,7 @@ pub const EVENT_CAPACITY: usize = 4096;
 /// the oldest frames and counts them ([`FrameSubscription::dropped`]). 16384 frames are
 /// over 4 minutes at 60 Hz.
 pub const FRAME_CAPACITY: usize = 16_384;
-/// Frame counters this far behind the newest are out of order; further means a reset.
-pub const REORDER_WINDOW: u64 = 1_000;
-/// A source quiet for this long may restart its frame counter.
-pub const COUNTER_RESET_AFTER: Duration = Duration::from_secs(1);
+pub use crate::frame::{COUNTER_RESET_AFTER, REORDER_WINDOW};
 
 /// Whether a device's pose can be trusted.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]

@@ -4,12 +4,17 @@
 //! filtering, tracking-loss handling, calibration, pose logs and a tracker simulator.
 //!
 //! Layering:
-//! * pure, no tokio: the codecs ([`dtrack`], [`serial`], [`poselog`]), the [`sim`]ulator,
-//!   [`filter`] (One Euro), [`calibration`] (Umeyama fit, tip offsets) and [`config`];
-//! * [`hub`]: the merge layer, latest state per device on tokio `watch` channels and
-//!   ordered events on a `broadcast` channel (no runtime needed to drive it);
-//! * [`transport`]: where the tokio runtime lives: TCP listen/connect, UDP, serial,
-//!   paced senders.
+//! * pure, no tokio, always built: the codecs ([`dtrack`], [`serial`], [`poselog`]), the
+//!   [`sim`]ulator, [`filter`] (One Euro), [`calibration`] (Umeyama fit, tip offsets),
+//!   [`config`], the frame [`stage`], and Open Brush input: the [`tilt`] codec and the
+//!   [`import`]er that turns a sketch into a wand track and a pose log. They live here
+//!   (not in `replay`) because their product is a pose log, and so that pure tools
+//!   (`sculpt-tools tilt2poselog`) need no GPU, window or async runtime;
+//! * feature `io` (default): `hub`, the merge layer, latest state per device on tokio
+//!   `watch` channels and ordered events on a `broadcast` channel (no runtime needed to
+//!   drive it); and `transport`, where the tokio runtime lives: TCP listen/connect, UDP,
+//!   serial, paced senders; and the `wandtrack` binary. Build with
+//!   `default-features = false` for the pure layer only.
 //!
 //! [`Frame`] carries tracker units (millimetres, `tracker_from_body` matrices);
 //! [`calibration::Calibration`] turns them into metres in the display frame.
@@ -33,11 +38,15 @@ pub mod dtrack;
 pub mod error;
 pub mod filter;
 pub mod frame;
+#[cfg(feature = "io")]
 pub mod hub;
+pub mod import;
 pub mod poselog;
 pub mod serial;
 pub mod sim;
 pub mod stage;
+pub mod tilt;
+#[cfg(feature = "io")]
 pub mod transport;
 
 pub use error::{Result, TrackingError};

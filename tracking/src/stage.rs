@@ -54,8 +54,8 @@
 use crate::calibration::{Calibration, WorldPose};
 use crate::error::{Result, TrackingError};
 use crate::filter::{FilterConfig, PoseFilter};
+pub use crate::frame::{COUNTER_RESET_AFTER, REORDER_WINDOW};
 use crate::frame::{DeviceId, Frame, Pose};
-pub use crate::hub::{COUNTER_RESET_AFTER, REORDER_WINDOW};
 use glam::{DQuat, DVec3};
 use sculpt_core::interaction::{WandEvent, WandSample as InteractionSample};
 use serde::{Deserialize, Serialize};

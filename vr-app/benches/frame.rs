@@ -37,7 +37,7 @@ fn frame(c: &mut Criterion) {
     let mut app = AppState::new(config).expect("session");
     let mut renderer = Renderer::new(&gpu, wgpu::TextureFormat::Rgba8Unorm);
     let tess_start = Instant::now();
-    let sync = renderer.sync(&mut app);
+    let sync = renderer.sync_with(|sinks| app.sync_meshes(sinks));
     assert_eq!(sync.shown, Detail::Final);
     renderer.targets.flush();
     let (w, h) = (1280, 720);
@@ -74,7 +74,7 @@ fn frame(c: &mut Criterion) {
                 let mut total = Duration::ZERO;
                 for _ in 0..iters {
                     let start = Instant::now();
-                    renderer.sync(&mut app);
+                    renderer.sync_with(|sinks| app.sync_meshes(sinks));
                     let update = start.elapsed();
                     let stats = renderer.render(
                         &FrameInput {
@@ -109,7 +109,7 @@ fn frame(c: &mut Criterion) {
     }
     // The update alone (nothing changed: the document reports no dirty patch).
     g.bench_function("mask_face_sync_only", |b| {
-        b.iter(|| renderer.sync(&mut app))
+        b.iter(|| renderer.sync_with(|sinks| app.sync_meshes(sinks)))
     });
     g.finish();
 }

@@ -1,65 +1,18 @@
 //! The display server's per-frame state, shared by the windowed, headless and demo
 //! paths: session, screen and head, mesh synchronisation (including the live stroke
-//! preview), the wand cursor overlay and the HUD. No GPU and no window here.
+//! preview, through [`SceneState`]), the wand cursor overlay and the HUD. No GPU and no
+//! window here.
 
 use glam::DVec3;
 use sculpt_core::interaction::{Mode, Profile, StrokeMode};
-use sculpt_core::mesh::{MeshSink, PatchKey};
-use sculpt_core::nurbs::SurfaceInverter;
-use sculpt_core::sculpt::document::TargetId;
-use sculpt_core::sculpt::tessellate::Detail;
 
 use crate::config::Config;
 use crate::error::VrResult;
-use crate::preview::write_stroke_ribbon;
+pub use crate::input::TrackingState;
 use crate::projection::{HeadPose, Screen, StereoRig};
-use crate::render::{LineVertex, Views, cursor_lines};
+pub use crate::scene::{FOOTPRINT_REACH, MeshSinks, MeshSync, PREVIEW_KEY};
+use crate::scene::{LineVertex, SceneState, Views};
 use crate::session::Session;
-
-/// Patch key of the live stroke preview (in the preview sink).
-pub const PREVIEW_KEY: PatchKey = PatchKey::MAX - 1;
-
-/// How far (metres) the wand tip may be from the selected target for the tool
-/// footprint to be drawn on it.
-pub const FOOTPRINT_REACH: f64 = 0.25;
-
-/// Whether tracking data is arriving.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum TrackingState {
-    /// No tracker configured (desktop mode or demo).
-    Emulated,
-    /// Frames arriving and the wand is visible.
-    Ok,
-    /// Frames arriving but the wand is not visible, or no frames for a while.
-    Lost,
-}
-
-/// Where [`AppState::sync_meshes`] writes: the document at each detail (one sink per
-/// detail, as `Document::tessellate` requires) and the live preview.
-pub struct MeshSinks<'a> {
-    /// The document at [`Detail::Final`].
-    pub final_detail: &'a mut dyn MeshSink,
-    /// The document at [`Detail::Interactive`].
-    pub interactive: &'a mut dyn MeshSink,
-    /// The live stroke preview.
-    pub preview: &'a mut dyn MeshSink,
-}
-
-/// What [`AppState::sync_meshes`] did.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct MeshSync {
-    /// The detail to draw now: interactive while a stroke or sketch is live, final
-    /// otherwise.
-    pub shown: Detail,
-    /// Document patches written (only changed ones are).
-    pub patches_written: usize,
-    /// Whether a preview is shown.
-    pub preview: bool,
-    /// Whether the preview is the real groove or ridge, carved by the core into the
-    /// interactive detail (otherwise it is the ribbon along the wand path, shown while
-    /// the core rejects the stroke so far: too short, or off the surface).
-    pub preview_carved: bool,
-}
 
 /// The app state of one display server.
 #[derive(Debug)]
@@ -79,12 +32,7 @@ pub struct AppState {
     /// Smoothed frames per second, for the HUD.
     pub fps: f64,
     fixed_head: HeadPose,
-    primed: bool,
-    preview_shown: bool,
-    /// Samples of the live stroke last handed to `Document::set_preview` (0: none).
-    previewed_samples: usize,
-    preview_carved: bool,
-    inverter: Option<(TargetId, SurfaceInverter)>,
+    scene: SceneState,
 }
 
 impl AppState {
@@ -107,11 +55,7 @@ impl AppState {
             tracking,
             fps: 0.0,
             fixed_head: head,
-            primed: false,
-            preview_shown: false,
-            previewed_samples: 0,
-            preview_carved: false,
-            inverter: None,
+            scene: SceneState::default(),
         })
     }
 
@@ -141,85 +85,18 @@ impl AppState {
     /// writes both) and the preview of a live stroke. Only patches the document marks
     /// changed are written, and patches of removed targets are removed.
     pub fn sync_meshes(&mut self, sinks: MeshSinks<'_>) -> MeshSync {
-        let live = self.session.interaction.gesture_active();
-        let shown = if live {
-            Detail::Interactive
-        } else {
-            Detail::Final
-        };
-        let live_stroke = self
-            .session
-            .interaction
-            .live_stroke()
-            .filter(|s| s.samples.len() >= 2);
-        let doc = &mut self.session.doc;
-        // The stroke being drawn is carved into the interactive detail by the core, as
-        // it will be once applied; re-done only when it gained samples.
-        match &live_stroke {
-            Some(stroke) if stroke.samples.len() != self.previewed_samples => {
-                self.previewed_samples = stroke.samples.len();
-                let target = doc.targets().get(stroke.target as usize).map(|t| t.id);
-                self.preview_carved = target.is_some_and(|id| {
-                    doc.set_preview(id, &sculpt_core::editor::stroke_input(stroke))
-                        .is_ok()
-                });
-            }
-            Some(_) => {}
-            None if self.previewed_samples > 0 => {
-                doc.clear_preview();
-                self.previewed_samples = 0;
-                self.preview_carved = false;
-            }
-            None => {}
-        }
-        let mut written = 0;
-        if !self.primed || shown == Detail::Interactive {
-            written += doc
-                .tessellate(Detail::Interactive, sinks.interactive)
-                .patches_written;
-        }
-        if !self.primed || shown == Detail::Final {
-            written += doc
-                .tessellate(Detail::Final, sinks.final_detail)
-                .patches_written;
-        }
-        self.primed = true;
-        match live_stroke {
-            Some(stroke) if !self.preview_carved => {
-                write_stroke_ribbon(&stroke, self.facing(), PREVIEW_KEY, sinks.preview);
-                self.preview_shown = true;
-            }
-            _ if self.preview_shown => {
-                sinks.preview.remove_patch(PREVIEW_KEY);
-                self.preview_shown = false;
-            }
-            _ => {}
-        }
-        MeshSync {
-            shown,
-            patches_written: written,
-            preview: self.preview_shown || self.preview_carved,
-            preview_carved: self.preview_carved,
-        }
+        let facing = self.facing();
+        // One `DerefMut` of the session to its edit loop, then two disjoint field borrows.
+        let edits: &mut sculpt_core::edit_loop::EditLoop = &mut self.session;
+        self.scene
+            .sync_meshes(&mut edits.doc, &edits.interaction, facing, sinks)
     }
 
     /// The closest point of the selected target to `p` and the surface normal there,
     /// when `p` is within [`FOOTPRINT_REACH`] of it.
     pub fn project_on_target(&mut self, p: DVec3) -> Option<(DVec3, DVec3)> {
-        let index = self.session.interaction.target() as usize;
-        let target = self.session.doc.targets().get(index)?;
-        if self
-            .inverter
-            .as_ref()
-            .is_none_or(|(id, _)| *id != target.id)
-        {
-            self.inverter = Some((target.id, target.surface.inverter()));
-        }
-        let (_, inv) = self.inverter.as_ref()?;
-        let hit = inv.closest_point(p);
-        let n = target.surface.normal(hit.uv.x, hit.uv.y);
-        (hit.distance <= FOOTPRINT_REACH && hit.point.is_finite() && n.is_finite())
-            .then_some((hit.point, n))
+        self.scene
+            .project_on_target(&self.session.doc, &self.session.interaction, p)
     }
 
     /// The wand cursor with the tool footprint projected onto the selected target (a
@@ -227,52 +104,8 @@ impl AppState {
     /// joined to the tip), or around the tip when the target is out of reach; and the
     /// rows of a live sketch.
     pub fn overlay_lines(&mut self) -> Vec<LineVertex> {
-        let mut lines = Vec::new();
-        let Some((_, tip, q)) = self.session.interaction.wand() else {
-            return lines;
-        };
-        let r = 0.5 * self.session.interaction.tool().width;
-        let (vr, vu, vn) = self.screen.basis();
-        let (centre, e1, e2, lift) = match self.project_on_target(tip) {
-            Some((foot, n)) => {
-                let e1 = if n.cross(vu).length_squared() > 1e-12 {
-                    vu.cross(n).normalize()
-                } else {
-                    vr
-                };
-                (foot, e1, n.cross(e1).normalize(), n * 0.001)
-            }
-            None => (tip, vr, vu, -vn * 0.001),
-        };
-        let ring: Vec<DVec3> = (0..=24)
-            .map(|k| {
-                let a = k as f64 / 24.0 * std::f64::consts::TAU;
-                centre + (e1 * a.cos() + e2 * a.sin()) * r + lift
-            })
-            .collect();
-        let i = &self.session.interaction;
-        cursor_lines(tip, q * DVec3::NEG_Z, &ring, i.gesture_active(), &mut lines);
-        if centre != tip {
-            let c = [1.0, 0.95, 0.3, 0.6];
-            lines.push(LineVertex::new(tip, c));
-            lines.push(LineVertex::new(centre, c));
-        }
-        if let Some(rows) = i.live_sketch() {
-            let c = [0.55, 0.9, 0.55, 1.0];
-            for row in rows {
-                for w in row.windows(2) {
-                    lines.push(LineVertex::new(w[0], c));
-                    lines.push(LineVertex::new(w[1], c));
-                }
-            }
-            for pair in rows.windows(2) {
-                for (a, b) in pair[0].iter().zip(&pair[1]) {
-                    lines.push(LineVertex::new(*a, c));
-                    lines.push(LineVertex::new(*b, c));
-                }
-            }
-        }
-        lines
+        self.scene
+            .overlay_lines(&self.session.doc, &self.session.interaction, &self.screen)
     }
 
     /// HUD text: mode, tool, target, tracking, fps, operations.
@@ -336,6 +169,7 @@ mod tests {
     use sculpt_core::editor::default_surface_point;
     use sculpt_core::interaction::{Command, WandEvent, WandSample};
     use sculpt_core::mesh::PatchMesh;
+    use sculpt_core::sculpt::tessellate::Detail;
 
     struct Meshes {
         final_detail: PatchMesh,

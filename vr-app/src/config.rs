@@ -32,8 +32,8 @@ use sculpt_core::interaction::{InteractionConfig, Mode, Profile, Tool};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{VrError, VrResult};
+use crate::output::OutputMode;
 use crate::projection::{HeadPose, Screen, StereoRig};
-use crate::render::OutputMode;
 
 /// The whole configuration.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
@@ -158,7 +158,73 @@ pub struct TrackingSection {
     pub input: tracking::config::TrackingConfig,
     /// A source the app plays itself: a pose-log file or the simulator.
     #[serde(default)]
-    pub playback: Option<crate::live::Playback>,
+    pub playback: Option<Playback>,
+}
+
+/// A source the app plays into the hub itself, in real time: `[tracking.playback]`
+/// (played by the `live` module, which also reads its frames).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum Playback {
+    /// A recorded pose log (`.poselog`), its DTrack frames sent with their recorded
+    /// timing.
+    Poselog {
+        /// The log file.
+        path: PathBuf,
+        /// Playback speed (1 = as recorded; 2 = twice as fast).
+        #[serde(default = "speed_default")]
+        speed: f64,
+    },
+    /// The tracker simulator (`tracking::sim`) playing a script.
+    Sim {
+        /// A script file (TOML, the `tracksim` format); absent: the built-in script, a
+        /// carve stroke across the default surface.
+        #[serde(default)]
+        script: Option<PathBuf>,
+        /// Simulator settings (rate, seed, noise, ids).
+        #[serde(default)]
+        config: tracking::sim::SimConfig,
+        /// Playback speed (1 = real time).
+        #[serde(default = "speed_default")]
+        speed: f64,
+    },
+}
+
+fn speed_default() -> f64 {
+    1.0
+}
+
+impl Playback {
+    /// A short description (`poselog FILE`, `sim`).
+    pub fn describe(&self) -> String {
+        match self {
+            Playback::Poselog { path, .. } => format!("poselog {}", path.display()),
+            Playback::Sim {
+                script: Some(p), ..
+            } => format!("sim {}", p.display()),
+            Playback::Sim { script: None, .. } => "sim (built-in script)".into(),
+        }
+    }
+
+    /// Checks the speed.
+    pub fn validate(&self) -> VrResult<()> {
+        let speed = match self {
+            Playback::Poselog { speed, .. } | Playback::Sim { speed, .. } => *speed,
+        };
+        if !(speed.is_finite() && speed > 0.0 && speed <= 1000.0) {
+            return Err(VrError::Config(format!(
+                "tracking.playback.speed must be in (0, 1000], got {speed}"
+            )));
+        }
+        Ok(())
+    }
+
+    /// The playback speed (1 = as recorded).
+    pub fn speed(&self) -> f64 {
+        match self {
+            Playback::Poselog { speed, .. } | Playback::Sim { speed, .. } => *speed,
+        }
+    }
 }
 
 fn stage_timeout_default() -> f64 {

@@ -4,28 +4,16 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
-use sculpt_core::interaction::WandEvent;
 use serde::Serialize;
 
-use crate::app::{AppState, TrackingState};
+use crate::app::AppState;
 use crate::error::{VrError, VrResult};
+/// The inputs of a run (defined with the other session inputs in [`crate::input`]).
+pub use crate::input::Input;
 use crate::journal::Journal;
-use crate::projection::HeadPose;
-use crate::render::{FrameInput, Gpu, OutputMode, Renderer};
+use crate::output::OutputMode;
+use crate::render::{FrameInput, Gpu, OutputContent, OutputTarget, Renderer};
 use crate::session::{JOURNAL_FILE, OPLOG_FILE};
-
-/// One input of a headless run.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Input {
-    /// A wand event.
-    Wand(WandEvent),
-    /// The tracked head moved (`None`: head lost, use the fixed head).
-    Head(Option<HeadPose>),
-    /// Tracking status changed.
-    Tracking(TrackingState),
-    /// Time passed with no input (session seconds): ends gestures paused too long.
-    Tick(f64),
-}
 
 /// Options of a headless run.
 #[derive(Debug, Clone, PartialEq)]
@@ -109,7 +97,7 @@ pub fn run_headless(
     }
     app.session.tick(last_t + 10.0)?;
     let doc_path = app.session.save_document()?;
-    renderer.sync(app);
+    renderer.sync_with(|sinks| app.sync_meshes(sinks));
     let views = app.views()?;
     let lines = app.overlay_lines();
     let hud = if app.config.display.hud {
@@ -164,17 +152,17 @@ fn render_frame(
     renderer: &mut Renderer,
     opts: &HeadlessOptions,
 ) -> VrResult<Duration> {
-    renderer.sync(app);
+    renderer.sync_with(|sinks| app.sync_meshes(sinks));
     let views = app.views()?;
     let lines = app.overlay_lines();
     let hud = app.hud_lines();
     let texture = renderer.output_texture(opts.width, opts.height);
     let view = texture.create_view(&Default::default());
     let content = match opts.mode {
-        OutputMode::SideBySide => crate::render::OutputContent::SideBySide,
-        OutputMode::Anaglyph => crate::render::OutputContent::Anaglyph,
-        OutputMode::Mono => crate::render::OutputContent::Mono,
-        OutputMode::Dual => crate::render::OutputContent::LeftEye,
+        OutputMode::SideBySide => OutputContent::SideBySide,
+        OutputMode::Anaglyph => OutputContent::Anaglyph,
+        OutputMode::Mono => OutputContent::Mono,
+        OutputMode::Dual => OutputContent::LeftEye,
     };
     let stats = renderer.render(
         &FrameInput {
@@ -182,7 +170,7 @@ fn render_frame(
             lines: &lines,
             hud: &hud,
         },
-        &[crate::render::OutputTarget {
+        &[OutputTarget {
             view: &view,
             size: (opts.width, opts.height),
             content,

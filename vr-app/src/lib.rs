@@ -4,6 +4,26 @@
 //! (projection maths, configuration, the operation journal) and the headless GPU
 //! renderer, so that `replay` and tests can use them without a window.
 //!
+//! Features: `window` (default) adds [`window`] (winit windows, desktop mode) and the
+//! `wandsculpt` binary; without it (`default-features = false`, as `replay` uses it)
+//! nothing links a window system. `openxr` adds the head-mounted display runtime.
+//!
+//! Layers (`use crate::` edges between the app's modules, a DAG; any module may also
+//! use the leaves):
+//! * leaves: [`error`], [`projection`], [`output`] ([`OutputMode`](output::OutputMode)),
+//!   [`input`] (session [`Input`](input::Input)s and
+//!   [`TrackingState`](input::TrackingState)), [`journal`], [`preview`];
+//! * [`config`] -> output (it also holds [`Playback`](config::Playback));
+//! * [`session`] -> config, journal;
+//! * [`scene`] (a frame as plain values: cameras, overlay lines, the meshes of a
+//!   document and an interaction) -> preview;
+//! * [`render`] (wgpu) -> scene, output: it draws a [`FrameInput`](scene::FrameInput)
+//!   and fills mesh sinks it is handed, and never sees the app state;
+//! * [`app`] ([`AppState`](app::AppState)) -> config, session, scene, input;
+//! * [`live`] (tracking hub on tokio) -> config, input;
+//! * [`headless`] -> app, render, session, journal, input, output; `window` -> app,
+//!   render, output, input, [`desktop_wand`].
+//!
 //! ```
 //! use vr_app::projection::{fixed_head, Screen, StereoRig};
 //! use glam::DVec3;
@@ -21,12 +41,16 @@ pub mod demo;
 pub mod desktop_wand;
 pub mod error;
 pub mod headless;
+pub mod input;
 pub mod journal;
 pub mod live;
+pub mod output;
 pub mod preview;
 pub mod projection;
 pub mod render;
+pub mod scene;
 pub mod session;
+#[cfg(feature = "window")]
 pub mod window;
 pub mod xr;
 #[cfg(feature = "openxr")]

@@ -15,7 +15,6 @@
 //! pose) are merged into the wand's next samples.
 
 use std::net::SocketAddr;
-use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
@@ -23,17 +22,16 @@ use std::time::{Duration, Instant};
 
 use glam::DVec3;
 use sculpt_core::editor;
-use serde::{Deserialize, Serialize};
 use tracking::hub::{FrameSubscription, Hub};
 use tracking::poselog::PoseLog;
-use tracking::sim::{Script, SimConfig, Simulator};
+use tracking::sim::{Script, Simulator};
 use tracking::stage::{FrameStage, StageEvent};
 use tracking::{Frame, transport};
 
-use crate::app::TrackingState;
+pub use crate::config::Playback;
 use crate::config::TrackingSection;
 use crate::error::{VrError, VrResult};
-use crate::headless::Input;
+use crate::input::{Input, TrackingState};
 use crate::projection::HeadPose;
 
 /// How long past a paused gesture's timeout the live clock must be before it is
@@ -55,63 +53,8 @@ pub fn stage_inputs(events: &[StageEvent], extra_buttons: u64, out: &mut Vec<Inp
     }
 }
 
-/// A source the app plays into the hub itself, in real time: `[tracking.playback]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
-pub enum Playback {
-    /// A recorded pose log (`.poselog`), its DTrack frames sent with their recorded
-    /// timing.
-    Poselog {
-        /// The log file.
-        path: PathBuf,
-        /// Playback speed (1 = as recorded; 2 = twice as fast).
-        #[serde(default = "speed_default")]
-        speed: f64,
-    },
-    /// The tracker simulator (`tracking::sim`) playing a script.
-    Sim {
-        /// A script file (TOML, the `tracksim` format); absent: the built-in script, a
-        /// carve stroke across the default surface.
-        #[serde(default)]
-        script: Option<PathBuf>,
-        /// Simulator settings (rate, seed, noise, ids).
-        #[serde(default)]
-        config: SimConfig,
-        /// Playback speed (1 = real time).
-        #[serde(default = "speed_default")]
-        speed: f64,
-    },
-}
-
-fn speed_default() -> f64 {
-    1.0
-}
-
+/// Playback's I/O: the frames of a pose-log file or of a simulator run.
 impl Playback {
-    /// A short description (`poselog FILE`, `sim`).
-    pub fn describe(&self) -> String {
-        match self {
-            Playback::Poselog { path, .. } => format!("poselog {}", path.display()),
-            Playback::Sim {
-                script: Some(p), ..
-            } => format!("sim {}", p.display()),
-            Playback::Sim { script: None, .. } => "sim (built-in script)".into(),
-        }
-    }
-
-    /// Checks the speed.
-    pub fn validate(&self) -> VrResult<()> {
-        let speed = match self {
-            Playback::Poselog { speed, .. } | Playback::Sim { speed, .. } => *speed,
-        };
-        if !(speed.is_finite() && speed > 0.0 && speed <= 1000.0) {
-            return Err(VrError::Config(format!(
-                "tracking.playback.speed must be in (0, 1000], got {speed}"
-            )));
-        }
-        Ok(())
-    }
-
     /// The frames to play, with their times (from the start of playback, before the
     /// speed is applied).
     pub fn frames(&self) -> VrResult<Vec<Frame>> {
@@ -146,12 +89,6 @@ impl Playback {
                     .map_err(|e| VrError::Config(format!("tracking.playback: {e}")))?;
                 Ok(sim.collect())
             }
-        }
-    }
-
-    fn speed(&self) -> f64 {
-        match self {
-            Playback::Poselog { speed, .. } | Playback::Sim { speed, .. } => *speed,
         }
     }
 }

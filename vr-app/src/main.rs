@@ -14,7 +14,8 @@ use vr_app::config::Config;
 use vr_app::demo::demo_events;
 use vr_app::headless::{HeadlessOptions, Input, run_headless};
 use vr_app::live::LiveTracking;
-use vr_app::render::{Gpu, OutputMode};
+use vr_app::output::OutputMode;
+use vr_app::render::Gpu;
 use vr_app::window::{WindowInput, run_windowed};
 
 /// Wandsculpt display server: head-tracked stereo NURBS sculpting.

@@ -21,7 +21,8 @@ use winit::window::{Fullscreen, Window, WindowId};
 use crate::app::AppState;
 use crate::desktop_wand::EmulatedWand;
 use crate::error::{VrError, VrResult};
-use crate::render::{FrameInput, Gpu, OutputContent, OutputMode, OutputTarget, Renderer};
+use crate::output::OutputMode;
+use crate::render::{FrameInput, Gpu, OutputContent, OutputTarget, Renderer};
 
 /// Where wand input comes from in windowed mode.
 pub enum WindowInput {
@@ -30,7 +31,7 @@ pub enum WindowInput {
     /// Scripted events, played in real time (the demo).
     Scripted(Vec<WandEvent>),
     /// Live events from a tracker, polled each frame.
-    Live(Box<dyn FnMut(f64) -> Vec<crate::headless::Input>>),
+    Live(Box<dyn FnMut(f64) -> Vec<crate::input::Input>>),
 }
 
 impl std::fmt::Debug for WindowInput {
@@ -289,14 +290,14 @@ impl WindowApp {
             WindowInput::Live(poll) => {
                 for input in poll(t) {
                     match input {
-                        crate::headless::Input::Wand(ev) => {
+                        crate::input::Input::Wand(ev) => {
                             if let Err(e) = self.app.session.handle(&ev) {
                                 tracing::error!("{e}");
                             }
                         }
-                        crate::headless::Input::Head(h) => self.app.set_head(h),
-                        crate::headless::Input::Tracking(s) => self.app.tracking = s,
-                        crate::headless::Input::Tick(t) => {
+                        crate::input::Input::Head(h) => self.app.set_head(h),
+                        crate::input::Input::Tracking(s) => self.app.tracking = s,
+                        crate::input::Input::Tick(t) => {
                             if let Err(e) = self.app.session.tick(t) {
                                 tracing::error!("{e}");
                             }
@@ -320,7 +321,8 @@ impl WindowApp {
         self.last_frame = now;
         self.feed_input(t);
         let Some(run) = &mut self.running else { return };
-        run.renderer.sync(&mut self.app);
+        let app = &mut self.app;
+        run.renderer.sync_with(|sinks| app.sync_meshes(sinks));
         let Ok(views) = self.app.views() else { return };
         let lines = self.app.overlay_lines();
         let hud = if self.app.config.display.hud {

@@ -2,13 +2,13 @@
 //!
 //! Every stroke becomes button-down, a sweep through its control points at their
 //! recorded timing, and button-up; the sketch is placed and scaled onto a target
-//! surface (by default the app's default surface). See `replay::import`.
+//! surface (by default the app's default surface). See `tracking::import`.
 
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use glam::DVec3;
-use replay::import::{ImportOptions, Placement};
+use tracking::import::{ImportOptions, Placement};
 
 /// Arguments of `sculpt-tools tilt2poselog`.
 #[derive(Debug, clap::Args)]
@@ -86,7 +86,7 @@ fn parse_range(s: &str) -> Result<(usize, usize), String> {
 pub fn run(args: Tilt2PoselogArgs) -> Result<()> {
     let bytes =
         std::fs::read(&args.input).with_context(|| format!("reading {}", args.input.display()))?;
-    let tilt = replay::tilt::read_tilt(&bytes)
+    let tilt = tracking::tilt::read_tilt(&bytes)
         .with_context(|| format!("{} is not a valid .tilt file", args.input.display()))?;
     let mut placement = Placement::default();
     if let Some(c) = args.center {
@@ -106,9 +106,10 @@ pub fn run(args: Tilt2PoselogArgs) -> Result<()> {
         button: args.button,
         ..ImportOptions::default()
     };
-    let surface = replay::import::DefaultSurface;
-    let target: Option<&dyn replay::import::Target> = if args.flat { None } else { Some(&surface) };
-    let track = replay::import::wand_track(&tilt.sketch, &options, target)?;
+    let surface = tracking::import::DefaultSurface;
+    let target: Option<&dyn tracking::import::Target> =
+        if args.flat { None } else { Some(&surface) };
+    let track = tracking::import::wand_track(&tilt.sketch, &options, target)?;
     if track.samples.is_empty() {
         bail!("the sketch gave no samples");
     }

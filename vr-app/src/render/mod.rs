@@ -28,101 +28,16 @@ pub mod mesh_store;
 use std::time::{Duration, Instant};
 
 use bytemuck::{Pod, Zeroable};
-use glam::DVec3;
-use serde::{Deserialize, Serialize};
 
 pub use gpu::Gpu;
 pub use mesh_store::{GpuMeshStore, GpuVertex, UploadStats};
 use sculpt_core::sculpt::tessellate::Detail;
 
+pub use crate::output::OutputMode;
+pub use crate::scene::{FrameInput, LineVertex, MeshSinks, MeshSync, Views, cursor_lines};
+
 use crate::error::{VrError, VrResult};
-use crate::projection::{EyeCamera, HeadPose, Screen, StereoRig, kooima};
 use hud::HudVertex;
-
-/// How the two eyes reach the display.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum OutputMode {
-    /// One output per projector: left eye on one, right eye on the other.
-    #[default]
-    Dual,
-    /// One wide output, left eye on the left half.
-    SideBySide,
-    /// Red-cyan anaglyph on one output.
-    Anaglyph,
-    /// One eye (the head centre), no stereo.
-    Mono,
-}
-
-impl std::str::FromStr for OutputMode {
-    type Err = VrError;
-    fn from_str(s: &str) -> VrResult<Self> {
-        match s {
-            "dual" => Ok(Self::Dual),
-            "side-by-side" | "sbs" => Ok(Self::SideBySide),
-            "anaglyph" => Ok(Self::Anaglyph),
-            "mono" => Ok(Self::Mono),
-            other => Err(VrError::Config(format!(
-                "unknown output mode {other:?} (expected dual, side-by-side, anaglyph or mono)"
-            ))),
-        }
-    }
-}
-
-/// The three cameras of a frame: both eyes and the head centre (for mono).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Views {
-    /// Left eye.
-    pub left: EyeCamera,
-    /// Right eye.
-    pub right: EyeCamera,
-    /// Head centre.
-    pub center: EyeCamera,
-}
-
-impl Views {
-    /// The cameras for `head` looking through `screen`.
-    pub fn new(rig: &StereoRig, screen: &Screen, head: &HeadPose) -> VrResult<Self> {
-        let (left, right) = rig.eye_cameras(screen, head)?;
-        let center = kooima(screen, head.position, rig.near, rig.far)?;
-        Ok(Self {
-            left,
-            right,
-            center,
-        })
-    }
-}
-
-/// One vertex of an overlay line (wand cursor, footprint), display frame.
-#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
-#[repr(C)]
-pub struct LineVertex {
-    /// Position, display frame metres.
-    pub position: [f32; 3],
-    /// Linear RGBA colour.
-    pub color: [f32; 4],
-}
-
-impl LineVertex {
-    /// A vertex from a display-frame point.
-    pub fn new(p: DVec3, color: [f32; 4]) -> Self {
-        Self {
-            position: p.as_vec3().to_array(),
-            color,
-        }
-    }
-}
-
-/// What one frame shows besides the meshes.
-#[derive(Debug, Clone, Copy)]
-pub struct FrameInput<'a> {
-    /// The cameras.
-    pub views: &'a Views,
-    /// Overlay line segments (pairs of vertices).
-    pub lines: &'a [LineVertex],
-    /// HUD text lines.
-    pub hud: &'a [String],
-}
 
 /// What one output shows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -526,20 +441,31 @@ impl Renderer {
         }
     }
 
-    /// The sinks [`crate::app::AppState::sync_meshes`] writes into.
-    pub fn sinks(&mut self) -> crate::app::MeshSinks<'_> {
-        crate::app::MeshSinks {
+    /// The sinks a scene's meshes are written into (see
+    /// [`SceneState::sync_meshes`](crate::scene::SceneState::sync_meshes)).
+    pub fn sinks(&mut self) -> MeshSinks<'_> {
+        MeshSinks {
             final_detail: &mut self.targets,
             interactive: &mut self.interactive,
             preview: &mut self.preview,
         }
     }
 
-    /// Brings the mesh stores up to date with `app` and draws the detail it asks for.
-    pub fn sync(&mut self, app: &mut crate::app::AppState) -> crate::app::MeshSync {
-        let sync = app.sync_meshes(self.sinks());
+    /// Brings the mesh stores up to date through `update`, which writes into the
+    /// [`sinks`](Self::sinks) (e.g. `|s| app.sync_meshes(s)`), and draws the detail it
+    /// reports.
+    pub fn sync_with(&mut self, update: impl FnOnce(MeshSinks<'_>) -> MeshSync) -> MeshSync {
+        let sync = update(self.sinks());
         self.shown = sync.shown;
         sync
+    }
+
+    /// Empties the mesh stores (the next scene is written from scratch).
+    pub fn clear_meshes(&mut self) {
+        for store in [&mut self.targets, &mut self.interactive, &mut self.preview] {
+            store.clear();
+        }
+        self.shown = Detail::Final;
     }
 
     /// The device this renderer draws with.
@@ -1009,43 +935,5 @@ impl Renderer {
         buffer.unmap();
         image::RgbaImage::from_raw(w, h, pixels)
             .ok_or_else(|| VrError::Gpu("readback size mismatch".into()))
-    }
-}
-
-/// Overlay lines for the wand cursor: a small 3D cross at the tip, the wand's pointing
-/// axis, and the tool footprint outline (already in the display frame).
-pub fn cursor_lines(
-    tip: DVec3,
-    axis: DVec3,
-    footprint: &[DVec3],
-    active: bool,
-    out: &mut Vec<LineVertex>,
-) {
-    if !tip.is_finite() {
-        return;
-    }
-    let color = if active {
-        [1.0, 0.55, 0.15, 1.0]
-    } else {
-        [0.3, 0.9, 1.0, 1.0]
-    };
-    let s = 0.015;
-    for d in [DVec3::X, DVec3::Y, DVec3::Z] {
-        out.push(LineVertex::new(tip - d * s, color));
-        out.push(LineVertex::new(tip + d * s, color));
-    }
-    if axis.is_finite() && axis.length_squared() > 0.0 {
-        out.push(LineVertex::new(tip, color));
-        out.push(LineVertex::new(
-            tip - axis.normalize() * 0.12,
-            [0.7, 0.7, 0.7, 1.0],
-        ));
-    }
-    let ring = [1.0, 0.95, 0.3, 1.0];
-    for w in footprint.windows(2) {
-        if w[0].is_finite() && w[1].is_finite() {
-            out.push(LineVertex::new(w[0], ring));
-            out.push(LineVertex::new(w[1], ring));
-        }
     }
 }

@@ -20,8 +20,8 @@
 //! plus its scaled depth, so a flattened sketch lies exactly on a curved target.
 //!
 //! ```
-//! use replay::import::{wand_track, ImportOptions};
-//! use replay::tilt::{ControlPoint, Sketch, TiltStroke};
+//! use tracking::import::{wand_track, ImportOptions};
+//! use tracking::tilt::{ControlPoint, Sketch, TiltStroke};
 //! let sketch = Sketch { version: 5, strokes: vec![TiltStroke {
 //!     points: (0..10).map(|i| ControlPoint::at([i as f32, 0.0, 0.0], 1000 + 20 * i)).collect(),
 //!     ..TiltStroke::default()
@@ -35,12 +35,11 @@
 use std::io::Write;
 use std::time::Duration;
 
+use crate::error::{Result, TrackingError as Error};
+use crate::poselog::{PoseLogHeader, PoseLogWriter};
+use crate::{Body, Frame, Pose, Wand};
 use glam::{DQuat, DVec3};
 use serde::Serialize;
-use tracking::poselog::{PoseLogHeader, PoseLogWriter};
-use tracking::{Body, Frame, Pose, Wand};
-
-use crate::error::{Error, Result};
 
 /// Where the head target is held in imported sessions (display metres): 0.6 m in
 /// front of the default surface at eye height.
@@ -526,15 +525,14 @@ impl Track {
         source: &str,
         options: &ImportOptions,
     ) -> Result<W> {
-        let track = |e: tracking::TrackingError| Error::Tracking(e.to_string());
         let header = PoseLogHeader {
             source: source.to_string(),
             config: serde_json::json!({ "tilt2poselog": options }),
             ..PoseLogHeader::default()
         };
-        let mut log = PoseLogWriter::new(w, &header).map_err(track)?;
+        let mut log = PoseLogWriter::new(w, &header)?;
         for f in self.frames(0, Some(DEFAULT_HEAD_M)) {
-            log.write_frame(&f).map_err(track)?;
+            log.write_frame(&f)?;
         }
         Ok(log.into_inner())
     }

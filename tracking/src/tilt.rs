@@ -18,12 +18,12 @@
 //! ```
 //!
 //! The reader is total: any byte string gives either a [`Tilt`] or a clear
-//! [`Error`](crate::Error), never a panic. Counts are checked against the bytes that are
+//! [`TrackingError`](crate::TrackingError), never a panic. Counts are checked against the bytes that are
 //! left before anything is allocated, so memory stays bounded by the input size.
 //! Non-finite positions, rotations or pressures are rejected.
 //!
 //! ```
-//! use replay::tilt::{self, Sketch, TiltStroke, ControlPoint};
+//! use tracking::tilt::{self, Sketch, TiltStroke, ControlPoint};
 //! let sketch = Sketch {
 //!     version: 5,
 //!     strokes: vec![TiltStroke {
@@ -40,7 +40,7 @@ use std::io::{Cursor, Read, Write};
 
 use glam::{DQuat, DVec3};
 
-use crate::error::{Error, Result};
+use crate::error::{Result, TrackingError as Error};
 
 /// The magic at the start of every `.tilt` file.
 pub const TILT_MAGIC: &[u8; 4] = b"tilT";
