@@ -355,10 +355,6 @@ fn incremental_tessellation_across_the_seam_equals_a_fresh_one() {
 /// round it. Now the pole has one point, normal and depth (from every stroke, in 3D),
 /// and the centreline runs along the pole's side to the new u.
 #[test]
-#[ignore = "known bug (issue 15, item 3): at final detail the cells round the pole emit \
-            twin sliver triangles (a side vertex, the side's lower end and the pole), so 8 \
-            pole edges are used by four triangles; fails identically on 587dad4 with rustc \
-            1.95, where spade's triangulation of those near-cocircular cells flips"]
 fn regression_pole_evaluated_per_parameter_left_cracks() {
     let (doc, id) = carve(
         sphere(),
@@ -384,6 +380,34 @@ fn regression_pole_evaluated_per_parameter_left_cracks() {
         .first_hit([0.0, 0.0, SPHERE_R + lift], [0.0, 0.0, -1.0])
         .expect("a hit at the pole");
     assert_near!(lift - t, -s.tool.depth, tol(&doc, &s.tool));
+}
+
+/// Regression (issue 15, item 3): a V stroke once round the pole at latitude 1.45 rad
+/// left 51 pole edges used by four triangles at final detail. Cause: a cell beside
+/// the pole triangulated a side vertex, the side's lower end and the pole corner into a
+/// fin lying on the shared meridian, and the neighbour cell made its twin; the fins are
+/// now flipped away. Also a stroke along the seam from pole to pole, and one ending at
+/// the south pole.
+#[test]
+fn regression_twin_fins_at_the_pole_were_non_manifold() {
+    let wide = Tool {
+        width: 0.04,
+        depth: 0.01,
+        ..tool(0.01)
+    };
+    let round = samples(201, |t| on_sphere(t * std::f64::consts::TAU, 1.45, 0.002));
+    let (doc, _) = carve(sphere(), round, wide.clone());
+    assert_watertight(&doc);
+    let seam = samples(201, |t| {
+        on_sphere(0.0, (t - 0.5) * std::f64::consts::PI, 0.002)
+    });
+    let (doc, _) = carve(sphere(), seam, wide.clone());
+    assert_watertight(&doc);
+    let south = samples(201, |t| {
+        on_sphere(1.0, -std::f64::consts::FRAC_PI_2 * t, 0.002)
+    });
+    let (doc, _) = carve(sphere(), south, wide);
+    assert_watertight(&doc);
 }
 
 /// The 3D length of a stroke's centreline.

@@ -35,6 +35,7 @@ use super::surface::{ParamSurface, SurfaceExtent, extent, normal_from, wrap_uv};
 use super::uvmap::UvMap;
 use crate::mesh::{MeshSink, MeshVertex, PatchKey};
 use glam::{DVec2, DVec3};
+use spade::handles::FixedVertexHandle;
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hash, Hasher};
@@ -804,6 +805,16 @@ impl TargetTessellation {
             let [a, b, c] = f.vertices().map(|v| v.fix().index() as u32);
             tris.push([a, b, c]);
         }
+        if self.poles.contains(&true) {
+            let uvs: Vec<DVec2> = verts.iter().map(|v| v.2).collect();
+            let is_constraint = |a: u32, b: u32| {
+                cdt.exists_constraint(
+                    FixedVertexHandle::from_index(a as usize),
+                    FixedVertexHandle::from_index(b as usize),
+                )
+            };
+            unfold_pole_fins(&uvs, self.poles, is_constraint, &mut tris);
+        }
         // Normals of the sculpted part come from the mesh (area-weighted).
         let mut acc = vec![DVec3::ZERO; verts.len()];
         for t in &tris {
@@ -954,6 +965,69 @@ fn pole_uv(side: usize) -> DVec2 {
         1 => DVec2::new(1.0, 0.5),
         2 => DVec2::new(0.5, 0.0),
         _ => DVec2::new(0.5, 1.0),
+    }
+}
+
+/// Flips the fins that a pole leaves in a cell's triangulation.
+///
+/// A pole (a side of the square that is one point) collapses every triangle with a
+/// vertex on it and its two other vertices on one meridian (the same `u` for a pole at
+/// `v = 0` or `1`, the same `v` for one at `u = 0` or `1`) onto that meridian: a fin of
+/// no area. Where two cells share the meridian as a side, each made such a fin over the
+/// same three points, so the edge from the lower side vertex to the pole was used by
+/// four triangles (non-manifold at a sphere's pole at final detail). Each fin is
+/// flipped with its neighbour across one of its two pole edges (one that is no
+/// constraint and whose quadrilateral is convex in `uv`), so that both new triangles
+/// span two meridians. The cell's outline is unchanged, so it stays crack-free against
+/// its neighbours.
+fn unfold_pole_fins(
+    uvs: &[DVec2],
+    poles: [bool; 4],
+    is_constraint: impl Fn(u32, u32) -> bool,
+    tris: &mut [[u32; 3]],
+) {
+    let uv = |i: u32| uvs[i as usize];
+    let on_pole = |i: u32| pole_of(poles, uv(i));
+    let ccw = |a: u32, b: u32, c: u32| (uv(b) - uv(a)).perp_dot(uv(c) - uv(a)) > 0.0;
+    let third = |t: [u32; 3], a: u32, b: u32| t.into_iter().find(|&i| i != a && i != b);
+    for f in 0..tris.len() {
+        let t = tris[f];
+        let Some(k) = (0..3).find(|&k| on_pole(t[k]).is_some()) else {
+            continue;
+        };
+        // The fin in counter-clockwise order (q, x, y), q on the pole.
+        let (q, x, y) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+        let Some(side) = on_pole(q) else { continue };
+        let meridian = |i: u32| if side >= 2 { uv(i).x } else { uv(i).y };
+        let same_meridian = |a: u32, b: u32| (meridian(a) - meridian(b)).abs() <= SNAP_EPS;
+        if on_pole(x).is_some() || on_pole(y).is_some() || !same_meridian(x, y) {
+            continue;
+        }
+        for a in [x, y] {
+            if is_constraint(a, q) {
+                continue;
+            }
+            let neighbour =
+                (0..tris.len()).find(|&g| g != f && tris[g].contains(&a) && tris[g].contains(&q));
+            let Some(g) = neighbour else { continue };
+            let Some(w) = third(tris[g], a, q) else {
+                continue;
+            };
+            if on_pole(w).is_some() || same_meridian(w, x) {
+                continue;
+            }
+            // Flip the diagonal a-q of the quadrilateral to the other one.
+            let new = if a == x {
+                [[x, y, w], [y, q, w]]
+            } else {
+                [[q, x, w], [x, y, w]]
+            };
+            if new.iter().all(|&[i, j, k]| ccw(i, j, k)) {
+                tris[f] = new[0];
+                tris[g] = new[1];
+                break;
+            }
+        }
     }
 }
 
