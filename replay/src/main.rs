@@ -3,7 +3,7 @@
 //! `replay SESSION.poselog --out DIR`: runs a recorded tracking session through the
 //! sculpting pipeline on a virtual clock and writes the document, exports, operator log
 //! and metrics. `replay SESSION.poselog --serve tcp://127.0.0.1:PORT` (or `--connect`)
-//! acts as the tracking server instead. See the README's `replay` section.
+//! acts as the tracking server instead. See `docs/cli/replay.md`.
 
 use std::io::IsTerminal;
 use std::path::PathBuf;

@@ -1,4 +1,4 @@
-//! Sculpting benches (issue 3 targets):
+//! Sculpting benches (targets in `docs/benchmarks.md`):
 //! - `stroke_interactive`: one 200-sample stroke on a bicubic 16 x 16 target at
 //!   interactive depth, including the incremental re-tessellation (target <= 2 ms);
 //! - `scene4_final`: final-depth tessellation of the mask-face scene (target <= 100 ms);

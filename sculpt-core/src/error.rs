@@ -9,7 +9,7 @@ use thiserror::Error;
 #[derive(Debug, Error, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum Error {
-    // ---- NURBS kernel (knots, curves, surfaces, fitting, inversion) ----
+    // NURBS kernel (knots, curves, surfaces, fitting, inversion).
     /// A knot vector is malformed.
     #[error("invalid knot vector: {0}")]
     InvalidKnots(String),
@@ -31,9 +31,8 @@ pub enum Error {
     /// A curve or surface JSON document could not be read.
     #[error("invalid NURBS JSON: {0}")]
     Json(String),
-    // ---- end NURBS kernel ----
 
-    // ---- sculpting (UV maps, strokes, trimming, documents, formats) ----
+    // Sculpting (UV maps, strokes, trimming, documents, formats).
     /// A stroke was rejected; the reason says why.
     #[error("stroke rejected: {0}")]
     StrokeRejected(String),
@@ -56,9 +55,8 @@ pub enum Error {
         /// The id asked for.
         id: u64,
     },
-    // ---- end sculpting ----
 
-    // ---- operator event log ----
+    // Operator event log.
     /// An operator event log line could not be read.
     #[error("operator log line {line}: {reason}")]
     OpLog {
@@ -67,13 +65,11 @@ pub enum Error {
         /// What was wrong.
         reason: String,
     },
-    // ---- end operator event log ----
 
-    // ---- interaction ----
+    // Interaction.
     /// The interaction state machine refused an input.
     #[error("interaction: {0}")]
     Interaction(String),
-    // ---- end interaction ----
 }
 
 /// `Result` with [`Error`].

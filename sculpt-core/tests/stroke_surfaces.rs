@@ -1,4 +1,4 @@
-//! Stroke surfaces (issue 3): each stroke's own NURBS surface and UV map, trimmed where
+//! Stroke surfaces: each stroke's own NURBS surface and UV map, trimmed where
 //! other strokes remove it (paper 4.3), checked against the stroke data and against the
 //! document's rendered final mesh on the paper scenes (tests/data/scenes) and on three
 //! mutually overlapping strokes.

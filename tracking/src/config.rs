@@ -1,5 +1,5 @@
-//! Tracking configuration, read from TOML (documented in the README's `tracking`
-//! section).
+//! Tracking configuration, read from TOML (documented in
+//! `docs/formats/tracking-config.md`).
 //!
 //! ```
 //! use tracking::config::{TrackingConfig, SourceConfig};

@@ -1,7 +1,7 @@
 //! Pose logs: every raw frame with its receive time, the stand-in for the hardware.
 //!
-//! A versioned, append-only, line-per-record text format (full description in the
-//! README's `tracking` section):
+//! A versioned, append-only, line-per-record text format (full description in
+//! `docs/formats/pose-log.md`):
 //!
 //! ```text
 //! wandsculpt-poselog 1

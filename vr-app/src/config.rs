@@ -140,7 +140,7 @@ pub struct HeadConfig {
 
 /// Tracking: which devices are the wand and the head, and the tracking crate's own
 /// input configuration (sources, filter, calibration, loss timeout) under
-/// `[tracking.input]`, as documented in the README's `tracking` section.
+/// `[tracking.input]`, as documented in `docs/formats/tracking-config.md`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TrackingSection {

@@ -3,7 +3,7 @@
 //! The Wandsculpt display server. With no arguments it opens a desktop window with the
 //! default surface and an emulated wand (mouse and keyboard); with a config naming a
 //! tracker it drives a projection wall; `--headless` runs with no window and writes
-//! PNGs; `--demo` plays a built-in session. See the README's `vr-app` section.
+//! PNGs; `--demo` plays a built-in session. See `docs/cli/wandsculpt.md`.
 
 use std::path::PathBuf;
 

@@ -1,4 +1,4 @@
-//! Fitting surfaces to data (P&T chapter 9; seed paper 000, section 3.1).
+//! Fitting surfaces to data (P&T chapter 9; Park, "VNURBS-based representation of multidimensional heterogeneous volumetric objects", 2005, section 3.1).
 //!
 //! - [`NurbsSurface::interpolate_grid`]: global interpolation of a grid of points
 //!   (P&T A9.4), chord-length parameters averaged over rows and columns (eq. 9.5 and
@@ -7,7 +7,7 @@
 //!   smaller control net (A9.7 style, the tensor-product least-squares solution applied
 //!   per direction; knots by P&T eq. 9.69).
 //! - [`NurbsSurface::approximate_scattered`]: scattered points with given parameters and
-//!   uniform knots (seed paper 000, sec. 3.1): least squares (normal equations, eq. 11)
+//!   uniform knots (Park 2005, sec. 3.1): least squares (normal equations, eq. 11)
 //!   when there are more points than control points, the minimum-norm pseudo-inverse
 //!   solution (eqs. 12 to 15) when there are fewer.
 //!

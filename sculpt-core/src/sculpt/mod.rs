@@ -1,4 +1,4 @@
-//! Multiresolution sculpting (seed 004): UV vector maps, strokes, Jordan
+//! Multiresolution sculpting (Kwon, Kim and Chai, "NURBS surface rendering of sculpting effect using multiresolution surface trimming for spatial virtual design", 2006): UV vector maps, strokes, Jordan
 //! classification, trimming, overlaps and tessellation.
 pub mod document;
 pub mod jordan;

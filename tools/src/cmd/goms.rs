@@ -1,5 +1,6 @@
-//! `sculpt-tools goms ...`: the GOMS / KLM timing-study harness (see the README's
-//! `goms` section for every subcommand, flag and file format).
+//! `sculpt-tools goms ...`: the GOMS / KLM timing-study harness (see `docs/goms.md`,
+//! `docs/cli/sculpt-tools.md` and `docs/formats/goms-files.md` for every subcommand,
+//! flag and file format).
 
 use std::path::{Path, PathBuf};
 
@@ -40,7 +41,7 @@ enum GomsCmd {
     Study(StudyCmd),
 }
 
-/// Extraction thresholds (see the README for the rules).
+/// Extraction thresholds (see `docs/goms.md` for the rules).
 #[derive(Debug, Clone, Args)]
 struct Thresholds {
     /// Gaussian smoothing of the wand speed, seconds (0 = none).

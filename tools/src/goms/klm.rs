@@ -1,7 +1,7 @@
 //! Keystroke-Level Model predictions (Card, Moran and Newell 1980; Kieras 2001).
 //!
-//! A method is a sequence of operators written in a small text format (see the README's
-//! `goms` section and [`parse_method`]):
+//! A method is a sequence of operators written in a small text format (see `docs/goms.md`
+//! and [`parse_method`]):
 //!
 //! ```text
 //! name: Point and double-click a file
@@ -584,7 +584,7 @@ pub struct Builtin {
     pub text: &'static str,
 }
 
-/// The three methods of the paper's GOMS study (seed 004, section 6).
+/// The three methods of the paper's GOMS study (Kwon, Kim and Chai 2006, section 6).
 pub const BUILTINS: [Builtin; 3] = [
     Builtin {
         id: "maya-multi-surface",

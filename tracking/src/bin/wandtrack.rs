@@ -1,6 +1,6 @@
 //! `wandtrack`: the tracking toolbox. Simulate a tracker, listen to real ones and
 //! record pose logs, re-send pose logs byte for byte, check logs, fit calibrations.
-//! See the README's `tracking` section for every flag.
+//! See `docs/cli/wandtrack.md` for every flag.
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
@@ -46,7 +46,7 @@ struct Output {
 enum Cmd {
     /// Run the tracker simulator on a script.
     Sim {
-        /// Script TOML (see README); without it a built-in demo gesture is used.
+        /// Script TOML (see docs/formats/sim-script.md); without it a built-in demo gesture is used.
         #[arg(long)]
         script: Option<PathBuf>,
         /// Simulator settings TOML (`SimConfig` fields).
