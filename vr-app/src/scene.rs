@@ -9,8 +9,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use sculpt_core::interaction::Interaction;
 use sculpt_core::mesh::{MeshSink, PatchKey};
-use sculpt_core::nurbs::SurfaceInverter;
-use sculpt_core::sculpt::document::{Document, TargetId};
+use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::tessellate::Detail;
 
 use crate::error::VrResult;
@@ -108,8 +107,9 @@ pub struct MeshSync {
 
 /// What a scene has written into its [`MeshSinks`] so far: the document's
 /// tessellation state lives in the document, this keeps the rest (whether the first
-/// full write happened, the live preview) and a cached inverter for the tool
-/// footprint. One per set of sinks: a fresh one for empty sinks.
+/// full write happened, the live preview). The tool footprint projects through the
+/// target's own inverter, which the document builds once and shares. One per set of
+/// sinks: a fresh one for empty sinks.
 #[derive(Debug, Default)]
 pub struct SceneState {
     primed: bool,
@@ -117,7 +117,6 @@ pub struct SceneState {
     /// Samples of the live stroke last handed to `Document::set_preview` (0: none).
     previewed_samples: usize,
     preview_carved: bool,
-    inverter: Option<(TargetId, SurfaceInverter)>,
 }
 
 impl SceneState {
@@ -201,15 +200,7 @@ impl SceneState {
     ) -> Option<(DVec3, DVec3)> {
         let index = interaction.target() as usize;
         let target = doc.targets().get(index)?;
-        if self
-            .inverter
-            .as_ref()
-            .is_none_or(|(id, _)| *id != target.id)
-        {
-            self.inverter = Some((target.id, target.surface.inverter()));
-        }
-        let (_, inv) = self.inverter.as_ref()?;
-        let hit = inv.closest_point(p);
+        let hit = target.target_surface().inverter().closest_point(p);
         let n = target.surface.normal(hit.uv.x, hit.uv.y);
         (hit.distance <= FOOTPRINT_REACH && hit.point.is_finite() && n.is_finite())
             .then_some((hit.point, n))
