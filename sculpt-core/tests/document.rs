@@ -412,3 +412,31 @@ proptest! {
         }
     }
 }
+
+/// Regression (issue 15, item 2): a scene file's stroke depth, width and taper had no
+/// upper bound, so `sculpt-tools mesh` and `replay --scene` wrote OBJ files with `inf`
+/// vertices for a depth of 1e200. The reader now applies the interaction's limits
+/// (`MAX_TOOL_SIZE`, 10 m) and names the field; a depth at the limit still reads.
+#[test]
+fn a_scene_with_an_absurd_tool_size_is_refused_by_name() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../tests/data/scenes/curved-patch-carved.json"
+    );
+    let text = std::fs::read_to_string(path).unwrap();
+    let good: serde_json::Value = serde_json::from_str(&text).unwrap();
+    for (field, value) in [("depth", 1e200), ("width", 1e200), ("taper", 11.0)] {
+        let mut bad = good.clone();
+        bad["strokes"][0]["tool"][field] = serde_json::json!(value);
+        let err = Document::from_json(&serde_json::to_vec(&bad).unwrap())
+            .expect_err("an absurd tool size must be refused");
+        assert!(err.to_string().contains(field), "{field}: {err}");
+    }
+    let mut at_limit = good.clone();
+    at_limit["strokes"][0]["tool"]["taper"] =
+        serde_json::json!(sculpt_core::sculpt::stroke::MAX_TOOL_SIZE);
+    let doc = Document::from_json(&serde_json::to_vec(&at_limit).unwrap()).unwrap();
+    let obj = MeshFormat::Obj.write(&doc.mesh(Detail::Final).welded(1e-9));
+    let obj = String::from_utf8(obj).unwrap();
+    assert!(!obj.contains("inf") && !obj.contains("NaN"));
+}

@@ -101,17 +101,20 @@ impl Tool {
         0.01
     }
 
-    /// Checks that width and depth are finite and positive, at most 10 m, and the
+    /// Checks that width and depth are finite and positive, at most
+    /// [`MAX_TOOL_SIZE`](crate::sculpt::stroke::MAX_TOOL_SIZE) (10 m), and the
     /// taper finite and in `[0, 10]` m.
     pub fn validate(&self) -> Result<()> {
         for (name, v) in [("width", self.width), ("depth", self.depth)] {
-            if !(v.is_finite() && v > 0.0 && v <= 10.0) {
+            if !(v.is_finite() && v > 0.0 && v <= crate::sculpt::stroke::MAX_TOOL_SIZE) {
                 return Err(Error::Interaction(format!(
                     "tool {name} must be in (0, 10] m, got {v}"
                 )));
             }
         }
-        if !(self.taper.is_finite() && (0.0..=10.0).contains(&self.taper)) {
+        if !(self.taper.is_finite()
+            && (0.0..=crate::sculpt::stroke::MAX_TOOL_SIZE).contains(&self.taper))
+        {
             return Err(Error::Interaction(format!(
                 "tool taper must be in [0, 10] m, got {}",
                 self.taper

@@ -179,20 +179,29 @@ pub struct Tool {
     pub taper: f64,
 }
 
+/// The largest tool width, depth and taper (metres) anywhere: the interaction's tool,
+/// a stroke built from the wand, and every stroke of a document or scene file read
+/// back, so that no mesh or file written from them holds a non-finite number.
+pub const MAX_TOOL_SIZE: f64 = 10.0;
+
 impl Tool {
-    /// Checks the parameters; the error says which one is wrong.
+    /// Checks the parameters: width and depth in `(0, MAX_TOOL_SIZE]`, the taper in
+    /// `[0, MAX_TOOL_SIZE]`, and the profile; the error says which one is wrong.
     pub fn validate(&self) -> Result<()> {
-        if !(self.width.is_finite() && self.width > 0.0) {
-            return Err(reject("tool width must be a positive finite number"));
-        }
-        if !(self.depth.is_finite() && self.depth > 0.0) {
-            return Err(reject("tool depth must be a positive finite number"));
-        }
-        if !(self.taper.is_finite() && self.taper >= 0.0) {
-            return Err(reject(
-                "tool taper must be zero or a positive finite number",
-            ));
-        }
+        let size = |name: &str, v: f64, zero_ok: bool| {
+            let low_ok = if zero_ok { v >= 0.0 } else { v > 0.0 };
+            if v.is_finite() && low_ok && v <= MAX_TOOL_SIZE {
+                Ok(())
+            } else {
+                let low = if zero_ok { "[0" } else { "(0" };
+                Err(Error::StrokeRejected(format!(
+                    "tool {name} must be in {low}, {MAX_TOOL_SIZE}] m, got {v}"
+                )))
+            }
+        };
+        size("width", self.width, false)?;
+        size("depth", self.depth, false)?;
+        size("taper", self.taper, true)?;
         self.profile.validate()
     }
 }
