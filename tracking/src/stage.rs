@@ -148,6 +148,15 @@ pub struct HeadSample {
     pub pose: WorldPose,
 }
 
+/// The largest tracker time (`ts`, seconds) the stage believes: about 31 years. A
+/// DTrack2 `ts` counts from midnight or from the tracker's start; one beyond this is
+/// garbage and the frame's receive time is used instead.
+pub const MAX_TRACKER_TIME_S: f64 = 1e9;
+/// The largest step forward of one clock between two accepted frames (seconds) that
+/// the stage takes as time passing; a larger one is a restarted clock, and the stage
+/// continues by the receive-time gap.
+pub const MAX_CLOCK_STEP_S: f64 = 3600.0;
+
 /// What the stage emits, in time order.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub enum StageEvent {
@@ -435,15 +444,21 @@ impl FrameStage {
     /// The frame's stage time: `ts` when present and finite, else the receive time,
     /// shifted so it continues from the last time (by the receive-time gap) when the
     /// clock restarts or switches.
+    ///
+    /// An implausible `ts` never reaches the clock: one beyond
+    /// [`MAX_TRACKER_TIME_S`] counts as absent (the receive time is used), and a step
+    /// forward of more than [`MAX_CLOCK_STEP_S`] counts as a restarted clock. One frame
+    /// with `ts 1e300` once froze the clock at 1e300, where 1/60 s steps vanish in the
+    /// rounding, so every later stroke was "too short".
     fn stage_time(&mut self, frame: &Frame) -> f64 {
         let (raw, is_ts) = match frame.tracker_time {
-            Some(ts) if ts.is_finite() => (ts, true),
+            Some(ts) if ts.is_finite() && ts.abs() <= MAX_TRACKER_TIME_S => (ts, true),
             _ => (frame.receive_time.as_secs_f64(), false),
         };
         let t = match self.clock {
             None => raw,
             Some((last_t, last_raw, last_is_ts)) => {
-                if is_ts == last_is_ts && raw >= last_raw {
+                if is_ts == last_is_ts && raw >= last_raw && raw - last_raw <= MAX_CLOCK_STEP_S {
                     last_t + (raw - last_raw)
                 } else {
                     // Restarted or switched clock: continue by the receive-time gap.

@@ -66,6 +66,38 @@ fn the_stage_clock_continues_across_a_tracker_restart() {
     assert!((t[4] - t[3] - 0.01).abs() < 1e-9, "{t:?}");
 }
 
+/// Regression (issue 15, item 1): one frame with `ts 1e300` (or any `ts` of 1e15 or
+/// more, or a jump of hours) set the stage clock so far out that 1/60 s steps no
+/// longer changed it, and every later stroke was "too short". Such a `ts` is now
+/// refused, and the clock keeps its 60 Hz steps after it.
+#[test]
+fn an_absurd_tracker_time_does_not_stop_the_clock() {
+    for absurd in [1e300, 1e15, 10.0 + 7200.0, f64::MAX] {
+        let mut s = FrameStage::new(unfiltered()).unwrap();
+        let mut out = Vec::new();
+        let dt = 1.0 / 60.0;
+        for n in 1..=10_u64 {
+            let ts = 10.0 + n as f64 * dt;
+            let mut f = rframe(n, Some(ts), 0.0);
+            f.receive_time = Duration::from_secs_f64(ts);
+            if n == 5 {
+                f.tracker_time = Some(absurd);
+            }
+            assert!(s.push(&f, &mut out));
+        }
+        let t: Vec<f64> = wands(&out).iter().map(|w| w.t).collect();
+        assert_eq!(t.len(), 10, "{absurd}");
+        for w in t.windows(2) {
+            let step = w[1] - w[0];
+            assert!(
+                step >= 0.0 && step <= 2.0 * dt + EXACT_EPS,
+                "ts {absurd}: stage times {t:?}"
+            );
+        }
+        assert!(t[9] - t[0] >= 8.0 * dt - EXACT_EPS, "ts {absurd}: {t:?}");
+    }
+}
+
 #[test]
 fn calibration_and_tips_put_the_tool_point_in_the_display_frame() {
     let calibration = Calibration {
