@@ -148,10 +148,11 @@ pub struct HeadSample {
     pub pose: WorldPose,
 }
 
-/// The largest tracker time (`ts`, seconds) the stage believes: about 31 years. A
-/// DTrack2 `ts` counts from midnight or from the tracker's start; one beyond this is
-/// garbage and the frame's receive time is used instead.
-pub const MAX_TRACKER_TIME_S: f64 = 1e9;
+/// The largest tracker time (`ts`, seconds) the stage believes: about 3,000 years, so
+/// a DTrack2 `ts` from midnight or from the tracker's start passes, and so does a Unix
+/// epoch time (1.7e9 s), where f64 still resolves 15 us. One beyond this is garbage
+/// and the frame's receive time is used instead.
+pub const MAX_TRACKER_TIME_S: f64 = 1e11;
 /// The largest step forward of one clock between two accepted frames (seconds) that
 /// the stage takes as time passing; a larger one is a restarted clock, and the stage
 /// continues by the receive-time gap.
