@@ -86,10 +86,8 @@ impl AppState {
     /// changed are written, and patches of removed targets are removed.
     pub fn sync_meshes(&mut self, sinks: MeshSinks<'_>) -> MeshSync {
         let facing = self.facing();
-        // One `DerefMut` of the session to its edit loop, then two disjoint field borrows.
-        let edits: &mut sculpt_core::edit_loop::EditLoop = &mut self.session;
-        self.scene
-            .sync_meshes(&mut edits.doc, &edits.interaction, facing, sinks)
+        let (doc, interaction) = self.session.draw_parts();
+        self.scene.sync_meshes(doc, interaction, facing, sinks)
     }
 
     /// The closest point of the selected target to `p` and the surface normal there,

@@ -34,7 +34,7 @@
 
 use std::fs::File;
 use std::io::Write;
-use std::ops::{Deref, DerefMut};
+use std::ops::Deref;
 use std::path::{Path, PathBuf};
 
 use sculpt_core::edit_loop::{EditHooks, EditLoop, LoopError, NoHooks, Step};
@@ -228,13 +228,15 @@ impl Deref for Session {
     }
 }
 
-impl DerefMut for Session {
-    fn deref_mut(&mut self) -> &mut EditLoop {
-        &mut self.edit_loop
-    }
-}
-
 impl Session {
+    /// The document (mutable, for tessellation caches) and the interaction, for
+    /// drawing. Edits go only through [`Session::handle`] and [`Session::tick`], which
+    /// journal them first: the session gives out no `&mut EditLoop`.
+    pub fn draw_parts(&mut self) -> (&mut Document, &Interaction) {
+        let edits = &mut self.edit_loop;
+        (&mut edits.doc, &edits.interaction)
+    }
+
     /// Opens the session in `config.files.dir`: creates the directory, loads the base
     /// scene (`config.files.scene`, or the default document), re-applies the journal
     /// (recovering after a crash) and starts the operator log.
