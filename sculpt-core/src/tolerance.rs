@@ -286,6 +286,11 @@ pub const QUAT_GEN_MIN_LEN: f64 = 1e-3;
 /// A calibration fit to noisy poses leaves at least this rms residual (metres): the
 /// noise is seen.
 pub const NOISY_RMS_FLOOR: f64 = 1e-5;
+/// ... and at most this (metres): the noise is half a millimetre.
+pub const NOISY_RMS_CEIL: f64 = 0.001;
+/// A simulated session's filtered tip ends at the script's end point to this
+/// (metres): the simulator's tremor and the filter's lag.
+pub const SIM_END_TOL: f64 = 0.01;
 /// Times through `Duration` (nanoseconds) and sums of receive times agree to this
 /// (seconds).
 pub const DURATION_EPS: f64 = 1e-6;
@@ -480,7 +485,11 @@ mod tests {
     #[test]
     fn glam_vectors_compare_component_wise() {
         let a = glam::DVec3::new(1.0, 2.0, 3.0);
-        assert_near!(a, a + glam::DVec3::new(0.0, 0.5 * EXACT_EPS, 0.0), EXACT_EPS);
+        assert_near!(
+            a,
+            a + glam::DVec3::new(0.0, 0.5 * EXACT_EPS, 0.0),
+            EXACT_EPS
+        );
         assert_near!(glam::DVec2::ONE.max_abs_diff(&glam::DVec2::ZERO), 1.0, 0.0);
         assert_eq!(
             glam::DVec3::NAN.max_abs_diff(&glam::DVec3::ZERO),

@@ -23,8 +23,8 @@
 //! let tracker_mm = [DVec3::ZERO, DVec3::X * 1000.0, DVec3::Y * 500.0, DVec3::new(300.0, 200.0, 900.0)];
 //! let pairs: Vec<_> = tracker_mm.iter().map(|&p| (p, truth.point_in_world(p))).collect();
 //! let got = fit(&pairs, &FitOptions::default()).unwrap();
-//! assert!(got.rms_residual_m < 1e-9);
-//! assert!(got.calibration.point_in_world(DVec3::ONE).distance(truth.point_in_world(DVec3::ONE)) < 1e-9);
+//! assert!(got.rms_residual_m < sculpt_core::tolerance::POINT_EPS);
+//! assert!(got.calibration.point_in_world(DVec3::ONE).distance(truth.point_in_world(DVec3::ONE)) < sculpt_core::tolerance::POINT_EPS);
 //! ```
 
 use crate::error::{Result, TrackingError};

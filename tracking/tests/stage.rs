@@ -4,7 +4,7 @@
 use glam::{DMat3, DQuat, DVec3};
 use proptest::prelude::*;
 use sculpt_core::assert_near;
-use sculpt_core::tolerance::{DURATION_EPS, EXACT_EPS, FILTERED_UNIT_EPS, TIME_EPS};
+use sculpt_core::tolerance::{DURATION_EPS, EXACT_EPS, FILTERED_UNIT_EPS, SIM_END_TOL, TIME_EPS};
 use std::collections::BTreeMap;
 use std::time::Duration;
 use tracking::calibration::Calibration;
@@ -240,7 +240,7 @@ fn a_simulated_session_passes_through_with_every_frame_used() {
     assert_eq!(w.len(), frames.len());
     assert!(w.iter().all(|s| s.tracked));
     assert!(w.iter().any(|s| s.buttons & 1 == 1));
-    assert_near!(w.last().unwrap().tip_m.x, 0.2, 0.01);
+    assert_near!(w.last().unwrap().tip_m.x, 0.2, SIM_END_TOL);
 }
 
 fn pose_strategy() -> impl Strategy<Value = Pose> {

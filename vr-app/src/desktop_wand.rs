@@ -12,7 +12,7 @@
 //! let wand = EmulatedWand { depth: 0.0, ..Default::default() };
 //! // The window centre on the screen plane is the screen centre.
 //! let tip = wand.tip(&screen, eye, (400.0, 300.0), (800, 600)).unwrap();
-//! assert!((tip - screen.center()).length() < 1e-12);
+//! assert!((tip - screen.center()).length() < sculpt_core::tolerance::EXACT_EPS);
 //! # Ok::<(), vr_app::VrError>(())
 //! ```
 

@@ -21,7 +21,7 @@
 //! // A point on the screen plane has zero parallax: both eyes see it at the same place.
 //! let p = DVec3::new(0.3, 0.5, 0.0);
 //! let (l, r) = (left.project(p).unwrap(), right.project(p).unwrap());
-//! assert!((l - r).length() < 1e-9);
+//! assert!((l - r).length() < sculpt_core::tolerance::POINT_EPS);
 //! ```
 
 use glam::{DMat4, DQuat, DVec2, DVec3, DVec4};

@@ -14,7 +14,7 @@
 //! let cam = eye_camera(&pose, &fov, &XrPose::IDENTITY, 0.05, 100.0).unwrap();
 //! // A point straight ahead of the eye lands in the middle of the image.
 //! let ndc = cam.project(DVec3::new(0.0, 1.6, -2.0)).unwrap();
-//! assert!(ndc.length() < 1e-12);
+//! assert!(ndc.length() < sculpt_core::tolerance::EXACT_EPS);
 //! ```
 
 use glam::{DMat4, DQuat, DVec3};
