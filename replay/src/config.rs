@@ -198,7 +198,9 @@ impl ReplayConfig {
         if !(2..=64).contains(&i.sketch_columns) || !(2..=10_000).contains(&i.min_sketch_rows) {
             return bad("sketch_columns must be in 2..=64 and min_sketch_rows in 2..=10000".into());
         }
-        if !i.sketch_axis.is_finite() || i.sketch_axis.length() < 1e-6 {
+        if !i.sketch_axis.is_finite()
+            || i.sketch_axis.length() < sculpt_core::tolerance::ZERO_QUAT_LEN
+        {
             return bad("interaction.sketch_axis must be a non-zero vector".into());
         }
         let b = i.buttons;

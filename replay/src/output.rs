@@ -29,7 +29,7 @@ pub const DETERMINISTIC_FILES: &[&str] = &[
 ];
 
 /// Vertices closer than this (metres) are welded in the exported meshes.
-pub const WELD_TOLERANCE: f32 = 1e-6;
+pub const WELD_TOLERANCE: f32 = sculpt_core::tolerance::EXPORT_WELD_EPS;
 
 fn write(dir: &Path, name: &str, bytes: &[u8], out: &mut Vec<PathBuf>) -> Result<()> {
     let path = dir.join(name);

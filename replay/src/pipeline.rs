@@ -408,7 +408,7 @@ impl Replayer {
     /// Ends the session at the last frame's time (a paused gesture is given its
     /// timeout) and returns the outcome.
     pub fn finish(mut self, corrupt_lines: usize, truncated_tail: bool) -> Outcome {
-        let end = self.last_t + self.pause_timeout + 1e-9;
+        let end = self.last_t + self.pause_timeout + sculpt_core::tolerance::TIME_EPS;
         let Ok(step) = self.edit_loop.tick(end, &mut self.timer);
         self.record(&step);
         let stage = self.stage.metrics_until(self.last_t);

@@ -188,6 +188,6 @@ mod tests {
         }
         assert_eq!(every(2.0, 5.0).unwrap(), vec![0.0, 2.0, 4.0]);
         assert!(every(0.0, 5.0).is_err());
-        assert!(every(1e-6, 60.0).is_err(), "too many images");
+        assert!(every(1e-6, 60.0).is_err(), "too many images"); // not a tolerance: an image period
     }
 }

@@ -119,7 +119,7 @@ pub fn fit_sketch(rows: &[Vec<DVec3>]) -> Result<NurbsSurface> {
                 .zip(row)
                 .map(|(a, b)| a.distance(*b))
                 .fold(0.0, f64::max)
-                > 1e-4
+                > crate::tolerance::ROW_MOVED_EPS
         });
         if moved {
             kept.push(row.clone());

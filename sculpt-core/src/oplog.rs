@@ -341,7 +341,7 @@ fn validate(e: &OpEvent) -> std::result::Result<(), String> {
             if !p.is_finite() {
                 return Err(format!("pose position {p} is not finite"));
             }
-            if !q.is_finite() || q.length() < 1e-6 {
+            if !q.is_finite() || q.length() < crate::tolerance::ZERO_QUAT_LEN {
                 return Err(format!("pose quaternion {q} is zero or not finite"));
             }
         }
@@ -782,6 +782,7 @@ mod tests {
                 Just(TrackingState::Lost)
             ]
             .prop_map(|state| EventKind::Tracking { state }),
+            // not a tolerance: the range of generated tool widths
             ("\\PC{0,8}", [f.clone(), f.clone(), f], 1e-4f64..1.0).prop_map(|(id, p, width)| {
                 EventKind::Target {
                     id,

@@ -11,6 +11,7 @@ use sculpt_core::nurbs::NurbsSurface;
 use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::stroke::{Mode, Profile, StrokeInput, Tool};
 use sculpt_core::sculpt::tessellate::Detail;
+use sculpt_core::tolerance::{MESH_HIT_EPS, POINT_WELD_EPS, TEST_WELD_EPS};
 
 fn plane() -> NurbsSurface {
     NurbsSurface::new(
@@ -192,7 +193,7 @@ fn a_preview_carves_only_the_interactive_mesh_and_leaves_no_trace() {
         );
     }
     let hit = |m: &PatchMesh| m.first_hit([0.5, 0.5, 1.0], [0.0, 0.0, -1.0]).unwrap();
-    sculpt_core::assert_near!(hit(&live), 1.0 + 0.01, 1e-3);
+    sculpt_core::assert_near!(hit(&live), 1.0 + 0.01, MESH_HIT_EPS);
     assert_eq!(doc.tessellate(Detail::Final, &mut fin).patches_written, 0);
     assert_eq!(fin, fin_before, "the final detail never shows a preview");
     assert!(doc.strokes().is_empty() && !doc.can_redo());
@@ -276,13 +277,13 @@ fn exports_read_back() {
         Mode::Carve,
     )
     .unwrap();
-    let welded = doc.mesh(Detail::Final).welded(1e-7);
+    let welded = doc.mesh(Detail::Final).welded(TEST_WELD_EPS);
     for f in [MeshFormat::Obj, MeshFormat::Stl, MeshFormat::Glb] {
         let back = f.read(&f.write(&welded)).unwrap();
         assert_eq!(back.triangles.len(), welded.triangles.len(), "{f:?}");
         // Same geometry: welding the read-back mesh gives the same topology.
         let (v, tr) = (back.vertices, back.triangles);
-        let rewelded = sculpt_core::mesh::weld(&v, &tr, 1e-7);
+        let rewelded = sculpt_core::mesh::weld(&v, &tr, TEST_WELD_EPS);
         assert_eq!(rewelded.vertices.len(), welded.vertices.len(), "{f:?}");
     }
     let model = iges::read(&iges::write(&doc.iges_surfaces())).unwrap();
@@ -436,7 +437,7 @@ fn a_scene_with_an_absurd_tool_size_is_refused_by_name() {
     at_limit["strokes"][0]["tool"]["taper"] =
         serde_json::json!(sculpt_core::sculpt::stroke::MAX_TOOL_SIZE);
     let doc = Document::from_json(&serde_json::to_vec(&at_limit).unwrap()).unwrap();
-    let obj = MeshFormat::Obj.write(&doc.mesh(Detail::Final).welded(1e-9));
+    let obj = MeshFormat::Obj.write(&doc.mesh(Detail::Final).welded(POINT_WELD_EPS));
     let obj = String::from_utf8(obj).unwrap();
     assert!(!obj.contains("inf") && !obj.contains("NaN"));
 }

@@ -5,7 +5,7 @@ use glam::{DVec2, DVec3};
 use sculpt_core::Error;
 use sculpt_core::assert_near;
 use sculpt_core::nurbs::{KnotVector, NurbsCurve, NurbsSurface};
-use sculpt_core::tolerance::{EXACT_EPS, FD_EPS};
+use sculpt_core::tolerance::{EXACT_EPS, FD_EPS, FD_STEP};
 
 fn wavy_bicubic() -> NurbsSurface {
     let pts: Vec<Vec<DVec3>> = (0..6)
@@ -47,7 +47,7 @@ fn book_example_4_2_rational_circle_point() {
 #[test]
 fn surface_derivatives_match_finite_differences() {
     let s = wavy_bicubic();
-    let h = 1e-6;
+    let h = FD_STEP;
     for &(u, v) in &[
         (0.1, 0.2),
         (0.45, 0.7),
@@ -95,7 +95,7 @@ fn bilinear_patch_is_exact() {
     assert_near!(p.to_array(), [0.5, 0.5, 0.25], EXACT_EPS);
     let ff = s.fundamental_forms(1.0, 0.0);
     // z = xy has K = -1/(1+x^2+y^2)^2 at (x, y) = (1/2, 1/2).
-    assert_near!(ff.gaussian_curvature(), -1.0 / 1.5f64.powi(2), 1e-12);
+    assert_near!(ff.gaussian_curvature(), -1.0 / 1.5f64.powi(2), EXACT_EPS);
 }
 
 #[test]
@@ -169,6 +169,6 @@ fn unclamped_knots_evaluate_on_their_domain() {
     // A uniform cubic B-spline reproduces x linearly: x(u) = u - 2 on [3, 6].
     for i in 0..=30 {
         let u = 3.0 + 3.0 * i as f64 / 30.0;
-        assert_near!(c.point(u).x, u - 2.0, 1e-12);
+        assert_near!(c.point(u).x, u - 2.0, EXACT_EPS);
     }
 }

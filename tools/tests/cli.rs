@@ -8,7 +8,7 @@ use std::process::{Command, Output, Stdio};
 use glam::{DVec2, DVec3};
 use sculpt_core::assert_near;
 use sculpt_core::nurbs::NurbsSurface;
-use sculpt_core::tolerance::EXACT_EPS;
+use sculpt_core::tolerance::{EXACT_EPS, ULP_EPS};
 
 const SURFACE: &str = r#"{"degree_u": 2, "degree_v": 2,
  "knots_u": [0,0,0,0.5,1,1,1], "knots_v": [0,0,0,1,1,1],
@@ -135,7 +135,7 @@ fn project_reads_stdin_and_writes_out() {
             surface.point_uv(DVec2::new(row[0], row[1])).to_array(),
             EXACT_EPS
         );
-        assert_near!(row[5], point.distance(q), 1e-15);
+        assert_near!(row[5], point.distance(q), ULP_EPS);
     }
     // The query beyond the u = 1 edge lands on that edge; the far corner on (0, 0).
     assert_near!(got[1][0], 1.0, 0.0);

@@ -189,6 +189,7 @@ impl SerialDecoder {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use sculpt_core::tolerance::{WIRE_ANGLE_EPS, WIRE_MM_EPS};
 
     #[test]
     fn pose_round_trip() {
@@ -206,12 +207,12 @@ mod tests {
         assert_eq!(back.seq, rec.seq);
         assert_eq!(back.buttons, rec.buttons);
         let (a, b) = (back.pose.unwrap(), rec.pose.unwrap());
-        assert!(a.position_mm.distance(b.position_mm) < 1e-3);
+        assert!(a.position_mm.distance(b.position_mm) < WIRE_MM_EPS);
         assert!(
             a.orientation()
                 .unwrap()
                 .angle_between(b.orientation().unwrap())
-                < 1e-5
+                < WIRE_ANGLE_EPS
         );
     }
 

@@ -41,13 +41,15 @@
 //!     stage.push(&f, &mut out);
 //! }
 //! let StageEvent::Wand(last) = out.last().unwrap() else { panic!() };
-//! assert!(last.tracked && (last.t - 0.03).abs() < 1e-12);
-//! assert!((last.tip_m.y - 1.0).abs() < 1e-12);
+//! assert!(last.tracked);
+//! sculpt_core::assert_near!(last.t, 0.03, sculpt_core::tolerance::EXACT_EPS);
+//! sculpt_core::assert_near!(last.tip_m.y, 1.0, sculpt_core::tolerance::EXACT_EPS);
 //! // No frame for a second: the wand is lost at the last time plus the timeout.
 //! out.clear();
 //! stage.idle(Duration::from_millis(1530), &mut out);
 //! let StageEvent::Wand(lost) = &out[0] else { panic!() };
-//! assert!(!lost.tracked && (lost.t - 0.53).abs() < 1e-9);
+//! assert!(!lost.tracked);
+//! sculpt_core::assert_near!(lost.t, 0.53, sculpt_core::tolerance::TIME_EPS);
 //! assert_eq!(stage.metrics().losses, 1);
 //! ```
 

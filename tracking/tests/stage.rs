@@ -4,7 +4,7 @@
 use glam::{DMat3, DQuat, DVec3};
 use proptest::prelude::*;
 use sculpt_core::assert_near;
-use sculpt_core::tolerance::EXACT_EPS;
+use sculpt_core::tolerance::{DURATION_EPS, EXACT_EPS, FILTERED_UNIT_EPS, SIM_END_TOL, TIME_EPS};
 use std::collections::BTreeMap;
 use std::time::Duration;
 use tracking::calibration::Calibration;
@@ -60,10 +60,10 @@ fn the_stage_clock_continues_across_a_tracker_restart() {
     let t: Vec<f64> = wands(&out).iter().map(|w| w.t).collect();
     assert_eq!(t.len(), 5, "a timeout sample, then the restarted frames");
     assert!(t.windows(2).all(|w| w[1] >= w[0]), "{t:?}");
-    assert!((t[2] - 10.51).abs() < 1e-9, "lost at the timeout: {t:?}");
+    assert_near!(t[2], 10.51, TIME_EPS, "lost at the timeout: {t:?}");
     // Restart 9.76 s (receive time) after the last frame, then 10 ms on.
-    assert!((t[3] - (10.01 + 9.74)).abs() < 1e-6, "{t:?}");
-    assert!((t[4] - t[3] - 0.01).abs() < 1e-9, "{t:?}");
+    assert_near!(t[3], 10.01 + 9.74, DURATION_EPS, "{t:?}");
+    assert_near!(t[4] - t[3], 0.01, TIME_EPS, "{t:?}");
 }
 
 /// Regression (issue 15, item 1): one frame with `ts 1e300` (or any `ts` of 1e15 or
@@ -240,7 +240,7 @@ fn a_simulated_session_passes_through_with_every_frame_used() {
     assert_eq!(w.len(), frames.len());
     assert!(w.iter().all(|s| s.tracked));
     assert!(w.iter().any(|s| s.buttons & 1 == 1));
-    assert_near!(w.last().unwrap().tip_m.x, 0.2, 0.01);
+    assert_near!(w.last().unwrap().tip_m.x, 0.2, SIM_END_TOL);
 }
 
 fn pose_strategy() -> impl Strategy<Value = Pose> {
@@ -319,7 +319,7 @@ proptest! {
                     last_t = w.t;
                     prop_assert!(w.tip_m.is_finite() && w.position_m.is_finite());
                     prop_assert!(w.orientation.is_finite());
-                    prop_assert!(!w.tracked || (w.orientation.length() - 1.0).abs() < 1e-6);
+                    prop_assert!(!w.tracked || (w.orientation.length() - 1.0).abs() < FILTERED_UNIT_EPS);
                 }
                 StageEvent::Head(h) => {
                     prop_assert!(h.t.is_finite());

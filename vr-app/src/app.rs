@@ -168,6 +168,7 @@ mod tests {
     use sculpt_core::interaction::{Command, WandEvent, WandSample};
     use sculpt_core::mesh::PatchMesh;
     use sculpt_core::sculpt::tessellate::Detail;
+    use sculpt_core::tolerance::{COSINE_EPS, CURSOR_RING_TOL, CURSOR_RING_Z_TOL, POINT_EPS};
 
     struct Meshes {
         final_detail: PatchMesh,
@@ -285,8 +286,8 @@ mod tests {
         let tip = on + DVec3::Z * 0.05;
         let (foot, n) = app.project_on_target(tip).unwrap();
         // The closest point: on the surface, straight below the tip along the normal.
-        assert_near!(foot.z, default_surface_point(foot.x, foot.y).z, 1e-9);
-        assert_near!((tip - foot).normalize().dot(n), 1.0, 1e-9);
+        assert_near!(foot.z, default_surface_point(foot.x, foot.y).z, POINT_EPS);
+        assert_near!((tip - foot).normalize().dot(n), 1.0, COSINE_EPS);
         assert!(n.z > 0.9, "{n}");
         let lines = app.overlay_lines();
         let ring_colour = [1.0, 0.95, 0.3, 1.0];
@@ -297,9 +298,11 @@ mod tests {
             .collect();
         assert!(!ring.is_empty());
         let r = 0.5 * app.session.interaction.tool().width;
+        // not a tolerance: 1e-6 is the square of the ring's 1 mm lift
+        let lifted = (r * r + 1e-6).sqrt();
         for p in ring {
-            assert_near!(p.distance(foot), (r * r + 1e-6).sqrt(), 1e-4);
-            assert_near!(p.z, default_surface_point(p.x, p.y).z, 2e-3);
+            assert_near!(p.distance(foot), lifted, CURSOR_RING_TOL);
+            assert_near!(p.z, default_surface_point(p.x, p.y).z, CURSOR_RING_Z_TOL);
         }
         assert!(app.project_on_target(on + DVec3::Z * 2.0).is_none());
     }

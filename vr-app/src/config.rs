@@ -430,6 +430,7 @@ impl Config {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use sculpt_core::tolerance::EXACT_EPS;
 
     fn example(name: &str) -> Config {
         Config::load(
@@ -462,7 +463,7 @@ mod tests {
         let c = Config::from_toml_str("").unwrap();
         assert_eq!(c, Config::default());
         let head = c.fixed_head().unwrap();
-        sculpt_core::assert_near!(head.position.to_array(), [0.0, 1.17, 0.6], 1e-12);
+        sculpt_core::assert_near!(head.position.to_array(), [0.0, 1.17, 0.6], EXACT_EPS);
     }
 
     #[test]

@@ -61,7 +61,7 @@ pub fn write_stroke_ribbon(
     for (i, p) in pts.iter().enumerate() {
         let tangent = pts[(i + 1).min(pts.len() - 1)] - pts[i.saturating_sub(1)];
         let across = tangent.cross(facing);
-        let across = if across.length_squared() > 1e-18 {
+        let across = if across.length_squared() > sculpt_core::tolerance::ZERO_LEN2_EPS {
             across.normalize()
         } else {
             across_prev
@@ -90,6 +90,7 @@ mod tests {
     use sculpt_core::assert_near;
     use sculpt_core::interaction::{StrokeSample, Tool};
     use sculpt_core::mesh::PatchMesh;
+    use sculpt_core::tolerance::F32_EPS;
 
     fn stroke(points: &[DVec3], mode: StrokeMode) -> StrokeEdit {
         StrokeEdit {
@@ -118,8 +119,12 @@ mod tests {
             assert_eq!((v.len(), t.len()), (6, 4));
             let width = DVec3::from(v[0].position.map(f64::from))
                 .distance(DVec3::from(v[1].position.map(f64::from)));
-            assert_near!(width, s.tool.width, 1e-6);
-            assert_near!(f64::from(v[2].position[2]), sign * 0.5 * s.tool.depth, 1e-6);
+            assert_near!(width, s.tool.width, F32_EPS);
+            assert_near!(
+                f64::from(v[2].position[2]),
+                sign * 0.5 * s.tool.depth,
+                F32_EPS
+            );
         }
     }
 

@@ -21,13 +21,14 @@
 //! // A point on the screen plane has zero parallax: both eyes see it at the same place.
 //! let p = DVec3::new(0.3, 0.5, 0.0);
 //! let (l, r) = (left.project(p).unwrap(), right.project(p).unwrap());
-//! assert!((l - r).length() < 1e-9);
+//! assert!((l - r).length() < sculpt_core::tolerance::POINT_EPS);
 //! ```
 
 use glam::{DMat4, DQuat, DVec2, DVec3, DVec4};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{VrError, VrResult};
+use sculpt_core::tolerance::{MIN_EYE_DISTANCE, MIN_SCREEN_EDGE, SQUARE_COS_TOL};
 
 /// A planar rectangular screen in the display frame (metres).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -39,14 +40,6 @@ pub struct Screen {
     /// Upper-left corner `pc`.
     pub upper_left: DVec3,
 }
-
-/// Largest |cos| between the screen's right and up edges that still counts as a
-/// rectangle (about 0.6 degrees off square).
-const SQUARE_COS_TOL: f64 = 1e-2;
-/// Smallest screen edge (metres).
-const MIN_EDGE: f64 = 1e-4;
-/// Smallest eye-to-screen-plane distance (metres) for a valid frustum.
-const MIN_EYE_DISTANCE: f64 = 1e-3;
 
 impl Screen {
     /// A screen from its lower-left, lower-right and upper-left corners.
@@ -74,7 +67,7 @@ impl Screen {
         }
         let right = self.lower_right - self.lower_left;
         let up = self.upper_left - self.lower_left;
-        if right.length() < MIN_EDGE || up.length() < MIN_EDGE {
+        if right.length() < MIN_SCREEN_EDGE || up.length() < MIN_SCREEN_EDGE {
             return bad("an edge is shorter than 0.1 mm");
         }
         if right.normalize().dot(up.normalize()).abs() > SQUARE_COS_TOL {
@@ -398,7 +391,7 @@ mod tests {
             let (pl, pr) = (l.project(p).unwrap(), r.project(p).unwrap());
             let parallax_m = (pr.x - pl.x) * 0.5 * screen.width();
             let expected = rig.ipd * depth_behind / (2.0 + depth_behind);
-            assert_near!(parallax_m, expected, 1e-12, "depth {depth_behind}");
+            assert_near!(parallax_m, expected, EXACT_EPS, "depth {depth_behind}");
             assert_near!(pl.y, pr.y, EXACT_EPS, "no vertical parallax");
         }
     }

@@ -163,7 +163,7 @@ impl WandSample {
         self.tracked
             && self.position.is_finite()
             && self.orientation.is_finite()
-            && self.orientation.length_squared() > 1e-6
+            && self.orientation.length_squared() > crate::tolerance::ZERO_QUAT_LEN2
     }
 }
 
@@ -789,7 +789,7 @@ impl Interaction {
     fn is_glitch(&self, t: f64, s: &WandSample) -> bool {
         match self.last_good {
             Some((t0, p0, _)) if self.tracked => {
-                let dt = (t - t0).max(1e-3);
+                let dt = (t - t0).max(crate::tolerance::MIN_SPEED_DT);
                 (s.position - p0).length() / dt > self.config.max_speed
             }
             _ => false,

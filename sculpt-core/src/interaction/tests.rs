@@ -1,6 +1,6 @@
 use super::*;
 use crate::assert_near;
-use crate::tolerance::EXACT_EPS;
+use crate::tolerance::{BOUND_MARGIN, EXACT_EPS, MIN_SPEED_DT, POINT_EPS};
 
 fn at(x: f64) -> DVec3 {
     DVec3::new(x, 1.0, 0.2)
@@ -400,7 +400,7 @@ fn sketch_sweep_builds_a_point_grid() {
     };
     assert_eq!(rows.len(), 11);
     assert!(rows.iter().all(|r| r.len() == 8));
-    assert_near!(rows[3][7].to_array(), [0.3, 1.06, 0.2], 1e-12);
+    assert_near!(rows[3][7].to_array(), [0.3, 1.06, 0.2], EXACT_EPS);
     assert_eq!(
         m.target_count, 2,
         "the sketched surface becomes a selectable target"
@@ -466,8 +466,8 @@ mod props {
                     for w in s.samples.windows(2) {
                         // No jump larger than the resume bound or the glitch bound allows.
                         let step = (w[1].position - w[0].position).length();
-                        let dt = (w[1].t - w[0].t).max(1e-3);
-                        prop_assert!(step <= 0.05 + 1e-9 || step / dt <= 15.0 + 1e-9);
+                        let dt = (w[1].t - w[0].t).max(MIN_SPEED_DT);
+                        prop_assert!(step <= 0.05 + POINT_EPS || step / dt <= 15.0 + BOUND_MARGIN);
                     }
                 }
             }

@@ -25,11 +25,11 @@ fn check_finite(what: &str, values: &[f64]) -> Result<()> {
 /// The arc layout of P&T A7.1: number of arcs, the knot vector and the weight of the
 /// middle control points, for a sweep of `theta` radians.
 fn arc_layout(theta: f64) -> (usize, Vec<f64>, f64) {
-    let narcs = if theta <= PI / 2.0 + 1e-12 {
+    let narcs = if theta <= PI / 2.0 + crate::tolerance::ANGLE_EPS {
         1
-    } else if theta <= PI + 1e-12 {
+    } else if theta <= PI + crate::tolerance::ANGLE_EPS {
         2
-    } else if theta <= 1.5 * PI + 1e-12 {
+    } else if theta <= 1.5 * PI + crate::tolerance::ANGLE_EPS {
         3
     } else {
         4
@@ -264,7 +264,7 @@ impl NurbsSurface {
 mod tests {
     use super::*;
     use crate::assert_near;
-    use crate::tolerance::EXACT_EPS;
+    use crate::tolerance::{COSINE_EPS, EXACT_EPS, ULP_EPS};
     use std::f64::consts::FRAC_1_SQRT_2;
 
     #[test]
@@ -276,7 +276,7 @@ mod tests {
         }
         assert_near!(c.point(0.0).to_array(), c.point(1.0).to_array(), EXACT_EPS);
         assert_eq!(c.homogeneous().len(), 9);
-        assert_near!(c.weights()[1], FRAC_1_SQRT_2, 1e-15);
+        assert_near!(c.weights()[1], FRAC_1_SQRT_2, ULP_EPS);
     }
 
     #[test]
@@ -294,7 +294,7 @@ mod tests {
                 );
                 let n = s.normal(u, v);
                 let radial = (s.point(u, v) - DVec3::new(0.5, -1.0, 2.0)) / 1.5;
-                assert_near!(n.dot(radial).abs(), 1.0, 1e-9);
+                assert_near!(n.dot(radial).abs(), 1.0, COSINE_EPS);
             }
         }
     }

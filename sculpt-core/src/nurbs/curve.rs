@@ -254,6 +254,7 @@ impl NurbsCurve {
 mod tests {
     use super::*;
     use crate::assert_near;
+    use crate::tolerance::{FD_D1_EPS, FD_EPS, FD_STEP, ROUNDING_EPS, ULP_EPS};
 
     /// The rational quadratic quarter circle (P&T Ex4.1 style).
     fn quarter_circle() -> NurbsCurve {
@@ -272,23 +273,23 @@ mod tests {
         let c = quarter_circle();
         for i in 0..=50 {
             let u = i as f64 / 50.0;
-            assert_near!(c.point(u).length(), 1.0, 1e-15);
+            assert_near!(c.point(u).length(), 1.0, ULP_EPS);
             let d = c.derivatives(u);
             // Tangent is perpendicular to the radius.
-            assert_near!(d.point.dot(d.d1), 0.0, 1e-14);
+            assert_near!(d.point.dot(d.d1), 0.0, ROUNDING_EPS);
         }
     }
 
     #[test]
     fn derivatives_match_finite_differences() {
         let c = quarter_circle();
-        let h = 1e-6;
+        let h = FD_STEP;
         for &u in &[0.1, 0.37, 0.5, 0.9] {
             let d = c.derivatives(u);
             let fd1 = (c.point(u + h) - c.point(u - h)) / (2.0 * h);
             let fd2 = (c.derivatives(u + h).d1 - c.derivatives(u - h).d1) / (2.0 * h);
-            assert_near!(d.d1.to_array(), fd1.to_array(), 1e-6);
-            assert_near!(d.d2.to_array(), fd2.to_array(), 1e-5);
+            assert_near!(d.d1.to_array(), fd1.to_array(), FD_D1_EPS);
+            assert_near!(d.d2.to_array(), fd2.to_array(), FD_EPS);
         }
     }
 

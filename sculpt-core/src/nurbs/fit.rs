@@ -127,7 +127,7 @@ fn solve(a: &DMatrix<f64>, b: &DMatrix<f64>) -> Result<DMatrix<f64>> {
         _ => a
             .clone()
             .svd(true, true)
-            .solve(b, 1e-12)
+            .solve(b, crate::tolerance::SINGULAR_REL)
             .map_err(|e| Error::FitFailed(format!("singular system: {e}")))?,
     };
     if x.iter().all(|v| v.is_finite()) {
@@ -298,6 +298,7 @@ impl NurbsSurface {
 mod tests {
     use super::*;
     use crate::assert_near;
+    use crate::tolerance::{APPROX_FIT_TOL, EXACT_EPS, FIT_EPS, POINT_EPS};
 
     fn grid(n_u: usize, n_v: usize) -> Vec<Vec<DVec3>> {
         (0..n_u)
@@ -318,7 +319,7 @@ mod tests {
         let (s, tu, tv) = NurbsSurface::interpolate_grid(&pts, 3, 2).unwrap();
         for (k, row) in pts.iter().enumerate() {
             for (l, p) in row.iter().enumerate() {
-                assert_near!(s.point(tu[k], tv[l]).to_array(), p.to_array(), 1e-12);
+                assert_near!(s.point(tu[k], tv[l]).to_array(), p.to_array(), EXACT_EPS);
             }
         }
     }
@@ -337,7 +338,7 @@ mod tests {
         let s = NurbsSurface::approximate_grid(&pts, 4, 4, 3, 3).unwrap();
         let inv = s.inverter();
         for p in pts.iter().flatten() {
-            assert!(inv.closest_point(*p).distance < 1e-9);
+            assert!(inv.closest_point(*p).distance < POINT_EPS);
         }
         // A wavy grid is approximated with a small residual.
         let pts = grid(20, 15);
@@ -348,7 +349,7 @@ mod tests {
             .flatten()
             .map(|p| inv.closest_point(*p).distance)
             .fold(0.0, f64::max);
-        assert!(worst < 5e-3, "worst residual {worst}");
+        assert!(worst < APPROX_FIT_TOL, "worst residual {worst}");
     }
 
     #[test]
@@ -362,7 +363,7 @@ mod tests {
         let points: Vec<DVec3> = params.iter().map(|&t| f(t)).collect();
         let s = NurbsSurface::approximate_scattered(&points, &params, 4, 4, 3, 3).unwrap();
         for (t, p) in params.iter().zip(&points) {
-            assert_near!(s.point_uv(*t).to_array(), p.to_array(), 1e-10);
+            assert_near!(s.point_uv(*t).to_array(), p.to_array(), FIT_EPS);
         }
         // Fewer points (10) than control points (36): the minimum-norm solution
         // interpolates every point.
@@ -373,7 +374,7 @@ mod tests {
             .collect();
         let s = NurbsSurface::approximate_scattered(&pts, &few, 6, 6, 3, 3).unwrap();
         for (t, p) in few.iter().zip(&pts) {
-            assert_near!(s.point_uv(*t).to_array(), p.to_array(), 1e-9);
+            assert_near!(s.point_uv(*t).to_array(), p.to_array(), POINT_EPS);
         }
         assert!(NurbsSurface::approximate_scattered(&pts, &few[..3], 6, 6, 3, 3).is_err());
         assert!(

@@ -420,6 +420,7 @@ impl KnotVector {
 mod tests {
     use super::*;
     use crate::assert_near;
+    use crate::tolerance::{BASIS_DERIV_REL, ROUNDING_EPS, ULP_EPS};
 
     /// P&T Ex2.3: U = {0,0,0,1,2,3,4,4,5,5,5}, p = 2, u = 5/2.
     fn book() -> KnotVector {
@@ -433,7 +434,7 @@ mod tests {
         assert_eq!(s, 4);
         let n = kv.basis(s, 2.5);
         // N_{2,2} = 1/8, N_{3,2} = 6/8, N_{4,2} = 1/8.
-        assert_near!([n[0], n[1], n[2]], [0.125, 0.75, 0.125], 1e-15);
+        assert_near!([n[0], n[1], n[2]], [0.125, 0.75, 0.125], ULP_EPS);
     }
 
     #[test]
@@ -441,8 +442,8 @@ mod tests {
         let kv = book();
         let d = kv.basis_ders(4, 2.5, 2);
         // N'_{2,2}(5/2) = -1/2, N'_{3,2} = 0, N'_{4,2} = 1/2; second derivatives 1, -2, 1.
-        assert_near!([d[1][0], d[1][1], d[1][2]], [-0.5, 0.0, 0.5], 1e-14);
-        assert_near!([d[2][0], d[2][1], d[2][2]], [1.0, -2.0, 1.0], 1e-14);
+        assert_near!([d[1][0], d[1][1], d[1][2]], [-0.5, 0.0, 0.5], ROUNDING_EPS);
+        assert_near!([d[2][0], d[2][1], d[2][2]], [1.0, -2.0, 1.0], ROUNDING_EPS);
     }
 
     #[test]
@@ -465,7 +466,8 @@ mod tests {
                     assert_near!(
                         fast[r],
                         slow[r],
-                        1e-9 * (1.0 + slow[r].iter().fold(0.0, |m: f64, x| m.max(x.abs())))
+                        BASIS_DERIV_REL
+                            * (1.0 + slow[r].iter().fold(0.0, |m: f64, x| m.max(x.abs())))
                     );
                 }
             }
@@ -518,6 +520,6 @@ mod tests {
         assert_eq!(kv.domain(), (2.0, 5.0));
         assert_eq!(kv.find_span(5.0), 4);
         let n = kv.basis(kv.find_span(3.3), 3.3);
-        assert_near!(n.iter().sum::<f64>(), 1.0, 1e-15);
+        assert_near!(n.iter().sum::<f64>(), 1.0, ULP_EPS);
     }
 }

@@ -418,14 +418,16 @@ impl NurbsSurface {
         let d = self.derivatives(u, v);
         let n = d.du.cross(d.dv);
         let scale = d.du.length_squared().max(d.dv.length_squared());
-        if n.length_squared() > 1e-24 * scale * scale && n.length_squared() > 0.0 {
+        if n.length_squared() > crate::tolerance::NORMAL_DEGENERATE_REL2 * scale * scale
+            && n.length_squared() > 0.0
+        {
             return n.normalize();
         }
         let (u0, u1) = self.domain_u();
         let (v0, v1) = self.domain_v();
         let c = DVec2::new(0.5 * (u0 + u1), 0.5 * (v0 + v1));
         let uv = self.clamp_uv(DVec2::new(u, v));
-        for t in [1e-7, 1e-5, 1e-3] {
+        for t in crate::tolerance::POLE_NORMAL_STEPS {
             let p = uv + (c - uv) * t;
             let d = self.derivatives(p.x, p.y);
             let n = d.du.cross(d.dv);
@@ -503,13 +505,14 @@ impl NurbsSurface {
     /// Same Cartesian point and same weight.
     fn same_node(&self, a: usize, b: usize) -> bool {
         let (wa, wb) = (self.pw[a].w, self.pw[b].w);
-        self.same_point(a, b) && (wa - wb).abs() <= 1e-12 * wa.max(wb)
+        self.same_point(a, b) && (wa - wb).abs() <= crate::tolerance::REL_EPS * wa.max(wb)
     }
 
     fn same_point(&self, a: usize, b: usize) -> bool {
         let (pa, pb) = (self.pw[a], self.pw[b]);
         let (ca, cb) = (pa.truncate() / pa.w, pb.truncate() / pb.w);
-        let tol = 1e-12 * (1.0 + ca.abs().max_element().max(cb.abs().max_element()));
+        let tol =
+            crate::tolerance::REL_EPS * (1.0 + ca.abs().max_element().max(cb.abs().max_element()));
         (ca - cb).abs().max_element() <= tol
     }
 }

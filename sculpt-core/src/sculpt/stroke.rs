@@ -271,7 +271,9 @@ pub fn resample(points: &[DVec3], spacing: f64) -> Vec<DVec3> {
         return pts;
     }
     let length: f64 = pts.windows(2).map(|w| w[0].distance(w[1])).sum();
-    let spacing = spacing.max(length / MAX_SAMPLES as f64).max(1e-12);
+    let spacing = spacing
+        .max(length / MAX_SAMPLES as f64)
+        .max(crate::tolerance::MIN_SPACING);
     // Corners: the turn between the directions one window back and ahead.
     let mut cum = vec![0.0];
     for w in pts.windows(2) {
@@ -364,7 +366,7 @@ impl Stroke {
         }
         let raw: Vec<DVec3> = input.samples.iter().map(|s| s.1).collect();
         let length: f64 = raw.windows(2).map(|w| w[0].distance(w[1])).sum();
-        if raw.len() < 2 || length <= tool.width * 1e-3 {
+        if raw.len() < 2 || length <= tool.width * crate::tolerance::MIN_STROKE_LEN_REL {
             return Err(reject("the stroke has zero length"));
         }
         let pts = resample(&raw, tool.width * 0.25);
@@ -403,7 +405,7 @@ impl Stroke {
         let mut run = runs.into_iter().max_by_key(|r| r.len()).unwrap_or_default();
         run = through_poles(&run);
         let run_len: f64 = run.windows(2).map(|w| w[0].1.distance(w[1].1)).sum();
-        if run.len() < 2 || run_len <= tool.width * 1e-3 {
+        if run.len() < 2 || run_len <= tool.width * crate::tolerance::MIN_STROKE_LEN_REL {
             return Err(reject("the stroke does not lie on the surface"));
         }
         // A stroke whose end comes back to its start is a loop: it is closed with one
@@ -511,7 +513,7 @@ impl Stroke {
                     piece = clip_to_box(&piece, DVec2::splat(-1.0), DVec2::splat(2.0));
                 }
                 let a = signed_area(&piece);
-                if piece.len() < 3 || a.abs() < 1e-18 || !a.is_finite() {
+                if piece.len() < 3 || a.abs() < crate::tolerance::UV_AREA_EPS || !a.is_finite() {
                     continue;
                 }
                 if a < 0.0 {
@@ -827,7 +829,7 @@ fn wrapped_segments(line: &[DVec2], closed: [bool; 2]) -> Vec<[DVec2; 2]> {
 fn uv_step(du: DVec3, dv: DVec3, d: DVec3) -> DVec2 {
     let (aa, ab, bb) = (du.dot(du), du.dot(dv), dv.dot(dv));
     let det = aa * bb - ab * ab;
-    if det.abs() <= 1e-300 || !det.is_finite() {
+    if det.abs() <= crate::tolerance::DIVISOR_MIN || !det.is_finite() {
         return DVec2::ZERO;
     }
     let (ga, gb) = (du.dot(d), dv.dot(d));
@@ -948,7 +950,7 @@ impl Buckets {
                 lo = lo.min(rim[i]).min(rim[i + 1]);
                 hi = hi.max(rim[i]).max(rim[i + 1]);
             }
-            let pad = (hi - lo) * 0.25 + DVec2::splat(1e-9);
+            let pad = (hi - lo) * 0.25 + DVec2::splat(crate::tolerance::UV_PAD);
             let (a, b) = (me.cell_of(lo - pad), me.cell_of(hi + pad));
             for y in a.1..=b.1 {
                 for x in a.0..=b.0 {
@@ -961,11 +963,12 @@ impl Buckets {
     }
 
     fn pad(&self) -> DVec2 {
-        (self.bounds.max - self.bounds.min) * 0.25 + DVec2::splat(1e-9)
+        (self.bounds.max - self.bounds.min) * 0.25 + DVec2::splat(crate::tolerance::UV_PAD)
     }
 
     fn cell_of(&self, p: DVec2) -> (usize, usize) {
-        let size = (self.bounds.max - self.bounds.min).max(DVec2::splat(1e-12));
+        let size =
+            (self.bounds.max - self.bounds.min).max(DVec2::splat(crate::tolerance::UV_EXTENT_MIN));
         let f = ((p - self.bounds.min) / size * self.n as f64).floor();
         let c = |x: f64| (x.max(0.0) as usize).min(self.n - 1);
         (c(f.x), c(f.y))
@@ -1004,6 +1007,9 @@ mod tests {
     use crate::assert_near;
     use crate::sculpt::jordan::Location;
     use crate::sculpt::surface::test_surfaces::plane;
+    use crate::tolerance::{
+        AREA_SYMMETRY_EPS, EXACT_EPS, FOOTPRINT_AREA_TOL, POINT_EPS, SEAM_DEPTH_TOL,
+    };
 
     fn tool() -> Tool {
         Tool {
@@ -1048,12 +1054,12 @@ mod tests {
         assert_near!(
             st.depth_at(DVec2::new(0.5, 0.5), DVec3::new(0.5, 0.5, 0.0)),
             0.02,
-            1e-9
+            POINT_EPS
         );
         assert_near!(
             st.depth_at(DVec2::new(0.5, 0.525), DVec3::new(0.5, 0.525, 0.0)),
             0.01,
-            1e-9
+            POINT_EPS
         );
         assert_eq!(
             st.depth_at(DVec2::new(0.5, 0.6), DVec3::new(0.5, 0.6, 0.0)),
@@ -1068,7 +1074,7 @@ mod tests {
         assert_near!(
             st.footprint.area(),
             0.06 + std::f64::consts::PI * 0.0025,
-            1e-4
+            FOOTPRINT_AREA_TOL
         );
     }
 
@@ -1187,8 +1193,8 @@ mod tests {
             let a = f64::to_radians(deg);
             [a.cos(), a.sin(), 0.0]
         };
-        assert_near!(s.eval(wrap_uv(first)).p.to_array(), at(150.0), 1e-9);
-        assert_near!(s.eval(wrap_uv(last)).p.to_array(), at(205.0), 1e-9);
+        assert_near!(s.eval(wrap_uv(first)).p.to_array(), at(150.0), POINT_EPS);
+        assert_near!(s.eval(wrap_uv(last)).p.to_array(), at(205.0), POINT_EPS);
         // The footprint in the square covers both sides of the seam.
         for u in [0.002, 0.05, 0.95, 0.998] {
             assert_eq!(
@@ -1207,13 +1213,22 @@ mod tests {
         // Same area as the stroke turned half-way round, away from the seam (the
         // sphere's four quarter arcs have the same parametrisation).
         let away = build(&s, equator(-30.0, 25.0));
-        assert_near!(st.footprint.area(), away.footprint.area(), 1e-6);
+        assert_near!(
+            st.footprint.area(),
+            away.footprint.area(),
+            AREA_SYMMETRY_EPS
+        );
         // Full depth on the centreline either side of the seam, from either copy (the
         // depth is measured from the centreline's chords: their sag, spacing^2 / 8R, is
         // under 1e-4 m).
         for u in [0.999, 0.001, 1.001, -0.001] {
             let uv = DVec2::new(u, 0.5);
-            assert_near!(st.depth_at(uv, s.eval(wrap_uv(uv)).p), 0.02, 1e-4, "{u}");
+            assert_near!(
+                st.depth_at(uv, s.eval(wrap_uv(uv)).p),
+                0.02,
+                SEAM_DEPTH_TOL,
+                "{u}"
+            );
         }
     }
 
@@ -1242,7 +1257,7 @@ mod tests {
         assert!(round.depth.iter().all(|&d| d == 0.02));
         // Full depth at the join (the start, at angle 0).
         let join = DVec2::new(0.7, 0.5);
-        assert_near!(round.depth_at(join, join.extend(0.0)), 0.02, 1e-9);
+        assert_near!(round.depth_at(join, join.extend(0.0)), 0.02, POINT_EPS);
         // Three quarters of a turn is no loop: its ends taper.
         let open = Stroke::build(&s, &input(circle(0.75)), 0.1).unwrap();
         assert!(!open.is_loop());
@@ -1283,7 +1298,7 @@ mod tests {
         let c = clip_to_box(&tri, DVec2::splat(-1.0), DVec2::splat(2.0));
         assert!(c.iter().all(|p| p.x >= -1.0));
         // The triangle's area right of x = -1: the integral of (x + 2) / 3 over [-1, 1].
-        assert_near!(signed_area(&c).abs(), 4.0 / 3.0, 1e-12);
+        assert_near!(signed_area(&c).abs(), 4.0 / 3.0, EXACT_EPS);
     }
 
     #[test]
@@ -1296,10 +1311,10 @@ mod tests {
         let out = resample(&pts, 0.05);
         assert!(
             out.iter()
-                .any(|p| p.distance(DVec3::new(1.0, 0.0, 0.0)) < 1e-12)
+                .any(|p| p.distance(DVec3::new(1.0, 0.0, 0.0)) < EXACT_EPS)
         );
         for w in out.windows(2) {
-            assert!(w[0].distance(w[1]) <= 0.05 + 1e-9);
+            assert!(w[0].distance(w[1]) <= 0.05 + POINT_EPS);
         }
     }
 }

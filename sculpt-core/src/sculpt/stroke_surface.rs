@@ -312,7 +312,7 @@ impl StrokeSurface {
             .map(|row| row.windows(2).map(|w| w[0].distance(w[1])).sum::<f64>())
             .fold(0.0, f64::max);
         let aspect = if along > 0.0 && across > 0.0 && (along / across).is_finite() {
-            (along / across).clamp(1e-3, 1e6)
+            (along / across).clamp(crate::tolerance::ASPECT_MIN, 1e6)
         } else {
             1.0
         };
@@ -326,7 +326,8 @@ impl StrokeSurface {
             uv,
             mode: stroke.tool.mode,
             fit_error: 0.0,
-            fit_tolerance: 0.075 * stroke.tool.depth + 1e-3 * stroke.tool.width,
+            fit_tolerance: crate::tolerance::FIT_TOL_DEPTH_REL * stroke.tool.depth
+                + crate::tolerance::FIT_TOL_WIDTH_REL * stroke.tool.width,
             trim: Region::empty(),
             maps: [UvMap::new(MAP_ROOTS), UvMap::new(MAP_ROOTS)],
         };
@@ -509,7 +510,7 @@ impl StrokeSurface {
         let Some((_, me)) = strokes.get(own) else {
             return Region::empty();
         };
-        let pad = DVec2::splat(1e-9);
+        let pad = DVec2::splat(crate::tolerance::UV_PAD);
         let reach = Rect::new(me.bounds.min - pad, me.bounds.max + pad);
         let others: Vec<usize> = (0..strokes.len())
             .filter(|&j| j != own)
@@ -709,7 +710,7 @@ impl StrokeSurface {
         let mut n = sp.dv.cross(sp.du).normalize_or_zero();
         if n == DVec3::ZERO || !n.is_finite() {
             // A degenerate point (a tapered end): the normal a little way inside.
-            let q = st + (DVec2::splat(0.5) - st) * 1e-3;
+            let q = st + (DVec2::splat(0.5) - st) * crate::tolerance::DEGENERATE_NORMAL_INSET;
             let sq = ParamSurface::eval(&self.surface, q);
             n = sq.dv.cross(sq.du).normalize_or_zero();
         }
