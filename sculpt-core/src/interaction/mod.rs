@@ -254,7 +254,10 @@ pub struct StrokeSample {
 }
 
 /// A finished stroke, ready for the sculpting layer: the interaction's request to
-/// stroke a target (what [`crate::editor::apply`] turns into a document stroke).
+/// stroke a target (what [`crate::editor::apply`] turns into a document stroke). The
+/// document keeps a stroke as a
+/// [`StrokeInput`](crate::sculpt::stroke::StrokeInput), on a target named by its id,
+/// made from this by [`crate::editor::stroke_input`].
 ///
 /// Journalled as `{"target": 0, "mode": "carve", "tool": {"profile": "v", "width":
 /// 0.02, "depth": 0.005, "taper": 0.01}, "samples": [{"t": 0.0, "position": [x, y,
@@ -265,7 +268,8 @@ pub struct StrokeSample {
 pub struct StrokeEdit {
     /// The target's position in the document's targets.
     pub target: TargetIndex,
-    /// Carve or emboss: always `tool.mode`.
+    /// Carve or emboss. [`StrokeEdit::new`] takes it from `tool.mode`, and it is the
+    /// one applied ([`crate::editor::stroke_input`]) and journalled.
     pub mode: StrokeMode,
     /// Tool at the time of the stroke.
     pub tool: Tool,
