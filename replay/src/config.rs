@@ -54,7 +54,9 @@
 //! assert_eq!(cfg.tracking.wand_id, 0);
 //! ```
 
-pub use sculpt_core::interaction::{ButtonMap, InteractionConfig, Mode, Profile, Tool};
+pub use sculpt_core::interaction::{
+    ButtonMap, InteractionConfig, InteractionMode, Profile, StrokeMode, Tool,
+};
 use serde::{Deserialize, Serialize};
 pub use tracking::calibration::Calibration;
 pub use tracking::filter::FilterConfig;
@@ -139,7 +141,7 @@ impl ReplayConfig {
             },
             calibration: stage.calibration,
             filter: stage.filter,
-            tool: display.tool,
+            tool: display.tool.clone(),
             interaction: display.interaction,
         })
     }

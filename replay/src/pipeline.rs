@@ -28,7 +28,7 @@ use sculpt_core::interaction::{
     Edit, EndReason, Interaction, OperatorEvent, Profile, StrokeEdit, StrokeMode,
 };
 use sculpt_core::oplog::{OpLogHeader, OpLogWriter};
-use sculpt_core::sculpt::document::Document;
+use sculpt_core::sculpt::document::{Document, StrokeId, TargetId};
 use serde::Serialize;
 use tracking::Frame;
 use tracking::poselog::{PoseLogReader, Record, RecordKind};
@@ -75,12 +75,12 @@ pub struct TrackingMetrics {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StrokeMetrics {
     /// Document stroke id.
-    pub id: u64,
-    /// Target id.
-    pub target: u64,
+    pub id: StrokeId,
+    /// Document target id.
+    pub target: TargetId,
     /// `carve` or `emboss`.
     pub mode: &'static str,
-    /// `v` or `u`.
+    /// `v`, `u` or `custom`.
     pub profile: &'static str,
     /// Wand samples.
     pub samples: usize,
@@ -379,7 +379,7 @@ impl Replayer {
         }
     }
 
-    fn stroke_applied(&mut self, s: &StrokeEdit, id: u64, target: u64, t: f64) {
+    fn stroke_applied(&mut self, s: &StrokeEdit, id: StrokeId, target: TargetId, t: f64) {
         let n = s.samples.len();
         let (start_s, end_s) = (s.samples[0].t, s.samples[n - 1].t);
         self.metrics.per_stroke.push(StrokeMetrics {
@@ -392,6 +392,7 @@ impl Replayer {
             profile: match s.tool.profile {
                 Profile::V => "v",
                 Profile::U => "u",
+                Profile::Custom(_) => "custom",
             },
             samples: n,
             start_s,

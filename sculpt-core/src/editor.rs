@@ -9,7 +9,7 @@
 //! ```
 //! use glam::DVec3;
 //! use sculpt_core::editor::{self, Applied};
-//! use sculpt_core::interaction::{Edit, StrokeEdit, StrokeMode, StrokeSample, Tool};
+//! use sculpt_core::interaction::{Edit, StrokeEdit, StrokeSample, TargetIndex, Tool};
 //!
 //! let mut doc = editor::default_document();
 //! let samples = (0..=20)
@@ -18,12 +18,7 @@
 //!         StrokeSample { t: 0.01 * i as f64, position: editor::default_surface_point(x, 1.17) }
 //!     })
 //!     .collect();
-//! let edit = Edit::Stroke(StrokeEdit {
-//!     target: 0,
-//!     mode: StrokeMode::Carve,
-//!     tool: Tool::default(),
-//!     samples,
-//! });
+//! let edit = Edit::Stroke(StrokeEdit::new(TargetIndex(0), Tool::default(), samples));
 //! assert!(matches!(editor::apply(&mut doc, &edit), Applied::Stroke { .. }));
 //! assert_eq!(doc.strokes().len(), 1);
 //! assert_eq!(editor::apply(&mut doc, &Edit::Undo), Applied::Undone);
@@ -32,11 +27,11 @@
 
 use glam::DVec3;
 
-use crate::interaction::{self, Edit, Mode, OperatorEvent, StrokeEdit, StrokeMode};
+use crate::interaction::{Edit, InteractionMode, OperatorEvent, StrokeEdit};
 use crate::nurbs::NurbsSurface;
 use crate::oplog::{EventKind, TrackingState};
 use crate::sculpt::document::{Document, StrokeId, TargetId};
-use crate::sculpt::stroke::{self, StrokeInput};
+use crate::sculpt::stroke::{Profile, StrokeInput, Tool};
 use crate::{Error, Result};
 
 /// Centre of the default surface (display frame metres): 1.17 m up, 0.1 m behind the
@@ -141,29 +136,20 @@ pub fn fit_sketch(rows: &[Vec<DVec3>]) -> Result<NurbsSurface> {
     )
 }
 
-/// The sculpting layer's input for an interaction stroke: its samples, and its tool
-/// with the mode folded in.
+/// The sculpting layer's input for an interaction stroke: its samples and its tool,
+/// carving or embossing as the edit's mode says.
 pub fn stroke_input(edit: &StrokeEdit) -> StrokeInput {
-    let tool = &edit.tool;
     StrokeInput {
         samples: edit.samples.iter().map(|s| (s.t, s.position)).collect(),
-        tool: stroke::Tool {
-            profile: match tool.profile {
-                interaction::Profile::V => stroke::Profile::V,
-                interaction::Profile::U => stroke::Profile::U,
-            },
-            width: tool.width,
-            depth: tool.depth,
-            mode: match edit.mode {
-                StrokeMode::Carve => stroke::Mode::Carve,
-                StrokeMode::Emboss => stroke::Mode::Emboss,
-            },
-            taper: tool.taper,
+        tool: Tool {
+            mode: edit.mode,
+            ..edit.tool.clone()
         },
     }
 }
 
-/// What [`apply`] did to the document.
+/// What [`apply`] did to the document: the outcome of an [`Edit`], naming targets and
+/// strokes by their document ids.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Applied {
     /// A stroke was added.
@@ -201,17 +187,17 @@ impl Applied {
 
 /// Applies one interaction edit to `doc`.
 ///
-/// Strokes go to the target at the edit's index (in [`Document::targets`] order)
-/// through [`Document::apply_stroke`]; sketches are fitted ([`fit_sketch`]) and added
+/// Strokes go to the target at the edit's position ([`Document::target_at`]) through
+/// [`Document::apply_stroke`]; sketches are fitted ([`fit_sketch`]) and added
 /// as targets named `sketch N`; undo and redo step the document's history. A refused
 /// stroke or sketch leaves the document unchanged and says why.
 pub fn apply(doc: &mut Document, edit: &Edit) -> Applied {
     match edit {
         Edit::Stroke(s) => {
-            let Some(target) = doc.targets().get(s.target as usize).map(|t| t.id) else {
+            let Some(target) = doc.target_at(s.target).map(|t| t.id) else {
                 return Applied::Rejected(Error::NotFound {
                     kind: "target",
-                    id: u64::from(s.target),
+                    id: u64::from(s.target.0),
                 });
             };
             match doc.apply_stroke(target, stroke_input(s)) {
@@ -235,19 +221,16 @@ pub fn apply(doc: &mut Document, edit: &Edit) -> Applied {
 }
 
 /// The operator-log name of a mode (`sketch`, `carve`, `emboss`).
-pub fn mode_name(mode: Mode) -> &'static str {
-    match mode {
-        Mode::Sketch => "sketch",
-        Mode::Carve => "carve",
-        Mode::Emboss => "emboss",
-    }
+pub fn mode_name(mode: InteractionMode) -> &'static str {
+    mode.name()
 }
 
-/// The operator-log name of a tool (`v-chisel`, `u-chisel`).
-pub fn tool_name(tool: &interaction::Tool) -> &'static str {
+/// The operator-log name of a tool (`v-chisel`, `u-chisel`, `custom-chisel`).
+pub fn tool_name(tool: &Tool) -> &'static str {
     match tool.profile {
-        interaction::Profile::V => "v-chisel",
-        interaction::Profile::U => "u-chisel",
+        Profile::V => "v-chisel",
+        Profile::U => "u-chisel",
+        Profile::Custom(_) => "custom-chisel",
     }
 }
 
@@ -302,21 +285,20 @@ pub fn oplog_event(event: &OperatorEvent) -> EventKind {
 mod tests {
     use super::*;
     use crate::assert_near;
-    use crate::interaction::{StrokeSample, Tool};
+    use crate::interaction::{StrokeSample, TargetIndex};
     use crate::tolerance::{EXACT_EPS, POINT_EPS};
 
     fn carve(target: u32, y: f64) -> Edit {
-        Edit::Stroke(StrokeEdit {
-            target,
-            mode: StrokeMode::Carve,
-            tool: Tool::default(),
-            samples: (0..=30)
+        Edit::Stroke(StrokeEdit::new(
+            TargetIndex(target),
+            Tool::default(),
+            (0..=30)
                 .map(|i| StrokeSample {
                     t: i as f64 * 0.01,
                     position: default_surface_point(-0.3 + 0.02 * i as f64, y),
                 })
                 .collect(),
-        })
+        ))
     }
 
     #[test]
@@ -425,14 +407,16 @@ mod tests {
         use crate::oplog::{OpLogHeader, OpLogWriter, decode_bytes};
         let events = [
             OperatorEvent::ButtonDown { button: 0 },
-            OperatorEvent::GestureStart { mode: Mode::Carve },
+            OperatorEvent::GestureStart {
+                mode: InteractionMode::CARVE,
+            },
             OperatorEvent::ModeChange {
-                from: Mode::Carve,
-                to: Mode::Emboss,
+                from: InteractionMode::CARVE,
+                to: InteractionMode::EMBOSS,
             },
             OperatorEvent::ToolChange {
                 tool: Tool {
-                    profile: interaction::Profile::U,
+                    profile: Profile::U,
                     ..Tool::default()
                 },
             },

@@ -495,8 +495,8 @@ mod tests {
     }
 
     fn sample(event: &WandEvent) -> InteractionSample {
-        match event.input {
-            WandInput::Sample(s) => s,
+        match &event.input {
+            WandInput::Sample(s) => *s,
             WandInput::Command(c) => panic!("a stage sample became a command: {c:?}"),
         }
     }

@@ -4,7 +4,7 @@
 //! window here.
 
 use glam::DVec3;
-use sculpt_core::interaction::{Mode, Profile, StrokeMode};
+use sculpt_core::interaction::{Profile, StrokeMode};
 
 use crate::config::Config;
 use crate::error::VrResult;
@@ -109,15 +109,12 @@ impl AppState {
     /// HUD text: mode, tool, target, tracking, fps, operations.
     pub fn hud_lines(&self) -> Vec<String> {
         let i = &self.session.interaction;
-        let mode = match i.mode() {
-            Mode::Sketch => "sketch",
-            Mode::Carve => "carve",
-            Mode::Emboss => "emboss",
-        };
+        let mode = i.mode().name();
         let t = i.tool();
         let profile = match t.profile {
             Profile::V => "V",
             Profile::U => "U",
+            Profile::Custom(_) => "custom",
         };
         let tracking = match (self.tracking, i.gesture_paused()) {
             (_, true) => "TRACKING LOST (stroke paused)",
@@ -135,7 +132,7 @@ impl AppState {
                 "{mode} {profile} {:.1}x{:.1}mm  target {}/{}{live}",
                 t.width * 1000.0,
                 t.depth * 1000.0,
-                i.target() + 1,
+                i.target().0 + 1,
                 self.session.doc.targets().len()
             ),
             format!(

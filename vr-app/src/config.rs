@@ -28,7 +28,7 @@
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use sculpt_core::interaction::{InteractionConfig, Mode, Profile, Tool};
+use sculpt_core::interaction::{InteractionConfig, InteractionMode, Profile, StrokeMode, Tool};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{VrError, VrResult};
@@ -286,13 +286,14 @@ impl TrackingSection {
     }
 }
 
-/// Starting tool and mode.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+/// Starting tool and mode (the `[tool]` table); what is left out is
+/// [`Tool::default`]'s, in carve mode.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ToolConfig {
-    /// Starting mode.
-    pub mode: Mode,
-    /// Profile, `v` or `u`.
+    /// Starting mode: `sketch`, `carve` or `emboss`.
+    pub mode: InteractionMode,
+    /// Profile: `v`, `u` or `{ custom = [[x, f], ...] }`.
     pub profile: Profile,
     /// Width (metres).
     pub width: f64,
@@ -306,7 +307,7 @@ impl Default for ToolConfig {
     fn default() -> Self {
         let t = Tool::default();
         Self {
-            mode: Mode::Carve,
+            mode: InteractionMode::Stroke(t.mode),
             profile: t.profile,
             width: t.width,
             depth: t.depth,
@@ -316,12 +317,14 @@ impl Default for ToolConfig {
 }
 
 impl ToolConfig {
-    /// The tool.
+    /// The tool; starting in sketch mode, it carves once the mode button leaves
+    /// sketching.
     pub fn tool(&self) -> Tool {
         Tool {
-            profile: self.profile,
+            profile: self.profile.clone(),
             width: self.width,
             depth: self.depth,
+            mode: self.mode.stroke_mode().unwrap_or(StrokeMode::Carve),
             taper: self.taper,
         }
     }

@@ -231,14 +231,13 @@ fn truncate(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sculpt_core::interaction::{StrokeEdit, StrokeMode, StrokeSample, Tool};
+    use sculpt_core::interaction::{StrokeEdit, StrokeSample, TargetIndex, Tool};
 
     fn stroke() -> Edit {
-        Edit::Stroke(StrokeEdit {
-            target: 0,
-            mode: StrokeMode::Carve,
-            tool: Tool::default(),
-            samples: vec![
+        Edit::Stroke(StrokeEdit::new(
+            TargetIndex(0),
+            Tool::default(),
+            vec![
                 StrokeSample {
                     t: 0.0,
                     position: glam::DVec3::new(0.0, 1.0, 0.0),
@@ -248,7 +247,7 @@ mod tests {
                     position: glam::DVec3::new(0.1, 1.0, 0.0),
                 },
             ],
-        })
+        ))
     }
 
     #[test]

@@ -263,7 +263,7 @@ impl Session {
             }
         }
         let oplog = OperatorLog::create(dir.join(OPLOG_FILE), editor::mode_name(config.tool.mode))?;
-        if let Some(index) = selected.filter(|&i| i < edit_loop.target_count()) {
+        if let Some(index) = selected.filter(|&i| i.0 < edit_loop.target_count()) {
             // At t = 0, so that any live event may follow; not journalled again.
             let select = WandEvent::command(0.0, Command::SelectTarget { index });
             match edit_loop.handle(&select, &mut NoHooks) {
@@ -358,7 +358,7 @@ impl Session {
 mod tests {
     use super::*;
     use glam::{DQuat, DVec3};
-    use sculpt_core::interaction::WandSample;
+    use sculpt_core::interaction::{TargetIndex, WandSample};
     use sculpt_core::oplog::{EventKind, decode_bytes};
 
     fn config(dir: &Path) -> Config {
@@ -454,10 +454,18 @@ mod tests {
         assert_eq!(s.doc.targets().len(), 2);
         s.handle(&WandEvent::command(0.0, Command::SelectNextTarget))
             .unwrap();
-        assert_eq!(s.interaction.target(), 1, "both targets can be selected");
+        assert_eq!(
+            s.interaction.target(),
+            TargetIndex(1),
+            "both targets can be selected"
+        );
         drop(s);
         let s = Session::open(&cfg).unwrap();
-        assert_eq!(s.interaction.target(), 1, "the selection is recovered");
+        assert_eq!(
+            s.interaction.target(),
+            TargetIndex(1),
+            "the selection is recovered"
+        );
         std::fs::write(&scene, b"{\"format\":\"nope\"}").unwrap();
         let e = Session::open(&cfg).unwrap_err().to_string();
         assert!(e.contains("base.json"), "{e}");

@@ -10,7 +10,7 @@ use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Instant;
 
-use sculpt_core::interaction::{Command, Mode, Profile, WandEvent, WandSample};
+use sculpt_core::interaction::{Command, InteractionMode, Profile, WandEvent, WandSample};
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
@@ -85,7 +85,7 @@ pub fn run_windowed(app: AppState, input: WindowInput, frames: Option<u64>) -> V
     })?;
     event_loop.set_control_flow(ControlFlow::Poll);
     let scripted = match &input {
-        WindowInput::Scripted(ev) => ev.iter().copied().collect(),
+        WindowInput::Scripted(ev) => ev.iter().cloned().collect(),
         _ => VecDeque::new(),
     };
     let mut wa = WindowApp {
@@ -214,7 +214,7 @@ impl WindowApp {
     }
 
     fn key(&mut self, key: &Key, event_loop: &ActiveEventLoop) {
-        let tool = self.app.session.interaction.tool();
+        let tool = self.app.session.interaction.tool().clone();
         match key {
             Key::Named(NamedKey::Escape) => event_loop.exit(),
             Key::Named(NamedKey::Tab) => self.command(Command::SelectNextTarget),
@@ -222,9 +222,15 @@ impl WindowApp {
                 ("z", true) => self.command(Command::Undo),
                 ("y", true) => self.command(Command::Redo),
                 ("s", true) => self.command(Command::Save),
-                ("1", _) => self.command(Command::SetMode { mode: Mode::Sketch }),
-                ("2", _) => self.command(Command::SetMode { mode: Mode::Carve }),
-                ("3", _) => self.command(Command::SetMode { mode: Mode::Emboss }),
+                ("1", _) => self.command(Command::SetMode {
+                    mode: InteractionMode::Sketch,
+                }),
+                ("2", _) => self.command(Command::SetMode {
+                    mode: InteractionMode::CARVE,
+                }),
+                ("3", _) => self.command(Command::SetMode {
+                    mode: InteractionMode::EMBOSS,
+                }),
                 ("v", _) => self.command(Command::SetProfile {
                     profile: Profile::V,
                 }),

@@ -83,8 +83,27 @@ pub const VERSION: u32 = 1;
 /// Largest document accepted by [`Document::from_json`], bytes.
 pub const MAX_DOCUMENT_BYTES: usize = 256 << 20;
 
-/// Identifies a target surface in a document.
+/// Identifies a target surface in a document: how every part of the program refers to
+/// a target (strokes, the editor's results, the live preview, replay metrics).
 pub type TargetId = u64;
+
+/// A target's position in [`Document::targets`] (0 first), not its id.
+///
+/// Only the interaction counts targets this way: it does not know the document, so it
+/// selects and cycles targets by position (and the journal, the pose log's commands
+/// and the HUD carry that position, written as a plain number). It becomes a
+/// [`TargetId`] in one place, [`Document::target_at`].
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
+#[serde(transparent)]
+pub struct TargetIndex(pub u32);
+
+impl std::fmt::Display for TargetIndex {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.0.fmt(f)
+    }
+}
 /// Identifies a stroke in a document.
 pub type StrokeId = u64;
 
@@ -211,6 +230,12 @@ impl Document {
     /// The targets, in order.
     pub fn targets(&self) -> &[TargetRecord] {
         &self.targets
+    }
+
+    /// The target at `index` in [`Document::targets`], if there is one: where the
+    /// interaction's target positions become targets (and their ids).
+    pub fn target_at(&self, index: TargetIndex) -> Option<&TargetRecord> {
+        self.targets.get(index.0 as usize)
     }
 
     /// The strokes, in the order they were applied.

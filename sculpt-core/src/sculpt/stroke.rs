@@ -84,7 +84,13 @@ pub const MAX_INPUT_SAMPLES: usize = 1_000_000;
 /// or a depth query (a stroke may wind round a torus a few times).
 const MAX_PERIODS: i64 = 8;
 
-/// Cross-section of the chisel.
+/// Cross-section of the chisel: the one profile type, used by the interaction (its
+/// current tool, commands, the journal) and by the sculpting layer (strokes, the
+/// document).
+///
+/// Written as `"v"`, `"u"` or `{"custom": [[x, f], ...]}` in every format (journal,
+/// document, scene, TOML configuration); the kebab-case and lowercase spellings the
+/// interaction and the sculpting layer once wrote separately are the same words.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Profile {
@@ -130,6 +136,14 @@ impl Profile {
         !matches!(self, Profile::V)
     }
 
+    /// The profile a profile button switches to: V to U, U (or a custom profile) to V.
+    pub fn toggled(&self) -> Self {
+        match self {
+            Profile::V => Profile::U,
+            Profile::U | Profile::Custom(_) => Profile::V,
+        }
+    }
+
     fn validate(&self) -> Result<()> {
         if let Profile::Custom(pts) = self {
             if pts.is_empty() || pts.len() > 256 {
@@ -152,8 +166,12 @@ impl Profile {
     }
 }
 
-/// Carve into the surface or emboss onto it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+/// Carve into the surface or emboss onto it: the one carve/emboss type (the
+/// interaction re-exports it as `StrokeMode`, next to its
+/// [`InteractionMode`](crate::interaction::InteractionMode), which adds sketching).
+///
+/// Written as `"carve"` or `"emboss"` in every format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Mode {
     /// Remove material: the groove goes in against the normal.
@@ -162,7 +180,20 @@ pub enum Mode {
     Emboss,
 }
 
-/// The chisel.
+/// The chisel and what it does: the one tool type, the interaction's current tool
+/// (its [`Interaction::tool`](crate::interaction::Interaction::tool)) and every
+/// stroke's tool in the document.
+///
+/// **Defaults** ([`Tool::default`]): a V profile, 2 cm wide, 5 mm deep, carving, with
+/// ends tapered over [`DEFAULT_TAPER`] (1 cm). **Caps** ([`Tool::validate`]): width
+/// and depth in `(0, MAX_TOOL_SIZE]`, the taper in `[0, MAX_TOOL_SIZE]`
+/// ([`MAX_TOOL_SIZE`] is 10 m), and a custom profile of 1 to 256 increasing points.
+///
+/// Serialized with its mode (`{"profile", "width", "depth", "mode", "taper"}`, the
+/// document's and scene files' stroke tools); a stored stroke without `taper` has
+/// blunt ends (0), as files written before tapers existed meant. The journal writes a
+/// stroke's mode beside its tool instead (see
+/// [`StrokeEdit`](crate::interaction::StrokeEdit)).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Tool {
@@ -183,6 +214,22 @@ pub struct Tool {
 /// a stroke built from the wand, and every stroke of a document or scene file read
 /// back, so that no mesh or file written from them holds a non-finite number.
 pub const MAX_TOOL_SIZE: f64 = 10.0;
+
+/// The default end taper (metres): [`Tool::default`]'s, and the taper of a journalled
+/// stroke or a configured tool that does not give one.
+pub const DEFAULT_TAPER: f64 = 0.01;
+
+impl Default for Tool {
+    fn default() -> Self {
+        Self {
+            profile: Profile::V,
+            width: 0.02,
+            depth: 0.005,
+            mode: Mode::Carve,
+            taper: DEFAULT_TAPER,
+        }
+    }
+}
 
 impl Tool {
     /// Checks the parameters: width and depth in `(0, MAX_TOOL_SIZE]`, the taper in
