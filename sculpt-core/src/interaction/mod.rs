@@ -34,7 +34,7 @@
 use glam::{DQuat, DVec3};
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use crate::error::{Error, InteractionError, Result, StrokeRejection, ToolParam, ToolRangeError};
 
 /// What the action button does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -105,20 +105,25 @@ impl Tool {
     /// [`MAX_TOOL_SIZE`](crate::sculpt::stroke::MAX_TOOL_SIZE) (10 m), and the
     /// taper finite and in `[0, 10]` m.
     pub fn validate(&self) -> Result<()> {
-        for (name, v) in [("width", self.width), ("depth", self.depth)] {
+        let out_of_range = |param, value| {
+            Error::Interaction(InteractionError::Tool(ToolRangeError {
+                param,
+                value,
+                max: crate::sculpt::stroke::MAX_TOOL_SIZE,
+            }))
+        };
+        for (name, v) in [
+            (ToolParam::Width, self.width),
+            (ToolParam::Depth, self.depth),
+        ] {
             if !(v.is_finite() && v > 0.0 && v <= crate::sculpt::stroke::MAX_TOOL_SIZE) {
-                return Err(Error::Interaction(format!(
-                    "tool {name} must be in (0, 10] m, got {v}"
-                )));
+                return Err(out_of_range(name, v));
             }
         }
         if !(self.taper.is_finite()
             && (0.0..=crate::sculpt::stroke::MAX_TOOL_SIZE).contains(&self.taper))
         {
-            return Err(Error::Interaction(format!(
-                "tool taper must be in [0, 10] m, got {}",
-                self.taper
-            )));
+            return Err(out_of_range(ToolParam::Taper, self.taper));
         }
         Ok(())
     }
@@ -351,6 +356,10 @@ pub enum OperatorEvent {
         committed: bool,
         /// Why it ended.
         reason: EndReason,
+        /// Why it produced no edit: too short a stroke or too few sketch rows (`None`
+        /// when committed). Not serialised: the event's serde form is unchanged.
+        #[serde(skip)]
+        dropped: Option<StrokeRejection>,
     },
     /// The wand stopped being tracked.
     TrackingLost,
@@ -620,18 +629,17 @@ impl Interaction {
     /// command carries an invalid value.
     pub fn handle(&mut self, ev: &WandEvent, out: &mut Vec<Output>) -> Result<()> {
         if !ev.t.is_finite() {
-            return Err(Error::Interaction(format!(
-                "event time {} is not finite",
-                ev.t
-            )));
+            return Err(Error::Interaction(InteractionError::TimeNotFinite {
+                t: ev.t,
+            }));
         }
         if let Some(last) = self.last_t
             && ev.t < last
         {
-            return Err(Error::Interaction(format!(
-                "event time {} is before the previous {last}",
-                ev.t
-            )));
+            return Err(Error::Interaction(InteractionError::TimeBackwards {
+                t: ev.t,
+                previous: last,
+            }));
         }
         if let WandInput::Command(c) = ev.input {
             self.check_command(&c)?;
@@ -938,12 +946,19 @@ impl Interaction {
     /// Ends the live gesture (if any), emitting its edit when it is long enough.
     fn finish(&mut self, t: f64, reason: EndReason, out: &mut Vec<Output>) {
         let gesture = std::mem::replace(&mut self.gesture, Gesture::Spent);
+        let mut dropped = None;
         let edit = match gesture {
             Gesture::Stroke { samples, .. } => {
                 let length: f64 = samples
                     .windows(2)
                     .map(|w| (w[1].position - w[0].position).length())
                     .sum();
+                if samples.len() < 2 || length < self.config.min_stroke_length {
+                    dropped = Some(StrokeRejection::TooShort {
+                        length_m: length,
+                        min_m: self.config.min_stroke_length,
+                    });
+                }
                 (samples.len() >= 2 && length >= self.config.min_stroke_length).then(|| {
                     Edit::Stroke(StrokeEdit {
                         target: self.target,
@@ -953,8 +968,16 @@ impl Interaction {
                     })
                 })
             }
-            Gesture::Sketch { rows, .. } => (rows.len() >= self.config.min_sketch_rows as usize)
-                .then_some(Edit::Sketch { rows }),
+            Gesture::Sketch { rows, .. } => {
+                if rows.len() < self.config.min_sketch_rows as usize {
+                    dropped = Some(StrokeRejection::TooFewRows {
+                        rows: rows.len(),
+                        min_rows: self.config.min_sketch_rows as usize,
+                    });
+                }
+                (rows.len() >= self.config.min_sketch_rows as usize)
+                    .then_some(Edit::Sketch { rows })
+            }
             idle @ (Gesture::Idle | Gesture::Spent) => {
                 self.gesture = idle;
                 return;
@@ -966,6 +989,7 @@ impl Interaction {
                 mode: self.mode,
                 committed: edit.is_some(),
                 reason,
+                dropped,
             },
         });
         if let Some(edit) = edit {
