@@ -62,7 +62,7 @@ pub use tracking::calibration::Calibration;
 pub use tracking::filter::FilterConfig;
 use tracking::stage::StageConfig;
 
-use crate::error::{Error, Result};
+use crate::error::{ConfigError, Error, Result};
 
 /// Which tracker devices are the wand and the head, and when the wand counts as lost.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -114,11 +114,12 @@ impl ReplayConfig {
     pub fn from_toml_str(text: &str) -> Result<Self> {
         let cfg = match vr_app::config::Config::from_toml_str(text) {
             Ok(display) => Self::from_display(&display)?,
-            Err(display) => toml::from_str::<Self>(text).map_err(|flat| {
-                Error::Config(format!(
-                    "neither a display server config ({display}) nor a replay config ({flat})"
-                ))
-            })?,
+            Err(display) => {
+                toml::from_str::<Self>(text).map_err(|flat| Error::ConfigUnrecognised {
+                    display: Box::new(display),
+                    flat: Box::new(flat),
+                })?
+            }
         };
         cfg.validate()?;
         Ok(cfg)
@@ -130,7 +131,10 @@ impl ReplayConfig {
     /// its `[interaction]`: exactly what the live app runs with.
     pub fn from_display(display: &vr_app::config::Config) -> Result<Self> {
         let stage = match &display.tracking {
-            Some(t) => t.stage_config().map_err(|e| Error::Config(e.to_string()))?,
+            Some(t) => t.stage_config().map_err(|source| Error::ConfigDisplay {
+                section: "[tracking]",
+                source,
+            })?,
             None => StageConfig::default(),
         };
         Ok(Self {
@@ -159,13 +163,19 @@ impl ReplayConfig {
 
     /// Checks every number; the error names the bad setting.
     pub fn validate(&self) -> Result<()> {
-        let bad = |m: String| Err(Error::Config(m));
+        let bad = |m: ConfigError| Err(Error::Config(m));
         self.calibration
             .validate()
-            .map_err(|e| Error::Config(format!("calibration: {e}")))?;
+            .map_err(|source| Error::ConfigTracking {
+                section: "calibration",
+                source,
+            })?;
         self.filter
             .validate()
-            .map_err(|e| Error::Config(format!("filter: {e}")))?;
+            .map_err(|source| Error::ConfigTracking {
+                section: "filter",
+                source,
+            })?;
         let i = &self.interaction;
         let positive = [
             ("tracking.timeout", self.tracking.timeout),
@@ -176,7 +186,10 @@ impl ReplayConfig {
         ];
         for (name, v) in positive {
             if !(v.is_finite() && v > 0.0) {
-                return bad(format!("{name} must be a positive number, got {v}"));
+                return bad(ConfigError::NotPositive {
+                    setting: name,
+                    value: v,
+                });
             }
         }
         let non_negative = [
@@ -187,30 +200,30 @@ impl ReplayConfig {
         ];
         for (name, v) in non_negative {
             if !(v.is_finite() && v >= 0.0) {
-                return bad(format!("{name} must be >= 0, got {v}"));
+                return bad(ConfigError::Negative {
+                    setting: name,
+                    value: v,
+                });
             }
         }
         if i.max_samples < 2 {
-            return bad("interaction.max_samples must be at least 2".into());
+            return bad(ConfigError::MaxSamples);
         }
-        self.tool
-            .tool()
-            .validate()
-            .map_err(|e| Error::Config(format!("tool: {e}")))?;
+        self.tool.tool().validate().map_err(Error::ConfigTool)?;
         if !(2..=64).contains(&i.sketch_columns) || !(2..=10_000).contains(&i.min_sketch_rows) {
-            return bad("sketch_columns must be in 2..=64 and min_sketch_rows in 2..=10000".into());
+            return bad(ConfigError::SketchSize);
         }
         if !i.sketch_axis.is_finite()
             || i.sketch_axis.length() < sculpt_core::tolerance::ZERO_QUAT_LEN
         {
-            return bad("interaction.sketch_axis must be a non-zero vector".into());
+            return bad(ConfigError::SketchAxis);
         }
         let b = i.buttons;
         if [b.action, b.mode, b.profile, b.undo, b.redo, b.select]
             .iter()
             .any(|&x| x >= 32)
         {
-            return bad("button indices must be below 32".into());
+            return bad(ConfigError::ButtonIndex);
         }
         Ok(())
     }
@@ -234,10 +247,12 @@ mod tests {
         assert_eq!(cfg.interaction, display.interaction);
         // A display config with a wand the stage cannot read is refused, not ignored.
         let e = ReplayConfig::from_toml_str(&text.replace("\"wand1\"", "\"body3\"")).unwrap_err();
-        assert!(e.to_string().contains("Flystick"), "{e}");
+        assert!(matches!(e, Error::ConfigUnrecognised { .. }), "{e:?}");
+        assert!(chain(&e).contains("Flystick"), "{e}");
         // Neither kind of config: both reasons.
         let e = ReplayConfig::from_toml_str("[screen]\nbogus = 1\n[tool]\nwidth = \"x\"\n")
             .unwrap_err();
+        assert!(matches!(e, Error::ConfigUnrecognised { .. }), "{e:?}");
         assert!(
             e.to_string().contains("neither a display server config"),
             "{e}"
@@ -247,11 +262,11 @@ mod tests {
     #[test]
     fn bad_settings_are_named() {
         let e = ReplayConfig::from_toml_str("[tool]\nwidth = -1.0\n").unwrap_err();
-        assert!(e.to_string().contains("tool.width"), "{e}");
+        assert!(chain(&e).contains("tool.width"), "{e}");
         let e = ReplayConfig::from_toml_str("[calibration]\nunits = 2\n").unwrap_err();
-        assert!(e.to_string().contains("units"), "{e}");
+        assert!(chain(&e).contains("units"), "{e}");
         let e = ReplayConfig::from_toml_str("[tool]\nmode = \"paint\"\n").unwrap_err();
-        assert!(e.to_string().contains("paint"), "{e}");
+        assert!(chain(&e).contains("paint"), "{e}");
     }
 
     #[test]
@@ -267,6 +282,31 @@ mod tests {
         assert!(!c.filter.enabled);
         let e = ReplayConfig::from_toml_str("[calibration]\naxes = [\"x\", \"x\", \"z\"]\n")
             .unwrap_err();
-        assert!(e.to_string().contains("calibration"), "{e}");
+        assert!(chain(&e).contains("calibration"), "{e}");
+    }
+
+    /// The message as a binary prints it: the error and its causes.
+    fn chain(e: &Error) -> String {
+        sculpt_core::error::Chain(e).to_string()
+    }
+
+    #[test]
+    fn typed_config_errors_name_the_setting() {
+        let e = crate::render::parse_times("1,x").unwrap_err();
+        assert!(
+            matches!(e, Error::Config(ConfigError::RenderTimeNotANumber { ref text }) if text == "x"),
+            "{e:?}"
+        );
+        let e = crate::render::every(0.0, 1.0).unwrap_err();
+        assert!(
+            matches!(e, Error::Config(ConfigError::RenderStep { step: 0.0 })),
+            "{e:?}"
+        );
+        let mut cfg = ReplayConfig::default();
+        cfg.interaction.max_samples = 1;
+        assert!(matches!(
+            cfg.validate(),
+            Err(Error::Config(ConfigError::MaxSamples))
+        ));
     }
 }

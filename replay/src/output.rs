@@ -55,11 +55,8 @@ pub fn write_outputs(outcome: &Outcome, dir: &Path) -> Result<Vec<PathBuf>> {
     let welded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         doc.mesh(Detail::Final).welded(WELD_TOLERANCE)
     }))
-    .map_err(|_| {
-        Error::Session(format!(
-            "the sculpting layer failed to tessellate the final mesh; {} was written",
-            dir.join("scene.json").display()
-        ))
+    .map_err(|_| Error::Tessellation {
+        written: dir.join("scene.json"),
     })?;
     for (name, format) in [
         ("scene.obj", MeshFormat::Obj),
@@ -92,8 +89,7 @@ pub fn write_outputs(outcome: &Outcome, dir: &Path) -> Result<Vec<PathBuf>> {
 
 /// Pretty JSON with a final newline.
 fn pretty<T: serde::Serialize>(value: &T) -> Result<String> {
-    let mut s = serde_json::to_string_pretty(value)
-        .map_err(|e| Error::Session(format!("encoding JSON: {e}")))?;
+    let mut s = serde_json::to_string_pretty(value).map_err(Error::Encode)?;
     s.push('\n');
     Ok(s)
 }

@@ -40,7 +40,7 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
-use crate::error::{Error, Result};
+use crate::error::{EndpointError, Error, Result};
 
 /// Where the records go.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -58,7 +58,12 @@ impl Endpoint {
     /// [`Endpoint::Connect`]) or `serial:///path/to/device`. A bare `PORT` means
     /// `127.0.0.1:PORT`.
     pub fn parse(text: &str, listen: bool) -> Result<Self> {
-        let bad = |why: &str| Error::Endpoint(format!("{text:?}: {why}"));
+        let bad = |why: &'static str| {
+            Error::Endpoint(EndpointError::Malformed {
+                text: text.to_string(),
+                why,
+            })
+        };
         if let Some(path) = text.strip_prefix("serial://") {
             if path.is_empty() {
                 return Err(bad("no device path"));
@@ -144,13 +149,18 @@ impl Opener {
     fn new(endpoint: &Endpoint, on_listening: Option<&mut dyn FnMut(SocketAddr)>) -> Result<Self> {
         let listener = match endpoint {
             Endpoint::Listen(addr) => {
-                let l = TcpListener::bind(addr)
-                    .map_err(|e| Error::Endpoint(format!("cannot listen on {addr}: {e}")))?;
-                l.set_nonblocking(true)
-                    .map_err(|e| Error::Endpoint(format!("{addr}: {e}")))?;
-                let bound = l
-                    .local_addr()
-                    .map_err(|e| Error::Endpoint(format!("{addr}: {e}")))?;
+                let l = TcpListener::bind(addr).map_err(|source| Error::Socket {
+                    what: "cannot listen on",
+                    addr: *addr,
+                    source,
+                })?;
+                let setting_up = |source| Error::Socket {
+                    what: "setting up",
+                    addr: *addr,
+                    source,
+                };
+                l.set_nonblocking(true).map_err(setting_up)?;
+                let bound = l.local_addr().map_err(setting_up)?;
                 if let Some(cb) = on_listening {
                     cb(bound);
                 }
@@ -212,19 +222,18 @@ pub fn serve(
     mut options: ServeOptions<'_>,
 ) -> Result<ServeReport> {
     if !(options.speed.is_finite() && options.speed >= 0.0) {
-        return Err(Error::Endpoint(format!(
-            "speed must be finite and >= 0, got {}",
-            options.speed
-        )));
+        return Err(Error::Endpoint(EndpointError::Speed {
+            speed: options.speed,
+        }));
     }
     let opener = Opener::new(endpoint, options.on_listening.take())?;
     let mut report = ServeReport::default();
     let mut sink = opener.open(Instant::now() + options.connect_timeout);
     if sink.is_none() {
-        return Err(Error::Endpoint(format!(
-            "no connection with {endpoint:?} within {:?}",
-            options.connect_timeout
-        )));
+        return Err(Error::Endpoint(EndpointError::NoConnection {
+            endpoint: format!("{endpoint:?}"),
+            timeout: options.connect_timeout,
+        }));
     }
     report.connections = 1;
     let start = Instant::now();
@@ -349,6 +358,10 @@ mod tests {
             },
         )
         .unwrap_err();
+        assert!(
+            matches!(e, Error::Endpoint(EndpointError::NoConnection { .. })),
+            "{e:?}"
+        );
         assert!(e.to_string().contains("no connection"), "{e}");
     }
 

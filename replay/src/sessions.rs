@@ -382,7 +382,7 @@ fn sketch_then_carve() -> Script {
 
 /// Renders a session: the simulator's pose log, then its trouble.
 pub fn render(spec: &SessionSpec) -> Result<Vec<u8>> {
-    let track = |e: tracking::TrackingError| Error::Tracking(e.to_string());
+    let track = Error::Tracking;
     let header = PoseLogHeader {
         source: format!("sim session={} seed={}", spec.name, spec.sim.seed),
         ..PoseLogHeader::default()
@@ -440,7 +440,7 @@ pub fn apply_trouble(clean: &[u8], trouble: Trouble, seed: u64) -> Result<Vec<u8
     if trouble == Trouble::None {
         return Ok(clean.to_vec());
     }
-    let track = |e: tracking::TrackingError| Error::Tracking(e.to_string());
+    let track = Error::Tracking;
     let log = PoseLog::from_bytes(clean).map_err(track)?;
     let mut records: Vec<(RecordKind, Duration, Vec<u8>)> = log
         .records

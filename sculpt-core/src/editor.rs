@@ -27,6 +27,7 @@
 
 use glam::DVec3;
 
+use crate::error::FitError;
 use crate::interaction::{Edit, InteractionMode, OperatorEvent, StrokeEdit};
 use crate::nurbs::NurbsSurface;
 use crate::oplog::{EventKind, TrackingState};
@@ -100,12 +101,12 @@ pub fn default_document() -> Document {
 pub fn fit_sketch(rows: &[Vec<DVec3>]) -> Result<NurbsSurface> {
     let cols = rows.first().map_or(0, Vec::len);
     if cols < 2 || rows.iter().any(|r| r.len() != cols) {
-        return Err(Error::FitFailed(
-            "a sketch needs rows of at least 2 points, all the same length".into(),
-        ));
+        return Err(Error::FitFailed(FitError::SketchRows));
     }
     if rows.iter().flatten().any(|p| !p.is_finite()) {
-        return Err(Error::FitFailed("a sketch point is not finite".into()));
+        return Err(Error::FitFailed(FitError::NotFinite {
+            what: "a sketch point",
+        }));
     }
     let mut kept: Vec<Vec<DVec3>> = Vec::with_capacity(rows.len());
     for row in rows {
@@ -121,9 +122,7 @@ pub fn fit_sketch(rows: &[Vec<DVec3>]) -> Result<NurbsSurface> {
         }
     }
     if kept.len() < 2 {
-        return Err(Error::FitFailed(
-            "the sketch sweep did not move (at least 2 distinct rows are needed)".into(),
-        ));
+        return Err(Error::FitFailed(FitError::SketchDidNotMove));
     }
     let count_u = kept.len().min(SKETCH_MAX_CONTROL);
     let count_v = cols.min(SKETCH_MAX_CONTROL);

@@ -4,6 +4,8 @@
 use glam::{DVec2, DVec3};
 use sculpt_core::Error;
 use sculpt_core::assert_near;
+use sculpt_core::error::{ControlNetError, KnotError, NetIndex, WeightError};
+use sculpt_core::nurbs::refine::Direction;
 use sculpt_core::nurbs::{KnotVector, NurbsCurve, NurbsSurface};
 use sculpt_core::tolerance::{EXACT_EPS, FD_EPS, FD_STEP};
 
@@ -131,23 +133,63 @@ fn json_schema_round_trip_and_field_names() {
     assert!(!s.to_json().contains("weights"));
 }
 
+/// Text that is not JSON or not the schema is `Error::Json` with a position; a
+/// surface the schema allows but that is invalid is the typed error naming the entry.
 #[test]
 fn bad_json_gives_typed_errors() {
-    let cases = [
-        r#"{"degree_u":1,"degree_v":1,"knots_u":[0,0,1,1],"knots_v":[0,0,1,1],"control_points":[[[0,0,0]],[[1,0,0],[1,1,0]]]}"#,
-        r#"{"degree_u":1,"degree_v":1,"knots_u":[0,1,0,1],"knots_v":[0,0,1,1],"control_points":[[[0,0,0],[0,1,0]],[[1,0,0],[1,1,0]]]}"#,
-        r#"{"degree_u":1,"degree_v":1,"knots_u":[0,0,1,1],"knots_v":[0,0,1,1],"control_points":[[[0,0,0],[0,1,0]],[[1,0,0],[1,1,0]]],"weights":[[1,1],[1,-1]]}"#,
+    let syntax_or_schema = [
         r#"{"degree_u":1,"degree_v":1,"knots_u":[0,0,1,1],"knots_v":[0,0,1,1],"control_points":[[[0,0,0],[0,1,0]],[[1,0,0],[1,1,0]]],"weight":[[1,1],[1,1]]}"#,
-        r#"{"degree_u":0,"degree_v":1,"knots_u":[0,1],"knots_v":[0,0,1,1],"control_points":[[[0,0,0],[0,1,0]]]}"#,
         r#"{"degree_u":1"#,
         "",
     ];
-    for c in cases {
+    for c in syntax_or_schema {
         assert!(
-            matches!(NurbsSurface::from_json(c), Err(Error::Json(_))),
+            matches!(NurbsSurface::from_json(c), Err(Error::Json(ref j)) if j.line() >= 1),
             "{c}"
         );
     }
+    let ragged = r#"{"degree_u":1,"degree_v":1,"knots_u":[0,0,1,1],"knots_v":[0,0,1,1],"control_points":[[[0,0,0]],[[1,0,0],[1,1,0]]]}"#;
+    assert!(matches!(
+        NurbsSurface::from_json(ragged),
+        Err(Error::InvalidControlNet(ControlNetError::RowLength {
+            row: 0,
+            got: 1,
+            need: 2,
+            ..
+        }))
+    ));
+    let knots = r#"{"degree_u":1,"degree_v":1,"knots_u":[0,1,0,1],"knots_v":[0,0,1,1],"control_points":[[[0,0,0],[0,1,0]],[[1,0,0],[1,1,0]]]}"#;
+    assert!(matches!(
+        NurbsSurface::from_json(knots),
+        Err(Error::InvalidKnots {
+            direction: Some(Direction::U),
+            reason: KnotError::Decreasing { index: 2, .. }
+        })
+    ));
+    let weight = r#"{"degree_u":1,"degree_v":1,"knots_u":[0,0,1,1],"knots_v":[0,0,1,1],"control_points":[[[0,0,0],[0,1,0]],[[1,0,0],[1,1,0]]],"weights":[[1,1],[1,-1]]}"#;
+    let e = NurbsSurface::from_json(weight).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            Error::InvalidWeights(WeightError::NotPositive {
+                at: NetIndex::Surface(1, 1),
+                weight: -1.0
+            })
+        ),
+        "{e:?}"
+    );
+    assert_eq!(
+        e.to_string(),
+        "invalid weights: control point [1][1]: weight -1 is not finite and positive"
+    );
+    let degree = r#"{"degree_u":0,"degree_v":1,"knots_u":[0,1],"knots_v":[0,0,1,1],"control_points":[[[0,0,0],[0,1,0]]]}"#;
+    assert!(matches!(
+        NurbsSurface::from_json(degree),
+        Err(Error::InvalidDegree {
+            direction: Some(Direction::U),
+            degree: 0
+        })
+    ));
 }
 
 #[test]

@@ -213,6 +213,33 @@ fn invalid_surfaces_name_file_and_line() {
     assert_one_line_error(&out, "stdin");
 }
 
+/// Regression (issue 15 item 7): a surface that is valid JSON but invalid NURBS was
+/// reported at `S.json:0:0`; it names the entry that is wrong instead.
+#[test]
+fn semantic_surface_errors_name_the_entry_not_line_0_column_0() {
+    let dir = tempfile::tempdir().unwrap();
+    let uv = write(dir.path(), "uv.csv", "0.5,0.5\n");
+    let cases = [
+        (
+            "weights.json",
+            SURFACE.replace("[1,0.5,1]]", "[1,-0.5,1]]"),
+            "weights.json: invalid surface: invalid weights: control point [3][1]: weight -0.5 is not finite and positive",
+        ),
+        (
+            "knots.json",
+            SURFACE.replace("[0,0,0,0.5,1,1,1]", "[0,0,0,1,0.5,1,1]"),
+            "knots.json: invalid surface: invalid knot vector: knots_u: knots decrease at index 4: 1 > 0.5",
+        ),
+    ];
+    for (name, text, needle) in cases {
+        let p = write(dir.path(), name, &text);
+        let out = run(&["eval", "--surface", &p, "--uv", &uv], None);
+        assert_one_line_error(&out, needle);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains(":0:0"), "{err}");
+    }
+}
+
 #[test]
 fn usage_errors_exit_non_zero() {
     let out = run(&["project", "--surface", "x.json"], None);

@@ -344,7 +344,10 @@ impl Hub {
         if let Some(w) = m.recorder.as_mut()
             && let Err(e) = w.write(kind, time, bytes)
         {
-            tracing::error!("pose log recording stopped: {e}");
+            tracing::error!(
+                "pose log recording stopped: {}",
+                sculpt_core::error::Chain(&e)
+            );
             m.recorder = None;
         }
     }

@@ -357,7 +357,7 @@ where
                 let end = pump(stream).await;
                 tracing::info!("serial {port}: {end:?}; reopening");
             }
-            Err(e) => tracing::debug!("open serial {port}: {e}"),
+            Err(e) => tracing::debug!("open serial {port}: {}", sculpt_core::error::Chain(&e)),
         }
         tokio::time::sleep(backoff).await;
         backoff = (backoff * 2).min(opts.backoff_max);

@@ -120,9 +120,9 @@ pub fn run_headless(
         ("frame.png", &frame.composite),
     ] {
         let p = dir.join(name);
-        img.save(&p).map_err(|e| VrError::Image {
+        img.save(&p).map_err(|source| VrError::Image {
             path: p.display().to_string(),
-            reason: e.to_string(),
+            source,
         })?;
         files.push(p);
     }

@@ -39,6 +39,7 @@ use std::path::{Path, PathBuf};
 
 use sculpt_core::edit_loop::{EditHooks, EditLoop, LoopError, NoHooks, Step};
 use sculpt_core::editor::{self, Applied};
+use sculpt_core::error::Chain;
 use sculpt_core::interaction::{Command, Edit, Interaction, OperatorEvent, WandEvent};
 use sculpt_core::oplog::{OpLogHeader, OpLogWriter};
 use sculpt_core::sculpt::document::Document;
@@ -119,7 +120,7 @@ impl OperatorLog {
         // The state machine never goes back in time; an event it could not order is
         // reported and left out rather than corrupting the log.
         if let Err(e) = self.writer.push(t, editor::oplog_event(event)) {
-            tracing::warn!("operator log: {e}");
+            tracing::warn!("operator log: {}", Chain(&e));
             return Ok(());
         }
         self.flush()
@@ -187,7 +188,7 @@ impl EditHooks for SessionFiles {
         let seq = self.seq;
         match applied {
             Applied::Rejected(e) => {
-                tracing::warn!(seq, "the sculpting layer refused an edit: {e}");
+                tracing::warn!(seq, "the sculpting layer refused an edit: {}", Chain(e));
             }
             a => tracing::debug!(seq, "applied: {a:?}"),
         }
@@ -257,7 +258,11 @@ impl Session {
                 Edit::SelectTarget { index } => selected = Some(*index),
                 edit => {
                     if let Applied::Rejected(err) = edit_loop.apply(edit) {
-                        tracing::debug!(seq = e.seq, "journalled edit refused again: {err}");
+                        tracing::debug!(
+                            seq = e.seq,
+                            "journalled edit refused again: {}",
+                            Chain(&err)
+                        );
                     }
                 }
             }
@@ -316,7 +321,7 @@ impl Session {
         let step = match self.edit_loop.handle(ev, &mut self.files) {
             Ok(step) => step,
             Err(LoopError::Refused(e)) => {
-                tracing::warn!("dropped an input: {e}");
+                tracing::warn!("dropped an input: {}", Chain(&e));
                 return Ok(Vec::new());
             }
             Err(LoopError::Hook(e)) => {

@@ -34,7 +34,7 @@
 use glam::{DQuat, DVec3};
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use crate::error::{Error, InteractionError, Result, StrokeRejection};
 
 pub use crate::sculpt::document::TargetIndex;
 /// Carve or emboss: the sculpting layer's [`Mode`](crate::sculpt::stroke::Mode), named
@@ -426,6 +426,10 @@ pub enum OperatorEvent {
         committed: bool,
         /// Why it ended.
         reason: EndReason,
+        /// Why it produced no edit: too short a stroke or too few sketch rows (`None`
+        /// when committed). Not serialised: the event's serde form is unchanged.
+        #[serde(skip)]
+        dropped: Option<StrokeRejection>,
     },
     /// The wand stopped being tracked.
     TrackingLost,
@@ -701,18 +705,17 @@ impl Interaction {
     /// command carries an invalid value.
     pub fn handle(&mut self, ev: &WandEvent, out: &mut Vec<Output>) -> Result<()> {
         if !ev.t.is_finite() {
-            return Err(Error::Interaction(format!(
-                "event time {} is not finite",
-                ev.t
-            )));
+            return Err(Error::Interaction(InteractionError::TimeNotFinite {
+                t: ev.t,
+            }));
         }
         if let Some(last) = self.last_t
             && ev.t < last
         {
-            return Err(Error::Interaction(format!(
-                "event time {} is before the previous {last}",
-                ev.t
-            )));
+            return Err(Error::Interaction(InteractionError::TimeBackwards {
+                t: ev.t,
+                previous: last,
+            }));
         }
         if let WandInput::Command(c) = &ev.input {
             self.check_command(c)?;
@@ -768,7 +771,10 @@ impl Interaction {
         };
         // The one set of caps, `Tool::validate`'s; breaking them refuses the input.
         tool.validate().map_err(|e| match e {
-            Error::StrokeRejected(why) => Error::Interaction(why),
+            Error::StrokeRejected(StrokeRejection::Tool(range)) => {
+                Error::Interaction(InteractionError::Tool(range))
+            }
+            Error::StrokeRejected(why) => Error::Interaction(InteractionError::Profile(why)),
             other => other,
         })
     }
@@ -1047,17 +1053,32 @@ impl Interaction {
     /// Ends the live gesture (if any), emitting its edit when it is long enough.
     fn finish(&mut self, t: f64, reason: EndReason, out: &mut Vec<Output>) {
         let gesture = std::mem::replace(&mut self.gesture, Gesture::Spent);
+        let mut dropped = None;
         let edit = match gesture {
             Gesture::Stroke { samples, .. } => {
                 let length: f64 = samples
                     .windows(2)
                     .map(|w| (w[1].position - w[0].position).length())
                     .sum();
+                if samples.len() < 2 || length < self.config.min_stroke_length {
+                    dropped = Some(StrokeRejection::TooShort {
+                        length_m: length,
+                        min_m: self.config.min_stroke_length,
+                    });
+                }
                 (samples.len() >= 2 && length >= self.config.min_stroke_length)
                     .then(|| Edit::Stroke(StrokeEdit::new(self.target, self.tool.clone(), samples)))
             }
-            Gesture::Sketch { rows, .. } => (rows.len() >= self.config.min_sketch_rows as usize)
-                .then_some(Edit::Sketch { rows }),
+            Gesture::Sketch { rows, .. } => {
+                if rows.len() < self.config.min_sketch_rows as usize {
+                    dropped = Some(StrokeRejection::TooFewRows {
+                        rows: rows.len(),
+                        min_rows: self.config.min_sketch_rows as usize,
+                    });
+                }
+                (rows.len() >= self.config.min_sketch_rows as usize)
+                    .then_some(Edit::Sketch { rows })
+            }
             idle @ (Gesture::Idle | Gesture::Spent) => {
                 self.gesture = idle;
                 return;
@@ -1069,6 +1090,7 @@ impl Interaction {
                 mode: self.mode(),
                 committed: edit.is_some(),
                 reason,
+                dropped,
             },
         });
         if let Some(edit) = edit {

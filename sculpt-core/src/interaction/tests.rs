@@ -1,5 +1,6 @@
 use super::*;
 use crate::assert_near;
+use crate::error::{ToolParam, ToolRangeError};
 use crate::tolerance::{BOUND_MARGIN, EXACT_EPS, MIN_SPEED_DT, POINT_EPS};
 
 fn at(x: f64) -> DVec3 {
@@ -79,7 +80,8 @@ fn carve_stroke_press_move_release() {
         &OperatorEvent::GestureEnd {
             mode: InteractionMode::CARVE,
             committed: true,
-            reason: EndReason::Released
+            reason: EndReason::Released,
+            dropped: None
         }
     );
     // Poses are logged for every tracked sample.
@@ -112,11 +114,15 @@ fn tiny_strokes_are_discarded() {
     let mut m = Interaction::default();
     let out = run(&mut m, &[(0.0, Some(0.0), 1), (0.01, Some(0.001), 0)]);
     assert!(edits(&out).is_empty());
-    assert!(ops(&out).contains(&&OperatorEvent::GestureEnd {
-        mode: InteractionMode::CARVE,
-        committed: false,
-        reason: EndReason::Released
-    }));
+    assert!(ops(&out).iter().any(|e| matches!(
+        e,
+        OperatorEvent::GestureEnd {
+            mode: InteractionMode::CARVE,
+            committed: false,
+            reason: EndReason::Released,
+            dropped: Some(StrokeRejection::TooShort { length_m, min_m })
+        } if *length_m < *min_m
+    )));
 }
 
 #[test]
@@ -193,7 +199,16 @@ fn tool_commands_validate_and_log() {
             &WandEvent::command(0.1, Command::SetDepth { depth: bad }),
             &mut out,
         );
-        assert!(matches!(r, Err(Error::Interaction(_))), "depth {bad}");
+        assert!(
+            matches!(
+                r,
+                Err(Error::Interaction(InteractionError::Tool(ToolRangeError {
+                    param: ToolParam::Depth,
+                    ..
+                })))
+            ),
+            "depth {bad}"
+        );
     }
     assert_near!(m.tool().depth, Tool::default().depth, EXACT_EPS);
 }
@@ -251,13 +266,16 @@ fn time_going_backwards_is_rejected_without_changing_state() {
     run(&mut m, &[(1.0, Some(0.0), 1)]);
     let before = m.clone();
     let mut out = Vec::new();
-    assert!(
+    assert!(matches!(
         m.handle(
             &WandEvent::sample(0.5, WandSample::tracked(at(0.0), DQuat::IDENTITY, 0)),
             &mut out
-        )
-        .is_err()
-    );
+        ),
+        Err(Error::Interaction(InteractionError::TimeBackwards {
+            t: 0.5,
+            previous: 1.0
+        }))
+    ));
     assert!(
         m.handle(&WandEvent::sample(f64::NAN, WandSample::lost(0)), &mut out)
             .is_err()
@@ -314,7 +332,8 @@ fn regression_tracking_returns_far_away_ends_stroke_without_a_jump() {
     assert!(ops(&out).contains(&&OperatorEvent::GestureEnd {
         mode: InteractionMode::CARVE,
         committed: true,
-        reason: EndReason::TrackingLost
+        reason: EndReason::TrackingLost,
+        dropped: None
     }));
     // The held button after the early end starts nothing until it is released.
     assert!(!m.gesture_active());
@@ -632,7 +651,9 @@ fn interaction_modes_are_built_on_the_stroke_mode() {
     };
     assert!(matches!(
         m.handle(&WandEvent::command(0.3, bad), &mut out),
-        Err(Error::Interaction(_))
+        Err(Error::Interaction(InteractionError::Profile(
+            StrokeRejection::ProfileX { .. }
+        )))
     ));
 }
 

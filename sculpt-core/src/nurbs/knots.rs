@@ -8,7 +8,7 @@
 // code checkable against the book.
 #![allow(clippy::needless_range_loop)]
 
-use crate::error::{Error, Result};
+use crate::error::{Error, KnotError, Result};
 
 /// The highest degree the kernel supports (basis functions live in stack arrays).
 pub const MAX_DEGREE: usize = 9;
@@ -75,31 +75,39 @@ fn differentiate(
     out
 }
 
+fn knot_error(reason: KnotError) -> Error {
+    Error::InvalidKnots {
+        direction: None,
+        reason,
+    }
+}
+
 impl KnotVector {
     /// Validates `knots` for degree `degree`.
     pub fn new(degree: usize, knots: Vec<f64>) -> Result<Self> {
         if degree == 0 || degree > MAX_DEGREE {
-            return Err(Error::InvalidDegree(format!(
-                "degree {degree} is outside 1..={MAX_DEGREE}"
-            )));
+            return Err(Error::InvalidDegree {
+                direction: None,
+                degree,
+            });
         }
         let m = knots.len();
         if m < 2 * (degree + 1) {
-            return Err(Error::InvalidKnots(format!(
-                "{m} knots are too few for degree {degree} (need at least {})",
-                2 * (degree + 1)
-            )));
+            return Err(knot_error(KnotError::TooFew {
+                count: m,
+                degree,
+                need: 2 * (degree + 1),
+            }));
         }
         if let Some(i) = knots.iter().position(|k| !k.is_finite()) {
-            return Err(Error::InvalidKnots(format!("knot {i} is not finite")));
+            return Err(knot_error(KnotError::NotFinite { index: i }));
         }
         if let Some(i) = knots.windows(2).position(|w| w[1] < w[0]) {
-            return Err(Error::InvalidKnots(format!(
-                "knots decrease at index {}: {} > {}",
-                i + 1,
-                knots[i],
-                knots[i + 1]
-            )));
+            return Err(knot_error(KnotError::Decreasing {
+                index: i + 1,
+                previous: knots[i],
+                knot: knots[i + 1],
+            }));
         }
         // Multiplicities.
         let mut i = 0;
@@ -112,19 +120,23 @@ impl KnotVector {
             let is_end = i == 0 || j == m - 1;
             let max = if is_end { degree + 1 } else { degree };
             if mult > max {
-                return Err(Error::InvalidKnots(format!(
-                    "knot {} has multiplicity {mult}, more than {max} allowed for degree {degree}",
-                    knots[i]
-                )));
+                return Err(knot_error(KnotError::Multiplicity {
+                    knot: knots[i],
+                    multiplicity: mult,
+                    max,
+                    degree,
+                }));
             }
             i = j + 1;
         }
         let n = m - degree - 2; // index of the last control point
         let (a, b) = (knots[degree], knots[n + 1]);
         if b <= a {
-            return Err(Error::InvalidKnots(format!(
-                "empty domain [{a}, {b}] for degree {degree}"
-            )));
+            return Err(knot_error(KnotError::EmptyDomain {
+                start: a,
+                end: b,
+                degree,
+            }));
         }
         let mut last_span = n;
         while knots[last_span] >= knots[last_span + 1] {
@@ -145,9 +157,7 @@ impl KnotVector {
     /// control points of degree `degree`.
     pub fn uniform_clamped(degree: usize, count: usize) -> Result<Self> {
         if count < degree + 1 {
-            return Err(Error::InvalidKnots(format!(
-                "{count} control points are too few for degree {degree}"
-            )));
+            return Err(knot_error(KnotError::TooFewControlPoints { count, degree }));
         }
         let spans = count - degree;
         let mut knots = vec![0.0; degree + 1];
@@ -489,27 +499,44 @@ mod tests {
     fn rejects_bad_vectors() {
         assert!(matches!(
             KnotVector::new(2, vec![0., 0., 1., 0.5, 1., 1.]),
-            Err(Error::InvalidKnots(_))
+            Err(Error::InvalidKnots {
+                direction: None,
+                reason: KnotError::Decreasing { index: 3, .. }
+            })
         ));
         assert!(matches!(
             KnotVector::new(2, vec![0., 0., 0., 1., 1.]),
-            Err(Error::InvalidKnots(_))
+            Err(Error::InvalidKnots {
+                reason: KnotError::TooFew {
+                    count: 5,
+                    need: 6,
+                    ..
+                },
+                ..
+            })
         ));
         assert!(matches!(
             KnotVector::new(2, vec![0., 0., 0., 0.5, 0.5, 0.5, 1., 1., 1.]),
-            Err(Error::InvalidKnots(_))
+            Err(Error::InvalidKnots {
+                reason: KnotError::Multiplicity {
+                    multiplicity: 3,
+                    max: 2,
+                    ..
+                },
+                ..
+            })
         ));
         assert!(matches!(
             KnotVector::new(0, vec![0., 1.]),
-            Err(Error::InvalidDegree(_))
+            Err(Error::InvalidDegree { degree: 0, .. })
         ));
         assert!(matches!(
             KnotVector::new(1, vec![0., f64::NAN, 1., 1.]),
-            Err(Error::InvalidKnots(_))
+            Err(Error::InvalidKnots { .. })
         ));
         assert!(matches!(
             KnotVector::new(1, vec![1., 1., 1., 1.]),
-            Err(Error::InvalidKnots(_))
+            Err(Error::InvalidKnots { .. })
         ));
     }
 

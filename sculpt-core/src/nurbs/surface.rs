@@ -9,7 +9,8 @@ use serde::{Deserialize, Serialize};
 
 use super::curve::{check_point, check_weight};
 use super::knots::KnotVector;
-use crate::error::{Error, Result};
+use super::refine::Direction;
+use crate::error::{ControlNetError, Error, NetIndex, Result, WeightError};
 
 /// A NURBS surface `S(u,v) = sum_i sum_j N_{i,p}(u) N_{j,q}(v) w_ij P_ij / sum sum N N w`.
 ///
@@ -149,6 +150,21 @@ impl From<NurbsSurface> for SurfaceJson {
     }
 }
 
+/// A knot vector error of a surface, naming its direction.
+fn in_direction(e: Error, d: Direction) -> Error {
+    match e {
+        Error::InvalidKnots { reason, .. } => Error::InvalidKnots {
+            direction: Some(d),
+            reason,
+        },
+        Error::InvalidDegree { degree, .. } => Error::InvalidDegree {
+            direction: Some(d),
+            degree,
+        },
+        e => e,
+    }
+}
+
 impl NurbsSurface {
     /// Builds a surface from Cartesian control points `control_points[i][j]` (`i` along
     /// `u`) and optional weights of the same shape (default 1).
@@ -160,43 +176,47 @@ impl NurbsSurface {
         control_points: Vec<Vec<DVec3>>,
         weights: Option<Vec<Vec<f64>>>,
     ) -> Result<Self> {
-        let knots_u = KnotVector::new(degree_u, knots_u)
-            .map_err(|e| Error::InvalidKnots(format!("knots_u: {e}")))?;
-        let knots_v = KnotVector::new(degree_v, knots_v)
-            .map_err(|e| Error::InvalidKnots(format!("knots_v: {e}")))?;
+        let knots_u =
+            KnotVector::new(degree_u, knots_u).map_err(|e| in_direction(e, Direction::U))?;
+        let knots_v =
+            KnotVector::new(degree_v, knots_v).map_err(|e| in_direction(e, Direction::V))?;
         let (n_u, n_v) = (knots_u.count(), knots_v.count());
         if control_points.len() != n_u {
-            return Err(Error::InvalidControlNet(format!(
-                "{} rows of control points along u, but knots_u of degree {degree_u} need {n_u}",
-                control_points.len()
-            )));
+            return Err(Error::InvalidControlNet(ControlNetError::RowCount {
+                got: control_points.len(),
+                degree: degree_u,
+                need: n_u,
+            }));
         }
         if let Some(i) = control_points.iter().position(|r| r.len() != n_v) {
-            return Err(Error::InvalidControlNet(format!(
-                "row {i} has {} control points along v, but knots_v of degree {degree_v} need {n_v}",
-                control_points[i].len()
-            )));
+            return Err(Error::InvalidControlNet(ControlNetError::RowLength {
+                row: i,
+                got: control_points[i].len(),
+                degree: degree_v,
+                need: n_v,
+            }));
         }
         if let Some(w) = &weights {
             if w.len() != n_u {
-                return Err(Error::InvalidWeights(format!(
-                    "{} rows of weights for {n_u} rows of control points",
-                    w.len()
-                )));
+                return Err(Error::InvalidWeights(WeightError::RowCount {
+                    got: w.len(),
+                    need: n_u,
+                }));
             }
             if let Some(i) = w.iter().position(|r| r.len() != n_v) {
-                return Err(Error::InvalidWeights(format!(
-                    "weight row {i} has {} entries, expected {n_v}",
-                    w[i].len()
-                )));
+                return Err(Error::InvalidWeights(WeightError::RowLength {
+                    row: i,
+                    got: w[i].len(),
+                    need: n_v,
+                }));
             }
         }
         let mut pw = Vec::with_capacity(n_u * n_v);
         for (i, row) in control_points.iter().enumerate() {
             for (j, p) in row.iter().enumerate() {
-                check_point(*p, || format!("[{i}][{j}]"))?;
+                check_point(*p, NetIndex::Surface(i, j))?;
                 let w = weights.as_ref().map_or(1.0, |w| w[i][j]);
-                check_weight(w, || format!("[{i}][{j}]"))?;
+                check_weight(w, NetIndex::Surface(i, j))?;
                 pw.push((*p * w).extend(w));
             }
         }
@@ -212,13 +232,15 @@ impl NurbsSurface {
     ) -> Result<Self> {
         let (n_u, n_v) = (knots_u.count(), knots_v.count());
         if pw.len() != n_u * n_v {
-            return Err(Error::InvalidControlNet(format!(
-                "{} homogeneous points for a {n_u} x {n_v} net",
-                pw.len()
-            )));
+            return Err(Error::InvalidControlNet(
+                ControlNetError::HomogeneousCount {
+                    got: pw.len(),
+                    need: n_u * n_v,
+                },
+            ));
         }
         for (k, q) in pw.iter().enumerate() {
-            let at = || format!("[{}][{}]", k / n_v, k % n_v);
+            let at = NetIndex::Surface(k / n_v, k % n_v);
             check_weight(q.w, at)?;
             check_point(q.truncate() / q.w, at)?;
         }
@@ -237,9 +259,13 @@ impl NurbsSurface {
         }
     }
 
-    /// Reads the JSON schema of the module docs.
+    /// Reads the JSON schema of the module docs: text that is not JSON or not the
+    /// schema is [`Error::Json`] (with its line and column); a surface the schema
+    /// allows but that is invalid is the error naming the entry (knots in which
+    /// direction, control point `[i][j]`, weight row).
     pub fn from_json(text: &str) -> Result<Self> {
-        serde_json::from_str(text).map_err(|e| Error::Json(e.to_string()))
+        let json: SurfaceJson = serde_json::from_str(text).map_err(|e| Error::Json(e.into()))?;
+        Self::try_from(json)
     }
 
     /// Writes the JSON schema of the module docs (`weights` only when rational).

@@ -67,7 +67,7 @@ use super::stroke::{Stroke, StrokeInput, Tool};
 use super::stroke_surface::StrokeSurface;
 use super::surface::{TargetSurface, extent};
 use super::tessellate::{Detail, GridPlan, StrokeRef, TargetTessellation, TessStats};
-use crate::error::{Error, Result};
+use crate::error::{DocumentError, Error, Result};
 use crate::formats::iges::{Face, IgesSurface, NurbsPatch};
 use crate::mesh::{MeshSink, PatchMesh};
 use crate::nurbs::NurbsSurface;
@@ -347,10 +347,7 @@ impl Document {
 
     fn push_stroke(&mut self, record: StrokeRecord) -> Result<()> {
         if self.strokes.iter().any(|s| s.id == record.id) {
-            return Err(Error::Document(format!(
-                "duplicate stroke id {}",
-                record.id
-            )));
+            return Err(Error::Document(DocumentError::StrokeId { id: record.id }));
         }
         let target =
             self.targets
@@ -755,45 +752,40 @@ impl Document {
     /// Reads a document, replaying every stroke; rejects bad files with a clear error.
     pub fn from_json(bytes: &[u8]) -> Result<Self> {
         if bytes.len() > MAX_DOCUMENT_BYTES {
-            return Err(Error::Document(format!(
-                "{} bytes is larger than the {MAX_DOCUMENT_BYTES}-byte limit",
-                bytes.len()
-            )));
+            return Err(Error::Document(DocumentError::TooLarge {
+                bytes: bytes.len(),
+                max: MAX_DOCUMENT_BYTES,
+            }));
         }
         let header: Header = serde_json::from_slice(bytes)
-            .map_err(|e| Error::Document(format!("not a JSON object: {e}")))?;
+            .map_err(|e| Error::Document(DocumentError::NotAnObject(e.into())))?;
         if header.format.as_deref() != Some(FORMAT) {
-            return Err(Error::Document(format!(
-                "\"format\" must be \"{FORMAT}\", found {:?}",
-                header.format
-            )));
+            return Err(Error::Document(DocumentError::Format {
+                expected: FORMAT,
+                found: header.format,
+            }));
         }
         match header.version.as_ref().and_then(serde_json::Value::as_u64) {
             Some(v) if v == u64::from(VERSION) => {}
             other => {
-                return Err(Error::Document(format!(
-                    "unsupported version {other:?} (this build reads version {VERSION})"
-                )));
+                return Err(Error::Document(DocumentError::Version {
+                    found: other,
+                    supported: VERSION,
+                }));
             }
         }
-        let json: DocumentJson =
-            serde_json::from_slice(bytes).map_err(|e| Error::Document(e.to_string()))?;
+        let json: DocumentJson = serde_json::from_slice(bytes)
+            .map_err(|e| Error::Document(DocumentError::Schema(e.into())))?;
         let mut doc = Document::new();
         for t in json.targets {
             if t.id == 0 || doc.targets.iter().any(|o| o.id == t.id) {
-                return Err(Error::Document(format!(
-                    "target id {} is zero or repeated",
-                    t.id
-                )));
+                return Err(Error::Document(DocumentError::TargetId { id: t.id }));
             }
             doc.push_target(TargetRecord::new(t.id, t.name, t.surface));
         }
         for s in json.strokes {
             if s.id == 0 || doc.targets.iter().any(|t| t.id == s.id) {
-                return Err(Error::Document(format!(
-                    "stroke id {} is zero or repeated",
-                    s.id
-                )));
+                return Err(Error::Document(DocumentError::StrokeId { id: s.id }));
             }
             let input = StrokeInput {
                 samples: s
@@ -809,7 +801,12 @@ impl Document {
                 target: s.target,
                 input,
             })
-            .map_err(|e| Error::Document(format!("stroke {id}: {e}")))?;
+            .map_err(|e| {
+                Error::Document(DocumentError::Stroke {
+                    id,
+                    error: Box::new(e),
+                })
+            })?;
         }
         doc.next_id = doc
             .targets

@@ -65,7 +65,7 @@ use super::jordan::{Rect, Region, signed_area};
 use super::surface::{
     ParamSurface, SurfacePoint, TargetSurface, extent_sampled, normal_at, unwrap_near, wrap_uv,
 };
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, StrokeRejection, ToolParam, ToolRangeError};
 use crate::tolerance::BASIN_JUMP_RATIO;
 use glam::{DVec2, DVec3};
 use i_overlay::core::fill_rule::FillRule;
@@ -147,17 +147,18 @@ impl Profile {
     fn validate(&self) -> Result<()> {
         if let Profile::Custom(pts) = self {
             if pts.is_empty() || pts.len() > 256 {
-                return Err(reject("a custom profile needs 1 to 256 points"));
+                return Err(reject(StrokeRejection::ProfilePointCount {
+                    count: pts.len(),
+                    max: 256,
+                }));
             }
             let mut last = -1.0;
-            for p in pts {
+            for (index, p) in pts.iter().enumerate() {
                 if !(p[0].is_finite() && p[1].is_finite()) || p[0] <= last || p[0] > 1.0 {
-                    return Err(reject(
-                        "custom profile x values must increase within [0, 1] and be finite",
-                    ));
+                    return Err(reject(StrokeRejection::ProfileX { index }));
                 }
                 if !(0.0..=1.0).contains(&p[1]) {
-                    return Err(reject("custom profile depth fractions must lie in [0, 1]"));
+                    return Err(reject(StrokeRejection::ProfileDepth { index }));
                 }
                 last = p[0];
             }
@@ -235,20 +236,22 @@ impl Tool {
     /// Checks the parameters: width and depth in `(0, MAX_TOOL_SIZE]`, the taper in
     /// `[0, MAX_TOOL_SIZE]`, and the profile; the error says which one is wrong.
     pub fn validate(&self) -> Result<()> {
-        let size = |name: &str, v: f64, zero_ok: bool| {
+        let size = |param: ToolParam, v: f64| {
+            let zero_ok = param == ToolParam::Taper;
             let low_ok = if zero_ok { v >= 0.0 } else { v > 0.0 };
             if v.is_finite() && low_ok && v <= MAX_TOOL_SIZE {
                 Ok(())
             } else {
-                let low = if zero_ok { "[0" } else { "(0" };
-                Err(Error::StrokeRejected(format!(
-                    "tool {name} must be in {low}, {MAX_TOOL_SIZE}] m, got {v}"
-                )))
+                Err(reject(StrokeRejection::Tool(ToolRangeError {
+                    param,
+                    value: v,
+                    max: MAX_TOOL_SIZE,
+                })))
             }
         };
-        size("width", self.width, false)?;
-        size("depth", self.depth, false)?;
-        size("taper", self.taper, true)?;
+        size(ToolParam::Width, self.width)?;
+        size(ToolParam::Depth, self.depth)?;
+        size(ToolParam::Taper, self.taper)?;
         self.profile.validate()
     }
 }
@@ -298,8 +301,8 @@ pub struct Stroke {
     buckets: Buckets,
 }
 
-fn reject(why: &str) -> Error {
-    Error::StrokeRejected(why.to_string())
+fn reject(why: StrokeRejection) -> Error {
+    Error::StrokeRejected(why)
 }
 
 /// Cleans, resamples by arc length and smooths a polyline, keeping corners (see the
@@ -394,27 +397,32 @@ impl Stroke {
         let tool = input.tool.clone();
         tool.validate()?;
         if input.samples.len() > MAX_INPUT_SAMPLES {
-            return Err(reject("too many samples"));
+            return Err(reject(StrokeRejection::TooManySamples {
+                count: input.samples.len(),
+                max: MAX_INPUT_SAMPLES,
+            }));
         }
         if let Some(k) = input
             .samples
             .iter()
             .position(|(t, p)| !(t.is_finite() && p.is_finite()))
         {
-            return Err(Error::StrokeRejected(format!("sample {k} is not finite")));
+            return Err(reject(StrokeRejection::SampleNotFinite { index: k }));
         }
         let ext = extent_sampled(surface, 8);
         if tool.width > ext.diagonal() {
-            return Err(Error::StrokeRejected(format!(
-                "tool width {} m is larger than the surface ({} m across)",
-                tool.width,
-                ext.diagonal()
-            )));
+            return Err(reject(StrokeRejection::ToolWiderThanSurface {
+                width_m: tool.width,
+                across_m: ext.diagonal(),
+            }));
         }
         let raw: Vec<DVec3> = input.samples.iter().map(|s| s.1).collect();
         let length: f64 = raw.windows(2).map(|w| w[0].distance(w[1])).sum();
         if raw.len() < 2 || length <= tool.width * crate::tolerance::MIN_STROKE_LEN_REL {
-            return Err(reject("the stroke has zero length"));
+            return Err(reject(StrokeRejection::TooShort {
+                length_m: length,
+                min_m: tool.width * crate::tolerance::MIN_STROKE_LEN_REL,
+            }));
         }
         let pts = resample(&raw, tool.width * 0.25);
         // Project through the target's certified inverter, seeded from the previous
@@ -453,7 +461,7 @@ impl Stroke {
         run = through_poles(&run);
         let run_len: f64 = run.windows(2).map(|w| w[0].1.distance(w[1].1)).sum();
         if run.len() < 2 || run_len <= tool.width * crate::tolerance::MIN_STROKE_LEN_REL {
-            return Err(reject("the stroke does not lie on the surface"));
+            return Err(reject(StrokeRejection::OffSurface));
         }
         // A stroke whose end comes back to its start is a loop: it is closed with one
         // more segment and carved without tapered ends, one continuous groove.
@@ -575,7 +583,7 @@ impl Stroke {
         let clipped = domain_overlay(&union, &[square.to_vec()], OverlayRule::Intersect);
         let footprint = region_from_shapes(clipped);
         if footprint.is_empty() {
-            return Err(reject("the stroke's footprint is empty"));
+            return Err(reject(StrokeRejection::EmptyFootprint));
         }
         let mut bounds = Rect::new(DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
         for c in footprint.contours() {

@@ -82,7 +82,7 @@ use super::stroke::{Mode, Profile, Stroke, domain_overlay, region_from_shapes};
 use super::surface::{ParamSurface, TargetSurface, normal_from, wrap_uv};
 use super::tessellate::{Detail, StrokeRef};
 use super::uvmap::UvMap;
-use crate::error::{Error, Result};
+use crate::error::{Error, FitError, Result};
 use crate::mesh::{MeshSink, MeshVertex, PatchKey};
 use crate::nurbs::NurbsSurface;
 use glam::{DVec2, DVec3};
@@ -157,8 +157,8 @@ pub struct StrokeSurface {
     maps: [UvMap; 2],
 }
 
-fn fail(why: impl Into<String>) -> Error {
-    Error::FitFailed(why.into())
+fn fail(why: FitError) -> Error {
+    Error::FitFailed(why)
 }
 
 /// The target parameter of the groove point at profile fraction `f` of sample `i`.
@@ -242,14 +242,14 @@ impl StrokeSurface {
             || stroke.rims_uv[1].len() != n
             || stroke.half_width.len() != n
         {
-            return Err(fail("the stroke has fewer than two samples"));
+            return Err(fail(FitError::StrokeTooFewSamples));
         }
         let widest = stroke.half_width.iter().copied().fold(0.0, f64::max);
         if widest.is_nan() || widest <= crate::tolerance::POINT_EPS {
-            return Err(fail("the stroke has no width"));
+            return Err(fail(FitError::StrokeNoWidth));
         }
         if stroke.depth.len() != n {
-            return Err(fail("the stroke's depth list does not match its samples"));
+            return Err(fail(FitError::StrokeDepthCount));
         }
         let picked: Vec<usize> = if n <= MAX_ROWS {
             (0..n).collect()
@@ -291,7 +291,7 @@ impl StrokeSurface {
                 .map(|(&q, &f)| groove_point(target, stroke, q, f.abs() == 1.0))
                 .collect();
             if row.iter().any(|p| !p.is_finite()) || row_uv.iter().any(|q| !q.is_finite()) {
-                return Err(fail(format!("stroke sample {i} is not finite")));
+                return Err(fail(FitError::StrokeSampleNotFinite { at: i }));
             }
             uv.push(row_uv);
             grid.push(row);
@@ -333,7 +333,9 @@ impl StrokeSurface {
         };
         me.fit_error = me.measure_fit(target, stroke);
         if !me.fit_error.is_finite() {
-            return Err(fail("the stroke surface is not finite"));
+            return Err(fail(FitError::NotFinite {
+                what: "the stroke surface",
+            }));
         }
         Ok(me)
     }

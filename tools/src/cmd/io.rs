@@ -39,20 +39,25 @@ pub fn display_name(path: &Path) -> String {
     }
 }
 
-/// Reads a surface in the JSON schema of `sculpt_core::nurbs`; errors name the file,
-/// line and column.
+/// Reads a surface in the JSON schema of `sculpt_core::nurbs`; errors name the file
+/// and, for text that is not JSON or not the schema, the line and column; a surface
+/// the schema allows but that is invalid names the entry instead (knots in which
+/// direction, control point `[i][j]`).
 pub fn read_surface(path: &Path) -> Result<NurbsSurface> {
     let text = read_input(path)?;
-    serde_json::from_str::<NurbsSurface>(&text).map_err(|e| {
-        let msg = e.to_string();
-        // serde_json appends " at line L column C"; we put the position in front.
-        let msg = msg.split(" at line ").next().unwrap_or(&msg).to_string();
-        anyhow::anyhow!(
-            "{}:{}:{}: invalid surface: {msg}",
-            display_name(path),
-            e.line(),
-            e.column()
-        )
+    NurbsSurface::from_json(&text).map_err(|e| match e {
+        sculpt_core::Error::Json(json) => {
+            let msg = json.to_string();
+            // serde_json appends " at line L column C"; we put the position in front.
+            let msg = msg.split(" at line ").next().unwrap_or(&msg).to_string();
+            anyhow::anyhow!(
+                "{}:{}:{}: invalid surface: {msg}",
+                display_name(path),
+                json.line(),
+                json.column()
+            )
+        }
+        e => anyhow::anyhow!("{}: invalid surface: {e}", display_name(path)),
     })
 }
 
