@@ -164,50 +164,27 @@ impl ReplayConfig {
         self.filter
             .validate()
             .map_err(|e| Error::Config(format!("filter: {e}")))?;
-        let i = &self.interaction;
         let positive = [
             ("tracking.timeout", self.tracking.timeout),
             ("tool.width", self.tool.width),
             ("tool.depth", self.tool.depth),
-            ("interaction.max_speed", i.max_speed),
-            ("interaction.sketch_row_spacing", i.sketch_row_spacing),
         ];
         for (name, v) in positive {
             if !(v.is_finite() && v > 0.0) {
                 return bad(format!("{name} must be a positive number, got {v}"));
             }
         }
-        let non_negative = [
-            ("tool.taper", self.tool.taper),
-            ("interaction.pause_timeout", i.pause_timeout),
-            ("interaction.max_resume_jump", i.max_resume_jump),
-            ("interaction.min_stroke_length", i.min_stroke_length),
-        ];
-        for (name, v) in non_negative {
-            if !(v.is_finite() && v >= 0.0) {
-                return bad(format!("{name} must be >= 0, got {v}"));
-            }
-        }
-        if i.max_samples < 2 {
-            return bad("interaction.max_samples must be at least 2".into());
+        if !(self.tool.taper.is_finite() && self.tool.taper >= 0.0) {
+            return bad(format!("tool.taper must be >= 0, got {}", self.tool.taper));
         }
         self.tool
             .tool()
             .validate()
             .map_err(|e| Error::Config(format!("tool: {e}")))?;
-        if !(2..=64).contains(&i.sketch_columns) || !(2..=10_000).contains(&i.min_sketch_rows) {
-            return bad("sketch_columns must be in 2..=64 and min_sketch_rows in 2..=10000".into());
-        }
-        if !i.sketch_axis.is_finite() || i.sketch_axis.length() < 1e-6 {
-            return bad("interaction.sketch_axis must be a non-zero vector".into());
-        }
-        let b = i.buttons;
-        if [b.action, b.mode, b.profile, b.undo, b.redo, b.select]
-            .iter()
-            .any(|&x| x >= 32)
-        {
-            return bad("button indices must be below 32".into());
-        }
+        // The same check as wandsculpt's (sculpt-core's, one for both).
+        self.interaction
+            .validate()
+            .map_err(|e| Error::Config(e.to_string()))?;
         Ok(())
     }
 }
@@ -264,5 +241,33 @@ mod tests {
         let e = ReplayConfig::from_toml_str("[calibration]\naxes = [\"x\", \"x\", \"z\"]\n")
             .unwrap_err();
         assert!(e.to_string().contains("calibration"), "{e}");
+    }
+
+    /// Regression (issue 15, item 7): `wandsculpt` accepted `[interaction]
+    /// pause_timeout = -1` and `max_resume_jump = nan` that `replay` rejected; both now
+    /// run sculpt-core's one `InteractionConfig::validate`, so they agree on every key.
+    #[test]
+    fn wandsculpt_and_replay_reject_the_same_interaction_values() {
+        let bad = [
+            "pause_timeout = -1.0",
+            "max_resume_jump = nan",
+            "max_speed = 0.0",
+            "min_stroke_length = inf",
+            "sketch_row_spacing = -0.01",
+            "max_samples = 1",
+            "sketch_columns = 65",
+        ];
+        for line in bad {
+            let text = format!("[interaction]\n{line}\n");
+            let r = ReplayConfig::from_toml_str(&text);
+            let w = vr_app::config::Config::from_toml_str(&text);
+            assert!(r.is_err(), "replay accepted {line}");
+            assert!(w.is_err(), "wandsculpt accepted {line}");
+            let key = line.split(' ').next().unwrap();
+            assert!(w.unwrap_err().to_string().contains(key), "{line}");
+        }
+        let good = "[interaction]\npause_timeout = 0.0\nmax_resume_jump = 0.1\n";
+        assert!(ReplayConfig::from_toml_str(good).is_ok());
+        assert!(vr_app::config::Config::from_toml_str(good).is_ok());
     }
 }

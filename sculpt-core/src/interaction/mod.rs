@@ -462,6 +462,55 @@ impl Default for InteractionConfig {
     }
 }
 
+impl InteractionConfig {
+    /// Checks every value the types cannot: the one validation `wandsculpt` and
+    /// `replay` both run on `[interaction]`, so neither accepts what the other
+    /// rejects. The error names the key (`interaction: pause_timeout must be >= 0`).
+    pub fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(Error::Interaction(m));
+        let positive = [
+            ("max_speed", self.max_speed),
+            ("sketch_row_spacing", self.sketch_row_spacing),
+        ];
+        for (name, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(format!("{name} must be a positive number, got {v}"));
+            }
+        }
+        let non_negative = [
+            ("pause_timeout", self.pause_timeout),
+            ("max_resume_jump", self.max_resume_jump),
+            ("min_stroke_length", self.min_stroke_length),
+        ];
+        for (name, v) in non_negative {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(format!("{name} must be >= 0, got {v}"));
+            }
+        }
+        if self.max_samples < 2 {
+            return bad("max_samples must be at least 2".into());
+        }
+        if !(2..=64).contains(&self.sketch_columns) || !(2..=10_000).contains(&self.min_sketch_rows)
+        {
+            return bad("sketch_columns must be in 2..=64 and min_sketch_rows in 2..=10000".into());
+        }
+        if !self.sketch_axis.is_finite() || self.sketch_axis.length() < SKETCH_AXIS_MIN_M {
+            return bad("sketch_axis must be a non-zero vector".into());
+        }
+        let b = self.buttons;
+        if [b.action, b.mode, b.profile, b.undo, b.redo, b.select]
+            .iter()
+            .any(|&x| x >= 32)
+        {
+            return bad("button indices must be below 32".into());
+        }
+        Ok(())
+    }
+}
+
+/// The shortest sketch axis [`InteractionConfig::validate`] accepts (metres).
+pub const SKETCH_AXIS_MIN_M: f64 = 1e-6;
+
 #[derive(Debug, Clone, PartialEq)]
 enum Gesture {
     Idle,
