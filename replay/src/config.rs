@@ -176,13 +176,10 @@ impl ReplayConfig {
                 section: "filter",
                 source,
             })?;
-        let i = &self.interaction;
         let positive = [
             ("tracking.timeout", self.tracking.timeout),
             ("tool.width", self.tool.width),
             ("tool.depth", self.tool.depth),
-            ("interaction.max_speed", i.max_speed),
-            ("interaction.sketch_row_spacing", i.sketch_row_spacing),
         ];
         for (name, v) in positive {
             if !(v.is_finite() && v > 0.0) {
@@ -192,39 +189,17 @@ impl ReplayConfig {
                 });
             }
         }
-        let non_negative = [
-            ("tool.taper", self.tool.taper),
-            ("interaction.pause_timeout", i.pause_timeout),
-            ("interaction.max_resume_jump", i.max_resume_jump),
-            ("interaction.min_stroke_length", i.min_stroke_length),
-        ];
-        for (name, v) in non_negative {
-            if !(v.is_finite() && v >= 0.0) {
-                return bad(ConfigError::Negative {
-                    setting: name,
-                    value: v,
-                });
-            }
-        }
-        if i.max_samples < 2 {
-            return bad(ConfigError::MaxSamples);
+        if !(self.tool.taper.is_finite() && self.tool.taper >= 0.0) {
+            return bad(ConfigError::Negative {
+                setting: "tool.taper",
+                value: self.tool.taper,
+            });
         }
         self.tool.tool().validate().map_err(Error::ConfigTool)?;
-        if !(2..=64).contains(&i.sketch_columns) || !(2..=10_000).contains(&i.min_sketch_rows) {
-            return bad(ConfigError::SketchSize);
-        }
-        if !i.sketch_axis.is_finite()
-            || i.sketch_axis.length() < sculpt_core::tolerance::ZERO_QUAT_LEN
-        {
-            return bad(ConfigError::SketchAxis);
-        }
-        let b = i.buttons;
-        if [b.action, b.mode, b.profile, b.undo, b.redo, b.select]
-            .iter()
-            .any(|&x| x >= 32)
-        {
-            return bad(ConfigError::ButtonIndex);
-        }
+        // The same check as wandsculpt's (sculpt-core's, one for both).
+        self.interaction
+            .validate()
+            .map_err(Error::ConfigInteraction)?;
         Ok(())
     }
 }
@@ -306,7 +281,39 @@ mod tests {
         cfg.interaction.max_samples = 1;
         assert!(matches!(
             cfg.validate(),
-            Err(Error::Config(ConfigError::MaxSamples))
+            Err(Error::ConfigInteraction(sculpt_core::Error::Interaction(
+                sculpt_core::error::InteractionError::Config(
+                    sculpt_core::error::InteractionConfigError::MaxSamples
+                )
+            )))
         ));
+    }
+
+    /// Regression (issue 15, item 7): `wandsculpt` accepted `[interaction]
+    /// pause_timeout = -1` and `max_resume_jump = nan` that `replay` rejected; both now
+    /// run sculpt-core's one `InteractionConfig::validate`, so they agree on every key.
+    #[test]
+    fn wandsculpt_and_replay_reject_the_same_interaction_values() {
+        let bad = [
+            "pause_timeout = -1.0",
+            "max_resume_jump = nan",
+            "max_speed = 0.0",
+            "min_stroke_length = inf",
+            "sketch_row_spacing = -0.01",
+            "max_samples = 1",
+            "sketch_columns = 65",
+        ];
+        for line in bad {
+            let text = format!("[interaction]\n{line}\n");
+            let r = ReplayConfig::from_toml_str(&text);
+            let w = vr_app::config::Config::from_toml_str(&text);
+            assert!(r.is_err(), "replay accepted {line}");
+            assert!(w.is_err(), "wandsculpt accepted {line}");
+            let key = line.split(' ').next().unwrap();
+            assert!(w.unwrap_err().to_string().contains(key), "{line}");
+        }
+        let good = "[interaction]\npause_timeout = 0.0\nmax_resume_jump = 0.1\n";
+        assert!(ReplayConfig::from_toml_str(good).is_ok());
+        assert!(vr_app::config::Config::from_toml_str(good).is_ok());
     }
 }

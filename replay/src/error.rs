@@ -54,6 +54,10 @@ pub enum Error {
     /// The configured tool was refused by the sculpting layer.
     #[error("config: tool")]
     ConfigTool(#[source] sculpt_core::Error),
+    /// The `[interaction]` settings were refused by the sculpting layer (the one
+    /// validation `wandsculpt` uses too).
+    #[error("config: interaction")]
+    ConfigInteraction(#[source] sculpt_core::Error),
     /// The configuration file is neither layout (both reasons are given).
     #[error("config: neither a display server config ({display}) nor a replay config ({flat})")]
     ConfigUnrecognised {
@@ -150,18 +154,6 @@ pub enum ConfigError {
         /// Its value.
         value: f64,
     },
-    /// `interaction.max_samples` is below 2.
-    #[error("interaction.max_samples must be at least 2")]
-    MaxSamples,
-    /// `interaction.sketch_axis` is zero or not finite.
-    #[error("interaction.sketch_axis must be a non-zero vector")]
-    SketchAxis,
-    /// A button index is 32 or more.
-    #[error("button indices must be below 32")]
-    ButtonIndex,
-    /// Sketch columns or rows out of range.
-    #[error("sketch_columns must be in 2..=64 and min_sketch_rows in 2..=10000")]
-    SketchSize,
     /// A `--render` time is not a number.
     #[error("--render: `{text}` is not a number of seconds")]
     RenderTimeNotANumber {

@@ -43,7 +43,7 @@ fn write(dir: &Path, name: &str, bytes: &[u8], out: &mut Vec<PathBuf>) -> Result
 
 /// Writes every output file into `dir` (created if needed); returns the paths.
 pub fn write_outputs(outcome: &Outcome, dir: &Path) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).map_err(|source| Error::Io {
+    vr_app::session::create_output_dir(dir).map_err(|source| Error::Io {
         path: dir.display().to_string(),
         source,
     })?;

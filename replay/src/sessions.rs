@@ -42,6 +42,9 @@ pub enum Trouble {
     TcpReconnect,
     /// The log ends in the middle of a line, as after a crash.
     TruncatedLastLine,
+    /// Frames 151 to 250 renumbered 9850 down to 9751: the counter jumps far ahead,
+    /// then runs backwards, then returns to 251 (more than the reorder window behind).
+    CounterJumpsBack,
 }
 
 /// One shipped session.
@@ -329,6 +332,14 @@ pub fn catalogue() -> Vec<SessionSpec> {
             3,
         ),
         spec(
+            "patch-carve-backwards",
+            "scene 1 with frames 151 to 250 renumbered 9850 down to 9751 (counter runs backwards)",
+            three_parallel(Sculptor::new()).finish(),
+            &clean,
+            Trouble::CounterJumpsBack,
+            2,
+        ),
+        spec(
             "patch-carve-truncated",
             "scene 1 whose last line is cut off mid-record, as after a crash",
             three_parallel(Sculptor::new()).finish(),
@@ -469,6 +480,22 @@ pub fn apply_trouble(clean: &[u8], trouble: Trouble, seed: u64) -> Result<Vec<u8
                 i += 25;
             }
         }
+        Trouble::CounterJumpsBack => {
+            for r in &mut records {
+                let Some(rest) = r.2.strip_prefix(b"fr ") else {
+                    continue;
+                };
+                let end = rest.iter().position(|&b| b == b'\r').unwrap_or(rest.len());
+                let n: Option<u64> = std::str::from_utf8(&rest[..end])
+                    .ok()
+                    .and_then(|t| t.parse().ok());
+                if let Some(n @ 151..=250) = n {
+                    let mut bytes = format!("fr {}", 10_001 - n).into_bytes();
+                    bytes.extend_from_slice(&rest[end..]);
+                    r.2 = bytes;
+                }
+            }
+        }
         Trouble::TcpReconnect => {
             let cut = n * 2 / 5;
             let gap = Duration::from_millis(800);
@@ -549,5 +576,14 @@ mod tests {
             .filter(|w| w[1].number < w[0].number)
             .count();
         assert!(backwards >= 3, "{backwards}");
+        let jumped = apply_trouble(&clean, Trouble::CounterJumpsBack, 1).unwrap();
+        let (frames, _) = PoseLog::from_bytes(&jumped).unwrap().frames();
+        let numbers: Vec<u64> = frames.iter().map(|f| f.number).collect();
+        assert_eq!(numbers[149..252], {
+            let mut want = vec![150];
+            want.extend((9751..=9850).rev());
+            want.extend([251, 252]);
+            want
+        });
     }
 }

@@ -242,6 +242,25 @@ pub enum ControlNetError {
         /// Its value.
         point: DVec3,
     },
+    /// A surface read from JSON has more control points than a surface may have.
+    #[error("{count} control points, more than the {max} a surface may have")]
+    TooMany {
+        /// Points given.
+        count: usize,
+        /// The cap.
+        max: usize,
+    },
+    /// A control point read from JSON lies farther from the origin than any sculpted
+    /// object does.
+    #[error("control point {at} = {point} is beyond {max_m} m")]
+    TooFar {
+        /// Which point.
+        at: NetIndex,
+        /// Its value.
+        point: DVec3,
+        /// The cap (absolute coordinate, metres).
+        max_m: f64,
+    },
 }
 
 /// Why the weights are unusable.
@@ -281,6 +300,16 @@ pub enum WeightError {
         at: NetIndex,
         /// The weight.
         weight: f64,
+    },
+    /// A weight read from JSON lies outside `[1 / max, max]`.
+    #[error("control point {at}: weight {weight:e} is outside [{:e}, {max:e}]", 1.0 / max)]
+    OutOfRange {
+        /// Which control point.
+        at: NetIndex,
+        /// The weight.
+        weight: f64,
+        /// The cap.
+        max: f64,
     },
 }
 
@@ -705,7 +734,7 @@ pub enum OpLogError {
 }
 
 /// Why the interaction refused an input.
-#[derive(Debug, Error, Clone, Copy, PartialEq)]
+#[derive(Debug, Error, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum InteractionError {
     /// An event time is NaN or infinite.
@@ -725,10 +754,47 @@ pub enum InteractionError {
     /// A tool parameter is out of range.
     #[error(transparent)]
     Tool(ToolRangeError),
+    /// An `[interaction]` setting is out of range.
+    #[error("interaction.{0}")]
+    Config(InteractionConfigError),
     /// A custom tool profile is malformed (too few points, x not increasing, depth
     /// outside `[0, 1]`).
     #[error("tool profile: {0}")]
     Profile(StrokeRejection),
+}
+
+/// Which [`InteractionConfig`](crate::interaction::InteractionConfig) setting is out
+/// of range, and its value.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum InteractionConfigError {
+    /// A setting must be a positive number.
+    #[error("{setting} must be a positive number, got {value}")]
+    NotPositive {
+        /// The setting's name in `[interaction]`.
+        setting: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// A setting must be a number >= 0.
+    #[error("{setting} must be >= 0, got {value}")]
+    Negative {
+        /// The setting's name in `[interaction]`.
+        setting: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// `max_samples` is below 2.
+    #[error("max_samples must be at least 2")]
+    MaxSamples,
+    /// Sketch columns or rows out of range.
+    #[error("sketch_columns must be in 2..=64 and min_sketch_rows in 2..=10000")]
+    SketchSize,
+    /// `sketch_axis` is zero or not finite.
+    #[error("sketch_axis must be a non-zero vector")]
+    SketchAxis,
+    /// A button index is 32 or more.
+    #[error("button indices must be below 32")]
+    ButtonIndex,
 }
 
 /// A JSON syntax or schema error with its position, shared so that [`Error`] stays

@@ -333,3 +333,63 @@ proptest! {
         prop_assert!(m.lost_s.is_finite() && m.lost_s >= 0.0);
     }
 }
+
+/// Regression (issue 15, item 4): frames 151 to 250 renumbered 9850 down to 9751 were
+/// kept or dropped by how fast they arrived: a source "quiet" for a second of arrival
+/// time since the last accepted frame could restart its counter, so at speed 1 frame
+/// 212 (a second after 151) was kept, and at speed 3 it was not. The order rule now
+/// reads only the frames' contents: every arrival spacing keeps the same frames.
+#[test]
+fn a_counter_running_backwards_is_ordered_alike_at_any_arrival_speed() {
+    let run = |speed: f64| {
+        let mut stage = FrameStage::new(unfiltered()).unwrap();
+        let mut out = Vec::new();
+        let mut kept = Vec::new();
+        for k in 1..=300u64 {
+            let n = if (151..=250).contains(&k) {
+                10_001 - k
+            } else {
+                k
+            };
+            let ts = k as f64 / 60.0;
+            let mut f = wand_frame(n, ts, DVec3::new(ts * 10.0, 1000.0, 0.0), 1);
+            f.receive_time = Duration::from_secs_f64(ts / speed);
+            if stage.push(&f, &mut out) {
+                kept.push(n);
+            }
+        }
+        (kept, wands(&out), stage.metrics().clone())
+    };
+    let (kept, samples, metrics) = run(1.0);
+    let mut want: Vec<u64> = (1..=151).collect();
+    want[150] = 9850;
+    want.extend(251..=300);
+    assert_eq!(kept, want, "the backward run is dropped, 251 is a reset");
+    assert_eq!(metrics.out_of_order, 99);
+    for speed in [0.25, 3.0, 10.0, 1e6] {
+        let (k, s, m) = run(speed);
+        assert_eq!(k, kept, "speed {speed}");
+        assert_eq!(s, samples, "speed {speed}");
+        assert_eq!(m, metrics, "speed {speed}");
+    }
+}
+
+/// A restarted tracker (counter and `ts` from the start again) is accepted at once,
+/// however close its first frame arrives to the last one: the `ts` going back a second
+/// or more is the signal, not the arrival gap.
+#[test]
+fn a_restart_is_recognised_by_its_clock_not_by_arrival() {
+    let mut s = FrameStage::new(StageConfig::default()).unwrap();
+    let mut out = Vec::new();
+    s.push(&rframe(50, Some(30.0), 0.0), &mut out);
+    let mut f = rframe(1, Some(0.0), 0.0);
+    f.receive_time = Duration::from_secs_f64(30.26);
+    assert!(s.push(&f, &mut out), "ts went back 30 s: a restart");
+    assert!(s.push(&rframe(3, Some(0.05), 0.0), &mut out));
+    // A late frame whose clock went back less than a second is out of order, however
+    // long after the last one it arrives.
+    let mut late = rframe(2, Some(0.04), 0.0);
+    late.receive_time = Duration::from_secs_f64(40.0);
+    assert!(!s.push(&late, &mut out));
+    assert_eq!(s.metrics().out_of_order, 1);
+}

@@ -392,6 +392,10 @@ impl Config {
             )));
         }
         self.tool.tool().validate()?;
+        // The same check as replay's (sculpt-core's, one for both).
+        self.interaction
+            .validate()
+            .map_err(|e| VrError::Config(e.to_string()))?;
         if let Some(p) = self.head.position {
             let p = DVec3::from(p);
             let (_, _, vn) = screen.basis();

@@ -120,10 +120,15 @@ pub fn run_headless(
         ("frame.png", &frame.composite),
     ] {
         let p = dir.join(name);
-        img.save(&p).map_err(|source| VrError::Image {
-            path: p.display().to_string(),
-            source,
-        })?;
+        // Encoded in memory, then written through a temporary file and renamed: a
+        // full disk never leaves half a PNG behind.
+        let mut png = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut png, image::ImageFormat::Png)
+            .map_err(|source| VrError::Image {
+                path: p.display().to_string(),
+                source,
+            })?;
+        crate::session::write_atomic(&p, png.get_ref())?;
         files.push(p);
     }
     // The journal is the record of truth: make sure it reads back.

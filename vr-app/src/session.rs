@@ -66,6 +66,21 @@ fn io_err(path: &Path, source: std::io::Error) -> VrError {
     }
 }
 
+/// Creates an output directory (and its parents). A path that exists and is not a
+/// directory is an error that says so (`create_dir_all` alone says only "File
+/// exists").
+pub fn create_output_dir(dir: &Path) -> std::io::Result<()> {
+    if let Ok(meta) = std::fs::metadata(dir)
+        && !meta.is_dir()
+    {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::NotADirectory,
+            "exists and is not a directory; give an output directory",
+        ));
+    }
+    std::fs::create_dir_all(dir)
+}
+
 /// Reads a base scene in the [`Document::to_json`] format.
 pub fn load_scene(path: &Path) -> VrResult<Document> {
     let bytes = std::fs::read(path).map_err(|e| io_err(path, e))?;
@@ -73,21 +88,32 @@ pub fn load_scene(path: &Path) -> VrResult<Document> {
         .map_err(|e| VrError::Config(format!("scene {}: {e}", path.display())))
 }
 
-/// Writes document bytes atomically: a temporary file, fsync, rename.
+/// Writes bytes atomically: a temporary file beside `path`, fsync, rename. On any
+/// failure (a full disk) the temporary file is removed and `path` keeps its old
+/// content, so no partial file is ever left behind.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> VrResult<()> {
     let tmp = path.with_extension("tmp");
-    let mut f = File::create(&tmp).map_err(|e| io_err(&tmp, e))?;
-    f.write_all(bytes).map_err(|e| io_err(&tmp, e))?;
-    f.sync_all().map_err(|e| io_err(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))
+    let written = File::create(&tmp)
+        .and_then(|mut f| f.write_all(bytes).and_then(|()| f.sync_all()))
+        .map_err(|e| io_err(&tmp, e))
+        .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| io_err(path, e)));
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    written
 }
 
 /// The operator log file: one event per line, written and flushed as it happens.
+///
+/// It is a by-product of sculpting (the journal is the record of truth), so once a
+/// write fails (a full disk) it warns once and stops writing; sculpting goes on.
 #[derive(Debug)]
 struct OperatorLog {
     path: PathBuf,
     file: File,
     writer: OpLogWriter,
+    /// Set by the first failed write: nothing more is written.
+    failed: bool,
 }
 
 impl OperatorLog {
@@ -111,8 +137,13 @@ impl OperatorLog {
                 .with_source(OPLOG_SOURCE)
                 .with_method(method),
         );
-        let mut log = Self { path, file, writer };
-        log.flush()?;
+        let mut log = Self {
+            path,
+            file,
+            writer,
+            failed: false,
+        };
+        log.flush();
         Ok(log)
     }
 
@@ -123,15 +154,23 @@ impl OperatorLog {
             tracing::warn!("operator log: {}", Chain(&e));
             return Ok(());
         }
-        self.flush()
+        self.flush();
+        Ok(())
     }
 
-    fn flush(&mut self) -> VrResult<()> {
+    /// Writes what is pending; after a failure, warns once and writes nothing more.
+    fn flush(&mut self) {
         let bytes = self.writer.take();
-        self.file
-            .write_all(&bytes)
-            .and_then(|()| self.file.flush())
-            .map_err(|e| io_err(&self.path, e))
+        if self.failed {
+            return;
+        }
+        if let Err(e) = self.file.write_all(&bytes).and_then(|()| self.file.flush()) {
+            self.failed = true;
+            tracing::warn!(
+                "operator log {} could not be written ({e}); it stops here, sculpting goes on",
+                self.path.display()
+            );
+        }
     }
 }
 
@@ -243,7 +282,7 @@ impl Session {
     /// (recovering after a crash) and starts the operator log.
     pub fn open(config: &Config) -> VrResult<Self> {
         let dir = config.files.dir.clone();
-        std::fs::create_dir_all(&dir).map_err(|e| io_err(&dir, e))?;
+        create_output_dir(&dir).map_err(|e| io_err(&dir, e))?;
         let doc = match &config.files.scene {
             Some(p) => load_scene(p)?,
             None => editor::default_document(),
@@ -444,6 +483,68 @@ mod tests {
         assert!(dir.path().join("operator.1.log").exists());
         let log = decode_bytes(&std::fs::read(dir.path().join(OPLOG_FILE)).unwrap()).unwrap();
         assert_eq!(log.events.last().unwrap().kind, EventKind::Undo);
+    }
+
+    /// Regression (issue 15, item 7): on a full disk a failed `operator.log` write
+    /// ended the live session. The operator log (here `/dev/full`, where every write
+    /// fails with ENOSPC) now warns once and stops; strokes are still journalled and
+    /// applied.
+    #[test]
+    fn a_full_disk_under_the_operator_log_does_not_stop_sculpting() {
+        let dir = tempfile::tempdir().unwrap();
+        std::os::unix::fs::symlink("/dev/full", dir.path().join(OPLOG_FILE)).unwrap();
+        let cfg = config(dir.path());
+        let mut s = Session::open(&cfg).unwrap();
+        stroke(&mut s, 0.0, 1.1);
+        stroke(&mut s, 1.0, 1.2);
+        assert_eq!(s.doc.strokes().len(), 2);
+        assert_eq!(s.operations(), 2);
+        assert!(s.files.oplog.failed);
+        assert_eq!(
+            Journal::read(dir.path().join(JOURNAL_FILE)).unwrap().len(),
+            2
+        );
+    }
+
+    /// Regression (issue 15, item 7): a failed write left a partial `scene.tmp` behind.
+    /// A write that fails now removes its temporary file and keeps the old content.
+    #[test]
+    fn a_failed_atomic_write_leaves_no_temporary_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("scene.json");
+        std::fs::write(&path, b"old").unwrap();
+        // The rename fails (a directory stands where the file goes) after the
+        // temporary file was written in full.
+        let blocked = dir.path().join("blocked.json");
+        std::fs::create_dir(&blocked).unwrap();
+        std::fs::write(blocked.join("inside"), b"x").unwrap();
+        assert!(write_atomic(&blocked, b"new").is_err());
+        assert!(
+            !dir.path().join("blocked.tmp").exists(),
+            "temporary file left"
+        );
+        // A full disk: the temporary file is `/dev/full`, where writes fail.
+        let full = dir.path().join("full.json");
+        std::os::unix::fs::symlink("/dev/full", dir.path().join("full.tmp")).unwrap();
+        let e = write_atomic(&full, &vec![7u8; 1 << 16]).unwrap_err();
+        assert!(e.to_string().contains("full.tmp"), "{e}");
+        assert!(!dir.path().join("full.tmp").exists(), "temporary file left");
+        assert!(!full.exists());
+        assert!(write_atomic(&path, b"new").is_ok());
+        assert_eq!(std::fs::read(&path).unwrap(), b"new");
+    }
+
+    /// Regression (issue 15, item 7): `--out /etc/hostname` said only "File exists".
+    #[test]
+    fn an_output_path_that_is_a_file_says_it_is_not_a_directory() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("hostname");
+        std::fs::write(&file, b"x").unwrap();
+        let e = Session::open(&config(&file)).unwrap_err().to_string();
+        assert!(e.contains("hostname"), "{e}");
+        assert!(e.contains("exists and is not a directory"), "{e}");
+        create_output_dir(&dir.path().join("a/b")).unwrap();
+        assert!(dir.path().join("a/b").is_dir());
     }
 
     #[test]

@@ -34,7 +34,7 @@
 use glam::{DQuat, DVec3};
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, InteractionError, Result, StrokeRejection};
+use crate::error::{Error, InteractionConfigError, InteractionError, Result, StrokeRejection};
 
 pub use crate::sculpt::document::TargetIndex;
 /// Carve or emboss: the sculpting layer's [`Mode`](crate::sculpt::stroke::Mode), named
@@ -538,6 +538,54 @@ impl Default for InteractionConfig {
             max_samples: 200_000,
             pose_every: 1,
         }
+    }
+}
+
+impl InteractionConfig {
+    /// Checks every value the types cannot: the one validation `wandsculpt` and
+    /// `replay` both run on `[interaction]`, so neither accepts what the other
+    /// rejects. The error names the key (`interaction: pause_timeout must be >= 0`).
+    pub fn validate(&self) -> Result<()> {
+        let bad = |e: InteractionConfigError| Err(Error::Interaction(InteractionError::Config(e)));
+        let positive = [
+            ("max_speed", self.max_speed),
+            ("sketch_row_spacing", self.sketch_row_spacing),
+        ];
+        for (setting, value) in positive {
+            if !(value.is_finite() && value > 0.0) {
+                return bad(InteractionConfigError::NotPositive { setting, value });
+            }
+        }
+        let non_negative = [
+            ("pause_timeout", self.pause_timeout),
+            ("max_resume_jump", self.max_resume_jump),
+            ("min_stroke_length", self.min_stroke_length),
+        ];
+        for (setting, value) in non_negative {
+            if !(value.is_finite() && value >= 0.0) {
+                return bad(InteractionConfigError::Negative { setting, value });
+            }
+        }
+        if self.max_samples < 2 {
+            return bad(InteractionConfigError::MaxSamples);
+        }
+        if !(2..=64).contains(&self.sketch_columns) || !(2..=10_000).contains(&self.min_sketch_rows)
+        {
+            return bad(InteractionConfigError::SketchSize);
+        }
+        if !self.sketch_axis.is_finite()
+            || self.sketch_axis.length() < crate::tolerance::ZERO_QUAT_LEN
+        {
+            return bad(InteractionConfigError::SketchAxis);
+        }
+        let b = self.buttons;
+        if [b.action, b.mode, b.profile, b.undo, b.redo, b.select]
+            .iter()
+            .any(|&x| x >= 32)
+        {
+            return bad(InteractionConfigError::ButtonIndex);
+        }
+        Ok(())
     }
 }
 

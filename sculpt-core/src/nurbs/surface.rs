@@ -121,9 +121,60 @@ struct SurfaceJson {
     weights: Option<Vec<Vec<f64>>>,
 }
 
+/// The most control points a surface read from JSON (a surface file, or a document's
+/// target) may have: a 256 x 256 net. Beyond it the reader refuses the surface, so a
+/// hostile file cannot make `project` or the tessellator take gigabytes (a 10^6-point
+/// net took 1 GB).
+pub const MAX_JSON_CONTROL_POINTS: usize = 65_536;
+/// The largest control point coordinate (metres, absolute) a surface read from JSON
+/// may have: squared distances of larger ones overflow in the point inversion
+/// (coordinates near 1e308 gave `inf`), and a sculpted object is never 1000 km wide.
+pub const MAX_JSON_COORDINATE_M: f64 = 1e6;
+/// Weights of a surface read from JSON lie in `[1 / MAX_JSON_WEIGHT, MAX_JSON_WEIGHT]`:
+/// weights of 1e150 made `project` return `inf`.
+pub const MAX_JSON_WEIGHT: f64 = 1e6;
+
+impl SurfaceJson {
+    /// The reader's caps (see [`MAX_JSON_CONTROL_POINTS`], [`MAX_JSON_COORDINATE_M`],
+    /// [`MAX_JSON_WEIGHT`]), checked before the surface is built.
+    fn check_caps(&self) -> Result<()> {
+        let count: usize = self.control_points.iter().map(Vec::len).sum();
+        if count > MAX_JSON_CONTROL_POINTS {
+            return Err(Error::InvalidControlNet(ControlNetError::TooMany {
+                count,
+                max: MAX_JSON_CONTROL_POINTS,
+            }));
+        }
+        for (i, row) in self.control_points.iter().enumerate() {
+            for (j, p) in row.iter().enumerate() {
+                if p.iter().any(|c| c.abs() > MAX_JSON_COORDINATE_M) {
+                    return Err(Error::InvalidControlNet(ControlNetError::TooFar {
+                        at: NetIndex::Surface(i, j),
+                        point: DVec3::from_array(*p),
+                        max_m: MAX_JSON_COORDINATE_M,
+                    }));
+                }
+            }
+        }
+        for (i, row) in self.weights.iter().flatten().enumerate() {
+            for (j, &w) in row.iter().enumerate() {
+                if w.is_finite() && !(1.0 / MAX_JSON_WEIGHT..=MAX_JSON_WEIGHT).contains(&w) {
+                    return Err(Error::InvalidWeights(WeightError::OutOfRange {
+                        at: NetIndex::Surface(i, j),
+                        weight: w,
+                        max: MAX_JSON_WEIGHT,
+                    }));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 impl TryFrom<SurfaceJson> for NurbsSurface {
     type Error = Error;
     fn try_from(j: SurfaceJson) -> Result<Self> {
+        j.check_caps()?;
         let pts = j
             .control_points
             .into_iter()
@@ -540,5 +591,49 @@ impl NurbsSurface {
         let tol =
             crate::tolerance::REL_EPS * (1.0 + ca.abs().max_element().max(cb.abs().max_element()));
         (ca - cb).abs().max_element() <= tol
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A degree-1 surface JSON with an `n x n` net spanning `size` metres, all weights
+    /// `weight`.
+    fn grid_json(n: usize, size: f64, weight: f64) -> String {
+        let knots: Vec<f64> = std::iter::once(0.0)
+            .chain((0..n).map(|i| i as f64 / (n - 1) as f64))
+            .chain(std::iter::once(1.0))
+            .collect();
+        let pts: Vec<Vec<[f64; 3]>> = (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|j| [i as f64 * size / n as f64, j as f64 * size / n as f64, 0.0])
+                    .collect()
+            })
+            .collect();
+        let w = vec![vec![weight; n]; n];
+        serde_json::json!({
+            "degree_u": 1, "degree_v": 1, "knots_u": knots, "knots_v": knots,
+            "control_points": pts, "weights": w,
+        })
+        .to_string()
+    }
+
+    /// Regression (issue 15, item 7): a 10^6-control-point surface took 1 GB in
+    /// `project`, and coordinates near 1e308 or weights of 1e150 made it return `inf`.
+    /// The JSON reader now refuses such surfaces with a message naming the cap.
+    #[test]
+    fn surfaces_beyond_the_reader_caps_are_refused_with_the_cap_named() {
+        assert!(NurbsSurface::from_json(&grid_json(4, 1.0, 1.0)).is_ok());
+        assert!(NurbsSurface::from_json(&grid_json(256, 1.0, 2.0)).is_ok());
+        let e = NurbsSurface::from_json(&grid_json(257, 1.0, 1.0)).unwrap_err();
+        assert!(e.to_string().contains("65536"), "{e}");
+        let e = NurbsSurface::from_json(&grid_json(4, 1e300, 1.0)).unwrap_err();
+        assert!(e.to_string().contains("beyond 1000000 m"), "{e}");
+        let e = NurbsSurface::from_json(&grid_json(4, 1.0, 1e150)).unwrap_err();
+        assert!(e.to_string().contains("weight 1e150"), "{e}");
+        let e = NurbsSurface::from_json(&grid_json(4, 1.0, 1e-150)).unwrap_err();
+        assert!(e.to_string().contains("outside"), "{e}");
     }
 }
