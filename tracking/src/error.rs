@@ -248,3 +248,19 @@ impl TrackingError {
 
 /// `Result` with [`TrackingError`].
 pub type Result<T, E = TrackingError> = std::result::Result<T, E>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Regression: `Io` printed its source in its message and as its `source()`, so
+    /// `{:#}` in the binaries said the cause twice.
+    #[test]
+    fn io_cause_is_printed_once_in_the_chain() {
+        let e = TrackingError::io("pose log", std::io::Error::other("disk on fire"));
+        assert_eq!(
+            sculpt_core::error::Chain(&e).to_string(),
+            "I/O on pose log: disk on fire"
+        );
+    }
+}
