@@ -86,10 +86,12 @@ pub fn default_surface() -> NurbsSurface {
         .unwrap_or_else(|e| unreachable!("the default surface is valid: {e}"))
 }
 
-/// A new document holding the default surface, named `default`.
+/// A new document holding the default surface, named `default`, as its base (undo
+/// never removes it).
 pub fn default_document() -> Document {
     let mut doc = Document::new();
     doc.add_target("default", default_surface());
+    doc.seal_history();
     doc
 }
 
@@ -390,15 +392,44 @@ mod tests {
             Applied::Rejected(_)
         ));
         assert!(doc.strokes().is_empty());
-        assert_eq!(
-            apply(&mut doc, &Edit::Undo),
-            Applied::Undone,
-            "undoes the base target"
-        );
+        // Nothing to undo: the base surface stays (see the regression test below).
+        assert_eq!(apply(&mut doc, &Edit::Undo), Applied::Unchanged);
+        assert_eq!(doc.targets().len(), 1);
+    }
+
+    /// Regression: the default surface was added as an ordinary undoable step, so one
+    /// undo more than there were edits removed it (HUD "target 1/0", a dark screen).
+    #[test]
+    fn undo_past_the_first_edit_no_longer_removes_the_default_surface() {
+        let mut doc = default_document();
+        assert!(!doc.can_undo());
         assert!(matches!(
             apply(&mut doc, &carve(0, 1.1)),
-            Applied::Rejected(_)
+            Applied::Stroke { .. }
         ));
+        assert!(doc.can_undo());
+        assert_eq!(apply(&mut doc, &Edit::Undo), Applied::Undone);
+        for _ in 0..3 {
+            assert_eq!(apply(&mut doc, &Edit::Undo), Applied::Unchanged);
+        }
+        assert_eq!(doc.targets().len(), 1);
+        assert!(doc.strokes().is_empty());
+        // Redo still brings the stroke back.
+        assert_eq!(apply(&mut doc, &Edit::Redo), Applied::Redone);
+        assert_eq!(doc.strokes().len(), 1);
+        // A loaded document is all base: its strokes and targets stay too.
+        let mut loaded = Document::from_json(&doc.to_json()).unwrap();
+        assert_eq!(apply(&mut loaded, &Edit::Undo), Applied::Unchanged);
+        assert_eq!(loaded.strokes().len(), 1);
+        assert_eq!(loaded.targets().len(), 1);
+        // Edits after loading undo as usual, down to the loaded base.
+        assert!(matches!(
+            apply(&mut loaded, &carve(0, 1.2)),
+            Applied::Stroke { .. }
+        ));
+        assert_eq!(apply(&mut loaded, &Edit::Undo), Applied::Undone);
+        assert_eq!(apply(&mut loaded, &Edit::Undo), Applied::Unchanged);
+        assert_eq!(loaded.strokes().len(), 1);
     }
 
     #[test]

@@ -41,6 +41,8 @@ use crate::projection::{HeadPose, Screen, StereoRig};
 pub struct Config {
     /// Outputs and windows.
     pub display: DisplayConfig,
+    /// Picture: material and anti-aliasing.
+    pub render: RenderConfig,
     /// The physical screen.
     pub screen: ScreenConfig,
     /// Eye separation and clip planes.
@@ -91,6 +93,25 @@ impl Default for DisplayConfig {
             height: 720,
             wireframe: false,
             hud: true,
+        }
+    }
+}
+
+/// Picture settings (`[render]`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RenderConfig {
+    /// Surface material: `clay`, `stone` or `wood` (the `M` key steps through them).
+    pub material: crate::render::material::Material,
+    /// Samples per pixel wanted: 1 (off), 2 or 4; the adapter may allow fewer.
+    pub msaa: u32,
+}
+
+impl Default for RenderConfig {
+    fn default() -> Self {
+        Self {
+            material: Default::default(),
+            msaa: 4,
         }
     }
 }
@@ -391,6 +412,12 @@ impl Config {
                 d.width, d.height
             )));
         }
+        if ![1, 2, 4].contains(&self.render.msaa) {
+            return Err(VrError::Config(format!(
+                "render.msaa must be 1, 2 or 4, got {}",
+                self.render.msaa
+            )));
+        }
         self.tool.tool().validate()?;
         // The same check as replay's (sculpt-core's, one for both).
         self.interaction
@@ -463,6 +490,16 @@ mod tests {
         let desk = example("desktop.toml");
         assert!(desk.tracking.is_none());
         assert_eq!(desk.display.mode, OutputMode::Mono);
+        assert_eq!(
+            desk.render.material,
+            crate::render::material::Material::Clay
+        );
+        let stone = Config::from_toml_str("[render]\nmaterial = \"stone\"\nmsaa = 1").unwrap();
+        assert_eq!(
+            stone.render.material,
+            crate::render::material::Material::Stone
+        );
+        assert_eq!(stone.render.msaa, 1);
     }
 
     #[test]
@@ -496,6 +533,8 @@ mod tests {
                 "speed",
             ),
             ("[display]\nwidth = 0", "size"),
+            ("[render]\nmaterial = \"marble\"", "unknown variant"),
+            ("[render]\nmsaa = 3", "render.msaa"),
         ] {
             let e = Config::from_toml_str(text).unwrap_err().to_string();
             assert!(e.contains(needle), "{text:?} gave {e:?}");

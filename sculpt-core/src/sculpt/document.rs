@@ -164,6 +164,9 @@ pub struct Document {
     strokes: Vec<StrokeRecord>,
     redo: Vec<Step>,
     next_id: u64,
+    /// Steps with ids up to this are the document's base (made before its first edit,
+    /// or loaded): undo stops there ([`Self::seal_history`]).
+    history_floor: u64,
     built: HashMap<StrokeId, Stroke>,
     views: HashMap<(TargetId, Detail), TargetTessellation>,
     /// Areas changed since the last tessellation, per target and detail
@@ -270,10 +273,19 @@ impl Document {
         Ok(record.id)
     }
 
-    /// Undoes the last step; false when there is nothing to undo.
+    /// Makes everything now in the document its base, which [`Self::undo`] never
+    /// removes (the default surface of a new session, a loaded scene).
+    pub fn seal_history(&mut self) {
+        self.history_floor = self.next_id.saturating_sub(1);
+    }
+
+    /// Undoes the last step; false when there is nothing to undo (the base, see
+    /// [`Self::seal_history`], is never undone).
     pub fn undo(&mut self) -> bool {
-        let last_stroke = self.strokes.last().map(|s| s.id);
-        let last_target = self.targets.last().map(|t| t.id);
+        // Ids are strictly increasing, so every base step is older than every edit.
+        let floor = self.history_floor;
+        let last_stroke = self.strokes.last().map(|s| s.id).filter(|&id| id > floor);
+        let last_target = self.targets.last().map(|t| t.id).filter(|&id| id > floor);
         // Steps are strictly ordered by id: undo whichever came last.
         let step = match (last_stroke, last_target) {
             (Some(s), Some(t)) if s > t => self.pop_stroke(),
@@ -307,7 +319,9 @@ impl Document {
 
     /// True when [`Self::undo`] would do something.
     pub fn can_undo(&self) -> bool {
-        !self.targets.is_empty()
+        let floor = self.history_floor;
+        self.strokes.last().is_some_and(|s| s.id > floor)
+            || self.targets.last().is_some_and(|t| t.id > floor)
     }
 
     /// True when [`Self::redo`] would do something.
@@ -816,6 +830,8 @@ impl Document {
             .max()
             .unwrap_or(0)
             + 1;
+        // A loaded document has no history: what it holds is the base.
+        doc.seal_history();
         Ok(doc)
     }
 }
