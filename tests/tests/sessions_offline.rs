@@ -70,6 +70,11 @@ fn every_shipped_session_applies_its_strokes() {
                 assert_eq!(m.tracking.timeouts, 1);
             }
             Trouble::TruncatedLastLine => assert!(m.frames.truncated_tail),
+            // The backward run (frames 152 to 250) is dropped; 251 is a reset.
+            Trouble::CounterJumpsBack => {
+                assert_eq!(m.frames.out_of_order, 99, "{m:#?}");
+                assert_eq!(m.tracking.timeouts, 1, "{m:#?}");
+            }
         }
     }
 }
