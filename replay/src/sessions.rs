@@ -337,7 +337,7 @@ pub fn catalogue() -> Vec<SessionSpec> {
             three_parallel(Sculptor::new()).finish(),
             &clean,
             Trouble::CounterJumpsBack,
-            2,
+            3,
         ),
         spec(
             "patch-carve-truncated",
