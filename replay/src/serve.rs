@@ -372,6 +372,13 @@ pub fn serve(
         }
     }
     report.delivery = match sink.as_mut() {
+        // Records that fell due while the receiver was away never reached it, however
+        // the last connection ended (a receiver that closes every connection at once
+        // can still close the last one cleanly).
+        Some(Sink::Tcp(_)) if report.missed > 0 => Delivery::NotTaken(format!(
+            "{} records fell due while it was disconnected",
+            report.missed
+        )),
         Some(Sink::Tcp(stream)) => finish_tcp(stream, ACK_WAIT),
         Some(Sink::File(_)) => Delivery::Unknown,
         None => Delivery::NotTaken(format!(

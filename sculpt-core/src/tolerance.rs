@@ -258,6 +258,8 @@ pub const CURSOR_RING_Z_TOL: f64 = 2e-3;
 pub const SEAM_DEPTH_TOL: f64 = 1e-4;
 /// Areas and widths carried through f32 mesh coordinates agree to this.
 pub const F32_EPS: f64 = 1e-6;
+/// Values published to six decimal digits (a standard's table) agree to this.
+pub const SIX_DIGITS_EPS: f64 = 1e-6;
 /// Lengths along a carved arc agree with the arc to this fraction.
 pub const ARC_LEN_REL: f64 = 1e-3;
 /// Areas of the same stroke carved at two places on a sphere agree to this fraction.

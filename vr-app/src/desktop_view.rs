@@ -199,7 +199,7 @@ mod tests {
 
     const HEAD: DVec3 = DVec3::new(0.0, 1.17, 0.6);
     /// Projected coordinates of exact constructions agree to rounding.
-    const NDC_EPS: f64 = 1e-9;
+    const NDC_EPS: f64 = sculpt_core::tolerance::POINT_EPS;
 
     fn centre_ndc(view: &DesktopView, p: DVec3) -> glam::DVec2 {
         let s = view.screen(&screen()).unwrap();

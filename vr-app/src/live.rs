@@ -309,7 +309,7 @@ impl LiveTracking {
         if let (Some(lost_t), Some(stage_t), Some(last)) =
             (self.idle_lost_at, self.stage.time(), self.last_receive)
         {
-            let end = lost_t + self.pause_timeout + 1e-9;
+            let end = lost_t + self.pause_timeout + sculpt_core::tolerance::TIME_EPS;
             let now = stage_t + self.hub.now().saturating_sub(last).as_secs_f64();
             if now > end + TICK_MARGIN_S {
                 out.push(Input::Tick(end));

@@ -316,8 +316,23 @@ fn an_impossible_jump_is_a_glitch() {
 #[test]
 fn recovered_edits_keep_the_target_count() {
     let mut edits = carve_loop();
-    assert_eq!(edits.apply(&Edit::Undo), Applied::Undone);
-    assert_eq!(edits.target_count(), 0);
-    assert_eq!(edits.apply(&Edit::Redo), Applied::Redone);
+    // The base surface is sealed: an undo at the start changes nothing.
+    assert_eq!(edits.apply(&Edit::Undo), Applied::Unchanged);
     assert_eq!(edits.target_count(), 1);
+    let rows = (0..=20)
+        .map(|i| {
+            (0..8)
+                .map(|j| DVec3::new(-0.2 + 0.05 * j as f64, 1.0 + 0.01 * i as f64, 0.3))
+                .collect()
+        })
+        .collect();
+    assert!(matches!(
+        edits.apply(&Edit::Sketch { rows }),
+        Applied::Sketch { .. }
+    ));
+    assert_eq!(edits.target_count(), 2);
+    assert_eq!(edits.apply(&Edit::Undo), Applied::Undone);
+    assert_eq!(edits.target_count(), 1);
+    assert_eq!(edits.apply(&Edit::Redo), Applied::Redone);
+    assert_eq!(edits.target_count(), 2);
 }

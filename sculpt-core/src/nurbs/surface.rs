@@ -158,7 +158,11 @@ impl SurfaceJson {
         }
         for (i, row) in self.weights.iter().flatten().enumerate() {
             for (j, &w) in row.iter().enumerate() {
-                if w.is_finite() && !(1.0 / MAX_JSON_WEIGHT..=MAX_JSON_WEIGHT).contains(&w) {
+                // Non-positive and non-finite weights get their own error below.
+                if w.is_finite()
+                    && w > 0.0
+                    && !(1.0 / MAX_JSON_WEIGHT..=MAX_JSON_WEIGHT).contains(&w)
+                {
                     return Err(Error::InvalidWeights(WeightError::OutOfRange {
                         at: NetIndex::Surface(i, j),
                         weight: w,
@@ -633,6 +637,7 @@ mod tests {
         assert!(e.to_string().contains("beyond 1000000 m"), "{e}");
         let e = NurbsSurface::from_json(&grid_json(4, 1.0, 1e150)).unwrap_err();
         assert!(e.to_string().contains("weight 1e150"), "{e}");
+        // not a tolerance: a hostile weight, far below the reader's cap
         let e = NurbsSurface::from_json(&grid_json(4, 1.0, 1e-150)).unwrap_err();
         assert!(e.to_string().contains("outside"), "{e}");
     }
