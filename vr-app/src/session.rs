@@ -540,7 +540,9 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let file = dir.path().join("hostname");
         std::fs::write(&file, b"x").unwrap();
-        let e = Session::open(&config(&file)).unwrap_err().to_string();
+        // As the binary prints it: the error and its causes on one line.
+        let e = Session::open(&config(&file)).unwrap_err();
+        let e = sculpt_core::error::Chain(&e).to_string();
         assert!(e.contains("hostname"), "{e}");
         assert!(e.contains("exists and is not a directory"), "{e}");
         create_output_dir(&dir.path().join("a/b")).unwrap();
