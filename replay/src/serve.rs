@@ -372,13 +372,17 @@ pub fn serve(
         }
     }
     report.delivery = match sink.as_mut() {
-        // Records that fell due while the receiver was away never reached it, however
-        // the last connection ended (a receiver that closes every connection at once
-        // can still close the last one cleanly).
-        Some(Sink::Tcp(_)) if report.missed > 0 => Delivery::NotTaken(format!(
-            "{} records fell due while it was disconnected",
-            report.missed
-        )),
+        // Connecting to a display server: records that fell due while it was away never
+        // reached it, however the last connection ended (a server whose slots are full
+        // closes every connection at once, and may close the last one cleanly). When
+        // listening, clients come and go as they choose (a display server restarted
+        // after a crash), as with a real tracker; the summary counts what they missed.
+        Some(Sink::Tcp(_)) if report.missed > 0 && matches!(endpoint, Endpoint::Connect(_)) => {
+            Delivery::NotTaken(format!(
+                "{} records fell due while it was disconnected",
+                report.missed
+            ))
+        }
         Some(Sink::Tcp(stream)) => finish_tcp(stream, ACK_WAIT),
         Some(Sink::File(_)) => Delivery::Unknown,
         None => Delivery::NotTaken(format!(
