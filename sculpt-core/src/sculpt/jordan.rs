@@ -194,6 +194,15 @@ impl Region {
         let mut inside = false;
         for &k in &self.bands[band_of(p.y)] {
             let [a, b] = self.segments[k as usize];
+            // A segment wholly left of `p`, or wholly above or below it, neither
+            // crosses the ray to +u nor passes within the edge tolerance: skip it
+            // before the distance (most of a band's segments, for a long stroke along u).
+            if a.x.max(b.x) < p.x - ON_EDGE_EPS
+                || a.y.min(b.y) > p.y + ON_EDGE_EPS
+                || a.y.max(b.y) < p.y - ON_EDGE_EPS
+            {
+                continue;
+            }
             if point_segment_distance(p, a, b) <= ON_EDGE_EPS {
                 return Location::OnBoundary;
             }

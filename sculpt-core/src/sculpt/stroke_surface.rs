@@ -535,7 +535,7 @@ impl StrokeSurface {
         };
         let ss = subdivide(&self.s_params, MARCH_SUB_S);
         let ts = subdivide(&self.t_params, MARCH_SUB_T);
-        let removed = |st: DVec2| ctx.margin(self, st) < 0.0;
+        let removed = |st: DVec2| ctx.removed(self, st);
         let (ns, nt) = (ss.len(), ts.len());
         let mut inside = vec![false; ns * nt];
         for (j, &t) in ts.iter().enumerate() {
@@ -816,9 +816,10 @@ struct Ctx<'a, 'b> {
 }
 
 impl Ctx<'_, '_> {
-    /// The margin at the foot of the stroke surface point `st` (see
-    /// [`StrokeSurface::target_foot`]); infinite where no other stroke is near.
-    fn margin(&self, me: &StrokeSurface, st: DVec2) -> f64 {
+    /// Whether another stroke removes the stroke surface point `st`: its margin at the
+    /// foot (see [`StrokeSurface::target_foot`]) is negative. No other stroke near
+    /// means not removed.
+    fn removed(&self, me: &StrokeSurface, st: DVec2) -> bool {
         let uv = me.target_uv(st);
         let vars = variants(uv, self.closed);
         let near: Vec<usize> = self
@@ -831,11 +832,19 @@ impl Ctx<'_, '_> {
             })
             .collect();
         if near.is_empty() {
-            return f64::INFINITY;
+            return false;
         }
         let uv = me.target_foot(self.target, st);
         let p = self.target.eval(wrap_uv(uv)).p;
-        visibility_margin_at(self.strokes, self.own, &near, uv, p, self.closed)
+        visibility_margin_at(
+            self.strokes,
+            self.own,
+            &near,
+            uv,
+            p,
+            self.closed,
+            Need::Sign,
+        ) < 0.0
     }
 }
 
@@ -850,6 +859,19 @@ fn acting_depth(s: &Stroke, uv: DVec2, p: DVec3, closed: [bool; 2]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// How much of the visibility margin a caller needs.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Need {
+    /// The exact signed margin.
+    Margin,
+    /// Only its sign: the scan stops at the first stroke that proves the margin
+    /// negative and returns a negative value (not the exact margin). With many
+    /// overlapping strokes this turns the common "removed" case from a scan of every
+    /// stroke into a scan up to the first that removes the point (issue 15: exporting
+    /// 60 nearly coincident strokes spent most of its time here).
+    Sign,
+}
+
 fn visibility_margin_at(
     strokes: &[StrokeRef<'_>],
     own: usize,
@@ -857,11 +879,23 @@ fn visibility_margin_at(
     uv: DVec2,
     p: DVec3,
     closed: [bool; 2],
+    need: Need,
 ) -> f64 {
     let me = strokes[own].1;
     let v = sign(me.tool.mode) * me.depth_at(uv, p);
+    let margin_of = |h: f64| match me.tool.mode {
+        Mode::Carve => h - v,
+        Mode::Emboss => v - h,
+    };
+    // Strokes of my own mode only push the envelope of the earlier strokes further
+    // past me (carving deeper, embossing higher), so once the margin is negative and
+    // no earlier stroke of the other mode is left, it stays negative.
+    let last_other_mode = near
+        .iter()
+        .copied()
+        .filter(|&j| j < own && strokes[j].1.tool.mode != me.tool.mode)
+        .max();
     let mut h_before: f64 = 0.0;
-    let mut margin = f64::INFINITY;
     for &j in near.iter().filter(|&&j| j < own) {
         let s = strokes[j].1;
         let d = acting_depth(s, uv, p, closed);
@@ -871,12 +905,16 @@ fn visibility_margin_at(
                 Mode::Emboss => h_before.max(d),
             };
         }
+        if need == Need::Sign && margin_of(h_before) < 0.0 && last_other_mode.is_none_or(|k| j >= k)
+        {
+            return margin_of(h_before);
+        }
     }
-    margin = margin.min(match me.tool.mode {
-        Mode::Carve => h_before - v,
-        Mode::Emboss => v - h_before,
-    });
+    let mut margin = margin_of(h_before);
     for &j in near.iter().filter(|&&j| j > own) {
+        if need == Need::Sign && margin < 0.0 {
+            return margin;
+        }
         let s = strokes[j].1;
         let d = acting_depth(s, uv, p, closed);
         if d > 0.0 {
@@ -904,5 +942,5 @@ pub fn visibility_margin(
     }
     let p = target.eval(wrap_uv(uv)).p;
     let near: Vec<usize> = (0..strokes.len()).filter(|&j| j != own).collect();
-    visibility_margin_at(strokes, own, &near, uv, p, closed)
+    visibility_margin_at(strokes, own, &near, uv, p, closed, Need::Margin)
 }
