@@ -27,7 +27,7 @@
 //! assert!(got.calibration.point_in_world(DVec3::ONE).distance(truth.point_in_world(DVec3::ONE)) < sculpt_core::tolerance::POINT_EPS);
 //! ```
 
-use crate::error::{Result, TrackingError};
+use crate::error::{CalibrationError, Degeneracy, Result, TrackingError};
 use crate::frame::{DeviceId, Pose};
 use glam::{DMat3, DQuat, DVec3};
 use nalgebra::{Matrix3, Vector3};
@@ -91,36 +91,31 @@ fn axis(spec: &str) -> Option<DVec3> {
 impl Calibration {
     /// Checks the scale, the remap (a proper rotation), the quaternion and the numbers.
     pub fn validate(&self) -> Result<()> {
-        let bad = |s: String| Err(TrackingError::Calibration(s));
+        let bad = |e: CalibrationError| Err(TrackingError::Calibration(e));
         if !(self.scale.is_finite() && self.scale > 0.0) {
-            return bad(format!("scale {} must be > 0", self.scale));
+            return bad(CalibrationError::Scale(self.scale));
         }
         let rows: Option<Vec<DVec3>> = self.axes.iter().map(|a| axis(a)).collect();
         let Some(rows) = rows else {
-            return bad(format!(
-                "axes {:?}: each must be x, y, z or -x, -y, -z",
-                self.axes
-            ));
+            return bad(CalibrationError::AxisName(self.axes.clone()));
         };
         let det = DMat3::from_cols(rows[0], rows[1], rows[2]).determinant();
         if (det - 1.0).abs() > sculpt_core::tolerance::ROTATION_DET_EPS {
-            return bad(format!(
-                "axes {:?} are not a rotation (mirror or repeat)",
-                self.axes
-            ));
+            return bad(CalibrationError::NotARotation(self.axes.clone()));
         }
         let q = DQuat::from_array(self.rotation);
         if !q.is_finite() || q.length() < sculpt_core::tolerance::ZERO_QUAT_LEN {
-            return bad("rotation must be a non-zero quaternion".into());
+            return bad(CalibrationError::Rotation);
         }
         if !self.translation_m.iter().all(|v| v.is_finite()) {
-            return bad("translation must be finite".into());
+            return bad(CalibrationError::Translation);
         }
         for (dev, tip) in &self.tips {
-            dev.parse::<DeviceId>()
-                .map_err(|e| TrackingError::Calibration(e.to_string()))?;
+            if let Err(TrackingError::Config(e)) = dev.parse::<DeviceId>() {
+                return bad(CalibrationError::TipDevice(e));
+            }
             if !tip.iter().all(|v| v.is_finite()) {
-                return bad(format!("tip of {dev} must be finite"));
+                return bad(CalibrationError::Tip(dev.clone()));
             }
         }
         Ok(())
@@ -206,12 +201,15 @@ fn na(v: DVec3) -> Vector3<f64> {
 /// `S = diag(1, 1, sign(det U · det V))`, then `R = U S Vᵀ`, `c = tr(D S) / σ²_a` (when
 /// fitting the scale) and `t = b̄ − c R ā`. Needs ≥ 3 pairs, not all on one line.
 pub fn fit(pairs: &[(DVec3, DVec3)], options: &FitOptions) -> Result<Fit> {
-    let bad = |s: &str| Err(TrackingError::Calibration(s.to_string()));
+    let bad = |e: CalibrationError| Err(TrackingError::Calibration(e));
     if pairs.len() < 3 {
-        return bad("need at least 3 point pairs");
+        return bad(CalibrationError::TooFew {
+            needed: 3,
+            what: "point pairs",
+        });
     }
     if pairs.iter().any(|(a, b)| !a.is_finite() || !b.is_finite()) {
-        return bad("point pairs must be finite");
+        return bad(CalibrationError::NotFinite("point pairs"));
     }
     let mut base = options.base.clone();
     base.rotation = [0.0, 0.0, 0.0, 1.0];
@@ -235,12 +233,12 @@ pub fn fit(pairs: &[(DVec3, DVec3)], options: &FitOptions) -> Result<Fit> {
     var_a /= n;
     let svd = cov.svd(true, true);
     let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
-        return bad("SVD failed");
+        return bad(CalibrationError::Solve("SVD failed"));
     };
     let mut sv: Vec<f64> = svd.singular_values.iter().copied().collect();
     sv.sort_by(|x, y| y.total_cmp(x));
     if var_a <= 0.0 || sv[0] <= 0.0 || sv[1] <= sculpt_core::tolerance::SINGULAR_REL * sv[0] {
-        return bad("points are degenerate (coincident or collinear)");
+        return bad(CalibrationError::Degenerate(Degeneracy::Points));
     }
     // The sign flip (a reflection otherwise) goes on the smallest singular value.
     let d = if (u.determinant() * v_t.determinant()) < 0.0 {
@@ -258,7 +256,7 @@ pub fn fit(pairs: &[(DVec3, DVec3)], options: &FitOptions) -> Result<Fit> {
         1.0
     };
     if !(c.is_finite() && c > 0.0) {
-        return bad("fitted scale is not positive");
+        return bad(CalibrationError::FittedScale);
     }
     let t = cb - c * r * ca;
     let rot = DMat3::from_cols_array(&[
@@ -309,14 +307,17 @@ pub struct TipFit {
 /// 3n × 6 linear least-squares problem, solved by SVD. Needs ≥ 3 poses whose rotations
 /// differ about at least two axes; otherwise the system is degenerate and this errors.
 pub fn fit_tip(poses: &[(DVec3, DQuat)]) -> Result<TipFit> {
-    let bad = |s: &str| Err(TrackingError::Calibration(s.to_string()));
+    let bad = |e: CalibrationError| Err(TrackingError::Calibration(e));
     if poses.len() < 3 {
-        return bad("pivot calibration needs at least 3 poses");
+        return bad(CalibrationError::TooFew {
+            needed: 3,
+            what: "poses (pivot calibration)",
+        });
     }
     if poses.iter().any(|(p, q)| {
         !p.is_finite() || !q.is_finite() || q.length() < sculpt_core::tolerance::ZERO_QUAT_LEN
     }) {
-        return bad("poses must be finite with non-zero quaternions");
+        return bad(CalibrationError::NotFinite("poses"));
     }
     let n = poses.len();
     let mut a = nalgebra::DMatrix::<f64>::zeros(3 * n, 6);
@@ -338,11 +339,11 @@ pub fn fit_tip(poses: &[(DVec3, DQuat)]) -> Result<TipFit> {
         || smax <= 0.0
         || smin < sculpt_core::tolerance::CALIBRATION_COND_MIN * smax
     {
-        return bad("poses are degenerate: turn the wand about two or more axes");
+        return bad(CalibrationError::Degenerate(Degeneracy::Poses));
     }
     let x = svd
         .solve(&b, sculpt_core::tolerance::SINGULAR_REL * smax)
-        .map_err(|e| TrackingError::Calibration(e.to_string()))?;
+        .map_err(|e| TrackingError::Calibration(CalibrationError::Solve(e)))?;
     let tip = DVec3::new(x[0], x[1], x[2]);
     let pivot = DVec3::new(x[3], x[4], x[5]);
     let residuals: Vec<f64> = poses

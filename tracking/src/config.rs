@@ -16,7 +16,7 @@
 
 use crate::calibration::Calibration;
 use crate::dtrack::DecoderLimits;
-use crate::error::{Result, TrackingError};
+use crate::error::{ConfigError, Result, TrackingError};
 use crate::filter::FilterConfig;
 use serde::{Deserialize, Serialize};
 use std::net::{IpAddr, SocketAddr};
@@ -165,7 +165,8 @@ impl Default for TrackingConfig {
 impl TrackingConfig {
     /// Parses and validates TOML.
     pub fn from_toml_str(text: &str) -> Result<Self> {
-        let cfg: Self = toml::from_str(text).map_err(|e| TrackingError::Config(e.to_string()))?;
+        let cfg: Self = toml::from_str(text)
+            .map_err(|e| TrackingError::Config(ConfigError::Toml(Box::new(e))))?;
         cfg.validate()?;
         Ok(cfg)
     }
@@ -179,24 +180,25 @@ impl TrackingConfig {
 
     /// The config as TOML.
     pub fn to_toml_string(&self) -> Result<String> {
-        toml::to_string(self).map_err(|e| TrackingError::Config(e.to_string()))
+        toml::to_string(self)
+            .map_err(|e| TrackingError::Config(ConfigError::TomlWrite(Box::new(e))))
     }
 
     /// Checks ranges and the calibration.
     pub fn validate(&self) -> Result<()> {
-        let bad = |s: &str| Err(TrackingError::Config(s.to_string()));
+        let bad = |e: ConfigError| Err(TrackingError::Config(e));
         if self.lost_after_ms == 0 || self.read_timeout_ms == 0 {
-            return bad("lost_after_ms and read_timeout_ms must be > 0");
+            return bad(ConfigError::Timeouts);
         }
         if self.reconnect_min_ms == 0 || self.reconnect_max_ms < self.reconnect_min_ms {
-            return bad("need 0 < reconnect_min_ms <= reconnect_max_ms");
+            return bad(ConfigError::Reconnect);
         }
         if self.max_connections == 0 {
-            return bad("max_connections must be > 0");
+            return bad(ConfigError::MaxConnections);
         }
         let l = self.limits;
         if l.max_line < 64 || l.max_frame < l.max_line || l.max_devices == 0 {
-            return bad("limits: need max_line >= 64, max_frame >= max_line, max_devices > 0");
+            return bad(ConfigError::Limits);
         }
         self.filter.validate()?;
         self.calibration.validate()

@@ -41,13 +41,14 @@ pub enum TrackingError {
     PoseLogHeader(PoseLogHeaderError),
     /// Invalid configuration (TOML or programmatic).
     #[error("config: {0}")]
-    Config(String),
-    /// A calibration could not be computed (too few or degenerate point pairs).
+    Config(ConfigError),
+    /// A calibration is invalid or could not be computed (too few or degenerate point
+    /// pairs).
     #[error("calibration: {0}")]
-    Calibration(String),
+    Calibration(CalibrationError),
     /// An invalid simulator script or setting.
     #[error("simulator: {0}")]
-    Sim(String),
+    Sim(SimError),
     /// An I/O error, with the path or endpoint involved when known.
     #[error("I/O on {what}")]
     Io {
@@ -69,7 +70,7 @@ pub enum TrackingError {
     },
     /// The `.tilt` container (16-byte header and zip archive) is malformed.
     #[error("not a readable .tilt file: {0}")]
-    TiltContainer(String),
+    TiltContainer(TiltContainerError),
     /// The `data.sketch` stream inside a `.tilt` file is malformed.
     #[error("malformed data.sketch at byte {offset}: {reason}")]
     TiltSketch {
@@ -80,10 +81,243 @@ pub enum TrackingError {
     },
     /// Import options or the sketch cannot make a wand track.
     #[error("import: {0}")]
-    Import(String),
+    Import(ImportError),
     /// JSON in a pose-log header could not be (de)serialised.
     #[error("JSON")]
     Json(#[from] serde_json::Error),
+}
+
+/// What is wrong with a tracking configuration.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ConfigError {
+    /// The TOML does not parse or does not follow the schema.
+    #[error("{0}")]
+    Toml(Box<toml::de::Error>),
+    /// The config could not be written as TOML.
+    #[error("writing TOML: {0}")]
+    TomlWrite(Box<toml::ser::Error>),
+    /// A timeout is zero.
+    #[error("lost_after_ms and read_timeout_ms must be > 0")]
+    Timeouts,
+    /// The reconnect back-off range is empty.
+    #[error("need 0 < reconnect_min_ms <= reconnect_max_ms")]
+    Reconnect,
+    /// No connection would be admitted.
+    #[error("max_connections must be > 0")]
+    MaxConnections,
+    /// The line, frame or device caps are too small.
+    #[error("limits: need max_line >= 64, max_frame >= max_line, max_devices > 0")]
+    Limits,
+    /// A filter cutoff, `beta` or `reset_after_s` is out of range.
+    #[error("filter: cutoffs and reset_after_s must be > 0, beta >= 0")]
+    Filter,
+    /// The stage's loss timeout is not positive.
+    #[error("stage timeout_s must be > 0, got {0}")]
+    StageTimeout(f64),
+    /// A device id is neither `bodyN` nor `wandN` (the text as given).
+    #[error("device id `{0}`: want bodyN or wandN")]
+    DeviceId(String),
+}
+
+/// Why a calibration is invalid or cannot be fitted.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CalibrationError {
+    /// The tracker-unit scale is not positive.
+    #[error("scale {0} must be > 0")]
+    Scale(f64),
+    /// An axis name is not `x`, `y`, `z` or a negation.
+    #[error("axes {0:?}: each must be x, y, z or -x, -y, -z")]
+    AxisName([String; 3]),
+    /// The axes remap is a mirror or repeats an axis.
+    #[error("axes {0:?} are not a rotation (mirror or repeat)")]
+    NotARotation([String; 3]),
+    /// The rotation quaternion is zero or not finite.
+    #[error("rotation must be a non-zero quaternion")]
+    Rotation,
+    /// The translation is not finite.
+    #[error("translation must be finite")]
+    Translation,
+    /// A wand tip names an unknown device.
+    #[error("tip: {0}")]
+    TipDevice(ConfigError),
+    /// A wand tip offset is not finite.
+    #[error("tip of {0} must be finite")]
+    Tip(String),
+    /// Fewer point pairs (or poses) than the fit needs.
+    #[error("need at least {needed} {what}")]
+    TooFew {
+        /// How many are needed.
+        needed: usize,
+        /// `point pairs` or `poses`.
+        what: &'static str,
+    },
+    /// A point pair or pose is not finite (or a quaternion is zero).
+    #[error("{0} must be finite with non-zero quaternions")]
+    NotFinite(&'static str),
+    /// The points or poses do not determine the fit.
+    #[error("{0}")]
+    Degenerate(Degeneracy),
+    /// The linear solve failed.
+    #[error("solving the least-squares system: {0}")]
+    Solve(&'static str),
+    /// The fitted scale came out non-positive.
+    #[error("fitted scale is not positive")]
+    FittedScale,
+}
+
+/// Why calibration input does not determine a fit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum Degeneracy {
+    /// Point pairs are coincident or collinear.
+    #[error("points are degenerate (coincident or collinear)")]
+    Points,
+    /// Pivot poses turn about fewer than two axes.
+    #[error("poses are degenerate: turn the wand about two or more axes")]
+    Poses,
+}
+
+/// What is wrong with a simulator script or its settings.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SimError {
+    /// A start pose is not finite.
+    #[error("start poses must be finite")]
+    StartPose,
+    /// A step's duration is out of range (`step` is 1-based).
+    #[error("step {step}: duration must be 0..=86400 s")]
+    Duration {
+        /// 1-based step number.
+        step: usize,
+    },
+    /// A step's button index is out of range.
+    #[error("step {step}: button index must be < 64")]
+    Button {
+        /// 1-based step number.
+        step: usize,
+    },
+    /// A step has a non-finite number.
+    #[error("step {step}: numbers must be finite")]
+    NotFinite {
+        /// 1-based step number.
+        step: usize,
+    },
+    /// The frame rate is out of range.
+    #[error("rate_hz must be in 1..=2000")]
+    Rate,
+    /// A tremor, noise or dropout setting is negative or not finite.
+    #[error("tremor, noise and dropout settings must be finite and >= 0")]
+    Noise,
+    /// The tremor band is empty or not positive.
+    #[error("tremor_band_hz must be 0 < lo <= hi")]
+    TremorBand,
+    /// More buttons or analog axes than a wand has.
+    #[error("too many buttons or analog axes")]
+    Channels,
+}
+
+/// What is wrong with a `.tilt` container.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum TiltContainerError {
+    /// Shorter than the fixed header.
+    #[error("{0} bytes is shorter than the 16-byte header")]
+    Short(usize),
+    /// The magic is not `tilT`.
+    #[error("bad magic {0:02x?} (expected \"tilT\")")]
+    Magic([u8; 4]),
+    /// The header size field does not fit the file.
+    #[error("header size {header} out of range for a {len}-byte file")]
+    HeaderSize {
+        /// The header size field.
+        header: usize,
+        /// The file's length.
+        len: usize,
+    },
+    /// The zip archive (or one entry) cannot be read or written.
+    #[error("{what}: {source}")]
+    Zip {
+        /// `zip archive`, `writing zip` or the entry name.
+        what: String,
+        /// The zip error.
+        source: zip::result::ZipError,
+    },
+    /// An entry could not be read or written.
+    #[error("{what}: {source}")]
+    Io {
+        /// `writing zip` or the entry name.
+        what: String,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The archive has no `data.sketch`.
+    #[error("the archive has no data.sketch")]
+    NoSketch,
+    /// An entry is larger than its cap.
+    #[error("{name} claims {size} bytes, more than the {cap}-byte limit")]
+    TooLarge {
+        /// The entry name.
+        name: String,
+        /// The size it claims (or at least `cap + 1` when it lied).
+        size: u64,
+        /// The cap.
+        cap: u64,
+    },
+}
+
+/// Why import options or a sketch cannot make a wand track.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ImportError {
+    /// The sample rate is out of range.
+    #[error("rate must be in 1..=2000 Hz")]
+    Rate,
+    /// The speed factor is out of range.
+    #[error("speed must be in (0, 1000]")]
+    Speed,
+    /// A placement or timing value is not finite.
+    #[error("placement and timing values must be finite")]
+    NotFinite,
+    /// A gap, lead or point interval is negative (or zero).
+    #[error("gap and lead times must be >= 0 and the point interval > 0")]
+    Timing,
+    /// A gap or lead is longer than an hour.
+    #[error("gap and lead times must be at most an hour")]
+    TooLong,
+    /// The fit box is not positive.
+    #[error("the fit box must be positive")]
+    FitBox,
+    /// The scale is not finite and positive.
+    #[error("scale must be finite and > 0")]
+    Scale,
+    /// The placement axes are zero or parallel.
+    #[error("right and up must be non-zero and not parallel")]
+    Axes,
+    /// The button index is out of range.
+    #[error("button must be in 0..32")]
+    Button,
+    /// The stroke range is empty or past the end.
+    #[error("stroke range {first}..{end} is empty or beyond the sketch's {count} strokes")]
+    StrokeRange {
+        /// First stroke asked for.
+        first: usize,
+        /// One past the last stroke asked for.
+        end: usize,
+        /// Strokes in the sketch.
+        count: usize,
+    },
+    /// Every stroke in the range is empty.
+    #[error("no stroke in the range has control points")]
+    NoPoints,
+    /// The track would be too long.
+    #[error("the track would have {frames} frames (more than {max}); lower the rate or the gaps")]
+    TooManyFrames {
+        /// Frames the track would have.
+        frames: usize,
+        /// The cap.
+        max: usize,
+    },
 }
 
 /// What is wrong with a pose-log line.
@@ -150,7 +384,8 @@ pub enum PoseLogHeaderError {
     /// No complete first line.
     #[error("missing first line")]
     MissingFirstLine,
-    /// The first line is not the magic and a version.
+    /// The first line is not the magic and a version (the line as found, cut to 80
+    /// characters).
     #[error("first line `{0}`")]
     FirstLine(String),
     /// The version is not the one this reader knows.

@@ -102,9 +102,7 @@ impl FilterConfig {
         if self.position.valid() && self.orientation.valid() {
             Ok(())
         } else {
-            Err(crate::TrackingError::Config(
-                "filter: cutoffs and reset_after_s must be > 0, beta >= 0".into(),
-            ))
+            Err(crate::TrackingError::Config(crate::ConfigError::Filter))
         }
     }
 }

@@ -118,7 +118,7 @@ impl std::fmt::Display for DeviceId {
 impl std::str::FromStr for DeviceId {
     type Err = crate::TrackingError;
     fn from_str(s: &str) -> crate::Result<Self> {
-        let bad = || crate::TrackingError::Config(format!("device id `{s}`: want bodyN or wandN"));
+        let bad = || crate::TrackingError::Config(crate::ConfigError::DeviceId(s.to_string()));
         if let Some(n) = s.strip_prefix("body") {
             n.parse().map(DeviceId::Body).map_err(|_| bad())
         } else if let Some(n) = s.strip_prefix("wand") {

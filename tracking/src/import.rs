@@ -35,7 +35,7 @@
 use std::io::Write;
 use std::time::Duration;
 
-use crate::error::{Result, TrackingError as Error};
+use crate::error::{ImportError, Result, TrackingError as Error};
 use crate::poselog::{PoseLogHeader, PoseLogWriter};
 use crate::{Body, Frame, Pose, Wand};
 use glam::{DQuat, DVec3};
@@ -187,13 +187,13 @@ impl Default for ImportOptions {
 
 impl ImportOptions {
     fn validate(&self) -> Result<()> {
-        let bad = |m: &str| Err(Error::Import(m.to_string()));
+        let bad = |e: ImportError| Err(Error::Import(e));
         let p = &self.placement;
         if !(self.rate_hz.is_finite() && (1.0..=2000.0).contains(&self.rate_hz)) {
-            return bad("rate must be in 1..=2000 Hz");
+            return bad(ImportError::Rate);
         }
         if !(self.speed.is_finite() && self.speed > 0.0 && self.speed <= 1000.0) {
-            return bad("speed must be in (0, 1000]");
+            return bad(ImportError::Speed);
         }
         let finite = [
             self.max_gap_s,
@@ -206,30 +206,30 @@ impl ImportOptions {
             p.yaw_deg,
         ];
         if finite.iter().any(|v| !v.is_finite()) || !p.center.is_finite() {
-            return bad("placement and timing values must be finite");
+            return bad(ImportError::NotFinite);
         }
         if self.max_gap_s < 0.0 || self.lead_s < 0.0 || self.default_point_ms <= 0.0 {
-            return bad("gap and lead times must be >= 0 and the point interval > 0");
+            return bad(ImportError::Timing);
         }
         if self.max_gap_s > 3600.0 || self.lead_s > 3600.0 {
-            return bad("gap and lead times must be at most an hour");
+            return bad(ImportError::TooLong);
         }
         if p.fit_m[0] <= 0.0 || p.fit_m[1] <= 0.0 {
-            return bad("the fit box must be positive");
+            return bad(ImportError::FitBox);
         }
         if let Some(s) = p.scale
             && !(s.is_finite() && s > 0.0)
         {
-            return bad("scale must be finite and > 0");
+            return bad(ImportError::Scale);
         }
         if p.right.length() < sculpt_core::tolerance::POINT_EPS
             || p.up.length() < sculpt_core::tolerance::POINT_EPS
             || p.normal().length() < 0.5
         {
-            return bad("right and up must be non-zero and not parallel");
+            return bad(ImportError::Axes);
         }
         if self.button >= 32 {
-            return bad("button must be in 0..32");
+            return bad(ImportError::Button);
         }
         Ok(())
     }
@@ -293,10 +293,11 @@ pub fn wand_track(
     let p = &options.placement;
     let (first, end) = options.strokes.unwrap_or((0, sketch.strokes.len()));
     if first >= end || end > sketch.strokes.len() {
-        return Err(Error::Import(format!(
-            "stroke range {first}..{end} is empty or beyond the sketch's {} strokes",
-            sketch.strokes.len()
-        )));
+        return Err(Error::Import(ImportError::StrokeRange {
+            first,
+            end,
+            count: sketch.strokes.len(),
+        }));
     }
     // Right-handed, yawed Open Brush coordinates (still Open Brush units).
     let yaw = DQuat::from_rotation_y(p.yaw_deg.to_radians());
@@ -307,9 +308,7 @@ pub fn wand_track(
         .collect();
     let skipped_empty = (end - first) - chosen.len();
     if chosen.is_empty() {
-        return Err(Error::Import(
-            "no stroke in the range has control points".into(),
-        ));
+        return Err(Error::Import(ImportError::NoPoints));
     }
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
@@ -411,9 +410,10 @@ pub fn wand_track(
     let frames = (duration * options.rate_hz).ceil() as usize + 1;
     let max_frames = 50_000_000;
     if frames > max_frames {
-        return Err(Error::Import(format!(
-            "the track would have {frames} frames (more than {max_frames}); lower the rate or the gaps"
-        )));
+        return Err(Error::Import(ImportError::TooManyFrames {
+            frames,
+            max: max_frames,
+        }));
     }
     let button = 1u32 << options.button;
     let mut samples = Vec::with_capacity(frames);

@@ -49,5 +49,8 @@ pub mod tilt;
 #[cfg(feature = "io")]
 pub mod transport;
 
-pub use error::{Result, TrackingError};
+pub use error::{
+    CalibrationError, ConfigError, Degeneracy, ImportError, Result, SimError, TiltContainerError,
+    TrackingError,
+};
 pub use frame::{Body, DeviceId, Frame, Pose, Wand};

@@ -26,7 +26,7 @@
 //! assert!(truth.wand_at(0.6).position_m.distance(DVec3::new(0.2, 1.3, 0.1)) < sculpt_core::tolerance::POINT_EPS);
 //! ```
 
-use crate::error::{Result, TrackingError};
+use crate::error::{Result, SimError, TrackingError};
 use crate::frame::{Body, DeviceId, Frame, Pose, Wand};
 use crate::poselog::{PoseLogHeader, PoseLogWriter};
 use glam::{DQuat, DVec3};
@@ -236,11 +236,11 @@ impl Script {
 
     /// Checks durations, buttons and numbers.
     pub fn validate(&self) -> Result<()> {
-        let bad = |s: String| Err(TrackingError::Sim(s));
+        let bad = |e: SimError| Err(TrackingError::Sim(e));
         let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
         if !finite(&self.wand_start) || !finite(&self.head_start) || !finite(&self.wand_orientation)
         {
-            return bad("start poses must be finite".into());
+            return bad(SimError::StartPose);
         }
         for (i, s) in self.steps.iter().enumerate() {
             let (secs, button, nums): (Option<f64>, Option<u8>, Vec<f64>) = match s {
@@ -262,13 +262,13 @@ impl Script {
                 Step::Mark { .. } => (None, None, vec![]),
             };
             if secs.is_some_and(|d| !(d.is_finite() && (0.0..=86_400.0).contains(&d))) {
-                return bad(format!("step {}: duration must be 0..=86400 s", i + 1));
+                return bad(SimError::Duration { step: i + 1 });
             }
             if button.is_some_and(|b| b >= Wand::MAX_BUTTONS) {
-                return bad(format!("step {}: button index must be < 64", i + 1));
+                return bad(SimError::Button { step: i + 1 });
             }
             if !finite(&nums) {
-                return bad(format!("step {}: numbers must be finite", i + 1));
+                return bad(SimError::NotFinite { step: i + 1 });
             }
         }
         Ok(())
@@ -581,9 +581,9 @@ impl SimConfig {
     }
 
     fn validate(&self) -> Result<()> {
-        let bad = |s: &str| Err(TrackingError::Sim(s.to_string()));
+        let bad = |e: SimError| Err(TrackingError::Sim(e));
         if !(self.rate_hz.is_finite() && (1.0..=2000.0).contains(&self.rate_hz)) {
-            return bad("rate_hz must be in 1..=2000");
+            return bad(SimError::Rate);
         }
         let nonneg = [
             self.tremor_mm,
@@ -593,14 +593,14 @@ impl SimConfig {
             self.dropout_secs,
         ];
         if nonneg.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
-            return bad("tremor, noise and dropout settings must be finite and >= 0");
+            return bad(SimError::Noise);
         }
         let [lo, hi] = self.tremor_band_hz;
         if !(lo.is_finite() && hi.is_finite() && 0.0 < lo && lo <= hi) {
-            return bad("tremor_band_hz must be 0 < lo <= hi");
+            return bad(SimError::TremorBand);
         }
         if self.button_count > Wand::MAX_BUTTONS || self.analog_count > Wand::MAX_ANALOG {
-            return bad("too many buttons or analog axes");
+            return bad(SimError::Channels);
         }
         Ok(())
     }

@@ -99,9 +99,8 @@ impl StageConfig {
     /// Checks the timeout, the calibration and the filter.
     pub fn validate(&self) -> Result<()> {
         if !(self.timeout_s.is_finite() && self.timeout_s > 0.0) {
-            return Err(TrackingError::Config(format!(
-                "stage timeout_s must be > 0, got {}",
-                self.timeout_s
+            return Err(TrackingError::Config(crate::ConfigError::StageTimeout(
+                self.timeout_s,
             )));
         }
         self.calibration.validate()?;

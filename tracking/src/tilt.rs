@@ -40,7 +40,7 @@ use std::io::{Cursor, Read, Write};
 
 use glam::{DQuat, DVec3};
 
-use crate::error::{Result, TrackingError as Error};
+use crate::error::{Result, TiltContainerError, TrackingError as Error};
 
 /// The magic at the start of every `.tilt` file.
 pub const TILT_MAGIC: &[u8; 4] = b"tilT";
@@ -207,30 +207,29 @@ impl ControlPoint {
 
 /// Reads a whole `.tilt` file from its bytes.
 pub fn read_tilt(bytes: &[u8]) -> Result<Tilt> {
-    let container = |m: String| Error::TiltContainer(m);
+    let container = Error::TiltContainer;
     if bytes.len() < 16 {
-        return Err(container(format!(
-            "{} bytes is shorter than the 16-byte header",
-            bytes.len()
-        )));
+        return Err(container(TiltContainerError::Short(bytes.len())));
     }
     if &bytes[0..4] != TILT_MAGIC {
-        return Err(container(format!(
-            "bad magic {:02x?} (expected \"tilT\")",
-            &bytes[0..4]
-        )));
+        let magic = [bytes[0], bytes[1], bytes[2], bytes[3]];
+        return Err(container(TiltContainerError::Magic(magic)));
     }
     let header_size = u16::from_le_bytes([bytes[4], bytes[5]]) as usize;
     if header_size < 8 || header_size > bytes.len() {
-        return Err(container(format!(
-            "header size {header_size} out of range for a {}-byte file",
-            bytes.len()
-        )));
+        return Err(container(TiltContainerError::HeaderSize {
+            header: header_size,
+            len: bytes.len(),
+        }));
     }
-    let mut archive = zip::ZipArchive::new(Cursor::new(&bytes[header_size..]))
-        .map_err(|e| container(format!("zip archive: {e}")))?;
+    let mut archive = zip::ZipArchive::new(Cursor::new(&bytes[header_size..])).map_err(|e| {
+        container(TiltContainerError::Zip {
+            what: "zip archive".into(),
+            source: e,
+        })
+    })?;
     let sketch_bytes = read_entry(&mut archive, "data.sketch", MAX_SKETCH_BYTES)?
-        .ok_or_else(|| container("the archive has no data.sketch".into()))?;
+        .ok_or(container(TiltContainerError::NoSketch))?;
     let metadata = read_entry(&mut archive, "metadata.json", MAX_METADATA_BYTES)?
         .map(|b| String::from_utf8_lossy(&b).into_owned());
     Ok(Tilt {
@@ -248,23 +247,35 @@ fn read_entry(
     let mut file = match archive.by_name(name) {
         Ok(f) => f,
         Err(zip::result::ZipError::FileNotFound) => return Ok(None),
-        Err(e) => return Err(Error::TiltContainer(format!("{name}: {e}"))),
+        Err(e) => {
+            return Err(Error::TiltContainer(TiltContainerError::Zip {
+                what: name.into(),
+                source: e,
+            }));
+        }
+    };
+    let too_large = |size| {
+        Error::TiltContainer(TiltContainerError::TooLarge {
+            name: name.into(),
+            size,
+            cap,
+        })
     };
     if file.size() > cap {
-        return Err(Error::TiltContainer(format!(
-            "{name} claims {} bytes, more than the {cap}-byte limit",
-            file.size()
-        )));
+        return Err(too_large(file.size()));
     }
     let mut out = Vec::new();
     (&mut file)
         .take(cap + 1)
         .read_to_end(&mut out)
-        .map_err(|e| Error::TiltContainer(format!("{name}: {e}")))?;
+        .map_err(|e| {
+            Error::TiltContainer(TiltContainerError::Io {
+                what: name.into(),
+                source: e,
+            })
+        })?;
     if out.len() as u64 > cap {
-        return Err(Error::TiltContainer(format!(
-            "{name} is larger than the {cap}-byte limit"
-        )));
+        return Err(too_large(out.len() as u64));
     }
     Ok(Some(out))
 }
@@ -500,8 +511,18 @@ pub fn encode_sketch(sketch: &Sketch) -> Vec<u8> {
 /// Writes a complete `.tilt` file: header, then a stored (uncompressed) zip holding
 /// `data.sketch` and, when given, `metadata.json`.
 pub fn write_tilt(sketch: &Sketch, metadata: Option<&str>) -> Result<Vec<u8>> {
-    let zip_err = |e: zip::result::ZipError| Error::TiltContainer(format!("writing zip: {e}"));
-    let io_err = |e: std::io::Error| Error::TiltContainer(format!("writing zip: {e}"));
+    let zip_err = |e| {
+        Error::TiltContainer(TiltContainerError::Zip {
+            what: "writing zip".into(),
+            source: e,
+        })
+    };
+    let io_err = |e| {
+        Error::TiltContainer(TiltContainerError::Io {
+            what: "writing zip".into(),
+            source: e,
+        })
+    };
     let mut out = Vec::with_capacity(16);
     out.extend_from_slice(TILT_MAGIC);
     out.extend_from_slice(&16u16.to_le_bytes());

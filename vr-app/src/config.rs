@@ -31,7 +31,7 @@ use glam::DVec3;
 use sculpt_core::interaction::{InteractionConfig, InteractionMode, Profile, StrokeMode, Tool};
 use serde::{Deserialize, Serialize};
 
-use crate::error::{VrError, VrResult};
+use crate::error::{ConfigError, VrError, VrResult};
 use crate::output::OutputMode;
 use crate::projection::{HeadPose, Screen, StereoRig};
 
@@ -233,9 +233,7 @@ impl Playback {
             Playback::Poselog { speed, .. } | Playback::Sim { speed, .. } => *speed,
         };
         if !(speed.is_finite() && speed > 0.0 && speed <= 1000.0) {
-            return Err(VrError::Config(format!(
-                "tracking.playback.speed must be in (0, 1000], got {speed}"
-            )));
+            return Err(VrError::Config(ConfigError::PlaybackSpeed(speed)));
         }
         Ok(())
     }
@@ -248,6 +246,14 @@ impl Playback {
     }
 }
 
+/// A `[tracking]` setting the tracking layer refused.
+fn tracking_config(field: &'static str, cause: tracking::TrackingError) -> VrError {
+    VrError::Config(ConfigError::Tracking {
+        field,
+        cause: Box::new(cause),
+    })
+}
+
 fn stage_timeout_default() -> f64 {
     tracking::stage::StageConfig::default().timeout_s
 }
@@ -257,7 +263,7 @@ impl TrackingSection {
     pub fn wand_id(&self) -> VrResult<tracking::DeviceId> {
         self.wand
             .parse()
-            .map_err(|e: tracking::TrackingError| VrError::Config(format!("tracking.wand: {e}")))
+            .map_err(|cause| tracking_config("tracking.wand", cause))
     }
 
     /// The frame stage's config: the wand's Flystick id, the head's body id, the
@@ -267,18 +273,14 @@ impl TrackingSection {
         let wand_id = match self.wand_id()? {
             tracking::DeviceId::Wand(id) => id,
             other => {
-                return Err(VrError::Config(format!(
-                    "tracking.wand: the live path needs a Flystick (wandN) as the wand, not {other}"
-                )));
+                return Err(VrError::Config(ConfigError::WandNotFlystick(other)));
             }
         };
         let head_id = match self.head_id()? {
             None => None,
             Some(tracking::DeviceId::Body(id)) => Some(id),
             Some(other) => {
-                return Err(VrError::Config(format!(
-                    "tracking.head: the head must be a body (bodyN), not {other}"
-                )));
+                return Err(VrError::Config(ConfigError::HeadNotBody(other)));
             }
         };
         let stage = tracking::stage::StageConfig {
@@ -290,7 +292,7 @@ impl TrackingSection {
         };
         stage
             .validate()
-            .map_err(|e| VrError::Config(format!("tracking: {e}")))?;
+            .map_err(|cause| tracking_config("tracking", cause))?;
         Ok(stage)
     }
 
@@ -299,9 +301,8 @@ impl TrackingSection {
         self.head
             .as_deref()
             .map(|h| {
-                h.parse().map_err(|e: tracking::TrackingError| {
-                    VrError::Config(format!("tracking.head: {e}"))
-                })
+                h.parse()
+                    .map_err(|cause| tracking_config("tracking.head", cause))
             })
             .transpose()
     }
@@ -377,7 +378,8 @@ impl Default for FilesConfig {
 impl Config {
     /// Parses and validates a TOML string.
     pub fn from_toml_str(text: &str) -> VrResult<Self> {
-        let cfg: Config = toml::from_str(text).map_err(|e| VrError::Config(e.to_string()))?;
+        let cfg: Config =
+            toml::from_str(text).map_err(|e| VrError::Config(ConfigError::Toml(Box::new(e))))?;
         cfg.validate()?;
         Ok(cfg)
     }
@@ -389,7 +391,10 @@ impl Config {
             path: path.display().to_string(),
             source,
         })?;
-        Self::from_toml_str(&text).map_err(|e| VrError::Config(format!("{}: {e}", path.display())))
+        Self::from_toml_str(&text).map_err(|e| VrError::ConfigFile {
+            path: path.to_path_buf(),
+            reason: Box::new(e),
+        })
     }
 
     /// Checks values the types cannot.
@@ -397,54 +402,43 @@ impl Config {
         let screen = self.screen.screen()?;
         let s = &self.stereo;
         if !(s.ipd.is_finite() && (0.0..=0.2).contains(&s.ipd)) {
-            return Err(VrError::Config(format!(
-                "stereo.ipd must be in [0, 0.2] m, got {}",
-                s.ipd
-            )));
+            return Err(VrError::Config(ConfigError::Ipd(s.ipd)));
         }
         if !(s.near > 0.0 && s.far > s.near && s.far.is_finite()) {
-            return Err(VrError::Config("stereo: need 0 < near < far".into()));
+            return Err(VrError::Config(ConfigError::ClipPlanes));
         }
         let d = &self.display;
         if !(1..=16384).contains(&d.width) || !(1..=16384).contains(&d.height) {
-            return Err(VrError::Config(format!(
-                "display size {}x{} is outside 1..=16384",
-                d.width, d.height
-            )));
+            return Err(VrError::Config(ConfigError::DisplaySize {
+                width: d.width,
+                height: d.height,
+            }));
         }
         if ![1, 2, 4].contains(&self.render.msaa) {
-            return Err(VrError::Config(format!(
-                "render.msaa must be 1, 2 or 4, got {}",
-                self.render.msaa
-            )));
+            return Err(VrError::Config(ConfigError::Msaa(self.render.msaa)));
         }
         self.tool.tool().validate()?;
         // The same check as replay's (sculpt-core's, one for both).
         self.interaction
             .validate()
-            .map_err(|e| VrError::Config(e.to_string()))?;
+            .map_err(|e| VrError::Config(ConfigError::Interaction(e)))?;
         if let Some(p) = self.head.position {
             let p = DVec3::from(p);
             let (_, _, vn) = screen.basis();
             if !p.is_finite() || (p - screen.lower_left).dot(vn) <= 0.0 {
-                return Err(VrError::Config(
-                    "head.position must be finite and in front of the screen".into(),
-                ));
+                return Err(VrError::Config(ConfigError::HeadPosition));
             }
         }
         if let Some(t) = &self.tracking {
             t.stage_config()?;
             t.input
                 .validate()
-                .map_err(|e| VrError::Config(format!("tracking.input: {e}")))?;
+                .map_err(|cause| tracking_config("tracking.input", cause))?;
             if let Some(p) = &t.playback {
                 p.validate()?;
             }
             if t.input.sources.is_empty() && t.playback.is_none() {
-                return Err(VrError::Config(
-                    "tracking needs at least one [[tracking.input.source]] or a [tracking.playback]"
-                        .into(),
-                ));
+                return Err(VrError::Config(ConfigError::NoTrackingSource));
             }
         }
         Ok(())

@@ -1,5 +1,6 @@
 //! The one error type of the `vr-app` library.
 
+use std::path::PathBuf;
 use thiserror::Error;
 
 /// Everything that can go wrong in the display server's library parts.
@@ -18,13 +19,46 @@ pub enum VrError {
          `apt-get install mesa-vulkan-drivers libvulkan1` gives the lavapipe software \
          adapter; or install your GPU vendor's Vulkan driver"
     )]
-    NoAdapter(String),
-    /// The GPU device could not be created or failed.
+    NoAdapter(AdapterError),
+    /// The GPU device, a window or a readback failed.
     #[error("GPU: {0}")]
-    Gpu(String),
-    /// The configuration file is invalid.
+    Gpu(GpuError),
+    /// The configuration is invalid.
     #[error("config: {0}")]
-    Config(String),
+    Config(ConfigError),
+    /// A configuration file was refused; `reason` says why.
+    #[error("{}: {reason}", path.display())]
+    ConfigFile {
+        /// The file.
+        path: PathBuf,
+        /// Why it was refused.
+        reason: Box<VrError>,
+    },
+    /// A base scene could not be read as a document.
+    #[error("scene {}: {reason}", path.display())]
+    Scene {
+        /// The scene file.
+        path: PathBuf,
+        /// Why it was refused.
+        reason: Box<sculpt_core::Error>,
+    },
+    /// A tracking input (pose log, simulator script) could not be used.
+    #[error("{what}: {reason}")]
+    Tracking {
+        /// The file or setting involved.
+        what: String,
+        /// Why.
+        reason: Box<tracking::TrackingError>,
+    },
+    /// A worker thread or runtime could not be started.
+    #[error("starting the {what}")]
+    Spawn {
+        /// `playback thread` or `tracking runtime`.
+        what: &'static str,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
     /// The operation journal is unreadable or could not be written.
     #[error("journal {path}: {reason}")]
     Journal {
@@ -51,12 +85,180 @@ pub enum VrError {
         #[source]
         source: image::ImageError,
     },
-    /// An OpenXR problem (no runtime, session failure).
+    /// An OpenXR problem (no runtime, session failure, bad view).
     #[error("OpenXR: {0}")]
-    Xr(String),
+    Xr(XrError),
     /// An error from the geometry core.
     #[error(transparent)]
     Core(#[from] sculpt_core::Error),
+}
+
+/// Why no GPU adapter could be used.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum AdapterError {
+    /// `--adapter NAME` matched none of the adapters found.
+    #[error("no adapter named like {want:?}; found {found:?}")]
+    NotNamed {
+        /// The name asked for.
+        want: String,
+        /// The adapters found.
+        found: Vec<String>,
+    },
+    /// wgpu found no suitable adapter.
+    #[error("{0}")]
+    Request(wgpu::RequestAdapterError),
+}
+
+/// What failed on the GPU or in the window system.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum GpuError {
+    /// The adapter refused to open a device.
+    #[error("cannot open a device on {adapter}: {cause}")]
+    Device {
+        /// The adapter's name.
+        adapter: String,
+        /// wgpu's reason.
+        cause: wgpu::RequestDeviceError,
+    },
+    /// An offscreen image size is out of range.
+    #[error("offscreen size {width}x{height} is outside 1..=8192")]
+    OffscreenSize {
+        /// Width asked for.
+        width: u32,
+        /// Height asked for.
+        height: u32,
+    },
+    /// Waiting for the GPU failed.
+    #[error("waiting for the GPU: {0}")]
+    Poll(wgpu::PollError),
+    /// Mapping the readback buffer failed.
+    #[error("readback: {0}")]
+    Map(wgpu::BufferAsyncError),
+    /// The mapping callback was dropped before it ran.
+    #[error("readback: the mapping callback never ran")]
+    MapLost,
+    /// The mapped range could not be viewed.
+    #[error("readback: {0}")]
+    MapRange(wgpu::MapRangeError),
+    /// The read-back pixels do not fill the image.
+    #[error("readback size mismatch")]
+    ReadbackSize,
+    #[cfg(feature = "window")]
+    /// No display server (X11, Wayland) to open windows on.
+    #[error(
+        "no display available ({0}). On a machine without a display run \
+         `wandsculpt --headless` (add --demo for the built-in session)"
+    )]
+    NoDisplay(winit::error::EventLoopError),
+    #[cfg(feature = "window")]
+    /// The window event loop failed.
+    #[error("window event loop: {0}")]
+    EventLoop(winit::error::EventLoopError),
+    #[cfg(feature = "window")]
+    /// A window could not be opened.
+    #[error("cannot open a window: {0}")]
+    Window(winit::error::OsError),
+    /// A window surface could not be created.
+    #[error("cannot create a window surface: {0}")]
+    Surface(wgpu::CreateSurfaceError),
+    /// The window surface offers no texture format.
+    #[error("the window surface supports no format")]
+    NoSurfaceFormat,
+    /// The adapter cannot present to the window surface.
+    #[error("the window surface is not supported by the adapter")]
+    SurfaceUnsupported,
+}
+
+/// What is wrong with a display-server configuration.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum ConfigError {
+    /// The TOML does not parse or does not follow the schema.
+    #[error("{0}")]
+    Toml(Box<toml::de::Error>),
+    /// The playback speed is out of range.
+    #[error("tracking.playback.speed must be in (0, 1000], got {0}")]
+    PlaybackSpeed(f64),
+    /// A `[tracking]` setting was refused by the tracking layer.
+    #[error("{field}: {cause}")]
+    Tracking {
+        /// The setting (`tracking.wand`, `tracking.input`).
+        field: &'static str,
+        /// The tracking layer's reason.
+        cause: Box<tracking::TrackingError>,
+    },
+    /// The wand is not a Flystick.
+    #[error("tracking.wand: the live path needs a Flystick (wandN) as the wand, not {0}")]
+    WandNotFlystick(tracking::DeviceId),
+    /// The head is not a body.
+    #[error("tracking.head: the head must be a body (bodyN), not {0}")]
+    HeadNotBody(tracking::DeviceId),
+    /// `[tracking]` has neither a source nor playback.
+    #[error("tracking needs at least one [[tracking.input.source]] or a [tracking.playback]")]
+    NoTrackingSource,
+    /// The eye separation is out of range.
+    #[error("stereo.ipd must be in [0, 0.2] m, got {0}")]
+    Ipd(f64),
+    /// The clip planes are not `0 < near < far`.
+    #[error("stereo: need 0 < near < far")]
+    ClipPlanes,
+    /// The window size is out of range.
+    #[error("display size {width}x{height} is outside 1..=16384")]
+    DisplaySize {
+        /// Width.
+        width: u32,
+        /// Height.
+        height: u32,
+    },
+    /// The sample count is not 1, 2 or 4.
+    #[error("render.msaa must be 1, 2 or 4, got {0}")]
+    Msaa(u32),
+    /// The fixed head position is not in front of the screen.
+    #[error("head.position must be finite and in front of the screen")]
+    HeadPosition,
+    /// The `[interaction]` settings were refused by the sculpting layer.
+    #[error("interaction: {0}")]
+    Interaction(sculpt_core::Error),
+    /// An unknown output mode name.
+    #[error("unknown output mode {0:?} (expected dual, side-by-side, anaglyph or mono)")]
+    OutputMode(String),
+    /// An unknown material name.
+    #[error("unknown material {0:?} (expected clay, stone or wood)")]
+    Material(String),
+}
+
+/// What is wrong on the OpenXR path.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum XrError {
+    /// A view's field of view is not a valid frustum (left, right, up, down in
+    /// radians).
+    #[error("invalid field of view {0:?} (left, right, up, down)")]
+    Fov([f64; 4]),
+    /// The clip planes are not `0 < near < far`.
+    #[error("need 0 < near < far")]
+    ClipPlanes,
+    /// An eye or stage pose is not finite.
+    #[error("eye pose is not finite")]
+    EyePose,
+    /// The OpenXR loader could not be loaded.
+    #[cfg(feature = "openxr")]
+    #[error("{} ({cause})", crate::xr_runtime::NO_RUNTIME)]
+    Loader {
+        /// The loader's reason.
+        cause: openxr::EntryError,
+    },
+    /// A runtime call failed; `what` names the step.
+    #[cfg(feature = "openxr")]
+    #[error("{what}: {cause}")]
+    Runtime {
+        /// The step (`creating an instance`, `no head-mounted display is connected`).
+        what: &'static str,
+        /// The runtime's result code.
+        cause: openxr::sys::Result,
+    },
 }
 
 /// Why a screen definition is unusable.

@@ -59,4 +59,4 @@ pub mod xr;
 #[cfg(feature = "openxr")]
 pub mod xr_runtime;
 
-pub use error::{VrError, VrResult};
+pub use error::{AdapterError, ConfigError, GpuError, VrError, VrResult, XrError};

@@ -30,7 +30,7 @@ use tracking::{Frame, transport};
 
 pub use crate::config::Playback;
 use crate::config::TrackingSection;
-use crate::error::{VrError, VrResult};
+use crate::error::{ConfigError, VrError, VrResult};
 use crate::input::{Input, TrackingState};
 use crate::projection::HeadPose;
 
@@ -60,8 +60,10 @@ impl Playback {
     pub fn frames(&self) -> VrResult<Vec<Frame>> {
         match self {
             Playback::Poselog { path, .. } => {
-                let log = PoseLog::read(path)
-                    .map_err(|e| VrError::Config(format!("{}: {e}", path.display())))?;
+                let log = PoseLog::read(path).map_err(|reason| VrError::Tracking {
+                    what: path.display().to_string(),
+                    reason: Box::new(reason),
+                })?;
                 let (frames, bad) = log.frames();
                 if !log.corrupt.is_empty() || !bad.is_empty() {
                     tracing::warn!(
@@ -80,13 +82,19 @@ impl Playback {
                             path: p.display().to_string(),
                             source,
                         })?;
-                        toml::from_str(&text)
-                            .map_err(|e| VrError::Config(format!("{}: {e}", p.display())))?
+                        toml::from_str(&text).map_err(|e| VrError::ConfigFile {
+                            path: p.clone(),
+                            reason: Box::new(VrError::Config(ConfigError::Toml(Box::new(e)))),
+                        })?
                     }
                     None => builtin_script(),
                 };
-                let sim = Simulator::new(&script, config.clone())
-                    .map_err(|e| VrError::Config(format!("tracking.playback: {e}")))?;
+                let sim = Simulator::new(&script, config.clone()).map_err(|reason| {
+                    VrError::Tracking {
+                        what: "tracking.playback".into(),
+                        reason: Box::new(reason),
+                    }
+                })?;
                 Ok(sim.collect())
             }
         }
@@ -141,7 +149,10 @@ impl PlaybackThread {
                 }
                 hub.connection_closed(src, hub.now());
             })
-            .map_err(|e| VrError::Config(format!("playback thread: {e}")))?;
+            .map_err(|source| VrError::Spawn {
+                what: "playback thread",
+                source,
+            })?;
         Ok(Self {
             stop,
             handle: Some(handle),
@@ -190,14 +201,19 @@ impl LiveTracking {
     pub fn start(section: &TrackingSection, pause_timeout: f64) -> VrResult<Self> {
         let stage_config = section.stage_config()?;
         let wand_id = stage_config.wand_id;
-        let stage =
-            FrameStage::new(stage_config).map_err(|e| VrError::Config(format!("tracking: {e}")))?;
+        let stage = FrameStage::new(stage_config).map_err(|reason| VrError::Tracking {
+            what: "tracking".into(),
+            reason: Box::new(reason),
+        })?;
         let runtime = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
             .enable_all()
             .thread_name("wandsculpt-tracking")
             .build()
-            .map_err(|e| VrError::Config(format!("tracking runtime: {e}")))?;
+            .map_err(|source| VrError::Spawn {
+                what: "tracking runtime",
+                source,
+            })?;
         let hub = Hub::new(&section.input);
         // Subscribe before any source starts, so no frame is missed. Every frame
         // received, not only those the hub keeps: the stage makes the order decision
@@ -206,7 +222,10 @@ impl LiveTracking {
         let frames = hub.subscribe_received();
         let running = runtime
             .block_on(transport::start_with_hub(hub.clone(), &section.input))
-            .map_err(|e| VrError::Config(format!("tracking: {e}")))?;
+            .map_err(|reason| VrError::Tracking {
+                what: "tracking".into(),
+                reason: Box::new(reason),
+            })?;
         for (src, addr) in section.input.sources.iter().zip(&running.local_addrs) {
             tracing::info!(source = %src.describe(), local = ?addr, "tracking source started");
         }

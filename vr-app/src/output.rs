@@ -28,8 +28,8 @@ impl std::str::FromStr for OutputMode {
             "side-by-side" | "sbs" => Ok(Self::SideBySide),
             "anaglyph" => Ok(Self::Anaglyph),
             "mono" => Ok(Self::Mono),
-            other => Err(VrError::Config(format!(
-                "unknown output mode {other:?} (expected dual, side-by-side, anaglyph or mono)"
+            other => Err(VrError::Config(crate::ConfigError::OutputMode(
+                other.to_string(),
             ))),
         }
     }

@@ -84,8 +84,10 @@ pub fn create_output_dir(dir: &Path) -> std::io::Result<()> {
 /// Reads a base scene in the [`Document::to_json`] format.
 pub fn load_scene(path: &Path) -> VrResult<Document> {
     let bytes = std::fs::read(path).map_err(|e| io_err(path, e))?;
-    Document::from_json(&bytes)
-        .map_err(|e| VrError::Config(format!("scene {}: {e}", path.display())))
+    Document::from_json(&bytes).map_err(|reason| VrError::Scene {
+        path: path.to_path_buf(),
+        reason: Box::new(reason),
+    })
 }
 
 /// Writes bytes atomically: a temporary file beside `path`, fsync, rename. On any

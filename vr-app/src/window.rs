@@ -22,7 +22,7 @@ use winit::window::{Fullscreen, Window, WindowId};
 
 use crate::app::AppState;
 use crate::desktop_wand::EmulatedWand;
-use crate::error::{VrError, VrResult};
+use crate::error::{AdapterError, GpuError, VrError, VrResult};
 use crate::output::OutputMode;
 use crate::render::{FrameInput, Gpu, OutputContent, OutputTarget, Renderer};
 
@@ -270,12 +270,7 @@ struct WindowApp {
 /// Opens the windows and runs until they close (or, with `frames`, until that many
 /// frames were drawn).
 pub fn run_windowed(app: AppState, input: WindowInput, frames: Option<u64>) -> VrResult<()> {
-    let event_loop = EventLoop::new().map_err(|e| {
-        VrError::Gpu(format!(
-            "no display available ({e}). On a machine without a display run \
-             `wandsculpt --headless` (add --demo for the built-in session)"
-        ))
-    })?;
+    let event_loop = EventLoop::new().map_err(|e| VrError::Gpu(GpuError::NoDisplay(e)))?;
     event_loop.set_control_flow(ControlFlow::Poll);
     let scripted = match &input {
         WindowInput::Scripted(ev) => ev.iter().cloned().collect(),
@@ -300,7 +295,7 @@ pub fn run_windowed(app: AppState, input: WindowInput, frames: Option<u64>) -> V
     };
     event_loop
         .run_app(&mut wa)
-        .map_err(|e| VrError::Gpu(format!("window event loop: {e}")))?;
+        .map_err(|e| VrError::Gpu(GpuError::EventLoop(e)))?;
     // Never lose work on a clean exit.
     wa.app.session.autosave()?;
     match wa.error {
@@ -337,7 +332,7 @@ impl WindowApp {
             }
             let w = event_loop
                 .create_window(attrs)
-                .map_err(|e| VrError::Gpu(format!("cannot open a window: {e}")))?;
+                .map_err(|e| VrError::Gpu(GpuError::Window(e)))?;
             windows.push((Arc::new(w), *content));
         }
         let instance =
@@ -347,7 +342,7 @@ impl WindowApp {
             surfaces.push(
                 instance
                     .create_surface(w.clone())
-                    .map_err(|e| VrError::Gpu(format!("cannot create a window surface: {e}")))?,
+                    .map_err(|e| VrError::Gpu(GpuError::Surface(e)))?,
             );
         }
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
@@ -356,7 +351,7 @@ impl WindowApp {
             compatible_surface: surfaces.first(),
             ..Default::default()
         }))
-        .map_err(|e| VrError::NoAdapter(e.to_string()))?;
+        .map_err(|e| VrError::NoAdapter(AdapterError::Request(e)))?;
         let gpu = Gpu::from_adapter(instance, adapter)?;
         tracing::info!(adapter = %gpu.describe(), "rendering");
         let caps = surfaces[0].get_capabilities(&gpu.adapter);
@@ -368,15 +363,13 @@ impl WindowApp {
             .copied()
             .find(|f| f.is_srgb())
             .or_else(|| caps.formats.first().copied())
-            .ok_or_else(|| VrError::Gpu("the window surface supports no format".into()))?;
+            .ok_or(VrError::Gpu(GpuError::NoSurfaceFormat))?;
         let mut outputs = Vec::new();
         for ((window, content), surface) in windows.into_iter().zip(surfaces) {
             let size = window.inner_size();
             let mut config = surface
                 .get_default_config(&gpu.adapter, size.width.max(1), size.height.max(1))
-                .ok_or_else(|| {
-                    VrError::Gpu("the window surface is not supported by the adapter".into())
-                })?;
+                .ok_or(VrError::Gpu(GpuError::SurfaceUnsupported))?;
             config.format = format;
             config.present_mode = wgpu::PresentMode::AutoVsync;
             surface.configure(&gpu.device, &config);

@@ -20,7 +20,7 @@
 use glam::{DMat4, DQuat, DVec3};
 use sculpt_core::interaction::{WandEvent, WandSample};
 
-use crate::error::{VrError, VrResult};
+use crate::error::{VrError, VrResult, XrError};
 use crate::projection::{EyeCamera, frustum_rh_zo};
 
 /// A rigid pose (`space_from_object`).
@@ -87,10 +87,15 @@ pub fn projection_from_fov(fov: &XrFov, near: f64, far: f64) -> VrResult<DMat4> 
         || fov.angle_right <= fov.angle_left
         || fov.angle_up <= fov.angle_down
     {
-        return Err(VrError::Xr(format!("invalid field of view {fov:?}")));
+        return Err(VrError::Xr(XrError::Fov([
+            fov.angle_left,
+            fov.angle_right,
+            fov.angle_up,
+            fov.angle_down,
+        ])));
     }
     if !(near > 0.0 && far > near && far.is_finite()) {
-        return Err(VrError::Xr("need 0 < near < far".into()));
+        return Err(VrError::Xr(XrError::ClipPlanes));
     }
     Ok(frustum_rh_zo(
         near * fov.angle_left.tan(),
@@ -112,7 +117,7 @@ pub fn eye_camera(
     far: f64,
 ) -> VrResult<EyeCamera> {
     if !eye_in_stage.is_valid() || !display_from_stage.is_valid() {
-        return Err(VrError::Xr("eye pose is not finite".into()));
+        return Err(VrError::Xr(XrError::EyePose));
     }
     let eye_in_display = display_from_stage.compose(eye_in_stage);
     let clip_from_view = projection_from_fov(fov, near, far)?;

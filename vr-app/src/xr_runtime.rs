@@ -4,7 +4,7 @@
 //! Rendering to the HMD's swapchains is a later step; the pure maths it will use is in
 //! [`crate::xr`].
 
-use crate::error::{VrError, VrResult};
+use crate::error::{VrError, VrResult, XrError};
 
 /// What the runtime reported.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -22,16 +22,19 @@ pub const NO_RUNTIME: &str = "no OpenXR runtime available: install the OpenXR lo
     (libopenxr-loader1) and a runtime such as Monado or SteamVR, and set \
     XR_RUNTIME_JSON if it is not the active runtime";
 
+/// Maps a failed runtime call at step `what` to [`XrError::Runtime`].
+fn runtime(what: &'static str) -> impl Fn(openxr::sys::Result) -> VrError {
+    move |cause| VrError::Xr(XrError::Runtime { what, cause })
+}
+
 /// Loads the OpenXR loader, creates an instance and finds a head-mounted display.
 pub fn probe() -> VrResult<XrRuntimeInfo> {
     // SAFETY: `Entry::load` dlopens the system OpenXR loader (libopenxr_loader.so.1),
     // which the OpenXR specification defines; we call only core entry points on it.
     #[allow(unsafe_code)]
     let entry = unsafe { openxr::Entry::load(&()) }
-        .map_err(|e| VrError::Xr(format!("{NO_RUNTIME} ({e})")))?;
-    let available = entry
-        .enumerate_extensions()
-        .map_err(|e| VrError::Xr(format!("{NO_RUNTIME} ({e})")))?;
+        .map_err(|cause| VrError::Xr(XrError::Loader { cause }))?;
+    let available = entry.enumerate_extensions().map_err(runtime(NO_RUNTIME))?;
     let mut wanted = openxr::ExtensionSet::default();
     wanted.khr_vulkan_enable2 = available.khr_vulkan_enable2;
     let app = openxr::ApplicationInfo {
@@ -43,16 +46,16 @@ pub fn probe() -> VrResult<XrRuntimeInfo> {
     };
     let instance = entry
         .create_instance(&app, &wanted, &[], &())
-        .map_err(|e| VrError::Xr(format!("{NO_RUNTIME} (creating an instance: {e})")))?;
+        .map_err(runtime("creating an instance"))?;
     let props = instance
         .properties()
-        .map_err(|e| VrError::Xr(format!("runtime properties: {e}")))?;
+        .map_err(runtime("runtime properties"))?;
     let system = instance
         .system(openxr::FormFactor::HEAD_MOUNTED_DISPLAY)
-        .map_err(|e| VrError::Xr(format!("no head-mounted display is connected ({e})")))?;
+        .map_err(runtime("no head-mounted display is connected"))?;
     let sys_props = instance
         .system_properties(system)
-        .map_err(|e| VrError::Xr(format!("system properties: {e}")))?;
+        .map_err(runtime("system properties"))?;
     Ok(XrRuntimeInfo {
         runtime: format!("{} {}", props.runtime_name, props.runtime_version),
         system: sys_props.system_name,

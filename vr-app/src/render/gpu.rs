@@ -1,7 +1,7 @@
 //! The GPU context: instance, adapter, device and queue, with clear errors when there
 //! is no adapter.
 
-use crate::error::{VrError, VrResult};
+use crate::error::{AdapterError, GpuError, VrError, VrResult};
 
 /// Environment variable naming the adapter to use (a case-insensitive substring of the
 /// adapter's name, for example `llvmpipe` for lavapipe).
@@ -45,9 +45,10 @@ impl Gpu {
                     .into_iter()
                     .find(|a| a.get_info().name.to_lowercase().contains(&want_lc))
                     .ok_or_else(|| {
-                        VrError::NoAdapter(format!(
-                            "no adapter named like {want:?}; found {names:?}"
-                        ))
+                        VrError::NoAdapter(AdapterError::NotNamed {
+                            want: want.to_string(),
+                            found: names,
+                        })
                     })?
             }
             None => pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
@@ -56,7 +57,7 @@ impl Gpu {
                 compatible_surface: None,
                 ..Default::default()
             }))
-            .map_err(|e| VrError::NoAdapter(e.to_string()))?,
+            .map_err(|e| VrError::NoAdapter(AdapterError::Request(e)))?,
         };
         Self::from_adapter(instance, adapter)
     }
@@ -71,11 +72,11 @@ impl Gpu {
             memory_hints: wgpu::MemoryHints::Performance,
             trace: wgpu::Trace::Off,
         }))
-        .map_err(|e| {
-            VrError::Gpu(format!(
-                "cannot open a device on {}: {e}",
-                adapter.get_info().name
-            ))
+        .map_err(|cause| {
+            VrError::Gpu(GpuError::Device {
+                adapter: adapter.get_info().name,
+                cause,
+            })
         })?;
         Ok(Self {
             instance,

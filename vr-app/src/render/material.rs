@@ -89,11 +89,7 @@ impl std::str::FromStr for Material {
             .iter()
             .copied()
             .find(|m| m.name() == s)
-            .ok_or_else(|| {
-                VrError::Config(format!(
-                    "unknown material {s:?} (expected clay, stone or wood)"
-                ))
-            })
+            .ok_or_else(|| VrError::Config(crate::ConfigError::Material(s.to_string())))
     }
 }
 

@@ -52,7 +52,7 @@ pub use crate::scene::{
     FrameInput, LineVertex, MeshSinks, MeshSync, SurfaceClasses, Views, cursor_lines,
 };
 
-use crate::error::{VrError, VrResult};
+use crate::error::{GpuError, VrError, VrResult};
 use hud::HudVertex;
 pub use material::{Material, SurfaceClass};
 use material::{MaterialUniform, srgb_to_linear};
@@ -1036,9 +1036,7 @@ impl Renderer {
         height: u32,
     ) -> VrResult<OffscreenFrame> {
         if width == 0 || height == 0 || width > 8192 || height > 8192 {
-            return Err(VrError::Gpu(format!(
-                "offscreen size {width}x{height} is outside 1..=8192"
-            )));
+            return Err(VrError::Gpu(GpuError::OffscreenSize { width, height }));
         }
         let contents: &[OutputContent] = match mode {
             OutputMode::Dual => &[OutputContent::LeftEye, OutputContent::RightEye],
@@ -1140,14 +1138,14 @@ impl Renderer {
         });
         self.device
             .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| VrError::Gpu(format!("waiting for the GPU: {e}")))?;
+            .map_err(|e| VrError::Gpu(GpuError::Poll(e)))?;
         rx.recv()
-            .map_err(|e| VrError::Gpu(format!("readback: {e}")))?
-            .map_err(|e| VrError::Gpu(format!("readback: {e}")))?;
+            .map_err(|_| VrError::Gpu(GpuError::MapLost))?
+            .map_err(|e| VrError::Gpu(GpuError::Map(e)))?;
         let data = buffer
             .slice(..)
             .get_mapped_range()
-            .map_err(|e| VrError::Gpu(format!("readback: {e}")))?;
+            .map_err(|e| VrError::Gpu(GpuError::MapRange(e)))?;
         let mut pixels = Vec::with_capacity((row * h) as usize);
         for y in 0..h as usize {
             let start = y * padded as usize;
@@ -1155,7 +1153,6 @@ impl Renderer {
         }
         drop(data);
         buffer.unmap();
-        image::RgbaImage::from_raw(w, h, pixels)
-            .ok_or_else(|| VrError::Gpu("readback size mismatch".into()))
+        image::RgbaImage::from_raw(w, h, pixels).ok_or(VrError::Gpu(GpuError::ReadbackSize))
     }
 }
