@@ -187,7 +187,13 @@ fn malformed_inputs_give_clear_errors() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("line 3"));
 
-    // With --skip-bad the bad log is left out, with a warning, and the report is written.
+    // With --skip-bad the bad log is left out, with a warning, and the report of the
+    // good one is written (a study of no trial at all would be an error).
+    std::fs::write(
+        study.join("y.oplog"),
+        "{\"format\":\"wandsculpt-oplog\",\"version\":1}\n{\"t\":0.1,\"ev\":\"button\",\"id\":0,\"down\":true}\n{\"t\":0.2,\"ev\":\"button\",\"id\":0,\"down\":false}\n",
+    )
+    .unwrap();
     let out = tools(&["goms", "analyze", study.to_str().unwrap(), "--skip-bad"]);
     assert!(out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("left out"));
@@ -241,22 +247,92 @@ fn truncated_last_line_is_a_warning_not_an_error() {
     assert_eq!(table.lines().filter(|l| l.contains(",K,")).count(), 1);
 }
 
+/// Regression (issue 19): a directory with no trial printed "0 trials" and exited 0.
 #[test]
-fn empty_study_gives_an_empty_report() {
+fn regression_a_directory_with_no_trial_is_an_error() {
     let dir = tempfile::tempdir().unwrap();
-    let out = ok(&[
-        "goms",
-        "analyze",
-        dir.path().to_str().unwrap(),
-        "--sensitivity",
-    ]);
-    assert!(out.contains("0 trials"));
-    let report = std::fs::read_to_string(dir.path().join("report/report.md")).unwrap();
-    assert!(report.contains("no data yet"));
-    let summary = std::fs::read_to_string(dir.path().join("report/summary.csv")).unwrap();
-    assert_eq!(summary.trim(), "table,method,TOTAL");
-    let events = std::fs::read_to_string(dir.path().join("report/events.csv")).unwrap();
-    assert_eq!(events.lines().count(), 1);
+    // Not a log by its name: nothing is read.
+    std::fs::write(dir.path().join("notes.log"), "x").unwrap();
+    let out = tools(&["goms", "analyze", dir.path().to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no trial to analyse"), "{err}");
+    assert!(!dir.path().join("report/report.md").exists());
+    // A log with a header and no event is no trial either.
+    std::fs::write(
+        dir.path().join("operator.log"),
+        "{\"format\":\"wandsculpt-oplog\",\"version\":1}\n",
+    )
+    .unwrap();
+    let out = tools(&["goms", "analyze", dir.path().to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("1 operator logs found"));
+}
+
+/// Per trial of an `events.csv`: `(participant, trial)`, its operators' `(op, start,
+/// end)` in file order.
+type TrialOps = ((String, String), Vec<(String, f64, f64)>);
+
+fn trials_of(events: &[Vec<String>]) -> Vec<TrialOps> {
+    let mut out: Vec<TrialOps> = Vec::new();
+    for r in &events[1..] {
+        let key = (r[0].clone(), r[2].clone());
+        let op = (r[3].clone(), r[4].parse().unwrap(), r[5].parse().unwrap());
+        match out.last_mut() {
+            Some((k, ops)) if *k == key => ops.push(op),
+            _ => out.push((key, vec![op])),
+        }
+    }
+    out
+}
+
+/// The operator logs `replay` wrote for every recorded session: found by their name
+/// (`operator.log`, one directory down), each session one trial, and in every trial the
+/// operators follow each other without gap or overlap, so their seconds sum to the trial.
+#[test]
+fn analyze_reads_the_operator_logs_of_every_recorded_session() {
+    let dir = tempfile::tempdir().unwrap();
+    let logs = data("operator-logs");
+    let sessions: Vec<String> = std::fs::read_dir(&logs)
+        .unwrap()
+        .filter_map(|e| {
+            let e = e.unwrap();
+            e.path()
+                .join("operator.log")
+                .exists()
+                .then(|| e.file_name().to_string_lossy().into_owned())
+        })
+        .collect();
+    assert!(sessions.len() >= 12, "{sessions:?}");
+    let out = dir.path().join("r");
+    let said = ok(&["goms", "analyze", &logs, "-o", out.to_str().unwrap()]);
+    assert!(
+        said.starts_with(&format!("{} trials", sessions.len())),
+        "{said}"
+    );
+    let events = csv(&out.join("events.csv"));
+    let trials = trials_of(&events);
+    assert_eq!(trials.len(), sessions.len());
+    for ((participant, trial), ops) in &trials {
+        assert!(sessions.contains(participant), "{participant}");
+        for w in ops.windows(2) {
+            assert_eq!(w[0].2, w[1].1, "{participant} trial {trial}: {w:?}");
+        }
+        let sum: f64 = ops.iter().map(|o| o.2 - o.1).sum();
+        let span = ops.last().unwrap().2 - ops[0].1;
+        assert_near!(sum, span, DECIMAL_SUM_EPS);
+        // Each recorded stroke is a press: at least one K, and no K longer than its
+        // keystroke window (0.2 s by default), however long the button was held.
+        let ks: Vec<f64> = ops
+            .iter()
+            .filter(|o| o.0 == "K")
+            .map(|o| o.2 - o.1)
+            .collect();
+        assert!(!ks.is_empty(), "{participant}");
+        assert!(ks.iter().all(|&k| k <= 0.2 + DECIMAL_SUM_EPS), "{ks:?}");
+    }
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(report.contains("sum to its length"), "{report}");
 }
 
 #[test]
@@ -380,7 +456,9 @@ fn repeated_trial_numbers_are_flagged() {
     ]);
     assert!(out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("trial 1 more than once"));
-    // Both trials' presses land in trial 1: Table 1 shows 2 K for the one trial.
+    // Both trials' presses land in trial 1: Table 1 shows 2 K for the one trial (R, the
+    // time around the presses, has seconds but no count).
     let summary = csv(&dir.path().join("report/summary.csv"));
-    assert_eq!(summary[1][..4], ["operations", "m", "2.00", "2.00"]);
+    assert_eq!(summary[0][..5], ["table", "method", "K", "R", "TOTAL"]);
+    assert_eq!(summary[1][..5], ["operations", "m", "2.00", "0.00", "2.00"]);
 }

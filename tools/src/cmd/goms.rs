@@ -65,6 +65,9 @@ struct Thresholds {
     /// How a press + release counts: one K, or B + B.
     #[arg(long, value_enum, default_value_t = KMode::K)]
     k_mode: KMode,
+    /// The keystroke window a press owns as its K, seconds (each B owns half).
+    #[arg(long, default_value_t = 0.2)]
+    k_window: f64,
     /// Target width for Fitts' ID when the log names no target, metres.
     #[arg(long)]
     default_width: Option<f64>,
@@ -80,6 +83,7 @@ impl Thresholds {
             m_pause_s: self.m_pause,
             gap_s: self.gap,
             k_mode: self.k_mode,
+            k_window_s: self.k_window,
             default_width: self.default_width,
         };
         c.validate().map_err(anyhow::Error::msg)?;
@@ -367,6 +371,33 @@ fn analyze(a: AnalyzeArgs) -> Result<()> {
     let input = g::read_study(&a.dir, Some(&out), a.skip_bad)?;
     let manifest = input.manifest.as_ref();
     let trials = g::extract_all(&input.logs, &cfg);
+    if trials.is_empty() {
+        let mut msg = format!(
+            "{}: no trial to analyse ({} operator logs found; a study reads the logs its \
+             study.toml names, otherwise every {} and *.{} file below the directory)",
+            a.dir.display(),
+            input.logs.len(),
+            g::OPLOG_FILE,
+            g::OPLOG_EXT
+        );
+        for w in &input.warnings {
+            msg.push_str("\n  ");
+            msg.push_str(w);
+        }
+        bail!(msg);
+    }
+    // Every second of a trial is in exactly one operator (extract.rs); a trial that does
+    // not tile is a bug in the extraction, and the analysis stops rather than report it.
+    for t in &trials {
+        t.check_tiling().map_err(|e| {
+            anyhow::anyhow!(
+                "{} / {} trial {}: operators do not add up to the trial time: {e}",
+                t.participant,
+                t.method,
+                t.trial
+            )
+        })?;
+    }
     let mut warnings = input.warnings.clone();
     let mut seen = std::collections::BTreeSet::new();
     for t in &trials {
@@ -440,7 +471,7 @@ fn analyze(a: AnalyzeArgs) -> Result<()> {
         trials.len()
     ));
     cx.inputs.push(format!(
-        "thresholds: smoothing σ {} s, v_on {} m/s, v_off {} m/s, min amplitude {} m, M pause {} s, gap {} s, buttons as {}",
+        "thresholds: smoothing σ {} s, v_on {} m/s, v_off {} m/s, min amplitude {} m, M pause {} s, gap {} s, buttons as {} ({} s window per press)",
         cfg.smooth_sigma_s,
         cfg.v_on,
         cfg.v_off,
@@ -448,9 +479,16 @@ fn analyze(a: AnalyzeArgs) -> Result<()> {
         cfg.m_pause_s,
         cfg.gap_s,
         match cfg.k_mode {
-            KMode::K => "K (press + release)",
-            KMode::Bb => "B + B",
-        }
+            KMode::K => "K (one per press)",
+            KMode::Bb => "B + B (press, release)",
+        },
+        cfg.k_window_s
+    ));
+    cx.inputs.push(format!(
+        "operator times: every trial's operators (R included) tile it, so each trial's \
+         operator seconds sum to its length ({:.2} s over {} trials)",
+        trials.iter().map(|t| t.duration()).sum::<f64>(),
+        trials.len()
     ));
     cx.inputs.push(format!(
         "bootstrap: {} resamples, seed {}",

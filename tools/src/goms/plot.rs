@@ -46,6 +46,7 @@ fn colour(op: OpKind) -> RGBColor {
         OpKind::B => RGBColor(0xc4, 0x4e, 0x52),
         OpKind::M => RGBColor(0x55, 0xa8, 0x68),
         OpKind::H => RGBColor(0x81, 0x72, 0xb3),
+        OpKind::R => RGBColor(0xb0, 0xb0, 0xb0),
     }
 }
 

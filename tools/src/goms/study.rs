@@ -208,7 +208,11 @@ pub fn tally_trials(trials: &[Trial]) -> Vec<TallyRow> {
                 method: t.method.clone(),
                 trial: t.trial,
                 op: op.letter().to_owned(),
-                count: ops.len() as f64,
+                count: if op.counts_as_operation() {
+                    ops.len() as f64
+                } else {
+                    0.0
+                },
                 time: ops.iter().map(|o| o.duration()).sum(),
             });
         }
