@@ -469,3 +469,40 @@ fn repeated_trial_numbers_are_flagged() {
     assert_eq!(summary[0][..5], ["table", "method", "K", "R", "TOTAL"]);
     assert_eq!(summary[1][..5], ["operations", "m", "2.00", "0.00", "2.00"]);
 }
+
+/// Regression (issue 19): `goms study status | head` panicked on the closed pipe.
+#[test]
+fn regression_a_closed_pipe_ends_the_output_quietly() {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    let dir = tempfile::tempdir().unwrap();
+    let s = dir.path().join("s");
+    let s = s.to_str().unwrap();
+    // Enough sessions that the listing outgrows a pipe's buffer (64 KiB).
+    ok(&[
+        "goms",
+        "study",
+        "init",
+        s,
+        "--participants",
+        "1500",
+        "--methods",
+        "wall,desk",
+    ]);
+    let mut child = Command::new(env!("CARGO_BIN_EXE_sculpt-tools"))
+        .args(["goms", "study", "status", s])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    // The reader is dropped here: the pipe is closed with most of the listing unread.
+    assert!(first.starts_with("participant"), "{first}");
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(out.status.success(), "{err}");
+}

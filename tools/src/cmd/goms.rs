@@ -7,6 +7,15 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 
+/// `println!` that returns a write error instead of panicking, so a closed pipe
+/// (`goms study status | head`) ends the command quietly (see `main`).
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($arg)*)?
+    }};
+}
+
 use crate::goms::extract::{ExtractConfig, KMode};
 use crate::goms::klm::{self, Constants, MentalConstant, Typist};
 use crate::goms::report::{self, EventRow, KlmLine, ReportContext};
@@ -510,7 +519,7 @@ fn analyze(a: AnalyzeArgs) -> Result<()> {
     for w in &warnings {
         eprintln!("warning: {w}");
     }
-    println!(
+    say!(
         "{} trials of {} methods -> {}",
         trials.len(),
         analysis.methods.len(),
@@ -568,7 +577,7 @@ fn summarize(a: SummarizeArgs) -> Result<()> {
         ..Default::default()
     };
     write(&a.out.join("report.md"), &report::markdown(&analysis, &cx))?;
-    println!("{} methods -> {}", analysis.methods.len(), a.out.display());
+    say!("{} methods -> {}", analysis.methods.len(), a.out.display());
     Ok(())
 }
 
@@ -597,7 +606,7 @@ fn klm_line(method: &str, src: &str, base: &Path, c: &KlmConstants) -> Result<Kl
 
 fn klm_cmd(a: KlmArgs) -> Result<()> {
     let c = a.constants.constants();
-    println!("constants: {}", a.constants.describe());
+    say!("constants: {}", a.constants.describe());
     for src in &a.methods {
         let text = klm_text(src, Path::new("."))?;
         let method = klm::parse_method(&text).with_context(|| format!("in {src}"))?;
@@ -610,7 +619,7 @@ fn klm_cmd(a: KlmArgs) -> Result<()> {
                         klm::MDecision::Kept => "kept".to_owned(),
                         klm::MDecision::Deleted(r) => format!("deleted by rule {r}"),
                     };
-                    println!(
+                    say!(
                         "  M before step {} ({} on line {}): {what}",
                         i + 1,
                         base[i].op.letter(),
@@ -628,12 +637,12 @@ fn klm_cmd(a: KlmArgs) -> Result<()> {
         } else {
             &method.name
         };
-        println!("{name}: {:.2} s", p.total);
+        say!("{name}: {:.2} s", p.total);
         for (l, n, t) in p.by_op.iter().filter(|x| x.1 > 0) {
-            println!("  {l}: {n} x = {t:.2} s");
+            say!("  {l}: {n} x = {t:.2} s");
         }
         if a.explain {
-            println!("  sequence: {}", klm::format_steps(&steps));
+            say!("  sequence: {}", klm::format_steps(&steps));
         }
     }
     Ok(())
@@ -641,13 +650,16 @@ fn klm_cmd(a: KlmArgs) -> Result<()> {
 
 fn methods(id: Option<String>) -> Result<()> {
     match id {
-        Some(id) => print!("{}", klm_text(&format!("builtin:{id}"), Path::new("."))?),
+        Some(id) => say!(
+            "{}",
+            klm_text(&format!("builtin:{id}"), Path::new("."))?.trim_end()
+        ),
         None => {
             for b in klm::BUILTINS {
                 let name = klm::parse_method(b.text)
                     .map(|m| m.name)
                     .unwrap_or_default();
-                println!("builtin:{}\t{name}", b.id);
+                say!("builtin:{}\t{name}", b.id);
             }
         }
     }
@@ -681,7 +693,7 @@ fn study_cmd(s: StudyCmd) -> Result<()> {
             std::fs::create_dir_all(dir.join("logs"))
                 .with_context(|| format!("cannot create {}", dir.display()))?;
             write(&path, &text)?;
-            println!(
+            say!(
                 "{} sessions planned in {}",
                 m.sessions.len(),
                 path.display()
@@ -689,7 +701,7 @@ fn study_cmd(s: StudyCmd) -> Result<()> {
         }
         StudyCmd::Status { dir } => {
             let m = read_manifest(&dir)?;
-            println!("participant\tmethod\torder\ttrials\tstatus\tlog");
+            say!("participant\tmethod\torder\ttrials\tstatus\tlog");
             for s in &m.sessions {
                 let p = dir.join(&s.log);
                 let status = if !p.exists() {
@@ -713,9 +725,13 @@ fn study_cmd(s: StudyCmd) -> Result<()> {
                         Err(e) => format!("bad: {e:#}"),
                     }
                 };
-                println!(
+                say!(
                     "{}\t{}\t{}\t{}\t{status}\t{}",
-                    s.participant, s.method, s.order, s.trials, s.log
+                    s.participant,
+                    s.method,
+                    s.order,
+                    s.trials,
+                    s.log
                 );
             }
         }
@@ -749,7 +765,7 @@ fn study_cmd(s: StudyCmd) -> Result<()> {
                     .with_context(|| format!("cannot write {}", path.display()))?;
                 written += 1;
             }
-            println!("{written} synthetic sessions written");
+            say!("{written} synthetic sessions written");
         }
         StudyCmd::Next { dir, json } => {
             let m = read_manifest(&dir)?;
@@ -757,7 +773,7 @@ fn study_cmd(s: StudyCmd) -> Result<()> {
                 Some(s) => {
                     let log = dir.join(&s.log);
                     if json {
-                        println!(
+                        say!(
                             "{}",
                             serde_json::json!({
                                 "participant": s.participant,
@@ -768,7 +784,7 @@ fn study_cmd(s: StudyCmd) -> Result<()> {
                             })
                         );
                     } else {
-                        println!(
+                        say!(
                             "{}\t{}\t{}\t{}\t{}",
                             s.participant,
                             s.method,
@@ -778,7 +794,7 @@ fn study_cmd(s: StudyCmd) -> Result<()> {
                         );
                     }
                 }
-                None => println!("all sessions recorded"),
+                None => say!("all sessions recorded"),
             }
         }
     }
