@@ -506,3 +506,120 @@ fn regression_a_closed_pipe_ends_the_output_quietly() {
     assert!(!err.contains("panicked"), "{err}");
     assert!(out.status.success(), "{err}");
 }
+
+/// The `replay` binary beside this one, built first if the workspace has not built it.
+fn replay_bin() -> std::path::PathBuf {
+    let dir = Path::new(env!("CARGO_BIN_EXE_sculpt-tools"))
+        .parent()
+        .unwrap();
+    let bin = dir.join(format!("replay{}", std::env::consts::EXE_SUFFIX));
+    if !bin.exists() {
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let status = Command::new(cargo)
+            .args(["build", "-p", "replay", "--bin", "replay"])
+            .status()
+            .unwrap();
+        assert!(status.success(), "building replay");
+    }
+    assert!(bin.exists(), "{}", bin.display());
+    bin
+}
+
+/// Issue 19's done-when: a study of three simulated participants, `study init`, every
+/// trial recorded by `replay --study` from a recorded session into the log the manifest
+/// names, then `goms analyze` writes the report and plots with no copying by hand, and
+/// every trial's operator times sum to the trial's length.
+#[test]
+fn study_of_three_participants_recorded_by_replay() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = dir.path().join("s");
+    let manifest = s.join("study.toml");
+    ok(&[
+        "goms",
+        "study",
+        "init",
+        s.to_str().unwrap(),
+        "--participants",
+        "3",
+        "--methods",
+        "sculpt",
+        "--trials",
+        "2",
+    ]);
+    let sessions = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/sessions");
+    let recorded = [
+        "patch-carve",
+        "patch-overlaps",
+        "sketch-carve",
+        "patch-emboss",
+        "patch-mask",
+        "patch-carve-jitter",
+    ];
+    let replay = |participant: &str, session: &str| {
+        Command::new(replay_bin())
+            .arg(sessions.join(format!("{session}.poselog")))
+            .args([
+                "--study",
+                manifest.to_str().unwrap(),
+                "--participant",
+                participant,
+                "-q",
+            ])
+            .output()
+            .unwrap()
+    };
+    for (i, session) in recorded.iter().enumerate() {
+        let participant = format!("P{}", i / 2 + 1);
+        let out = replay(&participant, session);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let said = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            said.contains(&format!("trial {} of 2", i % 2 + 1)),
+            "{said}"
+        );
+    }
+    // Every trial of P1 is recorded: a third is refused.
+    let out = replay("P1", "patch-carve");
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("every trial"));
+    assert!(ok(&["goms", "study", "status", s.to_str().unwrap()]).contains("recorded (2/2 trials"));
+
+    let said = ok(&["goms", "analyze", s.to_str().unwrap(), "--trace", "all"]);
+    assert!(said.starts_with("6 trials of 1 methods"), "{said}");
+    let report = s.join("report");
+    for f in [
+        "report.md",
+        "summary.csv",
+        "time_by_method.png",
+        "gantt_P3_sculpt_2.png",
+        "speed_P1_sculpt_1.svg",
+    ] {
+        assert!(report.join(f).exists(), "{f}");
+    }
+    let events = csv(&report.join("events.csv"));
+    let trials = trials_of(&events);
+    let keys: Vec<(String, String)> = trials.iter().map(|t| t.0.clone()).collect();
+    let want: Vec<(String, String)> = (1..=3)
+        .flat_map(|p| (1..=2).map(move |t| (format!("P{p}"), t.to_string())))
+        .collect();
+    assert_eq!(keys, want);
+    for ((participant, trial), ops) in &trials {
+        for w in ops.windows(2) {
+            assert_eq!(w[0].2, w[1].1, "{participant} trial {trial}: {w:?}");
+        }
+        let sum: f64 = ops.iter().map(|o| o.2 - o.1).sum();
+        assert_near!(sum, ops.last().unwrap().2 - ops[0].1, DECIMAL_SUM_EPS);
+    }
+    // The log itself says who, what and which trial.
+    let log = std::fs::read_to_string(s.join("logs/P2-sculpt.oplog")).unwrap();
+    let header = log.lines().next().unwrap();
+    assert!(
+        header.contains("\"participant\":\"P2\"") && header.contains("\"method\":\"sculpt\""),
+        "{header}"
+    );
+    assert_eq!(log.matches("\"ev\":\"trial_start\"").count(), 2);
+}
