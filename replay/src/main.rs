@@ -25,8 +25,19 @@ struct Cli {
     /// The pose log to replay.
     session: PathBuf,
     /// Output directory (scene.json, exports, operator.log, metrics.json, timing.json).
-    #[arg(long, required_unless_present_any = ["serve", "connect"])]
+    #[arg(long, required_unless_present_any = ["serve", "connect", "study"])]
     out: Option<PathBuf>,
+    /// Study mode: record this replay as the participant's next trial of the study
+    /// manifest (`study.toml` of `sculpt-tools goms study init`), appended to the log the
+    /// manifest names, with participant, method and trial marked in it.
+    #[arg(long, value_name = "MANIFEST", requires = "participant", conflicts_with_all = ["serve", "connect"])]
+    study: Option<PathBuf>,
+    /// With --study: the participant recording the trial.
+    #[arg(long, requires = "study")]
+    participant: Option<String>,
+    /// With --study: the task named in the trial's `trial_start` (default: the method).
+    #[arg(long, requires = "study")]
+    task: Option<String>,
     /// Start from this document instead of the default surface.
     #[arg(long)]
     scene: Option<PathBuf>,
@@ -144,6 +155,9 @@ fn run(cli: Cli) -> Result<ExitCode> {
     {
         return serve(&cli, &bytes, target.0, target.1);
     }
+    if let (Some(manifest), Some(participant)) = (&cli.study, &cli.participant) {
+        return study_trial(&cli, &bytes, manifest, participant);
+    }
     let Some(out) = cli.out.as_ref() else {
         bail!("--out DIR is required");
     };
@@ -233,6 +247,77 @@ fn run(cli: Cli) -> Result<ExitCode> {
         }
         println!("{name}: matches {}", check.display());
     }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `--study`: replays the session as the participant's next trial of the study and
+/// appends it to the session log the manifest names (see `sculpt_core::study`); with
+/// `--out`, the other outputs are written there too.
+fn study_trial(
+    cli: &Cli,
+    bytes: &[u8],
+    manifest: &std::path::Path,
+    participant: &str,
+) -> Result<ExitCode> {
+    use sculpt_core::study::{Manifest, append_trial};
+    let text = std::fs::read_to_string(manifest)
+        .with_context(|| format!("reading {}", manifest.display()))?;
+    let m = Manifest::parse(&text).with_context(|| format!("in {}", manifest.display()))?;
+    let dir = manifest.parent().unwrap_or(std::path::Path::new("."));
+    let next = m.next_trial(participant, |log| std::fs::read(dir.join(log)).ok())?;
+    let cfg = match &cli.config {
+        Some(p) => ReplayConfig::from_toml_str(
+            &std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?,
+        )
+        .with_context(|| format!("in {}", p.display()))?,
+        None => ReplayConfig::default(),
+    };
+    let base = match &cli.scene {
+        Some(p) => Document::from_json(
+            &std::fs::read(p).with_context(|| format!("reading {}", p.display()))?,
+        )
+        .with_context(|| format!("loading the scene {}", p.display()))?,
+        None => replay::pipeline::default_document(),
+    };
+    let name = cli.session.file_stem().map_or_else(
+        || "session".to_string(),
+        |s| s.to_string_lossy().into_owned(),
+    );
+    let outcome = replay::pipeline::replay_log(bytes, &cfg, base, &name, cli.realtime, None)?;
+    let log = dir.join(&next.session.log);
+    let existing = if log.exists() {
+        Some(std::fs::read(&log).with_context(|| format!("reading {}", log.display()))?)
+    } else {
+        None
+    };
+    let task = cli.task.as_deref().unwrap_or(&next.session.method);
+    let all = append_trial(
+        existing.as_deref(),
+        &next,
+        "replay",
+        Some(task),
+        &outcome.oplog,
+    )
+    .with_context(|| format!("recording into {}", log.display()))?;
+    if let Some(parent) = log.parent() {
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("creating {}", parent.display()))?;
+    }
+    // Write beside, then rename: a crash never leaves half a log.
+    let tmp = log.with_extension("oplog.tmp");
+    std::fs::write(&tmp, &all).with_context(|| format!("writing {}", tmp.display()))?;
+    std::fs::rename(&tmp, &log).with_context(|| format!("writing {}", log.display()))?;
+    if let Some(out) = &cli.out {
+        replay::output::write_outputs(&outcome, out)?;
+    }
+    println!(
+        "{participant} / {} trial {} of {} ({name}, {:.1} s) -> {}",
+        next.session.method,
+        next.trial,
+        next.session.trials,
+        outcome.metrics.duration_s,
+        log.display()
+    );
     Ok(ExitCode::SUCCESS)
 }
 

@@ -17,6 +17,7 @@ pub mod mesh;
 pub mod nurbs;
 pub mod oplog;
 pub mod sculpt;
+pub mod study;
 pub mod tolerance;
 
 pub use error::{Error, Result};

@@ -7,6 +7,15 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 
+/// `println!` that returns a write error instead of panicking, so a closed pipe
+/// (`goms study status | head`) ends the command quietly (see `main`).
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($arg)*)?
+    }};
+}
+
 use crate::goms::extract::{ExtractConfig, KMode};
 use crate::goms::klm::{self, Constants, MentalConstant, Typist};
 use crate::goms::report::{self, EventRow, KlmLine, ReportContext};
@@ -65,6 +74,9 @@ struct Thresholds {
     /// How a press + release counts: one K, or B + B.
     #[arg(long, value_enum, default_value_t = KMode::K)]
     k_mode: KMode,
+    /// The keystroke window a press owns as its K, seconds (each B owns half).
+    #[arg(long, default_value_t = 0.2)]
+    k_window: f64,
     /// Target width for Fitts' ID when the log names no target, metres.
     #[arg(long)]
     default_width: Option<f64>,
@@ -80,6 +92,7 @@ impl Thresholds {
             m_pause_s: self.m_pause,
             gap_s: self.gap,
             k_mode: self.k_mode,
+            k_window_s: self.k_window,
             default_width: self.default_width,
         };
         c.validate().map_err(anyhow::Error::msg)?;
@@ -367,6 +380,33 @@ fn analyze(a: AnalyzeArgs) -> Result<()> {
     let input = g::read_study(&a.dir, Some(&out), a.skip_bad)?;
     let manifest = input.manifest.as_ref();
     let trials = g::extract_all(&input.logs, &cfg);
+    if trials.is_empty() {
+        let mut msg = format!(
+            "{}: no trial to analyse ({} operator logs found; a study reads the logs its \
+             study.toml names, otherwise every {} and *.{} file below the directory)",
+            a.dir.display(),
+            input.logs.len(),
+            g::OPLOG_FILE,
+            g::OPLOG_EXT
+        );
+        for w in &input.warnings {
+            msg.push_str("\n  ");
+            msg.push_str(w);
+        }
+        bail!(msg);
+    }
+    // Every second of a trial is in exactly one operator (extract.rs); a trial that does
+    // not tile is a bug in the extraction, and the analysis stops rather than report it.
+    for t in &trials {
+        t.check_tiling().map_err(|e| {
+            anyhow::anyhow!(
+                "{} / {} trial {}: operators do not add up to the trial time: {e}",
+                t.participant,
+                t.method,
+                t.trial
+            )
+        })?;
+    }
     let mut warnings = input.warnings.clone();
     let mut seen = std::collections::BTreeSet::new();
     for t in &trials {
@@ -440,7 +480,7 @@ fn analyze(a: AnalyzeArgs) -> Result<()> {
         trials.len()
     ));
     cx.inputs.push(format!(
-        "thresholds: smoothing σ {} s, v_on {} m/s, v_off {} m/s, min amplitude {} m, M pause {} s, gap {} s, buttons as {}",
+        "thresholds: smoothing σ {} s, v_on {} m/s, v_off {} m/s, min amplitude {} m, M pause {} s, gap {} s, buttons as {} ({} s window per press)",
         cfg.smooth_sigma_s,
         cfg.v_on,
         cfg.v_off,
@@ -448,9 +488,16 @@ fn analyze(a: AnalyzeArgs) -> Result<()> {
         cfg.m_pause_s,
         cfg.gap_s,
         match cfg.k_mode {
-            KMode::K => "K (press + release)",
-            KMode::Bb => "B + B",
-        }
+            KMode::K => "K (one per press)",
+            KMode::Bb => "B + B (press, release)",
+        },
+        cfg.k_window_s
+    ));
+    cx.inputs.push(format!(
+        "operator times: every trial's operators (R included) tile it, so each trial's \
+         operator seconds sum to its length ({:.2} s over {} trials)",
+        trials.iter().map(|t| t.duration()).sum::<f64>(),
+        trials.len()
     ));
     cx.inputs.push(format!(
         "bootstrap: {} resamples, seed {}",
@@ -472,7 +519,7 @@ fn analyze(a: AnalyzeArgs) -> Result<()> {
     for w in &warnings {
         eprintln!("warning: {w}");
     }
-    println!(
+    say!(
         "{} trials of {} methods -> {}",
         trials.len(),
         analysis.methods.len(),
@@ -530,7 +577,7 @@ fn summarize(a: SummarizeArgs) -> Result<()> {
         ..Default::default()
     };
     write(&a.out.join("report.md"), &report::markdown(&analysis, &cx))?;
-    println!("{} methods -> {}", analysis.methods.len(), a.out.display());
+    say!("{} methods -> {}", analysis.methods.len(), a.out.display());
     Ok(())
 }
 
@@ -559,7 +606,7 @@ fn klm_line(method: &str, src: &str, base: &Path, c: &KlmConstants) -> Result<Kl
 
 fn klm_cmd(a: KlmArgs) -> Result<()> {
     let c = a.constants.constants();
-    println!("constants: {}", a.constants.describe());
+    say!("constants: {}", a.constants.describe());
     for src in &a.methods {
         let text = klm_text(src, Path::new("."))?;
         let method = klm::parse_method(&text).with_context(|| format!("in {src}"))?;
@@ -572,7 +619,7 @@ fn klm_cmd(a: KlmArgs) -> Result<()> {
                         klm::MDecision::Kept => "kept".to_owned(),
                         klm::MDecision::Deleted(r) => format!("deleted by rule {r}"),
                     };
-                    println!(
+                    say!(
                         "  M before step {} ({} on line {}): {what}",
                         i + 1,
                         base[i].op.letter(),
@@ -590,12 +637,12 @@ fn klm_cmd(a: KlmArgs) -> Result<()> {
         } else {
             &method.name
         };
-        println!("{name}: {:.2} s", p.total);
+        say!("{name}: {:.2} s", p.total);
         for (l, n, t) in p.by_op.iter().filter(|x| x.1 > 0) {
-            println!("  {l}: {n} x = {t:.2} s");
+            say!("  {l}: {n} x = {t:.2} s");
         }
         if a.explain {
-            println!("  sequence: {}", klm::format_steps(&steps));
+            say!("  sequence: {}", klm::format_steps(&steps));
         }
     }
     Ok(())
@@ -603,13 +650,16 @@ fn klm_cmd(a: KlmArgs) -> Result<()> {
 
 fn methods(id: Option<String>) -> Result<()> {
     match id {
-        Some(id) => print!("{}", klm_text(&format!("builtin:{id}"), Path::new("."))?),
+        Some(id) => say!(
+            "{}",
+            klm_text(&format!("builtin:{id}"), Path::new("."))?.trim_end()
+        ),
         None => {
             for b in klm::BUILTINS {
                 let name = klm::parse_method(b.text)
                     .map(|m| m.name)
                     .unwrap_or_default();
-                println!("builtin:{}\t{name}", b.id);
+                say!("builtin:{}\t{name}", b.id);
             }
         }
     }
@@ -643,7 +693,7 @@ fn study_cmd(s: StudyCmd) -> Result<()> {
             std::fs::create_dir_all(dir.join("logs"))
                 .with_context(|| format!("cannot create {}", dir.display()))?;
             write(&path, &text)?;
-            println!(
+            say!(
                 "{} sessions planned in {}",
                 m.sessions.len(),
                 path.display()
@@ -651,7 +701,7 @@ fn study_cmd(s: StudyCmd) -> Result<()> {
         }
         StudyCmd::Status { dir } => {
             let m = read_manifest(&dir)?;
-            println!("participant\tmethod\torder\ttrials\tstatus\tlog");
+            say!("participant\tmethod\torder\ttrials\tstatus\tlog");
             for s in &m.sessions {
                 let p = dir.join(&s.log);
                 let status = if !p.exists() {
@@ -675,9 +725,13 @@ fn study_cmd(s: StudyCmd) -> Result<()> {
                         Err(e) => format!("bad: {e:#}"),
                     }
                 };
-                println!(
+                say!(
                     "{}\t{}\t{}\t{}\t{status}\t{}",
-                    s.participant, s.method, s.order, s.trials, s.log
+                    s.participant,
+                    s.method,
+                    s.order,
+                    s.trials,
+                    s.log
                 );
             }
         }
@@ -711,7 +765,7 @@ fn study_cmd(s: StudyCmd) -> Result<()> {
                     .with_context(|| format!("cannot write {}", path.display()))?;
                 written += 1;
             }
-            println!("{written} synthetic sessions written");
+            say!("{written} synthetic sessions written");
         }
         StudyCmd::Next { dir, json } => {
             let m = read_manifest(&dir)?;
@@ -719,7 +773,7 @@ fn study_cmd(s: StudyCmd) -> Result<()> {
                 Some(s) => {
                     let log = dir.join(&s.log);
                     if json {
-                        println!(
+                        say!(
                             "{}",
                             serde_json::json!({
                                 "participant": s.participant,
@@ -730,7 +784,7 @@ fn study_cmd(s: StudyCmd) -> Result<()> {
                             })
                         );
                     } else {
-                        println!(
+                        say!(
                             "{}\t{}\t{}\t{}\t{}",
                             s.participant,
                             s.method,
@@ -740,7 +794,7 @@ fn study_cmd(s: StudyCmd) -> Result<()> {
                         );
                     }
                 }
-                None => println!("all sessions recorded"),
+                None => say!("all sessions recorded"),
             }
         }
     }

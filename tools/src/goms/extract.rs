@@ -14,17 +14,26 @@
 //! 4. **P**: consecutive sub-movements belong to one pointing operator (corrective
 //!    sub-movements) until a button edge (the selection) or a still gap of `m_pause_s`
 //!    or more. A P whose wand never moves `min_amplitude` from its start point is dropped.
-//! 5. **K**: a button press and its release are one K (`k_mode = k`), or two B
-//!    (`k_mode = bb`, each half of the hold).
-//! 6. **M**: a gap of at least `m_pause_s` with no P and no button held, from the trial
-//!    start or the end of the previous operator to the start of the next operator.
-//!    A pause at the end of a trial, before no operator, is not an M.
+//!    Movement with a button held (a stroke) is a P of its own: a drag is press, P,
+//!    release (KLM's B-down P B-up).
+//! 5. **K** is the press itself, not the hold: each press owns the window
+//!    `[press, press + k_window_s]` (default 0.2 s, KLM's K for a skilled typist), cut
+//!    short by its release or the next press (`k_mode = k`). With `k_mode = bb` each
+//!    press and each release owns a B window of `k_window_s / 2` (KLM's B, 0.1 s).
+//!    A P that starts inside a button window starts at its end.
+//! 6. **M and R**: time between operators while a button is still held is R (holding
+//!    still); the rest of the gap is an M when it lasts at least `m_pause_s` and ends at
+//!    the next operator, otherwise R too (system response or waiting: short pauses, the
+//!    end of the trial).
 //! 7. **Fitts**: per P, the amplitude A (start to the target centre when the log has a
 //!    `target` event during the P, else start to the selection point), the width W
 //!    (the target's, else `default_width`), the Shannon index of difficulty
 //!    `ID = log2(A/W + 1)`, and the angular version: the angle α between the wand ray
 //!    (wand -Z) at the start and the ray to the target (or at the end), the angular
 //!    width `ω = 2 atan(W / 2D)` with D the distance to the target, `ID_a = log2(α/ω + 1)`.
+//!
+//! Every instant of a trial belongs to exactly one operator, so the operator times of a
+//! trial sum to its length `t1 - t0` ([`Trial::duration`]).
 
 use glam::{DQuat, DVec3};
 use sculpt_core::oplog::{EventKind, OpLog, TrackingState};
@@ -34,7 +43,7 @@ use sculpt_core::oplog::{EventKind, OpLog, TrackingState};
 pub enum OpKind {
     /// Pointing.
     P,
-    /// Key or button press + release.
+    /// Key or button press (the press itself, see the module docs).
     K,
     /// Button press or release alone.
     B,
@@ -42,11 +51,21 @@ pub enum OpKind {
     M,
     /// Homing.
     H,
+    /// System response time or waiting: trial time no other operator accounts for
+    /// (a button held still, short pauses, the end of a trial).
+    R,
 }
 
 impl OpKind {
     /// All kinds in display order.
-    pub const ALL: [OpKind; 5] = [OpKind::P, OpKind::K, OpKind::B, OpKind::M, OpKind::H];
+    pub const ALL: [OpKind; 6] = [
+        OpKind::P,
+        OpKind::K,
+        OpKind::B,
+        OpKind::M,
+        OpKind::H,
+        OpKind::R,
+    ];
 
     /// The letter.
     pub fn letter(self) -> &'static str {
@@ -56,7 +75,14 @@ impl OpKind {
             OpKind::B => "B",
             OpKind::M => "M",
             OpKind::H => "H",
+            OpKind::R => "R",
         }
+    }
+
+    /// Whether an operator of this kind counts in the operation counts (Table 1). R is
+    /// time the other operators leave (waiting, holding still): it has seconds, no count.
+    pub fn counts_as_operation(self) -> bool {
+        self != OpKind::R
     }
 
     /// Parses a letter.
@@ -70,9 +96,9 @@ impl OpKind {
 /// How a button press/release pair counts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum KMode {
-    /// Press + release = one K (Kieras).
+    /// Each press is one K (a click or a drag's press; the release is part of it).
     K,
-    /// Press = B, release = B.
+    /// Each press and each release is one B (KLM's mouse-button operator).
     Bb,
 }
 
@@ -94,6 +120,9 @@ pub struct ExtractConfig {
     pub gap_s: f64,
     /// K or B+B. Default K.
     pub k_mode: KMode,
+    /// Length of the keystroke window a press owns (K), seconds; each B owns half of
+    /// it. Default 0.2 (KLM: K 0.08 to 1.2 s, 0.2 s for a skilled typist; B 0.1 s).
+    pub k_window_s: f64,
     /// Target width when the log names no target, metres. Default none.
     pub default_width: Option<f64>,
 }
@@ -108,6 +137,7 @@ impl Default for ExtractConfig {
             m_pause_s: 1.0,
             gap_s: 0.1,
             k_mode: KMode::K,
+            k_window_s: 0.2,
             default_width: None,
         }
     }
@@ -129,6 +159,7 @@ impl ExtractConfig {
         finite_nonneg(self.min_amplitude, "min-amplitude")?;
         finite_nonneg(self.m_pause_s, "m-pause")?;
         finite_nonneg(self.gap_s, "gap")?;
+        finite_nonneg(self.k_window_s, "k-window")?;
         if self.v_off > self.v_on {
             return Err(format!(
                 "v-off ({}) must not exceed v-on ({})",
@@ -208,6 +239,50 @@ pub struct Trial {
 }
 
 impl Trial {
+    /// The trial's length, `t1 - t0` seconds: the sum of its operator times.
+    pub fn duration(&self) -> f64 {
+        self.t1 - self.t0
+    }
+
+    /// Checks that the operators tile `[t0, t1]`: ordered, each starting where the one
+    /// before ends, none empty (except a K or B cut to nothing by the trial end), the first at `t0` and the last ending at `t1`. The reason
+    /// when they do not.
+    pub fn check_tiling(&self) -> Result<(), String> {
+        let mut cursor = self.t0;
+        for o in &self.ops {
+            if o.t_start != cursor {
+                return Err(format!(
+                    "{} at {:.6} s does not start where the time before it ends ({:.6} s)",
+                    o.op.letter(),
+                    o.t_start,
+                    cursor
+                ));
+            }
+            let button = matches!(o.op, OpKind::K | OpKind::B);
+            if o.t_end < o.t_start || (o.t_end == o.t_start && !button) {
+                return Err(format!("empty {} at {:.6} s", o.op.letter(), o.t_start));
+            }
+            cursor = o.t_end;
+        }
+        if cursor != self.t1 {
+            return Err(format!(
+                "operators end at {cursor:.6} s, the trial at {:.6} s",
+                self.t1
+            ));
+        }
+        Ok(())
+    }
+
+    /// Seconds in operators of a kind.
+    #[cfg(test)]
+    pub fn time(&self, op: OpKind) -> f64 {
+        self.ops
+            .iter()
+            .filter(|o| o.op == op)
+            .map(Operator::duration)
+            .sum()
+    }
+
     /// Number of operators of a kind.
     pub fn count(&self, op: OpKind) -> usize {
         self.ops.iter().filter(|o| o.op == op).count()
@@ -302,23 +377,51 @@ fn extract_range(ev: &[sculpt_core::oplog::OpEvent], cfg: &ExtractConfig) -> Tri
     let edge_times: Vec<f64> = edges.iter().map(|e| e.0).collect();
     let movements = split_at(&segment(&samples, &speed, cfg), &edge_times);
 
-    // K (or B+B) from press/release pairs.
-    let mut keys: Vec<(f64, f64)> = Vec::new();
+    // Button operators: each press (K mode) or each edge (B+B mode) owns a short fixed
+    // window from its edge, the KLM keystroke itself; the rest of a hold is not K.
+    let mut presses: Vec<(f64, f64)> = Vec::new();
     let mut held: Vec<(u8, f64)> = Vec::new();
     for &(t, id, down) in &edges {
         let pos = held.iter().position(|h| h.0 == id);
         match (down, pos) {
             (true, Some(i)) => {
-                // A second press without a release: close the first at this press.
-                keys.push((held[i].1, t));
+                // A second press without a release: the first ends at this press.
+                presses.push((held[i].1, t));
                 held[i].1 = t;
             }
             (true, None) => held.push((id, t)),
-            (false, Some(i)) => keys.push((held.swap_remove(i).1, t)),
-            (false, None) => keys.push((t, t)),
+            (false, Some(i)) => presses.push((held.swap_remove(i).1, t)),
+            (false, None) => {}
         }
     }
-    keys.extend(held.iter().map(|h| (h.1, t1)));
+    presses.extend(held.iter().map(|h| (h.1, t1)));
+    presses.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut buttons: Vec<Operator> = match cfg.k_mode {
+        KMode::K => presses
+            .iter()
+            .map(|&(s, e)| Operator {
+                op: OpKind::K,
+                t_start: s,
+                t_end: e.min(s + cfg.k_window_s),
+                fitts: None,
+            })
+            .collect(),
+        KMode::Bb => edges
+            .iter()
+            .map(|&(t, _, _)| Operator {
+                op: OpKind::B,
+                t_start: t,
+                t_end: t + 0.5 * cfg.k_window_s,
+                fitts: None,
+            })
+            .collect(),
+    };
+    buttons.sort_by(|a, b| a.t_start.total_cmp(&b.t_start));
+    // A window ends at the next button operator and at the trial end.
+    for i in 0..buttons.len() {
+        let next = buttons.get(i + 1).map_or(t1, |b| b.t_start);
+        buttons[i].t_end = buttons[i].t_end.min(next).min(t1);
+    }
 
     // Group sub-movements into P operators.
     let mut groups: Vec<(f64, f64)> = Vec::new();
@@ -356,50 +459,80 @@ fn extract_range(ev: &[sculpt_core::oplog::OpEvent], cfg: &ExtractConfig) -> Tri
             .rev()
             .find(|t| t.0 >= s && t.0 <= selection)
             .copied();
-        ops.push(Operator {
-            op: OpKind::P,
-            t_start: s,
-            t_end: e,
-            fitts: Some(fitts(start, end, target, cfg.default_width)),
-        });
-    }
-    for (s, e) in keys {
-        match cfg.k_mode {
-            KMode::K => ops.push(Operator {
-                op: OpKind::K,
-                t_start: s,
-                t_end: e,
-                fitts: None,
-            }),
-            KMode::Bb => {
-                let mid = 0.5 * (s + e);
-                for (a, b) in [(s, mid), (mid, e)] {
-                    ops.push(Operator {
-                        op: OpKind::B,
-                        t_start: a,
-                        t_end: b,
-                        fitts: None,
-                    });
-                }
+        // The button windows take precedence: a P starting inside one starts at its end,
+        // a P running into one ends at its start. Movements never contain a button edge
+        // (they are split there), so a window cannot cut a P in two.
+        let (mut ps, mut pe) = (s.max(t0), e.min(t1));
+        for b in &buttons {
+            if b.t_start <= ps && b.t_end > ps {
+                ps = b.t_end;
+            }
+            if b.t_start > ps && b.t_start < pe {
+                pe = b.t_start;
             }
         }
-    }
-    ops.sort_by(|a, b| a.t_start.total_cmp(&b.t_start));
-    // M: long gaps before an operator.
-    let mut mentals = Vec::new();
-    let mut cursor = t0;
-    for o in &ops {
-        if o.t_start - cursor >= cfg.m_pause_s {
-            mentals.push(Operator {
-                op: OpKind::M,
-                t_start: cursor,
-                t_end: o.t_start,
-                fitts: None,
+        if pe > ps {
+            ops.push(Operator {
+                op: OpKind::P,
+                t_start: ps,
+                t_end: pe,
+                fitts: Some(fitts(start, end, target, cfg.default_width)),
             });
         }
-        cursor = cursor.max(o.t_end);
     }
-    ops.extend(mentals);
+    ops.extend(buttons);
+    ops.sort_by(|a, b| a.t_start.total_cmp(&b.t_start));
+    // Consecutive P groups are disjoint; fix any overlap left by the onset moved back
+    // into the previous P's tail (the earlier operator keeps its time).
+    for i in 1..ops.len() {
+        let prev_end = ops[i - 1].t_end;
+        if ops[i].t_start < prev_end {
+            ops[i].t_start = prev_end.min(ops[i].t_end);
+        }
+    }
+    // A button operator cut to nothing (a release at the trial end, two presses at one
+    // instant) still counts; an empty P does not.
+    ops.retain(|o| o.t_end > o.t_start || matches!(o.op, OpKind::K | OpKind::B));
+    // The time between operators: while a button is still held it is R (holding); the
+    // rest is an M when it is a pause of at least `m_pause_s` that ends at an operator,
+    // else R (waiting, short pauses, the end of the trial). Together the operators tile
+    // [t0, t1] exactly.
+    let mut fill = Vec::new();
+    let mut cursor = t0;
+    for o in ops.iter().map(Some).chain([None]) {
+        let end = o.map_or(t1, |o| o.t_start);
+        if end > cursor {
+            // Presses start operators, so a hold overlapping this gap began before it.
+            let free = presses
+                .iter()
+                .filter(|&&(s, e)| s < end && e > cursor)
+                .map(|&(_, e)| e)
+                .fold(cursor, f64::max)
+                .min(end);
+            let mental = o.is_some() && end - free >= cfg.m_pause_s;
+            let split = if mental { free } else { end };
+            if split > cursor {
+                fill.push(Operator {
+                    op: OpKind::R,
+                    t_start: cursor,
+                    t_end: split,
+                    fitts: None,
+                });
+            }
+            if mental {
+                fill.push(Operator {
+                    op: OpKind::M,
+                    t_start: free,
+                    t_end: end,
+                    fitts: None,
+                });
+            }
+        }
+        if let Some(o) = o {
+            cursor = o.t_end;
+        }
+    }
+    ops.extend(fill);
     ops.sort_by(|a, b| a.t_start.total_cmp(&b.t_start).then(a.op.cmp(&b.op)));
     Trial {
         participant: String::new(),
@@ -614,7 +747,69 @@ mod tests {
         };
         let t = &extract(&l, &bb, "p", "m")[0];
         assert_eq!((t.count(OpKind::B), t.count(OpKind::K)), (4, 0));
-        assert_near!(t.ops[0].duration(), 0.05, EXACT_EPS);
+        // Each edge owns half the keystroke window; the last release is cut to nothing
+        // by the end of the log.
+        assert_near!(t.ops[0].duration(), 0.1, EXACT_EPS);
+        assert_eq!(t.ops.last().map(Operator::duration), Some(0.0));
+        t.check_tiling().unwrap();
+    }
+
+    /// Still 0 to 1.6 s, press at 1.5, sweep 0.5 m from 1.6 to 2.6 s with the button
+    /// held, release at 3.0, end at 3.5 s.
+    fn drag_log() -> OpLog {
+        let mut ev: Vec<(f64, EventKind)> =
+            (0..=160).map(|i| (i as f64 * 0.01, pose(0.0))).collect();
+        ev.extend((1..=100).map(|i| (1.6 + i as f64 * 0.01, pose(0.005 * i as f64))));
+        ev.extend((1..=90).map(|i| (2.6 + i as f64 * 0.01, pose(0.5))));
+        ev.push((1.5, EventKind::Button { id: 0, down: true }));
+        ev.push((3.0, EventKind::Button { id: 0, down: false }));
+        ev.sort_by(|a, b| a.0.total_cmp(&b.0));
+        log(ev)
+    }
+
+    fn letters(t: &Trial) -> Vec<&'static str> {
+        t.ops.iter().map(|o| o.op.letter()).collect()
+    }
+
+    /// Regression (issue 19): a press was timed over the whole hold, the same seconds as
+    /// the stroke's P, so operator times summed to more than the trial.
+    #[test]
+    fn regression_a_drag_is_press_window_then_p_and_times_sum_to_the_trial() {
+        let smear = 2.4 * ExtractConfig::default().smooth_sigma_s;
+        let t = &extract(&drag_log(), &ExtractConfig::default(), "p", "m")[0];
+        t.check_tiling().unwrap();
+        assert_eq!(letters(t), ["M", "K", "P", "R"], "{:?}", t.ops);
+        // K is the press window, not the 1.5 s hold; the P starts after it.
+        assert_near!(t.time(OpKind::K), 0.2, EXACT_EPS);
+        assert_near!(t.ops[2].t_start, 1.7, EXACT_EPS);
+        assert_near!(t.ops[2].t_end, 2.6, smear);
+        let sum: f64 = t.ops.iter().map(Operator::duration).sum();
+        assert_near!(sum, t.duration(), sculpt_core::tolerance::TIME_EPS);
+        assert_near!(t.duration(), 3.5, EXACT_EPS);
+        // B + B: the drag is B-down P B-up, each B 0.1 s.
+        let bb = ExtractConfig {
+            k_mode: KMode::Bb,
+            ..Default::default()
+        };
+        let t = &extract(&drag_log(), &bb, "p", "m")[0];
+        t.check_tiling().unwrap();
+        assert_eq!(letters(t), ["M", "B", "P", "R", "B", "R"], "{:?}", t.ops);
+        assert_near!(t.time(OpKind::B), 0.2, EXACT_EPS);
+        assert_near!(t.ops[2].t_start, 1.6, smear);
+    }
+
+    #[test]
+    fn tiling_check_finds_gaps_overlaps_and_a_short_end() {
+        let mut t = extract(&drag_log(), &ExtractConfig::default(), "p", "m").remove(0);
+        t.check_tiling().unwrap();
+        let mut gap = t.clone();
+        gap.ops[1].t_end -= 0.01;
+        assert!(gap.check_tiling().unwrap_err().contains("does not start"));
+        let mut overlap = t.clone();
+        overlap.ops[1].t_end += 0.01;
+        assert!(overlap.check_tiling().is_err());
+        t.t1 += 1.0;
+        assert!(t.check_tiling().unwrap_err().contains("operators end"));
     }
 
     #[test]

@@ -56,6 +56,18 @@ pub struct StudyInput {
     pub warnings: Vec<String>,
 }
 
+/// The file name `wandsculpt` and `replay` give the operator log in a session or output
+/// directory.
+pub const OPLOG_FILE: &str = "operator.log";
+/// The extension of operator logs named otherwise (`study simulate`, hand-made logs).
+pub const OPLOG_EXT: &str = "oplog";
+
+/// Whether a file is an operator log by its name: [`OPLOG_FILE`] or `*.`[`OPLOG_EXT`].
+pub fn is_log_name(path: &Path) -> bool {
+    path.file_name().is_some_and(|n| n == OPLOG_FILE)
+        || path.extension().is_some_and(|e| e == OPLOG_EXT)
+}
+
 fn find_logs(dir: &Path, skip: Option<&Path>, out: &mut Vec<PathBuf>, depth: usize) -> Result<()> {
     if depth > 16 {
         return Ok(());
@@ -71,15 +83,15 @@ fn find_logs(dir: &Path, skip: Option<&Path>, out: &mut Vec<PathBuf>, depth: usi
         }
         if p.is_dir() {
             find_logs(&p, skip, out, depth + 1)?;
-        } else if p.extension().is_some_and(|e| e == "oplog") {
+        } else if is_log_name(&p) {
             out.push(p);
         }
     }
     Ok(())
 }
 
-/// Reads a study directory: the sessions of `study.toml`, or every `*.oplog` file
-/// below it (except under `skip`, the output directory). A log that does not decode is
+/// Reads a study directory: the sessions of `study.toml`, or every operator log below
+/// it ([`is_log_name`]: `operator.log` as the programs write it, or `*.oplog`) (except under `skip`, the output directory). A log that does not decode is
 /// an error, or with `skip_bad` a warning and left out.
 pub fn read_study(dir: &Path, skip: Option<&Path>, skip_bad: bool) -> Result<StudyInput> {
     if !dir.is_dir() {
@@ -125,8 +137,13 @@ pub fn read_study(dir: &Path, skip: Option<&Path>, skip_bad: bool) -> Result<Stu
                 path.display()
             ));
         }
-        let stem = path
-            .file_stem()
+        // An `operator.log` is named by its directory (a session or replay output).
+        let named_by = if path.file_name().is_some_and(|n| n == OPLOG_FILE) {
+            path.parent().and_then(|d| d.file_name())
+        } else {
+            path.file_stem()
+        };
+        let stem = named_by
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default();
         let (participant, method) = match who {

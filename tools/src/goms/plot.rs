@@ -38,6 +38,18 @@ impl<T, E: std::fmt::Debug> Plt<T> for std::result::Result<T, E> {
     }
 }
 
+/// What an operator kind is, for axis labels and legends.
+fn describe(op: OpKind) -> &'static str {
+    match op {
+        OpKind::P => "P pointing",
+        OpKind::K => "K keystroke",
+        OpKind::B => "B button edge",
+        OpKind::M => "M mental",
+        OpKind::H => "H homing",
+        OpKind::R => "R wait / hold",
+    }
+}
+
 /// The colour of an operator kind.
 fn colour(op: OpKind) -> RGBColor {
     match op {
@@ -46,6 +58,7 @@ fn colour(op: OpKind) -> RGBColor {
         OpKind::B => RGBColor(0xc4, 0x4e, 0x52),
         OpKind::M => RGBColor(0x55, 0xa8, 0x68),
         OpKind::H => RGBColor(0x81, 0x72, 0xb3),
+        OpKind::R => RGBColor(0xb0, 0xb0, 0xb0),
     }
 }
 
@@ -267,10 +280,10 @@ fn gantt<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, t: &Trial) -> Result
         )
         .margin(10)
         .x_label_area_size(35)
-        .y_label_area_size(40)
+        .y_label_area_size(110)
         .build_cartesian_2d(t0..t1, -0.5f64..(rows as f64 - 0.5))
         .p()?;
-    let names: Vec<&str> = kinds.iter().map(|k| k.letter()).collect();
+    let names: Vec<&str> = kinds.iter().map(|k| describe(*k)).collect();
     chart
         .configure_mesh()
         .disable_y_mesh()
@@ -290,6 +303,8 @@ fn gantt<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, t: &Trial) -> Result
         .label_style(("sans-serif", 13))
         .draw()
         .p()?;
+    // One bar per operator, outlined in white so that operators of one kind that follow
+    // each other stay two bars.
     for (r, k) in kinds.iter().enumerate() {
         chart
             .draw_series(t.ops.iter().filter(|o| o.op == *k).map(|o| {
@@ -299,6 +314,16 @@ fn gantt<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, t: &Trial) -> Result
                 Rectangle::new(
                     [(o.t_start, y - 0.35), (end, y + 0.35)],
                     colour(*k).filled(),
+                )
+            }))
+            .p()?;
+        chart
+            .draw_series(t.ops.iter().filter(|o| o.op == *k).map(|o| {
+                let y = r as f64;
+                let end = o.t_end.max(o.t_start + (t1 - t0) * 0.002);
+                Rectangle::new(
+                    [(o.t_start, y - 0.35), (end, y + 0.35)],
+                    WHITE.stroke_width(1),
                 )
             }))
             .p()?;
@@ -340,30 +365,38 @@ fn speed<DB: DrawingBackend>(
         .label_style(("sans-serif", 13))
         .draw()
         .p()?;
-    for o in t.ops.iter().filter(|o| o.op == OpKind::P) {
-        chart
-            .draw_series(std::iter::once(Rectangle::new(
+    let swatch =
+        |c: ShapeStyle| move |(x, y): (i32, i32)| Rectangle::new([(x, y - 5), (x + 15, y + 5)], c);
+    chart
+        .draw_series(t.ops.iter().filter(|o| o.op == OpKind::P).map(|o| {
+            Rectangle::new(
                 [(o.t_start, 0.0), (o.t_end, vmax)],
                 colour(OpKind::P).mix(0.15).filled(),
-            )))
-            .p()?;
-    }
-    for o in t.ops.iter().filter(|o| o.op == OpKind::M) {
-        chart
-            .draw_series(std::iter::once(Rectangle::new(
+            )
+        }))
+        .p()?
+        .label("P operator (shaded: pointing time)")
+        .legend(swatch(colour(OpKind::P).mix(0.15).filled()));
+    chart
+        .draw_series(t.ops.iter().filter(|o| o.op == OpKind::M).map(|o| {
+            Rectangle::new(
                 [(o.t_start, 0.0), (o.t_end, vmax * 0.05)],
                 colour(OpKind::M).filled(),
-            )))
-            .p()?;
-    }
-    for &(s, e) in &t.movements {
-        chart
-            .draw_series(std::iter::once(Rectangle::new(
+            )
+        }))
+        .p()?
+        .label("M operator (green band: mental pause)")
+        .legend(swatch(colour(OpKind::M).filled()));
+    chart
+        .draw_series(t.movements.iter().map(|&(s, e)| {
+            Rectangle::new(
                 [(s, 0.0), (e, vmax * 0.97)],
                 colour(OpKind::P).stroke_width(1),
-            )))
-            .p()?;
-    }
+            )
+        }))
+        .p()?
+        .label("sub-movement (outline: onset to offset)")
+        .legend(swatch(colour(OpKind::P).stroke_width(1)));
     chart
         .draw_series(LineSeries::new(
             t.speed.iter().copied(),
@@ -376,8 +409,74 @@ fn speed<DB: DrawingBackend>(
         chart
             .draw_series(LineSeries::new([(t0, v), (t1, v)], c.stroke_width(1)))
             .p()?
-            .label(name)
+            .label(format!("{name} threshold ({v} m/s)"))
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 15, y)], c));
     }
     legend(&mut chart)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::goms::extract::Operator;
+
+    fn op(op: OpKind, t_start: f64, t_end: f64) -> Operator {
+        Operator {
+            op,
+            t_start,
+            t_end,
+            fitts: None,
+        }
+    }
+
+    /// Regression (issue 19): operators of one kind that followed each other were drawn
+    /// as one bar (five P's looked like one).
+    #[test]
+    fn regression_gantt_draws_one_bar_per_operator() {
+        let t = Trial {
+            participant: "P1".into(),
+            method: "m".into(),
+            trial: 1,
+            task: None,
+            t0: 0.0,
+            t1: 4.0,
+            ops: vec![
+                op(OpKind::P, 0.0, 1.0),
+                op(OpKind::P, 1.0, 2.0),
+                op(OpKind::P, 2.0, 3.0),
+                op(OpKind::K, 3.0, 3.2),
+                op(OpKind::R, 3.2, 4.0),
+            ],
+            speed: Vec::new(),
+            movements: Vec::new(),
+        };
+        t.check_tiling().unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let files = trial_plots(dir.path(), &t, &ExtractConfig::default()).unwrap();
+        let svg = std::fs::read_to_string(&files[0]).unwrap();
+        let fill = |c: RGBColor| format!("fill=\"#{:02X}{:02X}{:02X}\"", c.0, c.1, c.2);
+        let count = |needle: &str| {
+            svg.split("<rect")
+                .skip(1)
+                .filter(|r| r.split("/>").next().is_some_and(|r| r.contains(needle)))
+                .count()
+        };
+        assert_eq!(count(&fill(colour(OpKind::P))), 3, "{svg}");
+        assert_eq!(count(&fill(colour(OpKind::K))), 1);
+        // Each bar has its own white outline.
+        assert_eq!(count("stroke=\"#FFFFFF\""), t.ops.len());
+        for k in [OpKind::P, OpKind::K, OpKind::R] {
+            assert!(svg.contains(describe(k)), "{k:?}");
+        }
+        // The speed plot explains its bands.
+        let speed = std::fs::read_to_string(&files[2]).unwrap();
+        for label in [
+            "pointing time",
+            "mental pause",
+            "sub-movement",
+            "v_on threshold",
+        ] {
+            assert!(speed.contains(label), "{label}");
+        }
+    }
 }

@@ -64,11 +64,12 @@ pub fn tally_events(rows: &[EventRow]) -> Result<Vec<TallyRow>> {
     for (i, r) in rows.iter().enumerate() {
         let op = OpKind::parse(&r.op).with_context(|| {
             format!(
-                "event row {}: unknown operator {:?} (P, K, B, M, H)",
+                "event row {}: unknown operator {:?} (P, K, B, M, H, R)",
                 i + 1,
                 r.op
             )
         })?;
+        let count = if op.counts_as_operation() { 1.0 } else { 0.0 };
         if !(r.duration.is_finite() && r.duration >= 0.0) {
             anyhow::bail!("event row {}: duration must be finite and >= 0", i + 1);
         }
@@ -79,7 +80,7 @@ pub fn tally_events(rows: &[EventRow]) -> Result<Vec<TallyRow>> {
                 && x.op == op.letter()
         }) {
             Some(x) => {
-                x.count += 1.0;
+                x.count += count;
                 x.time += r.duration;
             }
             None => out.push(TallyRow {
@@ -87,7 +88,7 @@ pub fn tally_events(rows: &[EventRow]) -> Result<Vec<TallyRow>> {
                 method: r.method.clone(),
                 trial: r.trial,
                 op: op.letter().to_owned(),
-                count: 1.0,
+                count,
                 time: r.duration,
             }),
         }

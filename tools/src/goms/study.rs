@@ -8,174 +8,15 @@
 //! participants they share, and expresses totals as percentages of each other method
 //! (ratio of the means, as in the paper: 12.8 / 165.4 operations = 7.74 %).
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeMap;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use serde::{Deserialize, Serialize};
 
 use super::extract::{OpKind, Trial};
 use super::stats::{self, Bootstrap, Describe, Paired};
 
-/// File name of the manifest inside a study directory.
-pub const MANIFEST: &str = "study.toml";
-
-/// A method (study condition) of the manifest.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct MethodSpec {
-    /// Id used in sessions and logs.
-    pub id: String,
-    /// Label for tables and plots (defaults to the id).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub label: Option<String>,
-    /// KLM method to predict against: `builtin:<id>` or a path relative to the study.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub klm: Option<String>,
-}
-
-/// One session: a participant doing one method, in one log.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Session {
-    /// Participant id.
-    pub participant: String,
-    /// Method id.
-    pub method: String,
-    /// Position in the participant's task order (1-based).
-    #[serde(default)]
-    pub order: u32,
-    /// Trials the session should record.
-    #[serde(default = "one")]
-    pub trials: u32,
-    /// Log path relative to the study directory.
-    pub log: String,
-}
-
-fn one() -> u32 {
-    1
-}
-
-/// The `study.toml` manifest.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-pub struct Manifest {
-    /// Study name.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub name: Option<String>,
-    /// Method id the percentages and paired tests are relative to.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub baseline: Option<String>,
-    /// Methods in table order.
-    #[serde(default, rename = "method")]
-    pub methods: Vec<MethodSpec>,
-    /// Sessions in run order.
-    #[serde(default, rename = "session")]
-    pub sessions: Vec<Session>,
-}
-
-impl Manifest {
-    /// Parses and checks a manifest.
-    pub fn parse(text: &str) -> Result<Self> {
-        let m: Manifest = toml::from_str(text).context("study manifest is not valid")?;
-        let ids: BTreeSet<&str> = m.methods.iter().map(|x| x.id.as_str()).collect();
-        if ids.len() != m.methods.len() {
-            bail!("study manifest: a method id appears twice");
-        }
-        for (i, s) in m.sessions.iter().enumerate() {
-            if !m.methods.is_empty() && !ids.contains(s.method.as_str()) {
-                bail!(
-                    "study manifest: session {} uses method {:?}, which no [[method]] defines",
-                    i + 1,
-                    s.method
-                );
-            }
-            if s.log.trim().is_empty() || s.participant.trim().is_empty() {
-                bail!(
-                    "study manifest: session {} needs a participant and a log",
-                    i + 1
-                );
-            }
-        }
-        if let Some(b) = &m.baseline
-            && !m.methods.is_empty()
-            && !ids.contains(b.as_str())
-        {
-            bail!("study manifest: baseline {b:?} is not a [[method]] id");
-        }
-        Ok(m)
-    }
-
-    /// Writes the manifest as TOML.
-    pub fn to_toml(&self) -> Result<String> {
-        Ok(toml::to_string(self)?)
-    }
-
-    /// The label of a method id.
-    pub fn label(&self, id: &str) -> String {
-        self.methods
-            .iter()
-            .find(|m| m.id == id)
-            .and_then(|m| m.label.clone())
-            .unwrap_or_else(|| id.to_owned())
-    }
-
-    /// A manifest for `participants` x `methods`, each session recording `trials`
-    /// trials, methods ordered per participant by a balanced Latin square (Williams
-    /// design; for an odd number of methods, rows are still a Latin square) or in the
-    /// given order.
-    pub fn plan(participants: &[String], methods: &[String], trials: u32, latin: bool) -> Self {
-        let n = methods.len();
-        let sessions = participants
-            .iter()
-            .enumerate()
-            .flat_map(|(pi, p)| {
-                let order: Vec<usize> = if latin && n > 0 {
-                    williams_row(n, pi)
-                } else {
-                    (0..n).collect()
-                };
-                order
-                    .into_iter()
-                    .enumerate()
-                    .map(|(k, mi)| Session {
-                        participant: p.clone(),
-                        method: methods[mi].clone(),
-                        order: k as u32 + 1,
-                        trials,
-                        log: format!("logs/{p}-{}.oplog", methods[mi]),
-                    })
-                    .collect::<Vec<_>>()
-            })
-            .collect();
-        Manifest {
-            name: None,
-            baseline: None,
-            methods: methods
-                .iter()
-                .map(|id| MethodSpec {
-                    id: id.clone(),
-                    label: None,
-                    klm: None,
-                })
-                .collect(),
-            sessions,
-        }
-    }
-}
-
-/// Row `r` of a balanced Latin square of size `n` (Williams 1949): 0, 1, n-1, 2, n-2, ...
-/// shifted by `r`.
-fn williams_row(n: usize, r: usize) -> Vec<usize> {
-    let mut base = Vec::with_capacity(n);
-    let (mut lo, mut hi) = (0usize, n);
-    for k in 0..n {
-        if k % 2 == 0 {
-            base.push(lo);
-            lo += 1;
-        } else {
-            hi -= 1;
-            base.push(hi);
-        }
-    }
-    base.into_iter().map(|x| (x + r) % n).collect()
-}
+pub use sculpt_core::study::{MANIFEST, Manifest};
 
 /// Counts and time of one operator kind in one trial.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -208,7 +49,11 @@ pub fn tally_trials(trials: &[Trial]) -> Vec<TallyRow> {
                 method: t.method.clone(),
                 trial: t.trial,
                 op: op.letter().to_owned(),
-                count: ops.len() as f64,
+                count: if op.counts_as_operation() {
+                    ops.len() as f64
+                } else {
+                    0.0
+                },
                 time: ops.iter().map(|o| o.duration()).sum(),
             });
         }
@@ -505,6 +350,7 @@ mod tests {
     use super::*;
     use sculpt_core::assert_near;
     use sculpt_core::tolerance::EXACT_EPS;
+    use std::collections::BTreeSet;
 
     fn row(p: &str, m: &str, trial: u32, op: &str, count: f64, time: f64) -> TallyRow {
         TallyRow {

@@ -7,9 +7,10 @@
 //! drags; a tracking dropout. Sampled at 90 Hz, written with
 //! [`sculpt_core::oplog::OpLogWriter`] and decoded back, so the codec is in the loop.
 //!
-//! **How the test knows the truth**: the script counts as it writes. Each scripted
-//! press or drag is one K; each scripted reach (with its corrective sub-movement) or drag
-//! is one P; each still interval of at least [`LONG_PAUSE`] s that is followed by a
+//! **How the test knows the truth**: the script counts and times as it writes. Each
+//! scripted press or drag is one K of `min(hold, K_WINDOW)` seconds; each scripted reach
+//! (with its corrective sub-movement) or drag is one P, timed from its first to its last
+//! moving sample (a drag's P starts after its press window); each still interval of at least [`LONG_PAUSE`] s that is followed by a
 //! press, reach or drag is one M. Scripted still intervals are either at least
 //! [`LONG_PAUSE`] (1.4 s) or at most [`SHORT_PAUSE`] (0.6 s), clear of the default
 //! 1.0 s M threshold, so the truth does not hinge on the smoothing's edges.
@@ -26,8 +27,11 @@ pub const LONG_PAUSE: f64 = 1.4;
 pub const SHORT_PAUSE: f64 = 0.6;
 const RATE: f64 = 90.0;
 
-/// Operator counts the script knows.
-#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+/// The keystroke window of a press (the extraction's default `k_window_s`).
+pub const K_WINDOW: f64 = 0.2;
+
+/// Operator counts and times the script knows.
+#[derive(Debug, Default, Clone, Copy, PartialEq)]
 pub struct Truth {
     /// K.
     pub k: usize,
@@ -35,6 +39,11 @@ pub struct Truth {
     pub p: usize,
     /// M.
     pub m: usize,
+    /// Seconds of K: each press's window, `min(hold, K_WINDOW)`.
+    pub k_time: f64,
+    /// Seconds of P: each reach from its first to its last moving sample (the corrective
+    /// dwell included); each drag's sweep after its press window.
+    pub p_time: f64,
 }
 
 /// The scripted wand.
@@ -145,6 +154,7 @@ impl Script {
     pub fn reach(&mut self, to: DVec3, dur: f64, corrective: bool) {
         self.begin_operator();
         self.truth.p += 1;
+        let start = self.t;
         if corrective {
             let primary = self.pos + (to - self.pos) * 0.92;
             self.min_jerk(primary, dur);
@@ -156,6 +166,7 @@ impl Script {
         } else {
             self.min_jerk(to, dur);
         }
+        self.truth.p_time += self.t - start;
     }
 
     /// Presses button 0 for `hold` seconds. One K.
@@ -165,16 +176,18 @@ impl Script {
         self.w
             .push(self.t, EventKind::Button { id: 0, down: true })
             .expect("valid");
-        let end = self.t + hold;
+        let (pressed, end) = (self.t, self.t + hold);
         while self.t < end {
             self.sample(self.pos);
         }
+        self.truth.k_time += (self.t - pressed).min(K_WINDOW);
         self.w
             .push(self.t, EventKind::Button { id: 0, down: false })
             .expect("valid");
     }
 
-    /// Presses, sweeps a stroke to `to`, releases. One K and one P.
+    /// Presses, sweeps a stroke to `to`, releases. One K (the press window) and one P
+    /// (the sweep after it): the stroke's press, P, release.
     pub fn drag(&mut self, to: DVec3, dur: f64) {
         self.begin_operator();
         self.truth.k += 1;
@@ -182,8 +195,11 @@ impl Script {
         self.w
             .push(self.t, EventKind::Button { id: 0, down: true })
             .expect("valid");
+        let pressed = self.t;
         self.pause(0.1);
         self.min_jerk(to, dur);
+        self.truth.k_time += K_WINDOW;
+        self.truth.p_time += self.t - (pressed + K_WINDOW);
         self.pause(0.1);
         self.w
             .push(self.t, EventKind::Button { id: 0, down: false })
@@ -284,6 +300,25 @@ mod tests {
                 truth.k, truth.p, truth.m
             );
             assert_eq!(k, truth.k, "seed {seed}: K exact");
+            // Every second of the trial is in exactly one operator.
+            t.check_tiling().unwrap();
+            let sum: f64 = t.ops.iter().map(|o| o.duration()).sum();
+            sculpt_core::assert_near!(sum, t.duration(), sculpt_core::tolerance::TIME_EPS);
+            sculpt_core::assert_near!(
+                t.time(OpKind::K),
+                truth.k_time,
+                sculpt_core::tolerance::TIME_EPS
+            );
+            // Onset and offset detection of a minimum-jerk reach, per P.
+            assert_eq!(K_WINDOW, ExtractConfig::default().k_window_s);
+            let per_p_s = 0.1;
+            let p_time = t.time(OpKind::P);
+            eprintln!("seed {seed}: P time {p_time:.3} / {:.3} s", truth.p_time);
+            assert!(
+                (p_time - truth.p_time).abs() <= per_p_s * truth.p as f64,
+                "seed {seed}: P time {p_time} vs truth {}",
+                truth.p_time
+            );
             assert!(
                 p.abs_diff(truth.p) <= 1,
                 "seed {seed}: P {p} vs truth {}",
