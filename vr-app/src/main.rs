@@ -26,7 +26,8 @@ struct Cli {
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
     /// Run without a window: consume the input, then write the document, journal,
-    /// operator log and left/right/frame PNGs into the session directory.
+    /// operator log and left/right/frame PNGs into the session directory. With
+    /// `--scene` and no other input, renders the scene as it is.
     #[arg(long)]
     headless: bool,
     /// Play the built-in demo session instead of live input.
@@ -171,8 +172,14 @@ fn run(cli: Cli) -> Result<()> {
         } else if let Some(section) = &app.config.tracking {
             let live = start_live(section, &app, cli.addr_file.as_deref())?;
             Box::new(live_inputs(live, cli.idle_exit, cli.duration))
+        } else if app.config.files.scene.is_some() {
+            // A scene and no input: render the scene as it is.
+            Box::new(std::iter::empty())
         } else {
-            bail!("--headless needs an input: --demo, or a [tracking] section in --config");
+            bail!(
+                "--headless needs an input: --demo, a [tracking] section in --config, or \
+                 --scene (rendered as it is)"
+            );
         };
         let gpu = Gpu::headless()?;
         let opts = HeadlessOptions {
