@@ -487,3 +487,37 @@ fn sawtooth_rims_are_monotone() {
         failures.join("\n")
     );
 }
+
+/// Pixels of `img` in the overlay's exterior, boundary and interior colours.
+fn class_pixels(img: &image::RgbaImage) -> [usize; 3] {
+    let mut n = [0; 3];
+    for p in img.pixels() {
+        let [r, g, b] = [p[0], p[1], p[2]].map(i32::from);
+        if b > 200 && r < 150 && g > 120 && g < 200 {
+            n[0] += 1;
+        } else if r > 220 && g > 150 && g < 225 && b < 50 {
+            n[1] += 1;
+        } else if r > 200 && g < 100 && b < 100 {
+            n[2] += 1;
+        }
+    }
+    n
+}
+
+#[test]
+fn quadtree_overlay_draws_each_class_in_its_colour() {
+    let gpu = lavapipe();
+    let dir = tempfile::tempdir().unwrap();
+    let mut app = app(Some("curved-patch-carved"), dir.path());
+    let mut renderer = Renderer::new(&gpu, wgpu::TextureFormat::Rgba8Unorm);
+    let (w, h) = (640, 360);
+    let plain = render_still(&mut app, &mut renderer, OutputMode::Mono, w, h).unwrap();
+    assert_eq!(class_pixels(&plain.composite), [0, 0, 0]);
+    app.config.display.quadtree = true;
+    let overlay = render_still(&mut app, &mut renderer, OutputMode::Mono, w, h).unwrap();
+    let [exterior, boundary, interior] = class_pixels(&overlay.composite);
+    assert!(
+        exterior > 500 && boundary > 200 && interior > 50,
+        "{exterior} {boundary} {interior}"
+    );
+}

@@ -128,13 +128,7 @@ type Seeds = Vec<Option<(f64, usize, DVec2)>>;
 type GridPoint = (Option<(f64, f64, f64)>, DVec2);
 
 /// Rasterises the seed grid of target `k` into `seeds`.
-fn rasterise_seeds(
-    seeds: &mut Seeds,
-    k: usize,
-    grid: &[GridPoint],
-    width: u32,
-    height: u32,
-) {
+fn rasterise_seeds(seeds: &mut Seeds, k: usize, grid: &[GridPoint], width: u32, height: u32) {
     let m = SEED_GRID + 1;
     let mut tri = |a: usize, b: usize, c: usize| {
         let (Some(pa), Some(pb), Some(pc)) = (grid[a].0, grid[b].0, grid[c].0) else {
