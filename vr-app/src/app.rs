@@ -5,6 +5,7 @@
 
 use glam::DVec3;
 use sculpt_core::interaction::{Profile, StrokeMode};
+use sculpt_core::sculpt::tessellate::Detail;
 
 use crate::config::Config;
 use crate::desktop_view::DesktopView;
@@ -38,6 +39,8 @@ pub struct AppState {
     pub view: Option<DesktopView>,
     fixed_head: HeadPose,
     scene: SceneState,
+    /// The quadtree overlay's lines and the strokes they were drawn for.
+    quadtree: Option<(Vec<u64>, Vec<LineVertex>)>,
 }
 
 impl AppState {
@@ -66,6 +69,7 @@ impl AppState {
             view,
             fixed_head: head,
             scene: SceneState::default(),
+            quadtree: None,
         };
         app.reset_view();
         Ok(app)
@@ -163,8 +167,28 @@ impl AppState {
     /// rows of a live sketch.
     pub fn overlay_lines(&mut self) -> Vec<LineVertex> {
         let screen = self.view_screen();
-        self.scene
-            .overlay_lines(&self.session.doc, &self.session.interaction, &screen)
+        let mut lines =
+            self.scene
+                .overlay_lines(&self.session.doc, &self.session.interaction, &screen);
+        if self.config.display.quadtree {
+            lines.extend_from_slice(self.quadtree_lines());
+        }
+        lines
+    }
+
+    /// The UV quadtree overlay ([`crate::quadtree`]) of the document at final detail,
+    /// rebuilt only when its targets or strokes changed.
+    fn quadtree_lines(&mut self) -> &[LineVertex] {
+        let doc = &self.session.doc;
+        let key: Vec<u64> = std::iter::once(doc.targets().len() as u64)
+            .chain(doc.strokes().iter().map(|s| s.id))
+            .collect();
+        if self.quadtree.as_ref().is_none_or(|(k, _)| *k != key) {
+            let mut lines = Vec::new();
+            crate::quadtree::quadtree_lines(doc, Detail::Final, &mut lines);
+            self.quadtree = Some((key, lines));
+        }
+        self.quadtree.as_ref().map_or(&[], |(_, l)| l.as_slice())
     }
 
     /// HUD text: mode, tool, target, tracking, fps, operations.

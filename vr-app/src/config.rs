@@ -78,6 +78,8 @@ pub struct DisplayConfig {
     pub height: u32,
     /// Draw the mesh wireframe.
     pub wireframe: bool,
+    /// Draw the UV quadtree leaves, coloured by class (`G` toggles it).
+    pub quadtree: bool,
     /// Show the HUD.
     pub hud: bool,
 }
@@ -92,6 +94,7 @@ impl Default for DisplayConfig {
             width: 1280,
             height: 720,
             wireframe: false,
+            quadtree: false,
             hud: true,
         }
     }
@@ -502,6 +505,13 @@ mod tests {
         assert_eq!(c, Config::default());
         let head = c.fixed_head().unwrap();
         sculpt_core::assert_near!(head.position.to_array(), [0.0, 1.17, 0.6], EXACT_EPS);
+    }
+
+    #[test]
+    fn the_quadtree_overlay_is_a_display_key() {
+        assert!(!Config::default().display.quadtree);
+        let c = Config::from_toml_str("[display]\nquadtree = true").unwrap();
+        assert!(c.display.quadtree);
     }
 
     #[test]

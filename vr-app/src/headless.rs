@@ -12,7 +12,7 @@ use crate::error::{VrError, VrResult};
 pub use crate::input::Input;
 use crate::journal::Journal;
 use crate::output::OutputMode;
-use crate::render::{FrameInput, Gpu, OutputContent, OutputTarget, Renderer};
+use crate::render::{FrameInput, Gpu, OffscreenFrame, OutputContent, OutputTarget, Renderer};
 use crate::session::{JOURNAL_FILE, OPLOG_FILE};
 
 /// Options of a headless run.
@@ -101,16 +101,7 @@ pub fn run_headless(
     }
     app.session.tick(last_t + 10.0)?;
     let doc_path = app.session.save_document()?;
-    renderer.sync_with(|sinks| app.sync_meshes(sinks));
-    renderer.classes = app.surface_classes();
-    let views = app.views()?;
-    let lines = app.overlay_lines();
-    let input = FrameInput {
-        views: &views,
-        lines: &lines,
-        hud: &[],
-    };
-    let frame = renderer.render_offscreen(&input, opts.mode, opts.width, opts.height)?;
+    let frame = render_still(app, &mut renderer, opts.mode, opts.width, opts.height)?;
     frame_times.push(renderer.last_frame().cpu);
     let dir = app.session.dir().to_path_buf();
     let mut files = vec![doc_path, dir.join(JOURNAL_FILE), dir.join(OPLOG_FILE)];
@@ -149,6 +140,28 @@ pub fn run_headless(
         frame_cpu_median_us: median.as_secs_f64() * 1e6,
         files,
     })
+}
+
+/// Renders what the display server shows now (the document, the wand cursor and any
+/// live preview, from the current view, no HUD) offscreen at `width` x `height` in
+/// `mode`, and reads it back: the picture a headless run writes.
+pub fn render_still(
+    app: &mut AppState,
+    renderer: &mut Renderer,
+    mode: OutputMode,
+    width: u32,
+    height: u32,
+) -> VrResult<OffscreenFrame> {
+    renderer.sync_with(|sinks| app.sync_meshes(sinks));
+    renderer.classes = app.surface_classes();
+    let views = app.views()?;
+    let lines = app.overlay_lines();
+    let input = FrameInput {
+        views: &views,
+        lines: &lines,
+        hud: &[],
+    };
+    renderer.render_offscreen(&input, mode, width, height)
 }
 
 /// Renders one offscreen frame (not read back) and returns its CPU time.

@@ -50,6 +50,7 @@ pub mod live;
 pub mod output;
 pub mod preview;
 pub mod projection;
+pub mod quadtree;
 pub mod render;
 pub mod scene;
 pub mod session;

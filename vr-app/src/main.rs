@@ -26,7 +26,8 @@ struct Cli {
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
     /// Run without a window: consume the input, then write the document, journal,
-    /// operator log and left/right/frame PNGs into the session directory.
+    /// operator log and left/right/frame PNGs into the session directory. With
+    /// `--scene` and no other input, renders the scene as it is.
     #[arg(long)]
     headless: bool,
     /// Play the built-in demo session instead of live input.
@@ -70,6 +71,14 @@ struct Cli {
     /// Draw the mesh wireframe.
     #[arg(long)]
     wireframe: bool,
+    /// Draw the UV quadtree leaves coloured by class (exterior, boundary, interior).
+    #[arg(long)]
+    quadtree: bool,
+    /// Desktop mode: turn the framed start view by YAW,PITCH degrees about the
+    /// document's centre (as the orbit drag turns it), e.g. for headless pictures from
+    /// another side.
+    #[arg(long, value_name = "YAW,PITCH", value_parser = parse_view, allow_hyphen_values = true)]
+    view: Option<(f64, f64)>,
     /// Swap the eyes.
     #[arg(long)]
     swap_eyes: bool,
@@ -88,6 +97,18 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
         return Err("width and height must be in 1..=8192".into());
     }
     Ok((w, h))
+}
+
+fn parse_view(s: &str) -> Result<(f64, f64), String> {
+    let (yaw, pitch) = s
+        .split_once(',')
+        .ok_or_else(|| format!("expected YAW,PITCH in degrees, got {s:?}"))?;
+    let yaw: f64 = yaw.trim().parse().map_err(|e| format!("yaw: {e}"))?;
+    let pitch: f64 = pitch.trim().parse().map_err(|e| format!("pitch: {e}"))?;
+    if !(yaw.is_finite() && pitch.is_finite()) {
+        return Err("yaw and pitch must be finite".into());
+    }
+    Ok((yaw, pitch))
 }
 
 fn main() -> std::process::ExitCode {
@@ -151,9 +172,23 @@ fn run(cli: Cli) -> Result<()> {
             .push(tracking::config::SourceConfig::TcpListen { addr });
     }
     config.display.wireframe |= cli.wireframe;
+    config.display.quadtree |= cli.quadtree;
     config.display.swap_eyes ^= cli.swap_eyes;
     config.validate()?;
-    let app = AppState::new(config).context("opening the session")?;
+    let mut app = AppState::new(config).context("opening the session")?;
+    let bounds = app.document_bounds();
+    if let (Some((yaw, pitch)), Some(view)) = (cli.view, &mut app.view) {
+        view.yaw = yaw.to_radians();
+        view.pitch = pitch.to_radians().clamp(
+            -vr_app::desktop_view::MAX_PITCH,
+            vr_app::desktop_view::MAX_PITCH,
+        );
+        // Turned about the document's centre, which stays where the framing put it.
+        if let Some((lo, hi)) = bounds {
+            let centre = (lo + hi) * 0.5;
+            view.pivot = centre - view.rotation() * (centre - view.pivot);
+        }
+    }
     if app.session.recovered > 0 {
         eprintln!(
             "wandsculpt: recovered {} operations from {}",
@@ -171,8 +206,14 @@ fn run(cli: Cli) -> Result<()> {
         } else if let Some(section) = &app.config.tracking {
             let live = start_live(section, &app, cli.addr_file.as_deref())?;
             Box::new(live_inputs(live, cli.idle_exit, cli.duration))
+        } else if app.config.files.scene.is_some() {
+            // A scene and no input: render the scene as it is.
+            Box::new(std::iter::empty())
         } else {
-            bail!("--headless needs an input: --demo, or a [tracking] section in --config");
+            bail!(
+                "--headless needs an input: --demo, a [tracking] section in --config, or \
+                 --scene (rendered as it is)"
+            );
         };
         let gpu = Gpu::headless()?;
         let opts = HeadlessOptions {
@@ -182,7 +223,6 @@ fn run(cli: Cli) -> Result<()> {
             render_every: cli.render_every,
             realtime: cli.realtime,
         };
-        let mut app = app;
         let report = run_headless(&mut app, &gpu, events, &opts)?;
         println!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(());

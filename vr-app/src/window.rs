@@ -51,6 +51,8 @@ pub enum KeyAction {
     NextTarget,
     /// Toggle the wireframe.
     Wireframe,
+    /// Toggle the UV quadtree overlay.
+    Quadtree,
     /// Swap the eyes.
     SwapEyes,
     /// Next material (clay, stone, wood).
@@ -131,6 +133,13 @@ pub const KEYS: &[KeyBinding] = &[
     bind("Ctrl+S", "s", true, KeyAction::Save, "save"),
     bind("Tab", "Tab", false, KeyAction::NextTarget, "next target"),
     bind("W", "w", false, KeyAction::Wireframe, "wireframe on/off"),
+    bind(
+        "G",
+        "g",
+        false,
+        KeyAction::Quadtree,
+        "UV quadtree overlay on/off",
+    ),
     bind("E", "e", false, KeyAction::SwapEyes, "swap eyes"),
     bind(
         "M",
@@ -446,6 +455,9 @@ impl WindowApp {
                     r.renderer.wireframe = !r.renderer.wireframe;
                 }
             }
+            KeyAction::Quadtree => {
+                self.app.config.display.quadtree = !self.app.config.display.quadtree;
+            }
             KeyAction::SwapEyes => {
                 if let Some(r) = &mut self.running {
                     r.renderer.swap_eyes = !r.renderer.swap_eyes;
@@ -722,6 +734,7 @@ mod tests {
         // Letters work in either case; unknown keys do nothing.
         assert_eq!(key_action("M", false), Some(KeyAction::Material));
         assert_eq!(key_action("Z", true), Some(KeyAction::Undo));
+        assert_eq!(key_action("g", false), Some(KeyAction::Quadtree));
         assert_eq!(key_action("q", false), None);
         assert_eq!(key_action("", false), None);
     }

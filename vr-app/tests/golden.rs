@@ -1,8 +1,9 @@
 //! Golden-image tests of the headless renderer on lavapipe.
 //!
 //! The goldens in `tests/golden/` are compared byte by byte with a tolerance of ±2.
-//! Regenerate them (after a deliberate rendering change) with
-//! `WANDSCULPT_BLESS=1 cargo test -p vr-app --test golden` and review the PNGs.
+//! Regenerate them (after a deliberate rendering change) with `scripts/bless-goldens`
+//! (which also regenerates the sculpted documents' goldens of `documents.rs`) and
+//! review the PNGs.
 //!
 //! These tests need Mesa's lavapipe (`apt-get install mesa-vulkan-drivers libvulkan1`):
 //! a missing adapter is a failure, never a skip.

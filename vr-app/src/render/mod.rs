@@ -168,6 +168,8 @@ struct EyeTargets {
     msaa_color_views: Option<[wgpu::TextureView; 2]>,
     msaa_geom_views: Option<[wgpu::TextureView; 2]>,
     geom_views: [wgpu::TextureView; 2],
+    /// The resolved geometry images, kept for [`Renderer::read_view_depth`].
+    geom: [wgpu::Texture; 2],
     depth_views: [wgpu::TextureView; 2],
     compose_bg: wgpu::BindGroup,
 }
@@ -652,7 +654,9 @@ impl Renderer {
         let resolved = attach | wgpu::TextureUsages::TEXTURE_BINDING;
         let n = self.samples;
         let color = [0, 1].map(|_| tex("eye", EYE_FORMAT, resolved, 1));
-        let geom = [0, 1].map(|_| tex("eye geometry", GEOM_FORMAT, resolved, 1));
+        // Copied back by `read_view_depth`.
+        let readable = resolved | wgpu::TextureUsages::COPY_SRC;
+        let geom = [0, 1].map(|_| tex("eye geometry", GEOM_FORMAT, readable, 1));
         let depth = [0, 1].map(|_| tex("eye depth", DEPTH_FORMAT, attach, n));
         let (msaa_color_views, msaa_geom_views) = if n > 1 {
             (
@@ -680,6 +684,7 @@ impl Renderer {
             msaa_color_views,
             msaa_geom_views,
             geom_views,
+            geom,
             depth_views,
             compose_bg,
         });
@@ -1100,10 +1105,53 @@ impl Renderer {
         })
     }
 
+    /// The view depth and coverage of eye image `eye` (0: the left eye, or the centre
+    /// in mono; 1: the right eye; as drawn, after [`Self::swap_eyes`]) of the last
+    /// frame, read back from the GPU: the depth buffer's surfaces as the composition
+    /// sees them. `None` before the first frame or for an eye the frame did not draw
+    /// (eye 1 of a mono frame holds an older picture).
+    pub fn read_view_depth(&self, eye: usize) -> VrResult<Option<ViewDepth>> {
+        let Some(texture) = self.eyes.as_ref().and_then(|e| e.geom.get(eye)) else {
+            return Ok(None);
+        };
+        let (width, height) = (texture.width(), texture.height());
+        let bytes = self.read_texture_bytes(texture, 8)?;
+        let half = |i: usize| f16_to_f32(u16::from_le_bytes([bytes[i], bytes[i + 1]]));
+        let n = (width * height) as usize;
+        let (mut depth, mut coverage) = (Vec::with_capacity(n), Vec::with_capacity(n));
+        for px in 0..n {
+            let (hi, lo, cov) = (half(px * 8), half(px * 8 + 2), half(px * 8 + 4));
+            coverage.push(cov);
+            // Resolve averaged the pair over the covered samples.
+            depth.push(if cov > 0.0 {
+                (hi + lo) / cov
+            } else {
+                f32::INFINITY
+            });
+        }
+        Ok(Some(ViewDepth {
+            width,
+            height,
+            depth,
+            coverage,
+        }))
+    }
+
     /// Copies an `Rgba8Unorm` texture back to the CPU.
     fn read_texture(&self, texture: &wgpu::Texture) -> VrResult<image::RgbaImage> {
         let (w, h) = (texture.width(), texture.height());
-        let row = w * 4;
+        let pixels = self.read_texture_bytes(texture, 4)?;
+        image::RgbaImage::from_raw(w, h, pixels).ok_or(VrError::Gpu(GpuError::ReadbackSize))
+    }
+
+    /// Copies a texture of `bytes_per_pixel` back to the CPU, rows packed.
+    fn read_texture_bytes(
+        &self,
+        texture: &wgpu::Texture,
+        bytes_per_pixel: u32,
+    ) -> VrResult<Vec<u8>> {
+        let (w, h) = (texture.width(), texture.height());
+        let row = w * bytes_per_pixel;
         let padded =
             row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
         let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
@@ -1153,6 +1201,61 @@ impl Renderer {
         }
         drop(data);
         buffer.unmap();
-        image::RgbaImage::from_raw(w, h, pixels).ok_or(VrError::Gpu(GpuError::ReadbackSize))
+        Ok(pixels)
+    }
+}
+
+/// The view depth of one eye image as the GPU drew it ([`Renderer::read_view_depth`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ViewDepth {
+    /// Width (pixels).
+    pub width: u32,
+    /// Height (pixels).
+    pub height: u32,
+    /// Per pixel, row by row from the top: the distance (metres) along the eye's view
+    /// direction of the nearest surface, averaged over the covered samples; infinite
+    /// where no surface covers the pixel.
+    pub depth: Vec<f32>,
+    /// Per pixel: the fraction of its samples a surface covers (0 to 1).
+    pub coverage: Vec<f32>,
+}
+
+impl ViewDepth {
+    /// The depth at pixel `(x, y)` where a surface covers at least half of it.
+    pub fn at(&self, x: u32, y: u32) -> Option<f32> {
+        if x >= self.width || y >= self.height {
+            return None;
+        }
+        let i = (y * self.width + x) as usize;
+        (self.coverage[i] >= 0.5).then_some(self.depth[i])
+    }
+}
+
+/// An IEEE 754 half-precision float's bits as `f32`.
+fn f16_to_f32(bits: u16) -> f32 {
+    let sign = if bits & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exp = i32::from((bits >> 10) & 0x1f);
+    let frac = f32::from(bits & 0x3ff);
+    sign * match exp {
+        0 => frac * 2f32.powi(-24),
+        31 if frac == 0.0 => f32::INFINITY,
+        31 => f32::NAN,
+        _ => (1.0 + frac / 1024.0) * 2f32.powi(exp - 15),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::f16_to_f32;
+
+    #[test]
+    fn half_floats_decode() {
+        assert_eq!(f16_to_f32(0x3c00), 1.0);
+        assert_eq!(f16_to_f32(0xc000), -2.0);
+        assert_eq!(f16_to_f32(0x3555), 0.333_251_95);
+        assert_eq!(f16_to_f32(0x0001), 2f32.powi(-24));
+        assert_eq!(f16_to_f32(0x7c00), f32::INFINITY);
+        assert!(f16_to_f32(0x7e00).is_nan());
+        assert_eq!(f16_to_f32(0x0000), 0.0);
     }
 }
