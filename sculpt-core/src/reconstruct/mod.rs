@@ -1,0 +1,14 @@
+//! Scan to sculpt: NURBS patches from unorganised range data (Park, Yun and Lee 2000).
+//! Pure: the readers take bytes; files are read by `sculpt-tools reconstruct`.
+//!
+//! Stages (see `docs/reconstruct.md`):
+//! 1. [`read`]: points from `.xyz`, `.pwn`, PLY, OBJ and OFF bytes;
+//!    [`normals`]: k nearest neighbours, PCA normals, consistent orientation.
+//! 2. [`kmeans`]: generalised Lloyd clustering into K patches and their adjacency.
+
+pub mod error;
+pub mod kmeans;
+pub mod normals;
+pub mod read;
+
+pub use error::ReconstructError;
