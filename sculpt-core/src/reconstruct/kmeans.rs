@@ -199,6 +199,85 @@ fn argmax(values: impl Iterator<Item = f64>) -> usize {
     best.0
 }
 
+/// Makes every cluster one connected piece of the neighbour graph: each cluster keeps
+/// its largest piece, and the points of its other pieces join the cluster they touch
+/// most (repeated until nothing moves; a piece touching nothing else stays). Returns how
+/// many points moved.
+pub fn make_connected(labels: &mut [usize], neighbours: &[Vec<usize>]) -> usize {
+    let n = labels.len();
+    let mut moved = 0;
+    for _round in 0..n.max(1) {
+        // Pieces: flood fill over same-label neighbours.
+        let mut piece = vec![usize::MAX; n];
+        let mut sizes: Vec<usize> = Vec::new();
+        let mut stack = Vec::new();
+        for start in 0..n {
+            if piece[start] != usize::MAX {
+                continue;
+            }
+            let id = sizes.len();
+            sizes.push(0);
+            piece[start] = id;
+            stack.push(start);
+            while let Some(i) = stack.pop() {
+                sizes[id] += 1;
+                for &j in &neighbours[i] {
+                    if piece[j] == usize::MAX && labels[j] == labels[i] {
+                        piece[j] = id;
+                        stack.push(j);
+                    }
+                }
+            }
+        }
+        // The largest piece of each label (ties to the first found).
+        let labels_count = labels.iter().max().map_or(0, |m| m + 1);
+        let mut best = vec![usize::MAX; labels_count];
+        for i in 0..n {
+            let (l, p) = (labels[i], piece[i]);
+            if best[l] == usize::MAX || sizes[p] > sizes[best[l]] {
+                best[l] = p;
+            }
+        }
+        // Votes of each stray piece for the labels it touches.
+        let mut votes: std::collections::BTreeMap<usize, Vec<(usize, usize)>> =
+            std::collections::BTreeMap::new();
+        for i in 0..n {
+            if best[labels[i]] == piece[i] {
+                continue;
+            }
+            let v = votes.entry(piece[i]).or_default();
+            for &j in &neighbours[i] {
+                if labels[j] != labels[i] {
+                    match v.iter_mut().find(|e| e.0 == labels[j]) {
+                        Some(e) => e.1 += 1,
+                        None => v.push((labels[j], 1)),
+                    }
+                }
+            }
+        }
+        let mut changed = 0;
+        let target: std::collections::BTreeMap<usize, usize> = votes
+            .into_iter()
+            .filter_map(|(p, v)| {
+                v.into_iter()
+                    .max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(&a.0)))
+                    .map(|(l, _)| (p, l))
+            })
+            .collect();
+        for i in 0..n {
+            if let Some(&l) = target.get(&piece[i]) {
+                labels[i] = l;
+                changed += 1;
+            }
+        }
+        moved += changed;
+        if changed == 0 {
+            break;
+        }
+    }
+    moved
+}
+
 /// Pairs of clusters that touch: a point and one of its neighbours carry their labels,
 /// `votes` times at least (each unordered point pair counted once). Sorted `(a, b)`
 /// with `a < b`, with the vote count.
@@ -272,6 +351,29 @@ mod tests {
         for p in 0..6 {
             assert_eq!(adj.iter().filter(|e| e.0 == p || e.1 == p).count(), 4);
         }
+    }
+
+    #[test]
+    fn stray_pieces_join_the_cluster_they_touch() {
+        // A chain 0-1-2-3-4-5 labelled a a b a b b: the lone `a` at 3 joins b, the lone
+        // `b` at 2 joins a; afterwards each label is one piece.
+        let neighbours: Vec<Vec<usize>> = (0..6usize)
+            .map(|i| {
+                [i.wrapping_sub(1), i + 1]
+                    .into_iter()
+                    .filter(|&j| j < 6)
+                    .collect()
+            })
+            .collect();
+        let mut labels = vec![0, 0, 1, 0, 1, 1];
+        let moved = make_connected(&mut labels, &neighbours);
+        assert!(moved >= 1);
+        let firsts: Vec<usize> = labels
+            .windows(2)
+            .filter(|w| w[0] != w[1])
+            .map(|w| w[0])
+            .collect();
+        assert_eq!(firsts.len(), 1, "{labels:?}");
     }
 
     #[test]

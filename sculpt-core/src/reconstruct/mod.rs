@@ -4,11 +4,16 @@
 //! Stages (see `docs/reconstruct.md`):
 //! 1. [`read`]: points from `.xyz`, `.pwn`, PLY, OBJ and OFF bytes;
 //!    [`normals`]: k nearest neighbours, PCA normals, consistent orientation.
-//! 2. [`kmeans`]: generalised Lloyd clustering into K patches and their adjacency.
+//! 2. [`kmeans`]: generalised Lloyd clustering into K patches and their adjacency;
+//!    [`segment`] runs stages 1 and 2 together.
+//!
+//! [`sample`] makes seeded point sets with known surfaces (the paper's torus).
 
 pub mod error;
 pub mod kmeans;
 pub mod normals;
 pub mod read;
+pub mod sample;
+pub mod segment;
 
 pub use error::ReconstructError;
