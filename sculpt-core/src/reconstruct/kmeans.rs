@@ -199,7 +199,8 @@ fn argmax(values: impl Iterator<Item = f64>) -> usize {
     best.0
 }
 
-/// Makes every cluster one connected piece of the neighbour graph: each cluster keeps
+/// Makes every cluster one connected piece of the neighbour graph (`neighbours` must be
+/// symmetric, see [`super::normals::symmetric`]): each cluster keeps
 /// its largest piece, and the points of its other pieces join the cluster they touch
 /// most (repeated until nothing moves; a piece touching nothing else stays). Returns how
 /// many points moved.

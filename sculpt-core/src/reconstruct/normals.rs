@@ -73,6 +73,22 @@ pub fn pca_normal(points: &[DVec3], centre: usize, neighbours: &[usize]) -> DVec
     }
 }
 
+/// The neighbour graph made symmetric: `j` lists `i` whenever `i` lists `j` (sorted,
+/// without repeats).
+pub fn symmetric(neighbours: &[Vec<usize>]) -> Vec<Vec<usize>> {
+    let mut graph: Vec<Vec<usize>> = neighbours.to_vec();
+    for (i, list) in neighbours.iter().enumerate() {
+        for &j in list {
+            graph[j].push(i);
+        }
+    }
+    for list in &mut graph {
+        list.sort_unstable();
+        list.dedup();
+    }
+    graph
+}
+
 #[derive(PartialEq)]
 struct Edge {
     weight: f64,
@@ -105,12 +121,7 @@ impl PartialOrd for Edge {
 /// its tree parent.
 pub fn orient(points: &[DVec3], normals: &mut [DVec3], neighbours: &[Vec<usize>]) {
     let n = points.len();
-    let mut graph: Vec<Vec<usize>> = neighbours.to_vec();
-    for (i, list) in neighbours.iter().enumerate() {
-        for &j in list {
-            graph[j].push(i);
-        }
-    }
+    let graph = symmetric(neighbours);
     let mut done = vec![false; n];
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&a, &b| points[b].z.total_cmp(&points[a].z).then(a.cmp(&b)));

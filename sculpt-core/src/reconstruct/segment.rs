@@ -5,7 +5,7 @@ use glam::DVec3;
 
 use super::error::ReconstructError;
 use super::kmeans::{Clusters, adjacency, kmeans, make_connected};
-use super::normals::{estimate_normals, knn};
+use super::normals::{estimate_normals, knn, symmetric};
 use super::read::PointCloud;
 
 /// Settings of [`segment`].
@@ -112,7 +112,7 @@ pub fn segment(
         settings.patches,
         settings.max_iterations,
     )?;
-    make_connected(&mut clusters.labels, &neighbours);
+    make_connected(&mut clusters.labels, &symmetric(&neighbours));
     clusters.centres = centres_of(&points, &clusters.labels, settings.patches);
     progress("adjacency");
     let adjacency = adjacency(&clusters.labels, &neighbours, settings.min_votes);
@@ -141,10 +141,11 @@ fn centres_of(points: &[DVec3], labels: &[usize], k: usize) -> Vec<DVec3> {
 }
 
 impl Segmentation {
-    /// For each patch, the number of connected pieces its points form in the neighbour
-    /// graph (1 for a well-formed patch).
+    /// For each patch, the number of connected pieces its points form in the
+    /// (symmetric) neighbour graph (1 for a well-formed patch).
     pub fn pieces_per_patch(&self) -> Vec<usize> {
         let labels = &self.clusters.labels;
+        let graph = symmetric(&self.neighbours);
         let mut seen = vec![false; self.points.len()];
         let mut pieces = vec![0; self.clusters.centres.len()];
         let mut stack = Vec::new();
@@ -156,7 +157,7 @@ impl Segmentation {
             seen[start] = true;
             stack.push(start);
             while let Some(i) = stack.pop() {
-                for &j in &self.neighbours[i] {
+                for &j in &graph[i] {
                     if !seen[j] && labels[j] == labels[i] {
                         seen[j] = true;
                         stack.push(j);
