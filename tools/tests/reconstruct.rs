@@ -61,6 +61,12 @@ fn check_closed_genus_one(r: &serde_json::Value) {
     assert!(num(r, "patch_degree_min") >= 3, "{r}");
     let e = num(r, "adjacent_pairs");
     assert!(e <= 3 * k && e >= 2 * k, "{r}");
+    // The polygonal model is closed with V - E + F = 0, and every quad edge is shared
+    // by exactly two quads.
+    assert_eq!(r["euler_characteristic"], 0, "{r}");
+    assert_eq!(num(r, "open_model_edges"), 0, "{r}");
+    assert_eq!(num(r, "open_quad_edges"), 0, "{r}");
+    assert!(num(r, "quads") >= 3 * num(r, "model_faces"), "{r}");
 }
 
 #[test]
@@ -90,11 +96,13 @@ fn kitten_scan_patches() {
     let Some(path) = scan("kitten.xyz") else {
         return;
     };
+    // K = 80: at K = 50 or 60 some holes' boundary loops touch each other and stay
+    // open (docs/reconstruct.md, not built yet).
     let r = report(&run(&[
         "reconstruct",
         path.to_str().unwrap(),
         "--patches",
-        "60",
+        "80",
     ]));
     assert_eq!(num(&r, "points"), 5210);
     assert_eq!(r["normals"], "file");

@@ -309,7 +309,7 @@ pub fn adjacency(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::reconstruct::normals::knn;
 

@@ -6,12 +6,14 @@
 //!    [`normals`]: k nearest neighbours, PCA normals, consistent orientation.
 //! 2. [`kmeans`]: generalised Lloyd clustering into K patches and their adjacency;
 //!    [`segment`] runs stages 1 and 2 together.
+//! 3. [`polygon`]: the polygonal model (faces where patches meet) and its quads.
 //!
 //! [`sample`] makes seeded point sets with known surfaces (the paper's torus).
 
 pub mod error;
 pub mod kmeans;
 pub mod normals;
+pub mod polygon;
 pub mod read;
 pub mod sample;
 pub mod segment;

@@ -1,7 +1,7 @@
 //! `sculpt-tools reconstruct POINTS --patches K [--report R.json] [--layout L.ply]`:
-//! stages 1 and 2 of scan reconstruction (docs/reconstruct.md): reads the points,
-//! estimates normals when the file has none, clusters them into K patches and finds the
-//! patch adjacency. The report gives the counts and timings; the layout is an ASCII PLY
+//! stages 1 to 3 of scan reconstruction (docs/reconstruct.md): reads the points,
+//! estimates normals when the file has none, clusters them into K patches, finds the
+//! patch adjacency and builds the polygonal model and its quads (combinatorially). The report gives the counts and timings; the layout is an ASCII PLY
 //! of the points with their normals, coloured by patch (open it in any mesh viewer).
 //!
 //! `POINTS` is a `.xyz`, `.pwn`, `.ply`, `.obj` or `.off` file, or `torus:N[:SEED]` for
@@ -10,6 +10,7 @@
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use sculpt_core::reconstruct::polygon::polygon_model;
 use sculpt_core::reconstruct::read::{PointCloud, PointFormat, read_points};
 use sculpt_core::reconstruct::sample::torus;
 use sculpt_core::reconstruct::segment::{SegmentSettings, Segmentation, bbox_diagonal, segment};
@@ -68,6 +69,16 @@ pub struct Report {
     pub patch_degree_max: usize,
     /// Patches in more than one piece (0 after clean-up).
     pub patches_in_pieces: usize,
+    /// Faces of the polygonal model (where three or more patches meet).
+    pub model_faces: usize,
+    /// Euler characteristic `V - E + F` of the model (2 for a sphere, 0 for a torus).
+    pub euler_characteristic: i64,
+    /// Model edges not shared by exactly two faces (0 on a closed object).
+    pub open_model_edges: usize,
+    /// Quads (each face split through its edge midpoints and centre).
+    pub quads: usize,
+    /// Quad edges not shared by exactly two quads (0 on a closed object).
+    pub open_quad_edges: usize,
     /// Seconds for reading and segmenting (not writing).
     pub seconds: f64,
 }
@@ -116,7 +127,10 @@ pub fn reconstruct(args: &ReconstructArgs) -> Result<(Segmentation, Report)> {
     settings.neighbours = args.neighbours.max(3);
     let seg = segment(&cloud, &settings, |stage| bar.set_message(stage))
         .with_context(|| args.points.clone())?;
+    bar.set_message("polygonal model");
+    let model = polygon_model(&seg.clusters.labels, &seg.neighbours, &seg.adjacency);
     bar.finish_and_clear();
+    let edge_uses = model.edge_uses();
     let sizes = seg.clusters.sizes();
     let degrees = seg.degrees();
     let report = Report {
@@ -136,6 +150,16 @@ pub fn reconstruct(args: &ReconstructArgs) -> Result<(Segmentation, Report)> {
         patch_degree_min: degrees.iter().copied().min().unwrap_or(0),
         patch_degree_max: degrees.iter().copied().max().unwrap_or(0),
         patches_in_pieces: seg.pieces_per_patch().iter().filter(|&&p| p > 1).count(),
+        model_faces: model.faces.len(),
+        euler_characteristic: args.patches as i64 - seg.adjacency.len() as i64
+            + model.faces.len() as i64,
+        open_model_edges: seg
+            .adjacency
+            .iter()
+            .filter(|e| edge_uses.get(&(e.0, e.1)) != Some(&2))
+            .count(),
+        quads: model.quads.len(),
+        open_quad_edges: model.quad_edge_uses().values().filter(|&&u| u != 2).count(),
         seconds: start.elapsed().as_secs_f64(),
     };
     Ok((seg, report))
