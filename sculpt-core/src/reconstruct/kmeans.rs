@@ -408,8 +408,8 @@ pub(crate) mod tests {
     #[test]
     fn every_cluster_keeps_a_point() {
         // Two tight groups and K = 5: no empty cluster survives.
-        let mut pts: Vec<DVec3> = (0..50).map(|i| DVec3::X * (i as f64 * 1e-3)).collect();
-        pts.extend((0..50).map(|i| DVec3::new(10.0, i as f64 * 1e-3, 0.0)));
+        let mut pts: Vec<DVec3> = (0..50).map(|i| DVec3::X * (i as f64 / 1000.0)).collect();
+        pts.extend((0..50).map(|i| DVec3::new(10.0, i as f64 / 1000.0, 0.0)));
         let c = kmeans(&pts, None, 0.0, 5, 100).unwrap();
         assert!(c.sizes().iter().all(|&s| s > 0), "{:?}", c.sizes());
     }
