@@ -94,6 +94,11 @@ pub enum Error {
     /// The interaction state machine refused an input.
     #[error("interaction: {0}")]
     Interaction(InteractionError),
+
+    // Scan reconstruction.
+    /// Reading points or reconstructing patches from them failed.
+    #[error("reconstruct: {0}")]
+    Reconstruct(#[from] crate::reconstruct::ReconstructError),
 }
 
 fn knots_prefix(direction: Option<Direction>) -> &'static str {

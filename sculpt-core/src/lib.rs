@@ -16,6 +16,7 @@ pub mod interaction;
 pub mod mesh;
 pub mod nurbs;
 pub mod oplog;
+pub mod reconstruct;
 pub mod sculpt;
 pub mod study;
 pub mod tolerance;

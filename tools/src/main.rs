@@ -13,6 +13,8 @@
 //! - `sculpt-tools goms ...`: the GOMS / KLM timing-study harness.
 //! - `sculpt-tools tilt2poselog IN.tilt --out OUT.poselog`: Open Brush strokes as a
 //!   recorded wand session.
+//! - `sculpt-tools reconstruct POINTS --patches K [--report R.json] [--layout L.ply]`:
+//!   scan points into K patches (docs/reconstruct.md).
 //!
 //! Pure: the tools link only `sculpt-core` and the pure layer of `tracking` (the
 //! `.tilt` codec, the importer and pose logs, `default-features = false`), never a GPU,
@@ -60,6 +62,9 @@ enum Command {
     /// Convert an Open Brush `.tilt` sketch into a pose log (each stroke a button-down,
     /// sweep, button-up at its recorded timing).
     Tilt2poselog(cmd::tilt2poselog::Tilt2PoselogArgs),
+    /// Scan reconstruction, stages 1 and 2: read points, normals, K patches and their
+    /// adjacency; a report and a patch-layout PLY.
+    Reconstruct(cmd::reconstruct::ReconstructArgs),
 }
 
 fn main() -> ExitCode {
@@ -70,6 +75,7 @@ fn main() -> ExitCode {
         Command::Export(args) => cmd::export::run(args),
         Command::Goms(args) => cmd::goms::run(args),
         Command::Tilt2poselog(args) => cmd::tilt2poselog::run(args),
+        Command::Reconstruct(args) => cmd::reconstruct::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -6,4 +6,5 @@ pub mod goms;
 pub mod io;
 pub mod mesh;
 pub mod project;
+pub mod reconstruct;
 pub mod tilt2poselog;

@@ -1,0 +1,211 @@
+//! Stage 3 (combinatorics): the initial polygonal model from the patch adjacency and
+//! its split into quadrilaterals.
+//!
+//! Patches are the vertices of the model, adjacent patches its edges, and the places
+//! where three or more patches meet its faces. A point whose neighbourhood holds
+//! exactly three patches votes for that triangle; triangles are accepted by votes
+//! (most first) while all three edges are adjacencies and no edge gets a third face.
+//! Where four or more patches meet, the triangles would need a diagonal that is no
+//! adjacency, so a hole remains; each hole's boundary loop becomes one polygon face.
+//!
+//! Quadrilaterals: every face with `n` corners is split into `n` quads through its
+//! edge midpoints and its centre (one Catmull-Clark step). This is the quad-only
+//! result the paper's parity subgraphs aim at, with the same guarantee and no case
+//! analysis: each quad edge is half of a model edge (shared by the two quads on either
+//! side of it, one per face of that edge) or joins an edge midpoint to a face centre
+//! (shared by the two quads of that face at that midpoint). So on a closed model where
+//! every edge has two faces, every quad edge has exactly two quads.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+/// A corner of a quad: a patch (model vertex), the midpoint of a model edge, or the
+/// centre of a face.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum QuadCorner {
+    /// A model vertex (a patch index).
+    Patch(usize),
+    /// The midpoint of the model edge `(a, b)`, `a < b`.
+    Edge(usize, usize),
+    /// The centre of face `i` of [`PolygonModel::faces`].
+    Face(usize),
+}
+
+/// The polygonal model and its quads.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PolygonModel {
+    /// Faces as loops of patch indices (three or more).
+    pub faces: Vec<Vec<usize>>,
+    /// Quads, corners in loop order: patch, edge midpoint, face centre, edge midpoint.
+    pub quads: Vec<[QuadCorner; 4]>,
+}
+
+fn edge(a: usize, b: usize) -> (usize, usize) {
+    (a.min(b), a.max(b))
+}
+
+/// Builds the model from point `labels`, the (directed) `neighbours` of each point and
+/// the `adjacency` pairs.
+pub fn polygon_model(
+    labels: &[usize],
+    neighbours: &[Vec<usize>],
+    adjacency: &[(usize, usize, usize)],
+) -> PolygonModel {
+    let adjacent: BTreeSet<(usize, usize)> = adjacency.iter().map(|e| (e.0, e.1)).collect();
+    let mut votes: BTreeMap<[usize; 3], usize> = BTreeMap::new();
+    for (i, list) in neighbours.iter().enumerate() {
+        let mut set: Vec<usize> = std::iter::once(labels[i])
+            .chain(list.iter().map(|&j| labels[j]))
+            .collect();
+        set.sort_unstable();
+        set.dedup();
+        if let [a, b, c] = set[..] {
+            *votes.entry([a, b, c]).or_default() += 1;
+        }
+    }
+    let mut ranked: Vec<([usize; 3], usize)> = votes.into_iter().collect();
+    ranked.sort_by(|x, y| y.1.cmp(&x.1).then(x.0.cmp(&y.0)));
+    let mut uses: BTreeMap<(usize, usize), usize> = BTreeMap::new();
+    let mut faces: Vec<Vec<usize>> = Vec::new();
+    for ([a, b, c], _) in ranked {
+        let edges = [edge(a, b), edge(b, c), edge(a, c)];
+        if edges
+            .iter()
+            .all(|e| adjacent.contains(e) && uses.get(e).copied().unwrap_or(0) < 2)
+        {
+            for e in edges {
+                *uses.entry(e).or_default() += 1;
+            }
+            faces.push(vec![a, b, c]);
+        }
+    }
+    // Holes: edges with fewer than two faces, walked into loops.
+    let mut open: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for &(a, b) in &adjacent {
+        if uses.get(&(a, b)).copied().unwrap_or(0) == 1 {
+            open.entry(a).or_default().push(b);
+            open.entry(b).or_default().push(a);
+        }
+    }
+    let mut used: BTreeSet<(usize, usize)> = BTreeSet::new();
+    let starts: Vec<(usize, usize)> = open
+        .iter()
+        .flat_map(|(&a, l)| l.iter().map(move |&b| (a, b)))
+        .collect();
+    for (a, b) in starts {
+        if used.contains(&edge(a, b)) || open.get(&a).is_none_or(|l| l.len() != 2) {
+            continue;
+        }
+        let mut lp = vec![a];
+        let (mut prev, mut cur) = (a, b);
+        let mut closed = false;
+        while lp.len() <= open.len() {
+            if cur == a {
+                closed = true;
+                break;
+            }
+            let Some(next) = open
+                .get(&cur)
+                .filter(|l| l.len() == 2)
+                .and_then(|l| l.iter().copied().find(|&n| n != prev))
+            else {
+                break;
+            };
+            lp.push(cur);
+            (prev, cur) = (cur, next);
+        }
+        if closed && lp.len() >= 3 {
+            for k in 0..lp.len() {
+                let e = edge(lp[k], lp[(k + 1) % lp.len()]);
+                used.insert(e);
+                *uses.entry(e).or_default() += 1;
+            }
+            faces.push(lp);
+        }
+    }
+    let mut quads = Vec::new();
+    for (f, face) in faces.iter().enumerate() {
+        let n = face.len();
+        for k in 0..n {
+            let (prev, v, next) = (face[(k + n - 1) % n], face[k], face[(k + 1) % n]);
+            let e1 = edge(v, next);
+            let e0 = edge(prev, v);
+            quads.push([
+                QuadCorner::Patch(v),
+                QuadCorner::Edge(e1.0, e1.1),
+                QuadCorner::Face(f),
+                QuadCorner::Edge(e0.0, e0.1),
+            ]);
+        }
+    }
+    PolygonModel { faces, quads }
+}
+
+impl PolygonModel {
+    /// How many quads hold each quad edge (corner pairs, unordered).
+    pub fn quad_edge_uses(&self) -> BTreeMap<(QuadCorner, QuadCorner), usize> {
+        let mut m = BTreeMap::new();
+        for q in &self.quads {
+            for k in 0..4 {
+                let (a, b) = (q[k], q[(k + 1) % 4]);
+                *m.entry((a.min(b), a.max(b))).or_default() += 1;
+            }
+        }
+        m
+    }
+
+    /// How many faces hold each model edge.
+    pub fn edge_uses(&self) -> BTreeMap<(usize, usize), usize> {
+        let mut m = BTreeMap::new();
+        for f in &self.faces {
+            for k in 0..f.len() {
+                *m.entry(edge(f[k], f[(k + 1) % f.len()])).or_default() += 1;
+            }
+        }
+        m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::reconstruct::kmeans::tests::cube;
+    use crate::reconstruct::read::PointCloud;
+    use crate::reconstruct::sample::torus;
+    use crate::reconstruct::segment::{SegmentSettings, segment};
+
+    fn model_of(points: Vec<glam::DVec3>, k: usize) -> (PolygonModel, usize) {
+        let cloud = PointCloud {
+            points,
+            normals: None,
+        };
+        let s = segment(&cloud, &SegmentSettings::new(k), |_| {}).unwrap();
+        (
+            polygon_model(&s.clusters.labels, &s.neighbours, &s.adjacency),
+            s.adjacency.len(),
+        )
+    }
+
+    #[test]
+    fn cube_model_is_an_octahedron_and_24_quads() {
+        // Six face patches meet three at a time at the cube's corners: 8 triangles.
+        let (m, edges) = model_of(cube(12), 6);
+        assert_eq!(edges, 12);
+        assert_eq!(m.faces.len(), 8, "{:?}", m.faces);
+        assert!(m.faces.iter().all(|f| f.len() == 3));
+        assert_eq!(m.quads.len(), 24);
+        assert!(m.edge_uses().values().all(|&u| u == 2));
+        assert!(m.quad_edge_uses().values().all(|&u| u == 2));
+    }
+
+    #[test]
+    fn torus_model_is_closed_with_euler_characteristic_zero() {
+        let (m, edges) = model_of(torus(4000, 0.2, 0.08, 7), 30);
+        let uses = m.edge_uses();
+        assert_eq!(uses.len(), edges, "every adjacency is a model edge");
+        assert!(uses.values().all(|&u| u == 2), "{uses:?}");
+        // V - E + F = 0 on a torus.
+        assert_eq!(30 + m.faces.len(), edges);
+        // Every quad edge is shared by exactly two quads.
+        assert!(m.quad_edge_uses().values().all(|&u| u == 2));
+    }
+}

@@ -1,0 +1,220 @@
+//! `sculpt-tools reconstruct POINTS --patches K [--report R.json] [--layout L.ply]`:
+//! stages 1 to 3 of scan reconstruction (docs/reconstruct.md): reads the points,
+//! estimates normals when the file has none, clusters them into K patches, finds the
+//! patch adjacency and builds the polygonal model and its quads (combinatorially). The report gives the counts and timings; the layout is an ASCII PLY
+//! of the points with their normals, coloured by patch (open it in any mesh viewer).
+//!
+//! `POINTS` is a `.xyz`, `.pwn`, `.ply`, `.obj` or `.off` file, or `torus:N[:SEED]` for
+//! the paper's torus (N points, seeded).
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use sculpt_core::reconstruct::polygon::polygon_model;
+use sculpt_core::reconstruct::read::{PointCloud, PointFormat, read_points};
+use sculpt_core::reconstruct::sample::torus;
+use sculpt_core::reconstruct::segment::{SegmentSettings, Segmentation, bbox_diagonal, segment};
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The torus of `torus:N`: major and tube radius, metres.
+pub const TORUS_RADII: (f64, f64) = (0.2, 0.08);
+
+/// Arguments of `reconstruct`.
+#[derive(Debug, Args)]
+pub struct ReconstructArgs {
+    /// Point file (`.xyz`, `.pwn`, `.ply`, `.obj`, `.off`) or `torus:N[:SEED]`.
+    pub points: String,
+    /// Number of patches K.
+    #[arg(long)]
+    pub patches: usize,
+    /// Neighbours per point for normals and adjacency.
+    #[arg(long, default_value_t = 10)]
+    pub neighbours: usize,
+    /// Write the report (JSON) here.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Write the patch layout here: an ASCII PLY of the points with normals, coloured by
+    /// patch, with a `patch` property.
+    #[arg(long)]
+    pub layout: Option<PathBuf>,
+}
+
+/// The report of `reconstruct`.
+#[derive(Debug, Serialize)]
+pub struct Report {
+    /// The input as given.
+    pub input: String,
+    /// Points read.
+    pub points: usize,
+    /// Bounding-box diagonal of the points.
+    pub bbox_diagonal: f64,
+    /// `"file"` or `"estimated"`.
+    pub normals: &'static str,
+    /// K.
+    pub patches: usize,
+    /// Lloyd iterations.
+    pub iterations: usize,
+    /// Smallest and largest patch, in points.
+    pub patch_points_min: usize,
+    /// Largest patch, in points.
+    pub patch_points_max: usize,
+    /// Adjacent patch pairs.
+    pub adjacent_pairs: usize,
+    /// Fewest neighbouring patches of any patch.
+    pub patch_degree_min: usize,
+    /// Most neighbouring patches of any patch.
+    pub patch_degree_max: usize,
+    /// Patches in more than one piece (0 after clean-up).
+    pub patches_in_pieces: usize,
+    /// Faces of the polygonal model (where three or more patches meet).
+    pub model_faces: usize,
+    /// Euler characteristic `V - E + F` of the model (2 for a sphere, 0 for a torus).
+    pub euler_characteristic: i64,
+    /// Model edges not shared by exactly two faces (0 on a closed object).
+    pub open_model_edges: usize,
+    /// Quads (each face split through its edge midpoints and centre).
+    pub quads: usize,
+    /// Quad edges not shared by exactly two quads (0 on a closed object).
+    pub open_quad_edges: usize,
+    /// Seconds for reading and segmenting (not writing).
+    pub seconds: f64,
+}
+
+fn load(spec: &str) -> Result<PointCloud> {
+    if let Some(rest) = spec.strip_prefix("torus:") {
+        let mut parts = rest.split(':');
+        let n: usize = parts
+            .next()
+            .and_then(|n| n.parse().ok())
+            .with_context(|| format!("{spec}: expected torus:N[:SEED]"))?;
+        let seed: u64 = match parts.next() {
+            Some(s) => s
+                .parse()
+                .with_context(|| format!("{spec}: the seed is not a whole number"))?,
+            None => 1,
+        };
+        if n == 0 {
+            bail!("{spec}: a torus needs at least one point");
+        }
+        return Ok(PointCloud {
+            points: torus(n, TORUS_RADII.0, TORUS_RADII.1, seed),
+            normals: None,
+        });
+    }
+    let path = Path::new(spec);
+    let ext = path
+        .extension()
+        .map_or(String::new(), |e| e.to_string_lossy().into_owned());
+    let format = PointFormat::from_extension(&ext).with_context(|| spec.to_string())?;
+    let bytes = std::fs::read(path).with_context(|| format!("reading {spec}"))?;
+    read_points(&bytes, format).with_context(|| spec.to_string())
+}
+
+/// Reads and segments, with a progress line on a terminal.
+pub fn reconstruct(args: &ReconstructArgs) -> Result<(Segmentation, Report)> {
+    let start = Instant::now();
+    let bar = ProgressBar::new_spinner();
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {msg} ({elapsed})")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    bar.set_message("reading");
+    let cloud = load(&args.points)?;
+    let mut settings = SegmentSettings::new(args.patches);
+    settings.neighbours = args.neighbours.max(3);
+    let seg = segment(&cloud, &settings, |stage| bar.set_message(stage))
+        .with_context(|| args.points.clone())?;
+    bar.set_message("polygonal model");
+    let model = polygon_model(&seg.clusters.labels, &seg.neighbours, &seg.adjacency);
+    bar.finish_and_clear();
+    let edge_uses = model.edge_uses();
+    let sizes = seg.clusters.sizes();
+    let degrees = seg.degrees();
+    let report = Report {
+        input: args.points.clone(),
+        points: seg.points.len(),
+        bbox_diagonal: bbox_diagonal(&seg.points),
+        normals: if seg.normals_estimated {
+            "estimated"
+        } else {
+            "file"
+        },
+        patches: args.patches,
+        iterations: seg.clusters.iterations,
+        patch_points_min: sizes.iter().copied().min().unwrap_or(0),
+        patch_points_max: sizes.iter().copied().max().unwrap_or(0),
+        adjacent_pairs: seg.adjacency.len(),
+        patch_degree_min: degrees.iter().copied().min().unwrap_or(0),
+        patch_degree_max: degrees.iter().copied().max().unwrap_or(0),
+        patches_in_pieces: seg.pieces_per_patch().iter().filter(|&&p| p > 1).count(),
+        model_faces: model.faces.len(),
+        euler_characteristic: args.patches as i64 - seg.adjacency.len() as i64
+            + model.faces.len() as i64,
+        open_model_edges: seg
+            .adjacency
+            .iter()
+            .filter(|e| edge_uses.get(&(e.0, e.1)) != Some(&2))
+            .count(),
+        quads: model.quads.len(),
+        open_quad_edges: model.quad_edge_uses().values().filter(|&&u| u != 2).count(),
+        seconds: start.elapsed().as_secs_f64(),
+    };
+    Ok((seg, report))
+}
+
+/// A colour per patch (golden-ratio hues).
+fn colour(patch: usize) -> [u8; 3] {
+    let h = (patch as f64 * 0.618_033_988_749_895).fract() * 6.0;
+    let x = 1.0 - (h % 2.0 - 1.0).abs();
+    let (r, g, b) = match h as u32 {
+        0 => (1.0, x, 0.0),
+        1 => (x, 1.0, 0.0),
+        2 => (0.0, 1.0, x),
+        3 => (0.0, x, 1.0),
+        4 => (x, 0.0, 1.0),
+        _ => (1.0, 0.0, x),
+    };
+    let c = |v: f64| (55.0 + 200.0 * v) as u8;
+    [c(r), c(g), c(b)]
+}
+
+/// The layout as ASCII PLY.
+pub fn layout_ply(seg: &Segmentation) -> String {
+    let mut out = format!(
+        "ply\nformat ascii 1.0\ncomment sculpt-tools reconstruct patch layout\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nproperty double nx\nproperty double ny\nproperty double nz\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty int patch\nend_header\n",
+        seg.points.len()
+    );
+    for ((p, n), &l) in seg
+        .points
+        .iter()
+        .zip(&seg.normals)
+        .zip(&seg.clusters.labels)
+    {
+        let [r, g, b] = colour(l);
+        let _ = writeln!(
+            out,
+            "{} {} {} {} {} {} {r} {g} {b} {l}",
+            p.x, p.y, p.z, n.x, n.y, n.z
+        );
+    }
+    out
+}
+
+/// Runs `reconstruct`.
+pub fn run(args: ReconstructArgs) -> Result<()> {
+    let (seg, report) = reconstruct(&args)?;
+    if let Some(path) = &args.layout {
+        std::fs::write(path, layout_ply(&seg))
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    let json = serde_json::to_string_pretty(&report)?;
+    match &args.report {
+        Some(path) => std::fs::write(path, json + "\n")
+            .with_context(|| format!("writing {}", path.display()))?,
+        None => println!("{json}"),
+    }
+    Ok(())
+}

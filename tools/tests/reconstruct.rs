@@ -1,0 +1,192 @@
+//! `sculpt-tools reconstruct` end to end: the seeded torus, the real scans fetched by
+//! `scripts/fetch-scans` (kitten.xyz, oni.pwn), and bad inputs.
+//!
+//! The real scans are read from `target/scans`; when they are missing the tests fail if
+//! `CI` is set (CI must have run `scripts/fetch-scans`) and say so otherwise.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use sculpt_core::reconstruct::read::{PointFormat, read_points};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_sculpt-tools"))
+}
+
+fn run(args: &[&str]) -> Output {
+    bin().args(args).output().expect("spawn sculpt-tools")
+}
+
+fn report(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "stderr: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("report JSON on stdout")
+}
+
+fn num(v: &serde_json::Value, key: &str) -> usize {
+    v[key].as_u64().unwrap_or_else(|| panic!("{key} in {v}")) as usize
+}
+
+/// A real scan from the cache, or `None` (outside CI) when it was not fetched.
+fn scan(name: &str) -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../target/scans")
+        .join(name);
+    if p.is_file() {
+        return Some(p);
+    }
+    let ci = std::env::var("CI").is_ok_and(|v| !v.is_empty());
+    assert!(
+        !ci,
+        "{} is missing: CI must run scripts/fetch-scans first",
+        p.display()
+    );
+    eprintln!(
+        "{} not fetched (run scripts/fetch-scans); skipped",
+        p.display()
+    );
+    None
+}
+
+/// Checks shared by every closed object: each patch is one piece, surrounded by at
+/// least three others, and the adjacency is a graph on a surface of the object's genus:
+/// with faces of three or more sides, `E <= 3 (V - chi)` (`chi = 0` for genus 1), and
+/// `E >= 2 V` for faces of at most four sides.
+fn check_closed_genus_one(r: &serde_json::Value) {
+    let k = num(r, "patches");
+    assert_eq!(num(r, "patches_in_pieces"), 0, "{r}");
+    assert!(num(r, "patch_degree_min") >= 3, "{r}");
+    let e = num(r, "adjacent_pairs");
+    assert!(e <= 3 * k && e >= 2 * k, "{r}");
+    // The polygonal model is closed with V - E + F = 0, and every quad edge is shared
+    // by exactly two quads.
+    assert_eq!(r["euler_characteristic"], 0, "{r}");
+    assert_eq!(num(r, "open_model_edges"), 0, "{r}");
+    assert_eq!(num(r, "open_quad_edges"), 0, "{r}");
+    assert!(num(r, "quads") >= 3 * num(r, "model_faces"), "{r}");
+}
+
+#[test]
+fn torus_patches_cover_a_genus_one_surface() {
+    let dir = tempfile::tempdir().unwrap();
+    let layout = dir.path().join("layout.ply");
+    let out = run(&[
+        "reconstruct",
+        "torus:4000:7",
+        "--patches",
+        "30",
+        "--layout",
+        layout.to_str().unwrap(),
+    ]);
+    let r = report(&out);
+    assert_eq!(num(&r, "points"), 4000);
+    assert_eq!(r["normals"], "estimated");
+    check_closed_genus_one(&r);
+    // The layout reads back through the point reader, with its normals.
+    let back = read_points(&std::fs::read(&layout).unwrap(), PointFormat::Ply).unwrap();
+    assert_eq!(back.points.len(), 4000);
+    assert_eq!(back.normals.map(|n| n.len()), Some(4000));
+}
+
+#[test]
+fn kitten_scan_patches() {
+    let Some(path) = scan("kitten.xyz") else {
+        return;
+    };
+    // K = 80: at K = 50 or 60 some holes' boundary loops touch each other and stay
+    // open (docs/reconstruct.md, not built yet).
+    let r = report(&run(&[
+        "reconstruct",
+        path.to_str().unwrap(),
+        "--patches",
+        "80",
+    ]));
+    assert_eq!(num(&r, "points"), 5210);
+    assert_eq!(r["normals"], "file");
+    check_closed_genus_one(&r);
+}
+
+#[test]
+fn oni_scan_patches() {
+    let Some(path) = scan("oni.pwn") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let report_path = dir.path().join("r.json");
+    let out = run(&[
+        "reconstruct",
+        path.to_str().unwrap(),
+        "--patches",
+        "30",
+        "--report",
+        report_path.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let r: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&report_path).unwrap()).unwrap();
+    assert_eq!(num(&r, "points"), 1435);
+    assert_eq!(r["normals"], "file");
+    // An open mask: every patch one piece and touching another.
+    assert_eq!(num(&r, "patches_in_pieces"), 0);
+    assert!(num(&r, "patch_degree_min") >= 1);
+}
+
+/// One line on stderr, exit code 1, containing `needle`.
+fn fails_with(out: &Output, needle: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains(needle), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn bad_inputs_give_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let nan = dir.path().join("nan.xyz");
+    std::fs::write(&nan, "0 0 0\n1 1 1\nnan 0 0\n").unwrap();
+    fails_with(
+        &run(&["reconstruct", nan.to_str().unwrap(), "--patches", "2"]),
+        "line 3",
+    );
+    let few = dir.path().join("few.xyz");
+    std::fs::write(&few, "0 0 0\n0 0 0\n1 1 1\n").unwrap();
+    fails_with(
+        &run(&["reconstruct", few.to_str().unwrap(), "--patches", "3"]),
+        "only 2 distinct points",
+    );
+    fails_with(
+        &run(&["reconstruct", "points.stl", "--patches", "3"]),
+        "unknown point format",
+    );
+}
+
+#[test]
+fn duplicates_and_outliers_are_accepted() {
+    // The torus twice over plus far outliers: still clusters, every patch one piece
+    // (an outlier alone is its own piece of the neighbour graph, so it joins a patch).
+    let dir = tempfile::tempdir().unwrap();
+    let pts = sculpt_core::reconstruct::sample::torus(1000, 0.2, 0.08, 5);
+    let mut text = String::new();
+    for p in pts.iter().chain(&pts) {
+        text += &format!("{} {} {}\n", p.x, p.y, p.z);
+    }
+    text += "5 5 5\n-5 0 0\n";
+    let file = dir.path().join("dup.xyz");
+    std::fs::write(&file, text).unwrap();
+    let r = report(&run(&[
+        "reconstruct",
+        file.to_str().unwrap(),
+        "--patches",
+        "12",
+    ]));
+    assert_eq!(num(&r, "points"), 2002);
+    assert_eq!(num(&r, "patches_in_pieces"), 0);
+}
