@@ -290,6 +290,7 @@ impl TargetTessellation {
         let extent = extent(surface);
         let mut map = UvMap::new(plan.n.clamp(1, MAX_GRID));
         map.set_min_levels(&plan.min_levels);
+        map.set_wrap(extent.closed_u, extent.closed_v);
         let n = map.n();
         Self {
             key,
@@ -472,9 +473,17 @@ impl TargetTessellation {
             }
         }
         let hidden = self.unions.last().map_or(&self.empty, |u| &u.1);
-        let dirty_roots: Vec<u32> = (0..n * n).filter(|&r| dirty[r as usize]).collect();
-        self.map
-            .update_roots(hidden, dirty_roots.iter().copied(), self.detail.cap());
+        // The grading looks up to `GRADING_REACH` root cells beyond a node (see
+        // `uvmap::GRADING_REACH`): the two rings of roots around a dirty one are
+        // reclassified too, and those whose leaves changed are re-checked.
+        let reclassify = self.grow_with_corners(&self.grow_with_corners(&dirty));
+        let mut dirty = dirty;
+        for r in (0..n * n).filter(|&r| reclassify[r as usize]) {
+            let edit = self.map.update_roots(hidden, [r], self.detail.cap());
+            if !edit.is_empty() {
+                dirty[r as usize] = true;
+            }
+        }
         // Re-check the dirty roots and their neighbours; index segments one ring wider.
         let recheck = self.grow(&dirty);
         let indexed = self.grow(&recheck);
@@ -559,6 +568,29 @@ impl TargetTessellation {
             for side in 0..4 {
                 if let Some((nb, _)) = self.neighbour(r as u32, side) {
                     out[nb as usize] = true;
+                }
+            }
+        }
+        out
+    }
+
+    /// The mask grown by the eight surrounding roots (across the seams of closed
+    /// surfaces).
+    fn grow_with_corners(&self, mask: &[bool]) -> Vec<bool> {
+        let mut out = mask.to_vec();
+        for (r, _) in mask.iter().enumerate().filter(|(_, m)| **m) {
+            let r = r as u32;
+            let row = [
+                Some(r),
+                self.neighbour(r, 0).map(|x| x.0),
+                self.neighbour(r, 1).map(|x| x.0),
+            ];
+            for c in row.into_iter().flatten() {
+                out[c as usize] = true;
+                for side in [2, 3] {
+                    if let Some((nb, _)) = self.neighbour(c, side) {
+                        out[nb as usize] = true;
+                    }
                 }
             }
         }
@@ -668,12 +700,15 @@ impl TargetTessellation {
     fn patch_input(&self, root: u32, strokes: &[StrokeRef<'_>], segments: &Segments) -> PatchInput {
         let rect = self.map.node(root).rect;
         let mut input = PatchInput::new(rect);
-        // Sides: uniform at the finer neighbour's level, plus segment crossings.
+        // Sides: the leaf corners that both cells have along the side (the tree is
+        // graded, so the finer cell loses at most one corner per coarse leaf, and a
+        // cell whose neighbour is subdivided keeps its side), plus segment crossings.
         for side in 0u8..4 {
-            let mut level = self.map.side_level(root, side);
+            let mut corners = self.map.side_params(root, side);
             let mut others: Vec<&[u32]> = vec![&segments.by_root[root as usize]];
             if let Some((nb, nb_side)) = self.neighbour(root, side) {
-                level = level.max(self.map.side_level(nb, nb_side));
+                let theirs = self.map.side_params(nb, nb_side);
+                corners.retain(|p| theirs.binary_search_by(|q| q.total_cmp(p)).is_ok());
                 others.push(&segments.by_root[nb as usize]);
             }
             let (fixed, lo, hi, along_u) = match side {
@@ -682,14 +717,11 @@ impl TargetTessellation {
                 2 => (rect.min.y, rect.min.x, rect.max.x, true),
                 _ => (rect.max.y, rect.min.x, rect.max.x, true),
             };
-            let mut params = Vec::new();
-            let steps = 1u32 << level;
-            for k in 0..=steps {
-                params.push((
-                    lo + (hi - lo) * f64::from(k) / f64::from(steps),
-                    Kind::Plain,
-                ));
-            }
+            let mut params: Vec<(f64, Kind)> = corners
+                .into_iter()
+                .filter(|&p| p >= lo && p <= hi)
+                .map(|p| (p, Kind::Plain))
+                .collect();
             // The seam: the side of a closed surface takes the crossings of both copies.
             let closed = if side < 2 {
                 self.extent.closed_u
@@ -787,7 +819,7 @@ impl TargetTessellation {
             .map(|(p, _)| (p.x.to_bits(), p.y.to_bits()))
             .collect();
         // Evaluate every vertex: S(uv) + h N(uv).
-        let mut verts: Vec<(DVec3, DVec3, DVec2, bool)> = Vec::with_capacity(cdt.num_vertices());
+        let mut verts: Vec<PatchVertex> = Vec::with_capacity(cdt.num_vertices());
         for v in cdt.vertices() {
             let p = v.position();
             let uv = super::surface::clamp_uv(DVec2::new(p.x, p.y));
@@ -796,9 +828,13 @@ impl TargetTessellation {
             let on_rim =
                 rims.contains(&(p.x.to_bits(), p.y.to_bits())) && pole_of(self.poles, uv).is_none();
             let h = if on_rim { 0.0 } else { h };
-            let pos = s + n * h;
-            let pos = if pos.is_finite() { pos } else { DVec3::ZERO };
-            verts.push((pos, n, uv, h != 0.0 || on_rim));
+            verts.push(PatchVertex {
+                surface_point: s,
+                normal: n,
+                uv,
+                height: h,
+                sculpted: h != 0.0 || on_rim,
+            });
         }
         let mut tris = Vec::with_capacity(cdt.num_inner_faces());
         for f in cdt.inner_faces() {
@@ -806,7 +842,7 @@ impl TargetTessellation {
             tris.push([a, b, c]);
         }
         if self.poles.contains(&true) {
-            let uvs: Vec<DVec2> = verts.iter().map(|v| v.2).collect();
+            let uvs: Vec<DVec2> = verts.iter().map(|v| v.uv).collect();
             let is_constraint = |a: u32, b: u32| {
                 cdt.exists_constraint(
                     FixedVertexHandle::from_index(a as usize),
@@ -815,33 +851,53 @@ impl TargetTessellation {
             };
             unfold_pole_fins(&uvs, self.poles, is_constraint, &mut tris);
         }
-        // Normals of the sculpted part come from the mesh (area-weighted).
-        let mut acc = vec![DVec3::ZERO; verts.len()];
-        for t in &tris {
-            let [a, b, c] = t.map(|i| verts[i as usize].0);
-            let nrm = (b - a).cross(c - a);
-            for &i in t {
-                acc[i as usize] += nrm;
-            }
-        }
+        self.emit_patch(root, &verts, &tris, strokes, sink);
+        tris.len()
+    }
+
+    /// Writes a patch, with each triangle corner's normal taken from the exact geometry
+    /// on that triangle's side ([`corner_normals`]): a vertex whose triangles see
+    /// different normals (a V groove's crease, a rim, where two grooves meet) is written
+    /// once per normal, at the same position, so the edge shades sharp. Only vertices
+    /// used by a triangle are written, in order of first use.
+    fn emit_patch(
+        &self,
+        root: u32,
+        verts: &[PatchVertex],
+        tris: &[[u32; 3]],
+        strokes: &[StrokeRef<'_>],
+        sink: &mut dyn MeshSink,
+    ) {
         sink.begin_patch(self.patch_key(root));
-        for (i, (pos, n, uv, sculpted)) in verts.iter().enumerate() {
-            let normal = if *sculpted {
-                acc[i].try_normalize().unwrap_or(*n)
-            } else {
-                *n
-            };
-            sink.push_vertex(MeshVertex {
-                position: pos.as_vec3().to_array(),
-                normal: normal.as_vec3().to_array(),
-                uv: uv.as_vec2().to_array(),
-            });
-        }
-        for [a, b, c] in &tris {
-            sink.push_triangle(*a, *b, *c);
+        // Per input vertex, the normals written for it and their output indices.
+        let mut written: Vec<Vec<(DVec3, u32)>> = vec![Vec::new(); verts.len()];
+        for t in tris {
+            let normals = corner_normals(strokes, self.poles, verts, *t);
+            let mut out = [0u32; 3];
+            for k in 0..3 {
+                let v = &verts[t[k] as usize];
+                let copies = &mut written[t[k] as usize];
+                let same = copies
+                    .iter()
+                    .find(|(n, _)| n.distance(normals[k]) <= NORMAL_MERGE);
+                out[k] = match same {
+                    Some(&(_, i)) => i,
+                    None => {
+                        let pos = v.surface_point + v.normal * v.height;
+                        let pos = if pos.is_finite() { pos } else { DVec3::ZERO };
+                        let i = sink.push_vertex(MeshVertex {
+                            position: pos.as_vec3().to_array(),
+                            normal: normals[k].as_vec3().to_array(),
+                            uv: v.uv.as_vec2().to_array(),
+                        });
+                        copies.push((normals[k], i));
+                        i
+                    }
+                };
+            }
+            sink.push_triangle(out[0], out[1], out[2]);
         }
         sink.end_patch();
-        tris.len()
     }
 }
 
@@ -858,34 +914,119 @@ impl TargetTessellation {
         sink: &mut dyn MeshSink,
     ) -> usize {
         // Corner order of PatchInput::new: (min), (max.x, min.y), (min.x, max.y), (max).
-        let v: Vec<(DVec3, DVec3, DVec2)> = input
+        let v: Vec<PatchVertex> = input
             .points
             .iter()
             .map(|(p, _)| {
                 let uv = *p;
                 let (s, n, h) = evaluate(cache, surface, strokes, self.poles, uv);
-                (s + n * h, n, uv)
+                PatchVertex {
+                    surface_point: s,
+                    normal: n,
+                    uv,
+                    height: h,
+                    sculpted: h != 0.0,
+                }
             })
             .collect();
-        sink.begin_patch(self.patch_key(root));
-        for (pos, n, uv) in &v {
-            let pos = if pos.is_finite() { *pos } else { DVec3::ZERO };
-            sink.push_vertex(MeshVertex {
-                position: pos.as_vec3().to_array(),
-                normal: n.as_vec3().to_array(),
-                uv: uv.as_vec2().to_array(),
-            });
-        }
-        if v[0].0.distance_squared(v[3].0) <= v[1].0.distance_squared(v[2].0) {
-            sink.push_triangle(0, 1, 3);
-            sink.push_triangle(0, 3, 2);
+        let pos = |i: usize| v[i].surface_point + v[i].normal * v[i].height;
+        let tris = if pos(0).distance_squared(pos(3)) <= pos(1).distance_squared(pos(2)) {
+            [[0, 1, 3], [0, 3, 2]]
         } else {
-            sink.push_triangle(0, 1, 2);
-            sink.push_triangle(1, 3, 2);
-        }
-        sink.end_patch();
+            [[0, 1, 2], [1, 3, 2]]
+        };
+        self.emit_patch(root, &v, &tris, strokes, sink);
         2
     }
+}
+
+/// Corner normals of one vertex closer than this (unit vectors) are one normal, written
+/// once: the same smooth sheet seen from two triangles differs only by rounding (a
+/// crease of under 1e-6 radians would not show).
+const NORMAL_MERGE: f64 = 1e-6;
+
+/// A vertex of a patch before it is written.
+struct PatchVertex {
+    /// `S(uv)`.
+    surface_point: DVec3,
+    /// The target's unit normal at `uv`.
+    normal: DVec3,
+    uv: DVec2,
+    /// The combined displacement along the normal.
+    height: f64,
+    /// Displaced, or on a rim: its triangles may see different normals.
+    sculpted: bool,
+}
+
+/// The normals at the three corners of triangle `t`, each the exact normal of the
+/// sculpted surface at that vertex as seen from inside the triangle.
+///
+/// A triangle with no sculpted vertex takes the target normals. Otherwise the stroke
+/// that shapes the triangle is the one that wins the carve/emboss combination of
+/// [`height`] at its centroid (none: the bare target, as outside a rim). The normal of
+/// `P = S + h N` with `h = -depth` (carve) or `+depth` (emboss) is `N - grad h`, with
+/// the gradient of the stroke's depth taken along the target ([`Stroke::depth_gradient`],
+/// on the centroid's side of the centreline where the vertex lies on it) and the term
+/// `h dN` of the target's curvature left out (the tool depth is small against the radius
+/// of curvature). Pole vertices keep the pole's normal.
+fn corner_normals(
+    strokes: &[StrokeRef<'_>],
+    poles: [bool; 4],
+    verts: &[PatchVertex],
+    t: [u32; 3],
+) -> [DVec3; 3] {
+    let vs = t.map(|i| &verts[i as usize]);
+    let plain = vs.map(|v| v.normal);
+    if !vs.iter().any(|v| v.sculpted) {
+        return plain;
+    }
+    let centroid = (vs[0].uv + vs[1].uv + vs[2].uv) / 3.0;
+    // The centroid of the corners' surface points stands for S(centroid): it is only
+    // used to pick the stroke and the side of its centreline.
+    let inside = (vs[0].surface_point + vs[1].surface_point + vs[2].surface_point) / 3.0;
+    let Some(k) = winner(strokes, centroid, inside) else {
+        return plain;
+    };
+    let stroke = strokes[k].1;
+    let sign = match stroke.tool.mode {
+        Mode::Carve => 1.0,
+        Mode::Emboss => -1.0,
+    };
+    vs.map(|v| {
+        if !v.sculpted || pole_of(poles, v.uv).is_some() {
+            return v.normal;
+        }
+        let g = stroke.depth_gradient(v.uv, v.surface_point, inside);
+        let along = g - v.normal * g.dot(v.normal);
+        (v.normal + along * sign)
+            .try_normalize()
+            .filter(|n| n.is_finite())
+            .unwrap_or(v.normal)
+    })
+}
+
+/// The index of the stroke that sets [`height`] at `uv` (`p` on the target near
+/// `S(uv)`), if any; a stroke counts where its depth is positive.
+fn winner(strokes: &[StrokeRef<'_>], uv: DVec2, p: DVec3) -> Option<usize> {
+    let mut h: f64 = 0.0;
+    let mut win = None;
+    for (k, (_, s)) in strokes.iter().enumerate() {
+        if !s.bounds.contains(uv) {
+            continue;
+        }
+        let d = s.depth_at(uv, p);
+        if d > 0.0 {
+            let next = match s.tool.mode {
+                Mode::Carve => h.min(-d),
+                Mode::Emboss => h.max(d),
+            };
+            if next != h {
+                h = next;
+                win = Some(k);
+            }
+        }
+    }
+    win
 }
 
 /// `S(uv)`, the normal and the combined displacement, through the pass's cache. A
@@ -1577,6 +1718,10 @@ mod tests {
             None,
             &mut fresh,
         );
+        for ((ka, pa), (kb, pb)) in mesh.patches().zip(fresh.patches()) {
+            assert_eq!(ka, kb);
+            assert!(pa == pb, "patch {ka}: {pa:?}\n{pb:?}");
+        }
         assert_eq!(mesh, fresh);
     }
 
@@ -1625,5 +1770,192 @@ mod tests {
             v.iter()
                 .all(|v| v.position.iter().chain(&v.normal).all(|x| x.is_finite()))
         );
+    }
+
+    /// The uv distance from `uv` to the nearest segment of `outline`.
+    fn outline_distance(outline: &[[DVec2; 2]], uv: DVec2) -> f64 {
+        outline
+            .iter()
+            .map(|s| super::super::jordan::point_segment_distance(uv, s[0], s[1]))
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Triangles of a welded mesh as uv triangles (on `plane(1.0)` the position is the uv).
+    fn uv_triangles(mesh: &PatchMesh) -> (Vec<[DVec2; 3]>, Vec<[u32; 3]>) {
+        let w = mesh.welded(1e-6);
+        let uv = |i: u32| {
+            let p = w.vertices[i as usize].position;
+            DVec2::new(f64::from(p[0]), f64::from(p[1]))
+        };
+        (
+            w.triangles.iter().map(|t| t.map(uv)).collect(),
+            w.triangles.clone(),
+        )
+    }
+
+    fn longest_edge(t: &[DVec2; 3]) -> f64 {
+        (0..3)
+            .map(|k| t[k].distance(t[(k + 1) % 3]))
+            .fold(0.0, f64::max)
+    }
+
+    /// Regression for issue 20 (sawtooth rims: long thin fans ran from a groove's fine
+    /// rim to the coarse root grid). The criterion, at both details, for a V and a U
+    /// groove and a curved stroke on a plane:
+    /// - every triangle with a vertex on the rim (the footprint outline) has all its
+    ///   edges at most `RIM_REACH` times the rim spacing `h` (the larger of the longest
+    ///   outline segment and the side of a leaf at the depth cap), shorter than a root
+    ///   cell's side;
+    /// - every triangle's size (longest edge) is at most `GRADE (h + d)`, `d` its
+    ///   distance from the rim: sizes grow with the distance from the rim, one quadtree
+    ///   level at a time (the balanced tree), not in a jump from the rim to a root cell
+    ///   (a fan with a vertex on the rim and a root cell's side fails both checks).
+    #[test]
+    fn mesh_is_graded_from_the_rim_to_the_root_grid() {
+        const RIM_REACH: f64 = 2.0;
+        const GRADE: f64 = 2.5;
+        let s = plane(1.0);
+        let curved = {
+            let samples = (0..60)
+                .map(|i| {
+                    let f = i as f64 / 59.0;
+                    let a = f * 2.5;
+                    (f, DVec3::new(0.5 + 0.3 * a.cos(), 0.5 + 0.3 * a.sin(), 0.0))
+                })
+                .collect();
+            Stroke::build(
+                &s,
+                &StrokeInput {
+                    samples,
+                    tool: tool(Mode::Carve, Profile::V),
+                },
+                0.2,
+            )
+            .unwrap()
+        };
+        let straight_u = stroke(
+            &s,
+            DVec3::new(0.15, 0.3, 0.0),
+            DVec3::new(0.85, 0.45, 0.0),
+            tool(Mode::Carve, Profile::U),
+        );
+        let mut checked = 0;
+        for st in [&curved, &straight_u] {
+            for detail in [Detail::Interactive, Detail::Final] {
+                let mut tess = TargetTessellation::new(&s, 0, detail);
+                let mut mesh = PatchMesh::new();
+                tess.update(&s, &[(1, st)], None, &mut mesh);
+                let outline = tess.hidden().segments().to_vec();
+                let n = f64::from(tess.map().n());
+                let leaf = 1.0 / (n * f64::from(1u32 << detail.cap()));
+                let rim_spacing = outline
+                    .iter()
+                    .map(|s| s[0].distance(s[1]))
+                    .fold(0.0, f64::max);
+                let h = rim_spacing.max(leaf);
+                // A fan to the root grid would fail the test.
+                assert!(1.0 / n > RIM_REACH * h, "{detail:?}: the test cannot fail");
+                let (tris, _) = uv_triangles(&mesh);
+                let on_rim = |p: DVec2| outline_distance(&outline, p) <= 1e-6;
+                for t in &tris {
+                    if t.iter().any(|&p| on_rim(p)) {
+                        checked += 1;
+                        assert!(
+                            longest_edge(t) <= RIM_REACH * h,
+                            "{detail:?}: a triangle at the rim spans {} (rim spacing {h}): {t:?}",
+                            longest_edge(t)
+                        );
+                    }
+                }
+                // Sizes grow with the distance from the rim, not in jumps.
+                let mut worst: f64 = 0.0;
+                for t in &tris {
+                    let d = t
+                        .iter()
+                        .map(|&p| outline_distance(&outline, p))
+                        .fold(f64::INFINITY, f64::min);
+                    worst = worst.max(longest_edge(t) / (h + d));
+                }
+                assert!(
+                    worst <= GRADE,
+                    "{detail:?}: a triangle {worst} x (h + its distance)"
+                );
+                assert!(
+                    worst <= GRADE,
+                    "{detail:?}: neighbouring triangles differ {worst}x"
+                );
+            }
+        }
+        assert!(checked > 100, "only {checked} rim triangles");
+    }
+
+    /// Issue 20: normals come from the exact geometry, split at sharp edges. On a plane,
+    /// a straight V groove's walls are planes: away from the tapered ends every corner
+    /// of a wall triangle carries exactly its face's normal (no averaging across the
+    /// crease or the rim), the flat target carries +z, and each bottom vertex is written
+    /// twice, once per wall.
+    #[test]
+    fn v_groove_normals_are_exact_and_split_at_the_crease_and_rims() {
+        let s = plane(1.0);
+        let a = stroke(
+            &s,
+            DVec3::new(0.2, 0.5, 0.0),
+            DVec3::new(0.8, 0.5, 0.0),
+            tool(Mode::Carve, Profile::V),
+        );
+        for detail in [Detail::Interactive, Detail::Final] {
+            let mut tess = TargetTessellation::new(&s, 0, detail);
+            let mut mesh = PatchMesh::new();
+            tess.update(&s, &[(1, &a)], None, &mut mesh);
+            let (mut walls, mut flat, mut bottom) = (0, 0, Vec::new());
+            for (_, patch) in mesh.patches() {
+                for t in &patch.triangles {
+                    let v = t.map(|i| patch.vertices[i as usize]);
+                    let p = v.map(|v| DVec3::from_array(v.position.map(f64::from)));
+                    let face = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
+                    let middle = p.iter().all(|q| q.x > 0.3 && q.x < 0.7);
+                    let sunk = p.iter().any(|q| q.z < -1e-7);
+                    for c in &v {
+                        let n = DVec3::from_array(c.normal.map(f64::from));
+                        if !sunk && p.iter().all(|q| (q.y - 0.5).abs() > 0.06) {
+                            assert!(n.distance(DVec3::Z) < 1e-6, "{detail:?}: flat {n}");
+                            flat += 1;
+                        }
+                        if sunk && middle {
+                            assert!(
+                                n.distance(face) < 1e-4,
+                                "{detail:?}: {n} on face {face} at {p:?}"
+                            );
+                            // The wall's slope: depth over half-width.
+                            assert_near!(n.y.abs() / n.z, 0.02 / 0.05, 1e-4);
+                            walls += 1;
+                        }
+                        if middle && (f64::from(c.position[2]) + 0.02).abs() < 1e-6 {
+                            bottom.push(c.position.map(f32::to_bits));
+                        }
+                    }
+                }
+            }
+            assert!(walls > 50 && flat > 50, "{detail:?}: {walls} {flat}");
+            // Each bottom vertex appears with two normals (as two written vertices).
+            let mut verts: Vec<([u32; 3], [u32; 3])> = Vec::new();
+            for (_, patch) in mesh.patches() {
+                for v in &patch.vertices {
+                    if bottom.contains(&v.position.map(f32::to_bits)) {
+                        verts.push((v.position.map(f32::to_bits), v.normal.map(f32::to_bits)));
+                    }
+                }
+            }
+            verts.sort_unstable();
+            verts.dedup();
+            let mut positions: Vec<[u32; 3]> = verts.iter().map(|v| v.0).collect();
+            positions.dedup();
+            assert!(positions.len() > 4, "{detail:?}: {}", positions.len());
+            assert_eq!(
+                verts.len(),
+                2 * positions.len(),
+                "{detail:?}: crease not split {verts:?}"
+            );
+        }
     }
 }
