@@ -710,7 +710,7 @@ impl Stroke {
         let (hw0, hw1) = (self.half_width[i], self.half_width[i + 1]);
         let (dep0, dep1) = (self.depth[i], self.depth[i + 1]);
         let hw = hw0 + (hw1 - hw0) * t;
-        if !(hw > 0.0) {
+        if hw.is_nan() || hw <= 0.0 {
             return DVec3::ZERO;
         }
         let dep = dep0 + (dep1 - dep0) * t;

@@ -477,7 +477,6 @@ impl TargetTessellation {
         // `uvmap::GRADING_REACH`): the two rings of roots around a dirty one are
         // reclassified too, and those whose leaves changed are re-checked.
         let reclassify = self.grow_with_corners(&self.grow_with_corners(&dirty));
-        let mut dirty = dirty;
         for r in (0..n * n).filter(|&r| reclassify[r as usize]) {
             let edit = self.map.update_roots(hidden, [r], self.detail.cap());
             if !edit.is_empty() {
