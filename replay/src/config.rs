@@ -54,13 +54,15 @@
 //! assert_eq!(cfg.tracking.wand_id, 0);
 //! ```
 
-pub use sculpt_core::interaction::{ButtonMap, InteractionConfig, Mode, Profile, Tool};
+pub use sculpt_core::interaction::{
+    ButtonMap, InteractionConfig, InteractionMode, Profile, StrokeMode, Tool,
+};
 use serde::{Deserialize, Serialize};
 pub use tracking::calibration::Calibration;
 pub use tracking::filter::FilterConfig;
 use tracking::stage::StageConfig;
 
-use crate::error::{Error, Result};
+use crate::error::{ConfigError, Error, Result};
 
 /// Which tracker devices are the wand and the head, and when the wand counts as lost.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -112,11 +114,12 @@ impl ReplayConfig {
     pub fn from_toml_str(text: &str) -> Result<Self> {
         let cfg = match vr_app::config::Config::from_toml_str(text) {
             Ok(display) => Self::from_display(&display)?,
-            Err(display) => toml::from_str::<Self>(text).map_err(|flat| {
-                Error::Config(format!(
-                    "neither a display server config ({display}) nor a replay config ({flat})"
-                ))
-            })?,
+            Err(display) => {
+                toml::from_str::<Self>(text).map_err(|flat| Error::ConfigUnrecognised {
+                    display: Box::new(display),
+                    flat: Box::new(flat),
+                })?
+            }
         };
         cfg.validate()?;
         Ok(cfg)
@@ -128,7 +131,10 @@ impl ReplayConfig {
     /// its `[interaction]`: exactly what the live app runs with.
     pub fn from_display(display: &vr_app::config::Config) -> Result<Self> {
         let stage = match &display.tracking {
-            Some(t) => t.stage_config().map_err(|e| Error::Config(e.to_string()))?,
+            Some(t) => t.stage_config().map_err(|source| Error::ConfigDisplay {
+                section: "[tracking]",
+                source,
+            })?,
             None => StageConfig::default(),
         };
         Ok(Self {
@@ -139,7 +145,7 @@ impl ReplayConfig {
             },
             calibration: stage.calibration,
             filter: stage.filter,
-            tool: display.tool,
+            tool: display.tool.clone(),
             interaction: display.interaction,
         })
     }
@@ -157,57 +163,43 @@ impl ReplayConfig {
 
     /// Checks every number; the error names the bad setting.
     pub fn validate(&self) -> Result<()> {
-        let bad = |m: String| Err(Error::Config(m));
+        let bad = |m: ConfigError| Err(Error::Config(m));
         self.calibration
             .validate()
-            .map_err(|e| Error::Config(format!("calibration: {e}")))?;
+            .map_err(|source| Error::ConfigTracking {
+                section: "calibration",
+                source,
+            })?;
         self.filter
             .validate()
-            .map_err(|e| Error::Config(format!("filter: {e}")))?;
-        let i = &self.interaction;
+            .map_err(|source| Error::ConfigTracking {
+                section: "filter",
+                source,
+            })?;
         let positive = [
             ("tracking.timeout", self.tracking.timeout),
             ("tool.width", self.tool.width),
             ("tool.depth", self.tool.depth),
-            ("interaction.max_speed", i.max_speed),
-            ("interaction.sketch_row_spacing", i.sketch_row_spacing),
         ];
         for (name, v) in positive {
             if !(v.is_finite() && v > 0.0) {
-                return bad(format!("{name} must be a positive number, got {v}"));
+                return bad(ConfigError::NotPositive {
+                    setting: name,
+                    value: v,
+                });
             }
         }
-        let non_negative = [
-            ("tool.taper", self.tool.taper),
-            ("interaction.pause_timeout", i.pause_timeout),
-            ("interaction.max_resume_jump", i.max_resume_jump),
-            ("interaction.min_stroke_length", i.min_stroke_length),
-        ];
-        for (name, v) in non_negative {
-            if !(v.is_finite() && v >= 0.0) {
-                return bad(format!("{name} must be >= 0, got {v}"));
-            }
+        if !(self.tool.taper.is_finite() && self.tool.taper >= 0.0) {
+            return bad(ConfigError::Negative {
+                setting: "tool.taper",
+                value: self.tool.taper,
+            });
         }
-        if i.max_samples < 2 {
-            return bad("interaction.max_samples must be at least 2".into());
-        }
-        self.tool
-            .tool()
+        self.tool.tool().validate().map_err(Error::ConfigTool)?;
+        // The same check as wandsculpt's (sculpt-core's, one for both).
+        self.interaction
             .validate()
-            .map_err(|e| Error::Config(format!("tool: {e}")))?;
-        if !(2..=64).contains(&i.sketch_columns) || !(2..=10_000).contains(&i.min_sketch_rows) {
-            return bad("sketch_columns must be in 2..=64 and min_sketch_rows in 2..=10000".into());
-        }
-        if !i.sketch_axis.is_finite() || i.sketch_axis.length() < 1e-6 {
-            return bad("interaction.sketch_axis must be a non-zero vector".into());
-        }
-        let b = i.buttons;
-        if [b.action, b.mode, b.profile, b.undo, b.redo, b.select]
-            .iter()
-            .any(|&x| x >= 32)
-        {
-            return bad("button indices must be below 32".into());
-        }
+            .map_err(Error::ConfigInteraction)?;
         Ok(())
     }
 }
@@ -230,10 +222,12 @@ mod tests {
         assert_eq!(cfg.interaction, display.interaction);
         // A display config with a wand the stage cannot read is refused, not ignored.
         let e = ReplayConfig::from_toml_str(&text.replace("\"wand1\"", "\"body3\"")).unwrap_err();
-        assert!(e.to_string().contains("Flystick"), "{e}");
+        assert!(matches!(e, Error::ConfigUnrecognised { .. }), "{e:?}");
+        assert!(chain(&e).contains("Flystick"), "{e}");
         // Neither kind of config: both reasons.
         let e = ReplayConfig::from_toml_str("[screen]\nbogus = 1\n[tool]\nwidth = \"x\"\n")
             .unwrap_err();
+        assert!(matches!(e, Error::ConfigUnrecognised { .. }), "{e:?}");
         assert!(
             e.to_string().contains("neither a display server config"),
             "{e}"
@@ -243,11 +237,11 @@ mod tests {
     #[test]
     fn bad_settings_are_named() {
         let e = ReplayConfig::from_toml_str("[tool]\nwidth = -1.0\n").unwrap_err();
-        assert!(e.to_string().contains("tool.width"), "{e}");
+        assert!(chain(&e).contains("tool.width"), "{e}");
         let e = ReplayConfig::from_toml_str("[calibration]\nunits = 2\n").unwrap_err();
-        assert!(e.to_string().contains("units"), "{e}");
+        assert!(chain(&e).contains("units"), "{e}");
         let e = ReplayConfig::from_toml_str("[tool]\nmode = \"paint\"\n").unwrap_err();
-        assert!(e.to_string().contains("paint"), "{e}");
+        assert!(chain(&e).contains("paint"), "{e}");
     }
 
     #[test]
@@ -263,6 +257,63 @@ mod tests {
         assert!(!c.filter.enabled);
         let e = ReplayConfig::from_toml_str("[calibration]\naxes = [\"x\", \"x\", \"z\"]\n")
             .unwrap_err();
-        assert!(e.to_string().contains("calibration"), "{e}");
+        assert!(chain(&e).contains("calibration"), "{e}");
+    }
+
+    /// The message as a binary prints it: the error and its causes.
+    fn chain(e: &Error) -> String {
+        sculpt_core::error::Chain(e).to_string()
+    }
+
+    #[test]
+    fn typed_config_errors_name_the_setting() {
+        let e = crate::render::parse_times("1,x").unwrap_err();
+        assert!(
+            matches!(e, Error::Config(ConfigError::RenderTimeNotANumber { ref text }) if text == "x"),
+            "{e:?}"
+        );
+        let e = crate::render::every(0.0, 1.0).unwrap_err();
+        assert!(
+            matches!(e, Error::Config(ConfigError::RenderStep { step: 0.0 })),
+            "{e:?}"
+        );
+        let mut cfg = ReplayConfig::default();
+        cfg.interaction.max_samples = 1;
+        assert!(matches!(
+            cfg.validate(),
+            Err(Error::ConfigInteraction(sculpt_core::Error::Interaction(
+                sculpt_core::error::InteractionError::Config(
+                    sculpt_core::error::InteractionConfigError::MaxSamples
+                )
+            )))
+        ));
+    }
+
+    /// Regression (issue 15, item 7): `wandsculpt` accepted `[interaction]
+    /// pause_timeout = -1` and `max_resume_jump = nan` that `replay` rejected; both now
+    /// run sculpt-core's one `InteractionConfig::validate`, so they agree on every key.
+    #[test]
+    fn wandsculpt_and_replay_reject_the_same_interaction_values() {
+        let bad = [
+            "pause_timeout = -1.0",
+            "max_resume_jump = nan",
+            "max_speed = 0.0",
+            "min_stroke_length = inf",
+            "sketch_row_spacing = -0.01",
+            "max_samples = 1",
+            "sketch_columns = 65",
+        ];
+        for line in bad {
+            let text = format!("[interaction]\n{line}\n");
+            let r = ReplayConfig::from_toml_str(&text);
+            let w = vr_app::config::Config::from_toml_str(&text);
+            assert!(r.is_err(), "replay accepted {line}");
+            assert!(w.is_err(), "wandsculpt accepted {line}");
+            let key = line.split(' ').next().unwrap();
+            assert!(w.unwrap_err().to_string().contains(key), "{line}");
+        }
+        let good = "[interaction]\npause_timeout = 0.0\nmax_resume_jump = 0.1\n";
+        assert!(ReplayConfig::from_toml_str(good).is_ok());
+        assert!(vr_app::config::Config::from_toml_str(good).is_ok());
     }
 }

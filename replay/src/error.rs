@@ -1,34 +1,192 @@
-//! The one error type of the `replay` library.
+//! The one error type of the `replay` library, and the typed reasons it carries.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::time::Duration;
 
 use thiserror::Error;
 
 /// Everything that can go wrong while importing, converting or replaying a session.
+///
+/// A wrapped error (I/O, tracking, the display server, the sculpting layer) is the
+/// [`std::error::Error::source`], not part of the message, so `{:#}` prints it once.
 #[derive(Debug, Error)]
 #[non_exhaustive]
 pub enum Error {
-    /// A serve endpoint is malformed, or could not be reached or bound.
+    /// A serve endpoint or option is malformed, or no client connected.
     #[error("serve: {0}")]
-    Endpoint(String),
+    Endpoint(EndpointError),
+    /// A serve socket could not be bound or set up.
+    #[error("serve: {what} {addr}")]
+    Socket {
+        /// What was being done ("cannot listen on", "setting up").
+        what: &'static str,
+        /// The address.
+        addr: SocketAddr,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
     /// The tracking layer reported an error.
-    #[error("tracking: {0}")]
-    Tracking(String),
+    #[error(transparent)]
+    Tracking(#[from] tracking::TrackingError),
     /// The replay configuration is invalid.
     #[error("config: {0}")]
-    Config(String),
-    /// Rendering through vr-app's headless renderer failed (no adapter, bad size).
-    #[error("render: {0}")]
-    Render(String),
-    /// A base scene or session could not be used.
-    #[error("{0}")]
-    Session(String),
+    Config(ConfigError),
+    /// A section of the configuration was refused by the tracking layer.
+    #[error("config: {section}")]
+    ConfigTracking {
+        /// `[tracking]`, `calibration` or `filter`.
+        section: &'static str,
+        /// Why.
+        #[source]
+        source: tracking::TrackingError,
+    },
+    /// A section of a display server config was refused by the display server.
+    #[error("config: {section}")]
+    ConfigDisplay {
+        /// The section (`[tracking]`).
+        section: &'static str,
+        /// Why.
+        #[source]
+        source: vr_app::VrError,
+    },
+    /// The configured tool was refused by the sculpting layer.
+    #[error("config: tool")]
+    ConfigTool(#[source] sculpt_core::Error),
+    /// The `[interaction]` settings were refused by the sculpting layer (the one
+    /// validation `wandsculpt` uses too).
+    #[error("config: interaction")]
+    ConfigInteraction(#[source] sculpt_core::Error),
+    /// The configuration file is neither layout (both reasons are given).
+    #[error("config: neither a display server config ({display}) nor a replay config ({flat})")]
+    ConfigUnrecognised {
+        /// Why it is not a display server config.
+        display: Box<vr_app::VrError>,
+        /// Why it is not a replay config.
+        flat: Box<toml::de::Error>,
+    },
+    /// The requested image size is out of range.
+    #[error("render: image size {width}x{height} must be 1..=8192 each way")]
+    ImageSize {
+        /// Width asked for.
+        width: u32,
+        /// Height asked for.
+        height: u32,
+    },
+    /// Rendering through vr-app's headless renderer failed (no adapter, bad screen).
+    #[error("render")]
+    Render(#[source] vr_app::VrError),
+    /// A rendered image could not be saved.
+    #[error("render: {}", path.display())]
+    SaveImage {
+        /// The image file.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: image::ImageError,
+    },
+    /// The sculpting layer failed to tessellate the final mesh (the scene was saved).
+    #[error("the sculpting layer failed to tessellate the final mesh; {} was written", written.display())]
+    Tessellation {
+        /// The scene file already written.
+        written: PathBuf,
+    },
+    /// An output could not be encoded as JSON.
+    #[error("encoding JSON")]
+    Encode(#[source] serde_json::Error),
     /// A file could not be read or written.
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Io {
         /// The file involved.
         path: String,
         /// The underlying error.
         #[source]
         source: std::io::Error,
+    },
+}
+
+/// Why a serve endpoint or option is unusable.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum EndpointError {
+    /// The endpoint text is malformed.
+    #[error("{text:?}: {why}")]
+    Malformed {
+        /// The text given.
+        text: String,
+        /// What is wrong.
+        why: &'static str,
+    },
+    /// The speed is not finite or negative.
+    #[error("speed must be finite and >= 0, got {speed}")]
+    Speed {
+        /// The speed given.
+        speed: f64,
+    },
+    /// No client connected in time.
+    #[error("no connection with {endpoint} within {timeout:?}")]
+    NoConnection {
+        /// The endpoint, as `Debug` shows it.
+        endpoint: String,
+        /// How long it waited.
+        timeout: Duration,
+    },
+}
+
+/// Why a replay setting is unusable; each names the setting.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum ConfigError {
+    /// A setting must be positive.
+    #[error("{setting} must be a positive number, got {value}")]
+    NotPositive {
+        /// The setting.
+        setting: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// A setting must be non-negative.
+    #[error("{setting} must be >= 0, got {value}")]
+    Negative {
+        /// The setting.
+        setting: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// A `--render` time is not a number.
+    #[error("--render: `{text}` is not a number of seconds")]
+    RenderTimeNotANumber {
+        /// The text given.
+        text: String,
+    },
+    /// A `--render` time is negative or not finite.
+    #[error("--render: {t} must be >= 0 seconds")]
+    RenderTimeNegative {
+        /// The time.
+        t: f64,
+    },
+    /// Too few or too many `--render` times.
+    #[error("--render needs 1 to {max} times")]
+    RenderTimeCount {
+        /// The most allowed.
+        max: usize,
+    },
+    /// The `--render-every` step is not positive.
+    #[error("--render-every {step} must be > 0")]
+    RenderStep {
+        /// The step.
+        step: f64,
+    },
+    /// `--render-every` would make too many images.
+    #[error("--render-every {step}: {count} images, more than {max}")]
+    RenderStepCount {
+        /// The step.
+        step: f64,
+        /// Images it would make.
+        count: usize,
+        /// The most allowed.
+        max: usize,
     },
 }
 

@@ -100,7 +100,8 @@ fn renderer(
         }
         None => vr_app::config::Config::default(),
     };
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    vr_app::session::create_output_dir(out)
+        .with_context(|| format!("creating {}", out.display()))?;
     let r = SceneRenderer::new(&display, w, h)?;
     Ok(Some((times, r)))
 }
@@ -280,8 +281,12 @@ fn serve(cli: &Cli, bytes: &[u8], target: &str, listen: bool) -> Result<ExitCode
         b.finish_and_clear();
     }
     println!(
-        "sent {} records ({} bytes) over {} connection(s); {} missed while disconnected",
-        report.sent, report.bytes, report.connections, report.missed
+        "sent {} records ({} bytes) over {} connection(s); {} missed while disconnected; {}",
+        report.sent, report.bytes, report.connections, report.missed, report.delivery
     );
+    if report.delivery.failed() {
+        eprintln!("replay: the receiver did not take the session");
+        return Ok(ExitCode::FAILURE);
+    }
     Ok(ExitCode::SUCCESS)
 }

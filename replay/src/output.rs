@@ -29,7 +29,7 @@ pub const DETERMINISTIC_FILES: &[&str] = &[
 ];
 
 /// Vertices closer than this (metres) are welded in the exported meshes.
-pub const WELD_TOLERANCE: f32 = 1e-6;
+pub const WELD_TOLERANCE: f32 = sculpt_core::tolerance::EXPORT_WELD_EPS;
 
 fn write(dir: &Path, name: &str, bytes: &[u8], out: &mut Vec<PathBuf>) -> Result<()> {
     let path = dir.join(name);
@@ -43,7 +43,7 @@ fn write(dir: &Path, name: &str, bytes: &[u8], out: &mut Vec<PathBuf>) -> Result
 
 /// Writes every output file into `dir` (created if needed); returns the paths.
 pub fn write_outputs(outcome: &Outcome, dir: &Path) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).map_err(|source| Error::Io {
+    vr_app::session::create_output_dir(dir).map_err(|source| Error::Io {
         path: dir.display().to_string(),
         source,
     })?;
@@ -55,11 +55,8 @@ pub fn write_outputs(outcome: &Outcome, dir: &Path) -> Result<Vec<PathBuf>> {
     let welded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         doc.mesh(Detail::Final).welded(WELD_TOLERANCE)
     }))
-    .map_err(|_| {
-        Error::Session(format!(
-            "the sculpting layer failed to tessellate the final mesh; {} was written",
-            dir.join("scene.json").display()
-        ))
+    .map_err(|_| Error::Tessellation {
+        written: dir.join("scene.json"),
     })?;
     for (name, format) in [
         ("scene.obj", MeshFormat::Obj),
@@ -92,8 +89,7 @@ pub fn write_outputs(outcome: &Outcome, dir: &Path) -> Result<Vec<PathBuf>> {
 
 /// Pretty JSON with a final newline.
 fn pretty<T: serde::Serialize>(value: &T) -> Result<String> {
-    let mut s = serde_json::to_string_pretty(value)
-        .map_err(|e| Error::Session(format!("encoding JSON: {e}")))?;
+    let mut s = serde_json::to_string_pretty(value).map_err(Error::Encode)?;
     s.push('\n');
     Ok(s)
 }

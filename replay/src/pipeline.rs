@@ -24,11 +24,12 @@ use std::time::Instant;
 
 use sculpt_core::edit_loop::{EditHooks, EditLoop, LoopError, LoopEvent, Step};
 use sculpt_core::editor::{self, Applied};
+use sculpt_core::error::StrokeRejection;
 use sculpt_core::interaction::{
     Edit, EndReason, Interaction, OperatorEvent, Profile, StrokeEdit, StrokeMode,
 };
 use sculpt_core::oplog::{OpLogHeader, OpLogWriter};
-use sculpt_core::sculpt::document::Document;
+use sculpt_core::sculpt::document::{Document, StrokeId, TargetId};
 use serde::Serialize;
 use tracking::Frame;
 use tracking::poselog::{PoseLogReader, Record, RecordKind};
@@ -75,12 +76,12 @@ pub struct TrackingMetrics {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StrokeMetrics {
     /// Document stroke id.
-    pub id: u64,
-    /// Target id.
-    pub target: u64,
+    pub id: StrokeId,
+    /// Document target id.
+    pub target: TargetId,
     /// `carve` or `emboss`.
     pub mode: &'static str,
-    /// `v` or `u`.
+    /// `v`, `u` or `custom`.
     pub profile: &'static str,
     /// Wand samples.
     pub samples: usize,
@@ -101,8 +102,14 @@ pub struct StrokeMetrics {
 pub struct Rejection {
     /// When, seconds.
     pub at_s: f64,
-    /// Why.
-    pub reason: String,
+    /// Why (written to `metrics.json` as its message).
+    #[serde(serialize_with = "as_message")]
+    pub reason: sculpt_core::Error,
+}
+
+/// Writes an error as its one-line message.
+fn as_message<S: serde::Serializer>(e: &sculpt_core::Error, s: S) -> Result<S::Ok, S::Error> {
+    s.collect_str(&sculpt_core::error::Chain(e))
 }
 
 /// Gesture counts.
@@ -232,7 +239,10 @@ impl Replayer {
     /// A replayer starting from `doc` (the base scene), in the config's start mode.
     pub fn new(cfg: &ReplayConfig, doc: Document, session: &str) -> Result<Self> {
         cfg.validate()?;
-        let stage = FrameStage::new(cfg.stage()).map_err(|e| Error::Config(e.to_string()))?;
+        let stage = FrameStage::new(cfg.stage()).map_err(|source| Error::ConfigTracking {
+            section: "[tracking]",
+            source,
+        })?;
         let interaction = Interaction::new(cfg.interaction, cfg.tool.mode, cfg.tool.tool());
         let oplog = OpLogWriter::new(
             &OpLogHeader::new()
@@ -335,12 +345,18 @@ impl Replayer {
                 LoopEvent::Operator { t, event } => {
                     let g = &mut self.metrics.gestures;
                     if let OperatorEvent::GestureEnd {
-                        committed, reason, ..
+                        reason, dropped, ..
                     } = event
                     {
-                        match reason {
-                            EndReason::TrackingLost => g.ended_by_loss += 1,
-                            EndReason::Released if !committed => g.too_short += 1,
+                        match (reason, dropped) {
+                            (EndReason::TrackingLost, _) => g.ended_by_loss += 1,
+                            (
+                                EndReason::Released,
+                                Some(
+                                    StrokeRejection::TooShort { .. }
+                                    | StrokeRejection::TooFewRows { .. },
+                                ),
+                            ) => g.too_short += 1,
                             _ => {}
                         }
                     }
@@ -370,7 +386,7 @@ impl Replayer {
                 }
                 self.metrics.rejected.push(Rejection {
                     at_s: t,
-                    reason: e.to_string(),
+                    reason: e.clone(),
                 });
             }
         }
@@ -379,7 +395,7 @@ impl Replayer {
         }
     }
 
-    fn stroke_applied(&mut self, s: &StrokeEdit, id: u64, target: u64, t: f64) {
+    fn stroke_applied(&mut self, s: &StrokeEdit, id: StrokeId, target: TargetId, t: f64) {
         let n = s.samples.len();
         let (start_s, end_s) = (s.samples[0].t, s.samples[n - 1].t);
         self.metrics.per_stroke.push(StrokeMetrics {
@@ -392,6 +408,7 @@ impl Replayer {
             profile: match s.tool.profile {
                 Profile::V => "v",
                 Profile::U => "u",
+                Profile::Custom(_) => "custom",
             },
             samples: n,
             start_s,
@@ -408,7 +425,7 @@ impl Replayer {
     /// Ends the session at the last frame's time (a paused gesture is given its
     /// timeout) and returns the outcome.
     pub fn finish(mut self, corrupt_lines: usize, truncated_tail: bool) -> Outcome {
-        let end = self.last_t + self.pause_timeout + 1e-9;
+        let end = self.last_t + self.pause_timeout + sculpt_core::tolerance::TIME_EPS;
         let Ok(step) = self.edit_loop.tick(end, &mut self.timer);
         self.record(&step);
         let stage = self.stage.metrics_until(self.last_t);
@@ -492,7 +509,7 @@ fn run_log(
     at: &mut dyn FnMut(f64, &Replayer) -> Result<()>,
 ) -> Result<Outcome> {
     let started = Instant::now();
-    let mut reader = PoseLogReader::new(bytes).map_err(|e| Error::Tracking(e.to_string()))?;
+    let mut reader = PoseLogReader::new(bytes)?;
     let mut replayer = Replayer::new(cfg, base, session)?;
     let mut corrupt = 0;
     let mut due = times.iter().copied().peekable();
@@ -514,7 +531,7 @@ fn run_log(
                 }
             }
             Err(tracking::TrackingError::PoseLogLine { .. }) => corrupt += 1,
-            Err(e) => return Err(Error::Tracking(e.to_string())),
+            Err(e) => return Err(Error::Tracking(e)),
         }
         if k % 256 == 0
             && let Some(cb) = progress.as_mut()

@@ -29,7 +29,7 @@ use vr_app::projection::{HeadPose, Screen, StereoRig};
 use vr_app::render::{Gpu, Renderer};
 use vr_app::scene::{FrameInput, SceneState, Views};
 
-use crate::error::{Error, Result};
+use crate::error::{ConfigError, Error, Result};
 use crate::pipeline::Replayer;
 
 /// Most render times one run may ask for.
@@ -39,18 +39,20 @@ pub const MAX_RENDER_TIMES: usize = 1000;
 pub fn parse_times(text: &str) -> Result<Vec<f64>> {
     let mut times = Vec::new();
     for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        let t: f64 = part
-            .parse()
-            .map_err(|_| Error::Config(format!("--render: `{part}` is not a number of seconds")))?;
+        let t: f64 = part.parse().map_err(|_| {
+            Error::Config(ConfigError::RenderTimeNotANumber {
+                text: part.to_string(),
+            })
+        })?;
         if !(t.is_finite() && t >= 0.0) {
-            return Err(Error::Config(format!("--render: {t} must be >= 0 seconds")));
+            return Err(Error::Config(ConfigError::RenderTimeNegative { t }));
         }
         times.push(t);
     }
     if times.is_empty() || times.len() > MAX_RENDER_TIMES {
-        return Err(Error::Config(format!(
-            "--render needs 1 to {MAX_RENDER_TIMES} times"
-        )));
+        return Err(Error::Config(ConfigError::RenderTimeCount {
+            max: MAX_RENDER_TIMES,
+        }));
     }
     times.sort_by(f64::total_cmp);
     Ok(times)
@@ -59,13 +61,15 @@ pub fn parse_times(text: &str) -> Result<Vec<f64>> {
 /// `--render-every S` over a session of `duration` seconds: 0, S, 2S, ... up to the end.
 pub fn every(step: f64, duration: f64) -> Result<Vec<f64>> {
     if !(step.is_finite() && step > 0.0) {
-        return Err(Error::Config(format!("--render-every {step} must be > 0")));
+        return Err(Error::Config(ConfigError::RenderStep { step }));
     }
     let n = (duration.max(0.0) / step).floor() as usize + 1;
     if n > MAX_RENDER_TIMES {
-        return Err(Error::Config(format!(
-            "--render-every {step}: {n} images, more than {MAX_RENDER_TIMES}"
-        )));
+        return Err(Error::Config(ConfigError::RenderStepCount {
+            step,
+            count: n,
+            max: MAX_RENDER_TIMES,
+        }));
     }
     Ok((0..n).map(|k| k as f64 * step).collect())
 }
@@ -86,8 +90,10 @@ impl StereoShot {
         let name = |eye: &str| dir.join(format!("render-{t:.3}-{eye}.png"));
         let paths = [name("left"), name("right")];
         for (img, path) in [(&self.left, &paths[0]), (&self.right, &paths[1])] {
-            img.save(path)
-                .map_err(|e| Error::Render(format!("{}: {e}", path.display())))?;
+            img.save(path).map_err(|source| Error::SaveImage {
+                path: path.clone(),
+                source,
+            })?;
         }
         Ok(paths)
     }
@@ -110,11 +116,9 @@ impl SceneRenderer {
     /// GPU, the pipelines and the mesh stores are made once, here.
     pub fn new(display: &Config, width: u32, height: u32) -> Result<Self> {
         if width == 0 || height == 0 || width > 8192 || height > 8192 {
-            return Err(Error::Render(format!(
-                "image size {width}x{height} must be 1..=8192 each way"
-            )));
+            return Err(Error::ImageSize { width, height });
         }
-        let err = |e: vr_app::VrError| Error::Render(e.to_string());
+        let err = Error::Render;
         let screen = display.screen.screen().map_err(err)?;
         let fixed_head = display.fixed_head().map_err(err)?;
         let gpu = Gpu::headless().map_err(err)?;
@@ -140,7 +144,7 @@ impl SceneRenderer {
     /// the tracked head (the fixed head when there is none, or it gives no valid
     /// projection).
     pub fn render(&mut self, replayer: &Replayer) -> Result<StereoShot> {
-        let err = |e: vr_app::VrError| Error::Render(e.to_string());
+        let err = Error::Render;
         let interaction = replayer.interaction();
         // The preview is carved into (a copy of) the document, as the app does.
         let mut doc = replayer.document().clone();
@@ -188,6 +192,6 @@ mod tests {
         }
         assert_eq!(every(2.0, 5.0).unwrap(), vec![0.0, 2.0, 4.0]);
         assert!(every(0.0, 5.0).is_err());
-        assert!(every(1e-6, 60.0).is_err(), "too many images");
+        assert!(every(1e-6, 60.0).is_err(), "too many images"); // not a tolerance: an image period
     }
 }

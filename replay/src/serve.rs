@@ -15,6 +15,15 @@
 //! back. Timing is measured from the start of sending; [`ServeOptions::speed`] scales
 //! it (0 sends as fast as possible).
 //!
+//! **Delivery.** DTrack2 has no acknowledgement, so "written to the socket" is not
+//! "taken by the receiver". Over TCP the sender learns what the connection can tell it
+//! ([`Delivery`]): when everything is written it closes its sending side and waits for
+//! the receiver to close in turn. A receiver that read the stream to its end closes
+//! cleanly ([`Delivery::ReadToEnd`]); one that refused the connection (its slot was
+//! taken) or went away with data unread (it exited) resets it
+//! ([`Delivery::NotTaken`]). Whether the receiver then *applied* the frames is beyond
+//! what DTrack2 can say. A serial line cannot tell at all ([`Delivery::Unknown`]).
+//!
 //! ```
 //! use std::io::Read;
 //! use std::time::Duration;
@@ -40,7 +49,7 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
-use crate::error::{Error, Result};
+use crate::error::{EndpointError, Error, Result};
 
 /// Where the records go.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -58,7 +67,12 @@ impl Endpoint {
     /// [`Endpoint::Connect`]) or `serial:///path/to/device`. A bare `PORT` means
     /// `127.0.0.1:PORT`.
     pub fn parse(text: &str, listen: bool) -> Result<Self> {
-        let bad = |why: &str| Error::Endpoint(format!("{text:?}: {why}"));
+        let bad = |why: &'static str| {
+            Error::Endpoint(EndpointError::Malformed {
+                text: text.to_string(),
+                why,
+            })
+        };
         if let Some(path) = text.strip_prefix("serial://") {
             if path.is_empty() {
                 return Err(bad("no device path"));
@@ -117,6 +131,86 @@ pub struct ServeReport {
     pub missed: usize,
     /// Connections made (1 without reconnects).
     pub connections: usize,
+    /// What the last connection says about the receiver taking the data.
+    pub delivery: Delivery,
+}
+
+/// What a sender can know about its receiver taking the data (see the module docs).
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Delivery {
+    /// The receiver read the stream to its end and closed the connection (over TCP).
+    ReadToEnd,
+    /// The receiver did not take the data: it refused or reset the connection, closed
+    /// it before the end, or never came back after a disconnect. The text says which.
+    NotTaken(String),
+    /// The link cannot tell (a serial line), or the receiver neither closed nor reset
+    /// the connection within [`ACK_WAIT`].
+    #[default]
+    Unknown,
+}
+
+impl Delivery {
+    /// Whether the data is known not to have been taken.
+    pub fn failed(&self) -> bool {
+        matches!(self, Delivery::NotTaken(_))
+    }
+}
+
+impl std::fmt::Display for Delivery {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Delivery::ReadToEnd => f.write_str(
+                "the receiver read the stream to its end (DTrack2 has no acknowledgement, \
+                 so whether it applied the frames is not known here)",
+            ),
+            Delivery::NotTaken(why) => write!(f, "the receiver did not take the data: {why}"),
+            Delivery::Unknown => f.write_str(
+                "receiver acknowledgement not available (DTrack2 has none, and the link \
+                 did not say)",
+            ),
+        }
+    }
+}
+
+/// How long the sender waits, after its last record, for the receiver to close.
+pub const ACK_WAIT: Duration = Duration::from_secs(10);
+
+/// Ends a TCP stream after the last record: half-closes it, then waits up to `wait`
+/// for the receiver to close in turn (see [`Delivery`]).
+fn finish_tcp(stream: &mut TcpStream, wait: Duration) -> Delivery {
+    use std::io::{ErrorKind, Read};
+    let not_taken = |why: String| Delivery::NotTaken(why);
+    // A receiver that closed while we were still sending did not read to the end: the
+    // display server never closes a healthy stream on its own.
+    if stream.set_nonblocking(true).is_ok() {
+        let mut probe = [0u8; 1];
+        let early = stream.peek(&mut probe);
+        let _ = stream.set_nonblocking(false);
+        match early {
+            Ok(0) => return not_taken("it closed the connection before the end".into()),
+            Err(e) if e.kind() != ErrorKind::WouldBlock => {
+                return not_taken(format!("the connection failed: {e}"));
+            }
+            _ => {}
+        }
+    }
+    if let Err(e) = stream.shutdown(std::net::Shutdown::Write) {
+        return not_taken(format!("the connection failed: {e}"));
+    }
+    let _ = stream.set_read_timeout(Some(wait));
+    let mut buf = [0u8; 4096];
+    loop {
+        match stream.read(&mut buf) {
+            Ok(0) => return Delivery::ReadToEnd,
+            Ok(_) => {} // the receiver has nothing to say; ignore it
+            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {
+                return Delivery::Unknown;
+            }
+            Err(e) if e.kind() == ErrorKind::Interrupted => {}
+            Err(e) => return not_taken(format!("it reset the connection ({e})")),
+        }
+    }
 }
 
 /// The open sink: a client socket or a device.
@@ -144,13 +238,18 @@ impl Opener {
     fn new(endpoint: &Endpoint, on_listening: Option<&mut dyn FnMut(SocketAddr)>) -> Result<Self> {
         let listener = match endpoint {
             Endpoint::Listen(addr) => {
-                let l = TcpListener::bind(addr)
-                    .map_err(|e| Error::Endpoint(format!("cannot listen on {addr}: {e}")))?;
-                l.set_nonblocking(true)
-                    .map_err(|e| Error::Endpoint(format!("{addr}: {e}")))?;
-                let bound = l
-                    .local_addr()
-                    .map_err(|e| Error::Endpoint(format!("{addr}: {e}")))?;
+                let l = TcpListener::bind(addr).map_err(|source| Error::Socket {
+                    what: "cannot listen on",
+                    addr: *addr,
+                    source,
+                })?;
+                let setting_up = |source| Error::Socket {
+                    what: "setting up",
+                    addr: *addr,
+                    source,
+                };
+                l.set_nonblocking(true).map_err(setting_up)?;
+                let bound = l.local_addr().map_err(setting_up)?;
                 if let Some(cb) = on_listening {
                     cb(bound);
                 }
@@ -212,19 +311,18 @@ pub fn serve(
     mut options: ServeOptions<'_>,
 ) -> Result<ServeReport> {
     if !(options.speed.is_finite() && options.speed >= 0.0) {
-        return Err(Error::Endpoint(format!(
-            "speed must be finite and >= 0, got {}",
-            options.speed
-        )));
+        return Err(Error::Endpoint(EndpointError::Speed {
+            speed: options.speed,
+        }));
     }
     let opener = Opener::new(endpoint, options.on_listening.take())?;
     let mut report = ServeReport::default();
     let mut sink = opener.open(Instant::now() + options.connect_timeout);
     if sink.is_none() {
-        return Err(Error::Endpoint(format!(
-            "no connection with {endpoint:?} within {:?}",
-            options.connect_timeout
-        )));
+        return Err(Error::Endpoint(EndpointError::NoConnection {
+            endpoint: format!("{endpoint:?}"),
+            timeout: options.connect_timeout,
+        }));
     }
     report.connections = 1;
     let start = Instant::now();
@@ -273,6 +371,25 @@ pub fn serve(
             cb(i, records.len());
         }
     }
+    report.delivery = match sink.as_mut() {
+        // Connecting to a display server: records that fell due while it was away never
+        // reached it, however the last connection ended (a server whose slots are full
+        // closes every connection at once, and may close the last one cleanly). When
+        // listening, clients come and go as they choose (a display server restarted
+        // after a crash), as with a real tracker; the summary counts what they missed.
+        Some(Sink::Tcp(_)) if report.missed > 0 && matches!(endpoint, Endpoint::Connect(_)) => {
+            Delivery::NotTaken(format!(
+                "{} records fell due while it was disconnected",
+                report.missed
+            ))
+        }
+        Some(Sink::Tcp(stream)) => finish_tcp(stream, ACK_WAIT),
+        Some(Sink::File(_)) => Delivery::Unknown,
+        None => Delivery::NotTaken(format!(
+            "it went away and did not come back within {:?}",
+            options.reconnect_timeout
+        )),
+    };
     Ok(report)
 }
 
@@ -349,6 +466,10 @@ mod tests {
             },
         )
         .unwrap_err();
+        assert!(
+            matches!(e, Error::Endpoint(EndpointError::NoConnection { .. })),
+            "{e:?}"
+        );
         assert!(e.to_string().contains("no connection"), "{e}");
     }
 

@@ -42,6 +42,9 @@ pub enum Trouble {
     TcpReconnect,
     /// The log ends in the middle of a line, as after a crash.
     TruncatedLastLine,
+    /// Frames 151 to 250 renumbered 9850 down to 9751: the counter jumps far ahead,
+    /// then runs backwards, then returns to 251 (more than the reorder window behind).
+    CounterJumpsBack,
 }
 
 /// One shipped session.
@@ -329,6 +332,14 @@ pub fn catalogue() -> Vec<SessionSpec> {
             3,
         ),
         spec(
+            "patch-carve-backwards",
+            "scene 1 with frames 151 to 250 renumbered 9850 down to 9751 (counter runs backwards)",
+            three_parallel(Sculptor::new()).finish(),
+            &clean,
+            Trouble::CounterJumpsBack,
+            3,
+        ),
+        spec(
             "patch-carve-truncated",
             "scene 1 whose last line is cut off mid-record, as after a crash",
             three_parallel(Sculptor::new()).finish(),
@@ -382,7 +393,7 @@ fn sketch_then_carve() -> Script {
 
 /// Renders a session: the simulator's pose log, then its trouble.
 pub fn render(spec: &SessionSpec) -> Result<Vec<u8>> {
-    let track = |e: tracking::TrackingError| Error::Tracking(e.to_string());
+    let track = Error::Tracking;
     let header = PoseLogHeader {
         source: format!("sim session={} seed={}", spec.name, spec.sim.seed),
         ..PoseLogHeader::default()
@@ -440,7 +451,7 @@ pub fn apply_trouble(clean: &[u8], trouble: Trouble, seed: u64) -> Result<Vec<u8
     if trouble == Trouble::None {
         return Ok(clean.to_vec());
     }
-    let track = |e: tracking::TrackingError| Error::Tracking(e.to_string());
+    let track = Error::Tracking;
     let log = PoseLog::from_bytes(clean).map_err(track)?;
     let mut records: Vec<(RecordKind, Duration, Vec<u8>)> = log
         .records
@@ -467,6 +478,22 @@ pub fn apply_trouble(clean: &[u8], trouble: Trouble, seed: u64) -> Result<Vec<u8
                 let (a, b) = records.split_at_mut(i + 1);
                 std::mem::swap(&mut a[i].2, &mut b[0].2);
                 i += 25;
+            }
+        }
+        Trouble::CounterJumpsBack => {
+            for r in &mut records {
+                let Some(rest) = r.2.strip_prefix(b"fr ") else {
+                    continue;
+                };
+                let end = rest.iter().position(|&b| b == b'\r').unwrap_or(rest.len());
+                let n: Option<u64> = std::str::from_utf8(&rest[..end])
+                    .ok()
+                    .and_then(|t| t.parse().ok());
+                if let Some(n @ 151..=250) = n {
+                    let mut bytes = format!("fr {}", 10_001 - n).into_bytes();
+                    bytes.extend_from_slice(&rest[end..]);
+                    r.2 = bytes;
+                }
             }
         }
         Trouble::TcpReconnect => {
@@ -549,5 +576,14 @@ mod tests {
             .filter(|w| w[1].number < w[0].number)
             .count();
         assert!(backwards >= 3, "{backwards}");
+        let jumped = apply_trouble(&clean, Trouble::CounterJumpsBack, 1).unwrap();
+        let (frames, _) = PoseLog::from_bytes(&jumped).unwrap().frames();
+        let numbers: Vec<u64> = frames.iter().map(|f| f.number).collect();
+        assert_eq!(numbers[149..252], {
+            let mut want = vec![150];
+            want.extend((9751..=9850).rev());
+            want.extend([251, 252]);
+            want
+        });
     }
 }

@@ -287,3 +287,110 @@ fn render_writes_decodable_stereo_pairs_at_the_chosen_times() {
     assert_eq!(bad.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&bad.stderr).contains("soon"));
 }
+
+/// `replay SESSION --connect tcp://ADDR --speed 0 --wait 2 -q`: exit status and stdout.
+fn connect_to(addr: std::net::SocketAddr) -> (bool, String) {
+    let out = replay()
+        .arg(session("patch-overlaps"))
+        .args(["--connect", &format!("tcp://{addr}"), "--speed", "0"])
+        .args(["--wait", "2", "-q"])
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+    )
+}
+
+/// Regression (issue 15, item 5): a receiver whose slots were full accepted and closed
+/// every connection, and `replay --connect` still said `sent 451 records` and exited 0.
+/// It now says the receiver did not take the data, and fails.
+#[test]
+fn connect_to_a_receiver_that_refuses_every_connection_fails() {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap();
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let stop_flag = stop.clone();
+    // Like a display server with no free slot: accept, then close at once.
+    let refuser = std::thread::spawn(move || {
+        let mut refused = 0;
+        for s in listener.incoming() {
+            if stop_flag.load(std::sync::atomic::Ordering::Relaxed) {
+                break;
+            }
+            drop(s);
+            refused += 1;
+        }
+        refused
+    });
+    let (ok, stdout) = connect_to(addr);
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    drop(TcpStream::connect(addr)); // wakes the refuser to see the stop
+    assert!(refuser.join().unwrap() >= 1);
+    assert!(!ok, "exit status 0 although nothing was taken: {stdout}");
+    assert!(
+        stdout.contains("the receiver did not take the data"),
+        "{stdout}"
+    );
+}
+
+/// Regression (issue 15, item 5): a receiver that exits (a full disk) with the stream
+/// half read was reported as a success. Its reset is now a failure.
+#[test]
+fn connect_to_a_receiver_that_exits_mid_stream_fails() {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap();
+    let receiver = std::thread::spawn(move || {
+        let (mut s, _) = listener.accept().unwrap();
+        let mut first = [0u8; 100];
+        s.read_exact(&mut first).unwrap();
+        // Wait until more is queued, then go away with it unread.
+        std::thread::sleep(std::time::Duration::from_millis(300));
+        drop(s);
+        drop(listener);
+    });
+    let (ok, stdout) = connect_to(addr);
+    receiver.join().unwrap();
+    assert!(!ok, "exit status 0 although the receiver left: {stdout}");
+    assert!(stdout.contains("did not take"), "{stdout}");
+}
+
+/// The positive case: a receiver that reads the stream to its end and closes is
+/// reported as such (and the report says DTrack2 cannot confirm more).
+#[test]
+fn connect_to_a_receiver_that_reads_everything_reports_it() {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap();
+    let receiver = std::thread::spawn(move || {
+        let (mut s, _) = listener.accept().unwrap();
+        let mut got = Vec::new();
+        s.read_to_end(&mut got).unwrap();
+        got
+    });
+    let (ok, stdout) = connect_to(addr);
+    assert_eq!(receiver.join().unwrap(), dtrack_stream("patch-overlaps"));
+    assert!(ok, "{stdout}");
+    assert!(
+        stdout.contains("the receiver read the stream to its end"),
+        "{stdout}"
+    );
+}
+
+/// Regression (issue 15, item 7): `--out /etc/hostname` said only "File exists".
+#[test]
+fn an_out_path_that_is_a_file_says_it_is_not_a_directory() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("hostname");
+    std::fs::write(&file, b"x").unwrap();
+    let out = replay()
+        .arg(session("patch-overlaps"))
+        .arg("--out")
+        .arg(&file)
+        .arg("-q")
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("exists and is not a directory"), "{err}");
+    assert_eq!(std::fs::read(&file).unwrap(), b"x");
+}

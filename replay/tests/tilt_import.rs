@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use replay::import::{DefaultSurface, ImportOptions, wand_track};
 use sculpt_core::assert_near;
+use sculpt_core::tolerance::POINT_EPS;
 use tracking::poselog::PoseLog;
 
 fn tilt(name: &str) -> replay::tilt::Tilt {
@@ -47,9 +48,9 @@ fn real_recordings_become_pose_logs_with_one_press_per_stroke() {
         for s in &track.strokes {
             for p in &s.points_m {
                 let on = replay::import::default_surface_point(p.x, p.y);
-                assert_near!(p.z, on.z, 1e-9);
+                assert_near!(p.z, on.z, POINT_EPS);
                 assert!(
-                    p.x.abs() <= 0.4 + 1e-9 && (p.y - 1.17).abs() <= 0.225 + 1e-9,
+                    p.x.abs() <= 0.4 + POINT_EPS && (p.y - 1.17).abs() <= 0.225 + POINT_EPS,
                     "{p}"
                 );
             }

@@ -84,7 +84,7 @@ fn report(name: &str, ours: &[Projection], theirs: &[Option<(DVec2, f64)>]) {
     for (o, t) in ours.iter().zip(theirs) {
         let k = usize::from(o.on_boundary);
         total[k] += 1;
-        if t.is_none_or(|(_, d)| d > o.distance + 1e-9) {
+        if t.is_none_or(|(_, d)| d > o.distance + sculpt_core::tolerance::POINT_EPS) {
             wrong[k] += 1;
         }
     }

@@ -9,7 +9,7 @@
 //! ```
 //! use glam::DVec3;
 //! use sculpt_core::editor::{self, Applied};
-//! use sculpt_core::interaction::{Edit, StrokeEdit, StrokeMode, StrokeSample, Tool};
+//! use sculpt_core::interaction::{Edit, StrokeEdit, StrokeSample, TargetIndex, Tool};
 //!
 //! let mut doc = editor::default_document();
 //! let samples = (0..=20)
@@ -18,12 +18,7 @@
 //!         StrokeSample { t: 0.01 * i as f64, position: editor::default_surface_point(x, 1.17) }
 //!     })
 //!     .collect();
-//! let edit = Edit::Stroke(StrokeEdit {
-//!     target: 0,
-//!     mode: StrokeMode::Carve,
-//!     tool: Tool::default(),
-//!     samples,
-//! });
+//! let edit = Edit::Stroke(StrokeEdit::new(TargetIndex(0), Tool::default(), samples));
 //! assert!(matches!(editor::apply(&mut doc, &edit), Applied::Stroke { .. }));
 //! assert_eq!(doc.strokes().len(), 1);
 //! assert_eq!(editor::apply(&mut doc, &Edit::Undo), Applied::Undone);
@@ -32,11 +27,12 @@
 
 use glam::DVec3;
 
-use crate::interaction::{self, Edit, Mode, OperatorEvent, StrokeEdit, StrokeMode};
+use crate::error::FitError;
+use crate::interaction::{Edit, InteractionMode, OperatorEvent, StrokeEdit};
 use crate::nurbs::NurbsSurface;
 use crate::oplog::{EventKind, TrackingState};
 use crate::sculpt::document::{Document, StrokeId, TargetId};
-use crate::sculpt::stroke::{self, StrokeInput};
+use crate::sculpt::stroke::{Profile, StrokeInput, Tool};
 use crate::{Error, Result};
 
 /// Centre of the default surface (display frame metres): 1.17 m up, 0.1 m behind the
@@ -90,10 +86,12 @@ pub fn default_surface() -> NurbsSurface {
         .unwrap_or_else(|e| unreachable!("the default surface is valid: {e}"))
 }
 
-/// A new document holding the default surface, named `default`.
+/// A new document holding the default surface, named `default`, as its base (undo
+/// never removes it).
 pub fn default_document() -> Document {
     let mut doc = Document::new();
     doc.add_target("default", default_surface());
+    doc.seal_history();
     doc
 }
 
@@ -105,12 +103,12 @@ pub fn default_document() -> Document {
 pub fn fit_sketch(rows: &[Vec<DVec3>]) -> Result<NurbsSurface> {
     let cols = rows.first().map_or(0, Vec::len);
     if cols < 2 || rows.iter().any(|r| r.len() != cols) {
-        return Err(Error::FitFailed(
-            "a sketch needs rows of at least 2 points, all the same length".into(),
-        ));
+        return Err(Error::FitFailed(FitError::SketchRows));
     }
     if rows.iter().flatten().any(|p| !p.is_finite()) {
-        return Err(Error::FitFailed("a sketch point is not finite".into()));
+        return Err(Error::FitFailed(FitError::NotFinite {
+            what: "a sketch point",
+        }));
     }
     let mut kept: Vec<Vec<DVec3>> = Vec::with_capacity(rows.len());
     for row in rows {
@@ -119,16 +117,14 @@ pub fn fit_sketch(rows: &[Vec<DVec3>]) -> Result<NurbsSurface> {
                 .zip(row)
                 .map(|(a, b)| a.distance(*b))
                 .fold(0.0, f64::max)
-                > 1e-4
+                > crate::tolerance::ROW_MOVED_EPS
         });
         if moved {
             kept.push(row.clone());
         }
     }
     if kept.len() < 2 {
-        return Err(Error::FitFailed(
-            "the sketch sweep did not move (at least 2 distinct rows are needed)".into(),
-        ));
+        return Err(Error::FitFailed(FitError::SketchDidNotMove));
     }
     let count_u = kept.len().min(SKETCH_MAX_CONTROL);
     let count_v = cols.min(SKETCH_MAX_CONTROL);
@@ -141,29 +137,20 @@ pub fn fit_sketch(rows: &[Vec<DVec3>]) -> Result<NurbsSurface> {
     )
 }
 
-/// The sculpting layer's input for an interaction stroke: its samples, and its tool
-/// with the mode folded in.
+/// The sculpting layer's input for an interaction stroke: its samples and its tool,
+/// carving or embossing as the edit's mode says.
 pub fn stroke_input(edit: &StrokeEdit) -> StrokeInput {
-    let tool = &edit.tool;
     StrokeInput {
         samples: edit.samples.iter().map(|s| (s.t, s.position)).collect(),
-        tool: stroke::Tool {
-            profile: match tool.profile {
-                interaction::Profile::V => stroke::Profile::V,
-                interaction::Profile::U => stroke::Profile::U,
-            },
-            width: tool.width,
-            depth: tool.depth,
-            mode: match edit.mode {
-                StrokeMode::Carve => stroke::Mode::Carve,
-                StrokeMode::Emboss => stroke::Mode::Emboss,
-            },
-            taper: tool.taper,
+        tool: Tool {
+            mode: edit.mode,
+            ..edit.tool.clone()
         },
     }
 }
 
-/// What [`apply`] did to the document.
+/// What [`apply`] did to the document: the outcome of an [`Edit`], naming targets and
+/// strokes by their document ids.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Applied {
     /// A stroke was added.
@@ -201,17 +188,17 @@ impl Applied {
 
 /// Applies one interaction edit to `doc`.
 ///
-/// Strokes go to the target at the edit's index (in [`Document::targets`] order)
-/// through [`Document::apply_stroke`]; sketches are fitted ([`fit_sketch`]) and added
+/// Strokes go to the target at the edit's position ([`Document::target_at`]) through
+/// [`Document::apply_stroke`]; sketches are fitted ([`fit_sketch`]) and added
 /// as targets named `sketch N`; undo and redo step the document's history. A refused
 /// stroke or sketch leaves the document unchanged and says why.
 pub fn apply(doc: &mut Document, edit: &Edit) -> Applied {
     match edit {
         Edit::Stroke(s) => {
-            let Some(target) = doc.targets().get(s.target as usize).map(|t| t.id) else {
+            let Some(target) = doc.target_at(s.target).map(|t| t.id) else {
                 return Applied::Rejected(Error::NotFound {
                     kind: "target",
-                    id: u64::from(s.target),
+                    id: u64::from(s.target.0),
                 });
             };
             match doc.apply_stroke(target, stroke_input(s)) {
@@ -235,19 +222,16 @@ pub fn apply(doc: &mut Document, edit: &Edit) -> Applied {
 }
 
 /// The operator-log name of a mode (`sketch`, `carve`, `emboss`).
-pub fn mode_name(mode: Mode) -> &'static str {
-    match mode {
-        Mode::Sketch => "sketch",
-        Mode::Carve => "carve",
-        Mode::Emboss => "emboss",
-    }
+pub fn mode_name(mode: InteractionMode) -> &'static str {
+    mode.name()
 }
 
-/// The operator-log name of a tool (`v-chisel`, `u-chisel`).
-pub fn tool_name(tool: &interaction::Tool) -> &'static str {
+/// The operator-log name of a tool (`v-chisel`, `u-chisel`, `custom-chisel`).
+pub fn tool_name(tool: &Tool) -> &'static str {
     match tool.profile {
-        interaction::Profile::V => "v-chisel",
-        interaction::Profile::U => "u-chisel",
+        Profile::V => "v-chisel",
+        Profile::U => "u-chisel",
+        Profile::Custom(_) => "custom-chisel",
     }
 }
 
@@ -302,21 +286,20 @@ pub fn oplog_event(event: &OperatorEvent) -> EventKind {
 mod tests {
     use super::*;
     use crate::assert_near;
-    use crate::interaction::{StrokeSample, Tool};
+    use crate::interaction::{StrokeSample, TargetIndex};
     use crate::tolerance::{EXACT_EPS, POINT_EPS};
 
     fn carve(target: u32, y: f64) -> Edit {
-        Edit::Stroke(StrokeEdit {
-            target,
-            mode: StrokeMode::Carve,
-            tool: Tool::default(),
-            samples: (0..=30)
+        Edit::Stroke(StrokeEdit::new(
+            TargetIndex(target),
+            Tool::default(),
+            (0..=30)
                 .map(|i| StrokeSample {
                     t: i as f64 * 0.01,
                     position: default_surface_point(-0.3 + 0.02 * i as f64, y),
                 })
                 .collect(),
-        })
+        ))
     }
 
     #[test]
@@ -409,15 +392,44 @@ mod tests {
             Applied::Rejected(_)
         ));
         assert!(doc.strokes().is_empty());
-        assert_eq!(
-            apply(&mut doc, &Edit::Undo),
-            Applied::Undone,
-            "undoes the base target"
-        );
+        // Nothing to undo: the base surface stays (see the regression test below).
+        assert_eq!(apply(&mut doc, &Edit::Undo), Applied::Unchanged);
+        assert_eq!(doc.targets().len(), 1);
+    }
+
+    /// Regression: the default surface was added as an ordinary undoable step, so one
+    /// undo more than there were edits removed it (HUD "target 1/0", a dark screen).
+    #[test]
+    fn undo_past_the_first_edit_no_longer_removes_the_default_surface() {
+        let mut doc = default_document();
+        assert!(!doc.can_undo());
         assert!(matches!(
             apply(&mut doc, &carve(0, 1.1)),
-            Applied::Rejected(_)
+            Applied::Stroke { .. }
         ));
+        assert!(doc.can_undo());
+        assert_eq!(apply(&mut doc, &Edit::Undo), Applied::Undone);
+        for _ in 0..3 {
+            assert_eq!(apply(&mut doc, &Edit::Undo), Applied::Unchanged);
+        }
+        assert_eq!(doc.targets().len(), 1);
+        assert!(doc.strokes().is_empty());
+        // Redo still brings the stroke back.
+        assert_eq!(apply(&mut doc, &Edit::Redo), Applied::Redone);
+        assert_eq!(doc.strokes().len(), 1);
+        // A loaded document is all base: its strokes and targets stay too.
+        let mut loaded = Document::from_json(&doc.to_json()).unwrap();
+        assert_eq!(apply(&mut loaded, &Edit::Undo), Applied::Unchanged);
+        assert_eq!(loaded.strokes().len(), 1);
+        assert_eq!(loaded.targets().len(), 1);
+        // Edits after loading undo as usual, down to the loaded base.
+        assert!(matches!(
+            apply(&mut loaded, &carve(0, 1.2)),
+            Applied::Stroke { .. }
+        ));
+        assert_eq!(apply(&mut loaded, &Edit::Undo), Applied::Undone);
+        assert_eq!(apply(&mut loaded, &Edit::Undo), Applied::Unchanged);
+        assert_eq!(loaded.strokes().len(), 1);
     }
 
     #[test]
@@ -425,14 +437,16 @@ mod tests {
         use crate::oplog::{OpLogHeader, OpLogWriter, decode_bytes};
         let events = [
             OperatorEvent::ButtonDown { button: 0 },
-            OperatorEvent::GestureStart { mode: Mode::Carve },
+            OperatorEvent::GestureStart {
+                mode: InteractionMode::CARVE,
+            },
             OperatorEvent::ModeChange {
-                from: Mode::Carve,
-                to: Mode::Emboss,
+                from: InteractionMode::CARVE,
+                to: InteractionMode::EMBOSS,
             },
             OperatorEvent::ToolChange {
                 tool: Tool {
-                    profile: interaction::Profile::U,
+                    profile: Profile::U,
                     ..Tool::default()
                 },
             },

@@ -269,22 +269,23 @@ fn ray_triangle(o: [f64; 3], d: [f64; 3], p: [[f64; 3]; 3]) -> Option<f64> {
     let (e1, e2) = (sub(p[1], p[0]), sub(p[2], p[0]));
     let h = cross(d, e2);
     let a = dot(e1, h);
-    if a.abs() < 1e-18 {
+    if a.abs() < crate::tolerance::RAY_PARALLEL_EPS {
         return None;
     }
     let f = 1.0 / a;
     let s = sub(o, p[0]);
     let u = f * dot(s, h);
-    if !(-1e-9..=1.0 + 1e-9).contains(&u) {
+    if !(-crate::tolerance::BARYCENTRIC_EPS..=1.0 + crate::tolerance::BARYCENTRIC_EPS).contains(&u)
+    {
         return None;
     }
     let q = cross(s, e1);
     let v = f * dot(d, q);
-    if v < -1e-9 || u + v > 1.0 + 1e-9 {
+    if v < -crate::tolerance::BARYCENTRIC_EPS || u + v > 1.0 + crate::tolerance::BARYCENTRIC_EPS {
         return None;
     }
     let t = f * dot(e2, q);
-    (t > 1e-12).then_some(t)
+    (t > crate::tolerance::RAY_T_MIN).then_some(t)
 }
 
 #[cfg(test)]

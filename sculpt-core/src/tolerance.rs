@@ -4,20 +4,341 @@
 //! names one of these constants and, in tests, goes through [`assert_near!`](crate::assert_near).
 //! Lengths are metres in the display frame unless a name says otherwise.
 
+// ---------------------------------------------------------------------------------
+// Geometry: distances in metres.
+// ---------------------------------------------------------------------------------
+
 /// Two points closer than this (metres) are the same point (P&T's epsilon 1).
 pub const POINT_EPS: f64 = 1e-9;
-/// A cosine smaller than this counts as zero (P&T's epsilon 2, for point inversion).
-pub const COSINE_EPS: f64 = 1e-9;
+/// Point inversion stops once the residual's component along the tangents is below
+/// this (metres): a thousandth of [`POINT_EPS`], so a converged foot is exact to it.
+pub const RESIDUAL_EPS: f64 = 1e-3 * POINT_EPS;
+/// Distance (metres) by which a point must beat an answer for the certificate of a
+/// point inversion to look for it: closer points within this are not worth the search.
+pub const CERTIFY_TOL: f64 = 1e-10;
+/// A ray hit nearer than this (metres along a unit ray) is the ray's own start.
+pub const RAY_T_MIN: f64 = 1e-12;
+/// A ray whose direction's dot product with a triangle's edge normal is below this is
+/// parallel to the triangle (units of `|e|^2`; far below any real mesh's edges).
+pub const RAY_PARALLEL_EPS: f64 = 1e-18;
+/// A cosine between a ray's unit direction and a plane's unit normal below this is a
+/// ray parallel to the plane (no hit).
+pub const PARALLEL_COS_EPS: f64 = 1e-12;
+/// A direction's squared length (`|a x b|^2` of unit vectors, a squared sine) below
+/// this means the two are parallel and their cross product is no direction.
+pub const PARALLEL_SIN2_EPS: f64 = 1e-12;
+/// A squared length (metres^2) below this is a zero vector: the cross product of a
+/// polyline tangent with the view direction that has no direction.
+pub const ZERO_LEN2_EPS: f64 = 1e-18;
+/// Vertices closer than this (metres) are welded in exported meshes.
+pub const EXPORT_WELD_EPS: f32 = 1e-6;
+/// Vertices closer than this (metres) are welded where a test checks watertightness:
+/// far below any mesh spacing, above rounding of f32 coordinates near a metre.
+pub const TEST_WELD_EPS: f32 = 1e-7;
+/// Vertices closer than this (metres, f32 coordinates) are welded where a test wants
+/// only coincident points merged.
+pub const POINT_WELD_EPS: f32 = 1e-9;
+/// Command-line mesh export welds vertices closer than this fraction of the scene's
+/// size (metres per metre).
+pub const MESH_WELD_REL: f64 = 1e-7;
+/// The smallest weld distance of a command-line mesh export (metres).
+pub const MESH_WELD_MIN: f64 = 1e-9;
+/// A surface grid whose opposite edges agree to this fraction of its diagonal is
+/// closed in that direction (a seam).
+pub const SEAM_REL: f64 = 1e-7;
+/// Default chord tolerance (metres) when none (or a non-positive one) is given: a
+/// millimetre, the display's resolution at arm's length.
+pub const DEFAULT_CHORD_TOL: f64 = 1e-3;
+/// A sketch row counts as moved from the previous kept one when some point moved
+/// more than this (metres): a tenth of a millimetre, below the tracker's jitter.
+pub const ROW_MOVED_EPS: f64 = 1e-4;
+/// A stroke shorter than this fraction of its tool's width has zero length.
+pub const MIN_STROKE_LEN_REL: f64 = 1e-3;
+/// The smallest resampling spacing of a stroke (metres; zero would never advance).
+pub const MIN_SPACING: f64 = 1e-12;
+/// A stroke surface's fitting tolerance: this fraction of the tool's depth ...
+pub const FIT_TOL_DEPTH_REL: f64 = 0.075;
+/// ... plus this fraction of its width.
+pub const FIT_TOL_WIDTH_REL: f64 = 1e-3;
+
+// ---------------------------------------------------------------------------------
+// Parameter space.
+// ---------------------------------------------------------------------------------
+
 /// Parameter values closer than this are the same parameter.
 pub const PARAM_EPS: f64 = 1e-12;
+/// Distance (in normalised parameter units) within which a point counts as on an edge.
+pub const ON_EDGE_EPS: f64 = 1e-12;
+/// A parameter within this fraction of the domain's size of an open edge of the domain
+/// is on the boundary.
+pub const DOMAIN_EDGE_REL: f64 = 1e-12;
+/// Barycentric coordinates may stray this far outside `[0, 1]` for a ray to still hit
+/// a triangle: rays through a shared edge hit one of its two triangles.
+pub const BARYCENTRIC_EPS: f64 = 1e-9;
+/// Bounding rectangles in parameter space are padded by this, so points on their
+/// edges are inside.
+pub const UV_PAD: f64 = 1e-9;
+/// The smallest parameter extent of a grid's cells (a zero extent would divide by 0).
+pub const UV_EXTENT_MIN: f64 = 1e-12;
+/// A polygon in parameter space with a smaller signed area than this is degenerate.
+pub const UV_AREA_EPS: f64 = 1e-18;
+/// Two-sided margin (parameter units) of properties that classify points as inside or
+/// outside a loop: points nearer the loop than this are not classified.
+pub const CLASSIFY_MARGIN: f64 = 1e-9;
+/// Fixed-point iterations on a parameter stop when a step is below this.
+pub const FIXED_POINT_EPS: f64 = 1e-13;
+
+// ---------------------------------------------------------------------------------
+// Angles, cosines and unit quantities.
+// ---------------------------------------------------------------------------------
+
+/// A cosine smaller than this counts as zero (P&T's epsilon 2, for point inversion).
+pub const COSINE_EPS: f64 = 1e-9;
+/// The looser cosine test accepting a point inversion that found no descent left.
+pub const LOOSE_COSINE_EPS: f64 = 1e-6;
+/// Angles (radians) within this of a quarter-turn multiple take the smaller arc count.
+pub const ANGLE_EPS: f64 = 1e-12;
+/// The pitch of a camera stays this far (radians) from a quarter turn, where the
+/// projection degenerates.
+pub const POLE_ANGLE_MARGIN: f64 = 1e-6;
+/// A quaternion (or direction) shorter than this is zero: input, not a rotation.
+pub const ZERO_QUAT_LEN: f64 = 1e-6;
+/// A quaternion whose squared length is below this is zero (an untracked pose).
+pub const ZERO_QUAT_LEN2: f64 = 1e-6;
+/// A quaternion shorter than this cannot be normalised.
+pub const NORMALISABLE_LEN: f64 = 1e-12;
+/// A rotation matrix's determinant must be within this of one.
+pub const ROTATION_DET_EPS: f64 = 1e-9;
+/// Largest |cos| between a screen's right and up edges that still counts as a
+/// rectangle (about 0.6 degrees off square).
+pub const SQUARE_COS_TOL: f64 = 1e-2;
+/// Smallest screen edge (metres).
+pub const MIN_SCREEN_EDGE: f64 = 1e-4;
+/// Smallest distance (metres) from an eye to the screen plane.
+pub const MIN_EYE_DISTANCE: f64 = 1e-3;
+
+// ---------------------------------------------------------------------------------
+// Relative bounds and solvers.
+// ---------------------------------------------------------------------------------
+
 /// Exact constructions (rational conics, knot insertion) reproduce shapes to this.
 pub const EXACT_EPS: f64 = 1e-12;
+/// Two quantities differing by less than this fraction of their size are equal (a few
+/// thousand ulps: above the rounding of any evaluation here).
+pub const REL_EPS: f64 = 1e-12;
+/// A matrix whose smallest singular value, eigenvalue or curvature is below this
+/// fraction of its largest is singular (solves drop or shift that direction).
+pub const SINGULAR_REL: f64 = 1e-12;
+/// Points spanning an area below this fraction of their extent squared are collinear.
+pub const COLLINEAR_AREA_REL: f64 = 1e-12;
+/// A 2x2 Hessian with `det > POS_DEF_REL tr^2` is clearly positive definite
+/// (`lmin / lmax > 1e-11`, as `det = lmin lmax` and `tr = lmin + lmax`).
+pub const POS_DEF_REL: f64 = 1e-11;
+/// A Hessian that is not positive definite is shifted to have this fraction of its
+/// largest eigenvalue as its smallest.
+pub const HESSIAN_SHIFT_REL: f64 = 1e-6;
+/// A bilinear patch's Jacobian determinant below this fraction of `|a| |c|` is
+/// singular: its inversion stops.
+pub const BILINEAR_SINGULAR_REL: f64 = 1e-14;
+/// A net is certified convex when `a c` beats `twist^2` by this fraction.
+pub const CONVEX_MARGIN_REL: f64 = 1e-9;
+/// A squared normal below this fraction of `(|S_u|^2 max |S_v|^2)^2` is undefined.
+pub const NORMAL_DEGENERATE_REL2: f64 = 1e-24;
+/// A normal shorter than this fraction of `|S_u| |S_v|` is undefined.
+pub const NORMAL_DEGENERATE_REL: f64 = 1e-9;
+/// Guard against division by zero or the logarithm of zero: a divisor (or argument)
+/// is clamped to at least this.
+pub const DIVISOR_MIN: f64 = 1e-300;
+/// The smallest aspect ratio a stroke surface's parameter scaling takes.
+pub const ASPECT_MIN: f64 = 1e-3;
+/// The smallest singular value ratio of a calibration's system that is still a
+/// solvable (non-degenerate) set of poses.
+pub const CALIBRATION_COND_MIN: f64 = 1e-6;
+/// Uniform samples are clamped to at least this before a logarithm (Box-Muller).
+pub const LOG_ARG_MIN: f64 = 1e-12;
+
+// ---------------------------------------------------------------------------------
+// Finite steps and differences.
+// ---------------------------------------------------------------------------------
+
+/// Finite-difference derivative checks agree to this (relative to the derivative's size).
+pub const FD_EPS: f64 = 1e-5;
+/// The step of central finite differences in tests.
+pub const FD_STEP: f64 = 1e-6;
+/// First derivatives by central differences with [`FD_STEP`] agree to this.
+pub const FD_D1_EPS: f64 = 1e-6;
+/// Fractions of the way to the domain's centre at which a NURBS normal at a pole is
+/// taken instead, nearest first.
+pub const POLE_NORMAL_STEPS: [f64; 3] = [1e-7, 1e-5, 1e-3];
+/// Fractions of the way to the domain's centre at which a surface's normal at a
+/// degenerate point is taken instead, nearest first.
+pub const DEGENERATE_NORMAL_STEPS: [f64; 3] = [1e-6, 1e-4, 1e-2];
+/// Fraction of the way to the centre at which a stroke surface's normal at a
+/// degenerate (tapered) point is taken instead.
+pub const DEGENERATE_NORMAL_INSET: f64 = 1e-3;
+
+// ---------------------------------------------------------------------------------
+// Time (seconds).
+// ---------------------------------------------------------------------------------
+
+/// Times closer than this (seconds) are the same time; also the margin by which an
+/// end time passes a timeout so the timeout has fired.
+pub const TIME_EPS: f64 = 1e-9;
+/// Speeds are estimated over at least this interval (seconds).
+pub const MIN_SPEED_DT: f64 = 1e-3;
+/// A time span (seconds) of a plot is at least this.
+pub const MIN_PLOT_SPAN: f64 = 1e-3;
+
+// ---------------------------------------------------------------------------------
+// Printing and plotting.
+// ---------------------------------------------------------------------------------
+
+/// Added before truncating a percentage to two decimals so values that are exact in
+/// decimal but not in binary (7.74 stored as 7.7399999...) are not truncated down.
+pub const TRUNCATE_EPS: f64 = 1e-9;
+/// A plot axis value this close to an integer is that integer (a category label).
+pub const AXIS_INTEGER_EPS: f64 = 1e-6;
+/// The smallest upper end of a plot's value axis (an all-zero series still draws).
+pub const PLOT_RANGE_MIN: f64 = 1e-9;
+/// The smallest upper end of a plot's speed axis.
+pub const PLOT_SPEED_MIN: f64 = 1e-6;
+/// A movement's amplitude (metres) below this has no Fitts width.
+pub const AMPLITUDE_EPS: f64 = 1e-9;
+
+// ---------------------------------------------------------------------------------
+// Test comparisons.
+// ---------------------------------------------------------------------------------
+
+/// Results of a handful of flops on values of order one agree to this (a few ulps).
+pub const ULP_EPS: f64 = 1e-15;
+/// Results of tens of flops on values of order one agree to this.
+pub const ROUNDING_EPS: f64 = 1e-14;
+/// Sums of B-spline basis functions (a partition of unity) equal one to this.
+pub const SUM_EPS: f64 = 1e-13;
+/// Conversions between forms (knot refinement, power basis) agree to this,
+/// relative to the values' size.
+pub const CONVERSION_REL: f64 = 1e-11;
+/// Least-squares fits and interpolations reproduce their data to this (metres).
+pub const FIT_EPS: f64 = 1e-10;
+/// Distances found by a point inversion agree with a brute-force reference to this
+/// (metres); converged answers farther apart are distinct minima.
+pub const INVERSION_EPS: f64 = 1e-8;
+/// A foot point is determined only to about the square root of the distance
+/// tolerance (the distance is stationary there): feet agree to this (metres).
+pub const STATIONARY_FOOT_EPS: f64 = 1e-6;
+/// A local Newton run that ends farther than this (metres) beyond the true distance
+/// lost track of the stroke's foot.
+pub const LOST_TRACK_EPS: f64 = 1e-4;
+/// A parameter within this of the domain's edge is on the boundary (tests).
+pub const ON_BOUNDARY_EPS: f64 = 1e-9;
+/// A mesh's centreline reproduces the carved surface to this fraction of the target's
+/// size (the stated `Detail::Final` tolerance, 0.1 %).
+pub const CENTRELINE_TOL_REL: f64 = 1e-3;
+/// Basis function derivatives by two algorithms agree to this, relative to their size.
+pub const BASIS_DERIV_REL: f64 = 1e-9;
+/// A least-squares approximation of a wavy test grid stays within this (metres).
+pub const APPROX_FIT_TOL: f64 = 5e-3;
+/// A stroke's polygonal footprint has the area of its exact outline to this (m^2:
+/// its round ends are polygons).
+pub const FOOTPRINT_AREA_TOL: f64 = 1e-4;
+/// Footprint areas of the same stroke drawn at two places with the same
+/// parametrisation agree to this (m^2).
+pub const AREA_SYMMETRY_EPS: f64 = 1e-6;
+/// A bound checked in a test may be exceeded by rounding up to this (in the bound's
+/// units).
+pub const BOUND_MARGIN: f64 = 1e-9;
+/// The cursor ring's points lie at their radius from the foot to this (metres, f32
+/// vertices).
+pub const CURSOR_RING_TOL: f64 = 1e-4;
+/// The cursor ring's points lie on the surface to this (metres): the ring is lifted
+/// 1 mm and the surface curves under its chords.
+pub const CURSOR_RING_Z_TOL: f64 = 2e-3;
+/// A carved depth (metres) reproduces the tool's depth to this at a parameter seam,
+/// where the stroke is split: a tenth of a millimetre.
+pub const SEAM_DEPTH_TOL: f64 = 1e-4;
+/// Areas and widths carried through f32 mesh coordinates agree to this.
+pub const F32_EPS: f64 = 1e-6;
+/// Values published to six decimal digits (a standard's table) agree to this.
+pub const SIX_DIGITS_EPS: f64 = 1e-6;
+/// Lengths along a carved arc agree with the arc to this fraction.
+pub const ARC_LEN_REL: f64 = 1e-3;
+/// Areas of the same stroke carved at two places on a sphere agree to this fraction.
+pub const AREA_SYMMETRY_REL: f64 = 1e-6;
+/// A drawn stroke's foot reproduces the wand position to this (metres): the wand's
+/// surface hit goes through a coarse mesh.
+pub const MESH_HIT_EPS: f64 = 1e-3;
+/// The final-detail mesh reproduces the groove bottom to within this (metres): a tenth
+/// of the 5 mm tool depth, for the V profile's sharp bottom between mesh samples.
+pub const GROOVE_TOL: f64 = 0.5e-3;
+/// Positions through the serial wire format, millimetres: it keeps micrometres.
+pub const WIRE_MM_EPS: f64 = 1e-3;
+/// Positions through a wire format that keeps micrometres (metres).
+pub const WIRE_M_EPS: f64 = 1e-6;
+/// Positions scaled from metres to millimetres agree to this (mm).
+pub const MM_ROUNDING_EPS: f64 = 1e-6;
+/// A freshly normalised quaternion has length one to this.
+pub const NORMALISED_EPS: f64 = 1e-9;
+/// A filtered (interpolated, renormalised) quaternion has length one to this.
+pub const FILTERED_UNIT_EPS: f64 = 1e-6;
+/// Rotations agree to this angle (radians).
+pub const ROTATION_EPS: f64 = 1e-9;
+/// Random test quaternions shorter than this are replaced by the identity
+/// (normalising them would magnify rounding).
+pub const QUAT_GEN_MIN_LEN: f64 = 1e-3;
+/// A calibration fit to noisy poses leaves at least this rms residual (metres): the
+/// noise is seen.
+pub const NOISY_RMS_FLOOR: f64 = 1e-5;
+/// ... and at most this (metres): the noise is half a millimetre.
+pub const NOISY_RMS_CEIL: f64 = 0.001;
+/// A simulated session's filtered tip ends at the script's end point to this
+/// (metres): the simulator's tremor and the filter's lag.
+pub const SIM_END_TOL: f64 = 0.01;
+/// Times through `Duration` (nanoseconds) and sums of receive times agree to this
+/// (seconds).
+pub const DURATION_EPS: f64 = 1e-6;
+/// The time step (seconds) of a forward-difference velocity in tests.
+pub const VELOCITY_FD_STEP: f64 = 1e-4;
+/// A velocity by [`VELOCITY_FD_STEP`] that should be zero is below this (m/s).
+pub const VELOCITY_EPS: f64 = 1e-6;
+/// Orientations through the serial wire format (radians).
+pub const WIRE_ANGLE_EPS: f64 = 1e-5;
+/// Positions (mm) through the DTrack2 ASCII format, which keeps 3 decimals.
+pub const DTRACK_MM_EPS: f64 = 5e-4;
+/// Rotation matrix entries through the DTrack2 ASCII format, which keeps 6 decimals.
+pub const DTRACK_ROT_EPS: f64 = 5e-7;
+/// Analog values through the DTrack2 ASCII format, which keeps 2 decimals.
+pub const DTRACK_ANALOG_EPS: f64 = 5e-3;
+/// Poses replayed from a recording, through wire rounding (micrometres) and slerp
+/// between keyframes: far below a millimetre (metres).
+pub const REPLAY_POSE_EPS: f64 = 1e-3;
+/// Printed statistical tables give 6 significant digits.
+pub const PRINTED_TABLE_EPS: f64 = 1e-5;
+/// Sums and ratios of a few two-decimal numbers (the tools' CSV cells) agree to this.
+pub const DECIMAL_SUM_EPS: f64 = 1e-9;
+/// OCCT's face area against ours (Green's theorem over the same loops, 8-point Gauss
+/// per knot span): relative. Ours is converged to 1e-14; OCCT's adaptive integration
+/// is asked for 1e-8 (`--area-eps`) but on cubic stroke surfaces stays up to 2.4e-6 off
+/// while reporting 2e-7 to 1.3e-6, so this is 5e-6 plus twice the error it reports. A
+/// misread loop or surface changes an area by far more.
+pub const OCCT_AREA_REL: f64 = 5e-6;
+/// The same for stroke surfaces. Since strokes wrap across the sphere's seam, the
+/// wrapped stroke of `sphere-overlaps.json` is a longer, more curved cubic surface on
+/// which OCCT's integration ends 1.8e-5 off (reporting 2.9e-7). Still far below what a
+/// misread loop or surface changes.
+pub const OCCT_STROKE_AREA_REL: f64 = 5e-5;
+/// The OCCT area tolerance's floor for sliver faces, m^2 (a square micrometre).
+pub const OCCT_AREA_ABS: f64 = 1e-12;
+/// OCCT's surface points against our kernel's, relative to the surface's size.
+pub const OCCT_POINT_REL: f64 = 1e-9;
+
+// ---------------------------------------------------------------------------------
+// Stroke splitting.
+// ---------------------------------------------------------------------------------
+
 /// Consecutive feet of a stroke's samples farther apart along the surface than this
 /// many sample spacings jumped to another basin of the distance (see
 /// [`crate::sculpt::stroke`]): the stroke is split there.
 pub const BASIN_JUMP_RATIO: f64 = 4.0;
-/// Finite-difference derivative checks agree to this (relative to the derivative's size).
-pub const FD_EPS: f64 = 1e-5;
 
 /// True when `a` and `b` differ by at most `tol`, counting NaN as never near.
 #[inline]
@@ -34,7 +355,7 @@ pub fn within(d: f64, t: f64) -> bool {
 /// Asserts that two values are within a tolerance of each other.
 ///
 /// Works on anything that implements [`Near`]: `f64`, `f32`, arrays and slices of
-/// them, and tuples of two. The message prints both sides, the difference and the
+/// them, tuples of two, and glam's vectors and quaternions (compared component-wise). The message prints both sides, the difference and the
 /// tolerance.
 ///
 /// ```
@@ -110,6 +431,25 @@ impl<A: Near, B: Near> Near for (A, B) {
     }
 }
 
+/// glam's vectors and quaternions compare component-wise, like their arrays.
+macro_rules! near_by_array {
+    ($($t:ty),*) => {$(
+        impl Near for $t {
+            fn max_abs_diff(&self, other: &Self) -> f64 {
+                self.to_array().max_abs_diff(&other.to_array())
+            }
+        }
+    )*};
+}
+near_by_array!(
+    glam::DVec2,
+    glam::DVec3,
+    glam::DVec4,
+    glam::DQuat,
+    glam::Vec2,
+    glam::Vec3
+);
+
 impl<T: Near + ?Sized> Near for &T {
     fn max_abs_diff(&self, other: &Self) -> f64 {
         (**self).max_abs_diff(*other)
@@ -142,6 +482,27 @@ mod tests {
     #[should_panic(expected = "assert_near failed")]
     fn length_mismatch_fails() {
         assert_near!(vec![1.0], vec![1.0, 2.0], 1.0);
+    }
+
+    #[test]
+    fn glam_vectors_compare_component_wise() {
+        let a = glam::DVec3::new(1.0, 2.0, 3.0);
+        assert_near!(
+            a,
+            a + glam::DVec3::new(0.0, 0.5 * EXACT_EPS, 0.0),
+            EXACT_EPS
+        );
+        assert_near!(glam::DVec2::ONE.max_abs_diff(&glam::DVec2::ZERO), 1.0, 0.0);
+        assert_eq!(
+            glam::DVec3::NAN.max_abs_diff(&glam::DVec3::ZERO),
+            f64::INFINITY
+        );
+    }
+
+    #[test]
+    #[should_panic(expected = "assert_near failed")]
+    fn glam_vectors_fail_outside_tolerance() {
+        assert_near!(glam::DVec3::X, glam::DVec3::Y, POINT_EPS);
     }
 
     #[test]

@@ -5,12 +5,14 @@
 use glam::DVec3;
 use proptest::prelude::*;
 use sculpt_core::Error;
+use sculpt_core::error::{DocumentError, StrokeRejection, ToolParam, ToolRangeError};
 use sculpt_core::formats::{MeshFormat, iges};
 use sculpt_core::mesh::PatchMesh;
 use sculpt_core::nurbs::NurbsSurface;
 use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::stroke::{Mode, Profile, StrokeInput, Tool};
 use sculpt_core::sculpt::tessellate::Detail;
+use sculpt_core::tolerance::{MESH_HIT_EPS, POINT_WELD_EPS, TEST_WELD_EPS};
 
 fn plane() -> NurbsSurface {
     NurbsSurface::new(
@@ -192,7 +194,7 @@ fn a_preview_carves_only_the_interactive_mesh_and_leaves_no_trace() {
         );
     }
     let hit = |m: &PatchMesh| m.first_hit([0.5, 0.5, 1.0], [0.0, 0.0, -1.0]).unwrap();
-    sculpt_core::assert_near!(hit(&live), 1.0 + 0.01, 1e-3);
+    sculpt_core::assert_near!(hit(&live), 1.0 + 0.01, MESH_HIT_EPS);
     assert_eq!(doc.tessellate(Detail::Final, &mut fin).patches_written, 0);
     assert_eq!(fin, fin_before, "the final detail never shows a preview");
     assert!(doc.strokes().is_empty() && !doc.can_redo());
@@ -215,7 +217,10 @@ fn a_preview_carves_only_the_interactive_mesh_and_leaves_no_trace() {
         samples: line(DVec3::new(0.3, 0.5, 5.0), DVec3::new(0.7, 0.5, 5.0)),
         tool: tool(Mode::Carve),
     };
-    assert!(doc.set_preview(t, &off).is_err());
+    assert!(matches!(
+        doc.set_preview(t, &off),
+        Err(Error::StrokeRejected(StrokeRejection::OffSurface))
+    ));
     assert!(doc.preview().is_none());
     assert!(doc.set_preview(t + 100, &input).is_err());
 }
@@ -250,6 +255,18 @@ fn json_round_trip_and_bad_files() {
         &text.replace("\"version\": 1", "\"version\": 2"),
         "unsupported version",
     );
+    assert!(matches!(
+        Document::from_json(text.replace("\"version\": 1", "\"version\": 2").as_bytes()),
+        Err(Error::Document(DocumentError::Version {
+            found: Some(2),
+            supported: 1
+        }))
+    ));
+    assert!(matches!(
+        Document::from_json(text.replace("\"target\": 1", "\"target\": 7").as_bytes()),
+        Err(Error::Document(DocumentError::Stroke { ref error, .. }))
+            if matches!(**error, Error::NotFound { kind: "target", id: 7 })
+    ));
     expect_err(
         &text.replace("wandsculpt-document", "something-else"),
         "format",
@@ -276,13 +293,13 @@ fn exports_read_back() {
         Mode::Carve,
     )
     .unwrap();
-    let welded = doc.mesh(Detail::Final).welded(1e-7);
+    let welded = doc.mesh(Detail::Final).welded(TEST_WELD_EPS);
     for f in [MeshFormat::Obj, MeshFormat::Stl, MeshFormat::Glb] {
         let back = f.read(&f.write(&welded)).unwrap();
         assert_eq!(back.triangles.len(), welded.triangles.len(), "{f:?}");
         // Same geometry: welding the read-back mesh gives the same topology.
         let (v, tr) = (back.vertices, back.triangles);
-        let rewelded = sculpt_core::mesh::weld(&v, &tr, 1e-7);
+        let rewelded = sculpt_core::mesh::weld(&v, &tr, TEST_WELD_EPS);
         assert_eq!(rewelded.vertices.len(), welded.vertices.len(), "{f:?}");
     }
     let model = iges::read(&iges::write(&doc.iges_surfaces())).unwrap();
@@ -436,7 +453,67 @@ fn a_scene_with_an_absurd_tool_size_is_refused_by_name() {
     at_limit["strokes"][0]["tool"]["taper"] =
         serde_json::json!(sculpt_core::sculpt::stroke::MAX_TOOL_SIZE);
     let doc = Document::from_json(&serde_json::to_vec(&at_limit).unwrap()).unwrap();
-    let obj = MeshFormat::Obj.write(&doc.mesh(Detail::Final).welded(1e-9));
+    let obj = MeshFormat::Obj.write(&doc.mesh(Detail::Final).welded(POINT_WELD_EPS));
     let obj = String::from_utf8(obj).unwrap();
     assert!(!obj.contains("inf") && !obj.contains("NaN"));
+}
+
+/// Each reason a stroke is refused is a variant the caller can match on, with the
+/// numbers that decided it.
+#[test]
+fn stroke_rejections_are_typed() {
+    let mut doc = Document::new();
+    let t = doc.add_target("plane", plane());
+    let at = DVec3::new(0.5, 0.5, 0.0);
+    let point = StrokeInput {
+        samples: vec![(0.0, at), (1.0, at)],
+        tool: tool(Mode::Carve),
+    };
+    let e = doc.apply_stroke(t, point).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            Error::StrokeRejected(StrokeRejection::TooShort { length_m, min_m })
+                if length_m == 0.0 && min_m > 0.0
+        ),
+        "{e:?}"
+    );
+    assert_eq!(e.to_string(), "stroke rejected: the stroke has zero length");
+    let mut wide = tool(Mode::Carve);
+    wide.width = -1.0;
+    let e = doc
+        .apply_stroke(
+            t,
+            StrokeInput {
+                samples: line(DVec3::new(0.2, 0.5, 0.0), DVec3::new(0.8, 0.5, 0.0)),
+                tool: wide,
+            },
+        )
+        .unwrap_err();
+    assert!(
+        matches!(
+            e,
+            Error::StrokeRejected(StrokeRejection::Tool(ToolRangeError {
+                param: ToolParam::Width,
+                value: -1.0,
+                ..
+            }))
+        ),
+        "{e:?}"
+    );
+    assert_eq!(
+        e.to_string(),
+        "stroke rejected: tool width must be in (0, 10] m, got -1"
+    );
+    let nan = StrokeInput {
+        samples: vec![(0.0, at), (f64::NAN, at)],
+        tool: tool(Mode::Carve),
+    };
+    assert!(matches!(
+        doc.apply_stroke(t, nan),
+        Err(Error::StrokeRejected(StrokeRejection::SampleNotFinite {
+            index: 1
+        }))
+    ));
+    assert!(doc.strokes().is_empty());
 }

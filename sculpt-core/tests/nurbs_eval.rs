@@ -4,8 +4,10 @@
 use glam::{DVec2, DVec3};
 use sculpt_core::Error;
 use sculpt_core::assert_near;
+use sculpt_core::error::{ControlNetError, KnotError, NetIndex, WeightError};
+use sculpt_core::nurbs::refine::Direction;
 use sculpt_core::nurbs::{KnotVector, NurbsCurve, NurbsSurface};
-use sculpt_core::tolerance::{EXACT_EPS, FD_EPS};
+use sculpt_core::tolerance::{EXACT_EPS, FD_EPS, FD_STEP};
 
 fn wavy_bicubic() -> NurbsSurface {
     let pts: Vec<Vec<DVec3>> = (0..6)
@@ -47,7 +49,7 @@ fn book_example_4_2_rational_circle_point() {
 #[test]
 fn surface_derivatives_match_finite_differences() {
     let s = wavy_bicubic();
-    let h = 1e-6;
+    let h = FD_STEP;
     for &(u, v) in &[
         (0.1, 0.2),
         (0.45, 0.7),
@@ -95,7 +97,7 @@ fn bilinear_patch_is_exact() {
     assert_near!(p.to_array(), [0.5, 0.5, 0.25], EXACT_EPS);
     let ff = s.fundamental_forms(1.0, 0.0);
     // z = xy has K = -1/(1+x^2+y^2)^2 at (x, y) = (1/2, 1/2).
-    assert_near!(ff.gaussian_curvature(), -1.0 / 1.5f64.powi(2), 1e-12);
+    assert_near!(ff.gaussian_curvature(), -1.0 / 1.5f64.powi(2), EXACT_EPS);
 }
 
 #[test]
@@ -131,23 +133,63 @@ fn json_schema_round_trip_and_field_names() {
     assert!(!s.to_json().contains("weights"));
 }
 
+/// Text that is not JSON or not the schema is `Error::Json` with a position; a
+/// surface the schema allows but that is invalid is the typed error naming the entry.
 #[test]
 fn bad_json_gives_typed_errors() {
-    let cases = [
-        r#"{"degree_u":1,"degree_v":1,"knots_u":[0,0,1,1],"knots_v":[0,0,1,1],"control_points":[[[0,0,0]],[[1,0,0],[1,1,0]]]}"#,
-        r#"{"degree_u":1,"degree_v":1,"knots_u":[0,1,0,1],"knots_v":[0,0,1,1],"control_points":[[[0,0,0],[0,1,0]],[[1,0,0],[1,1,0]]]}"#,
-        r#"{"degree_u":1,"degree_v":1,"knots_u":[0,0,1,1],"knots_v":[0,0,1,1],"control_points":[[[0,0,0],[0,1,0]],[[1,0,0],[1,1,0]]],"weights":[[1,1],[1,-1]]}"#,
+    let syntax_or_schema = [
         r#"{"degree_u":1,"degree_v":1,"knots_u":[0,0,1,1],"knots_v":[0,0,1,1],"control_points":[[[0,0,0],[0,1,0]],[[1,0,0],[1,1,0]]],"weight":[[1,1],[1,1]]}"#,
-        r#"{"degree_u":0,"degree_v":1,"knots_u":[0,1],"knots_v":[0,0,1,1],"control_points":[[[0,0,0],[0,1,0]]]}"#,
         r#"{"degree_u":1"#,
         "",
     ];
-    for c in cases {
+    for c in syntax_or_schema {
         assert!(
-            matches!(NurbsSurface::from_json(c), Err(Error::Json(_))),
+            matches!(NurbsSurface::from_json(c), Err(Error::Json(ref j)) if j.line() >= 1),
             "{c}"
         );
     }
+    let ragged = r#"{"degree_u":1,"degree_v":1,"knots_u":[0,0,1,1],"knots_v":[0,0,1,1],"control_points":[[[0,0,0]],[[1,0,0],[1,1,0]]]}"#;
+    assert!(matches!(
+        NurbsSurface::from_json(ragged),
+        Err(Error::InvalidControlNet(ControlNetError::RowLength {
+            row: 0,
+            got: 1,
+            need: 2,
+            ..
+        }))
+    ));
+    let knots = r#"{"degree_u":1,"degree_v":1,"knots_u":[0,1,0,1],"knots_v":[0,0,1,1],"control_points":[[[0,0,0],[0,1,0]],[[1,0,0],[1,1,0]]]}"#;
+    assert!(matches!(
+        NurbsSurface::from_json(knots),
+        Err(Error::InvalidKnots {
+            direction: Some(Direction::U),
+            reason: KnotError::Decreasing { index: 2, .. }
+        })
+    ));
+    let weight = r#"{"degree_u":1,"degree_v":1,"knots_u":[0,0,1,1],"knots_v":[0,0,1,1],"control_points":[[[0,0,0],[0,1,0]],[[1,0,0],[1,1,0]]],"weights":[[1,1],[1,-1]]}"#;
+    let e = NurbsSurface::from_json(weight).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            Error::InvalidWeights(WeightError::NotPositive {
+                at: NetIndex::Surface(1, 1),
+                weight: -1.0
+            })
+        ),
+        "{e:?}"
+    );
+    assert_eq!(
+        e.to_string(),
+        "invalid weights: control point [1][1]: weight -1 is not finite and positive"
+    );
+    let degree = r#"{"degree_u":0,"degree_v":1,"knots_u":[0,1],"knots_v":[0,0,1,1],"control_points":[[[0,0,0],[0,1,0]]]}"#;
+    assert!(matches!(
+        NurbsSurface::from_json(degree),
+        Err(Error::InvalidDegree {
+            direction: Some(Direction::U),
+            degree: 0
+        })
+    ));
 }
 
 #[test]
@@ -169,6 +211,6 @@ fn unclamped_knots_evaluate_on_their_domain() {
     // A uniform cubic B-spline reproduces x linearly: x(u) = u - 2 on [3, 6].
     for i in 0..=30 {
         let u = 3.0 + 3.0 * i as f64 / 30.0;
-        assert_near!(c.point(u).x, u - 2.0, 1e-12);
+        assert_near!(c.point(u).x, u - 2.0, EXACT_EPS);
     }
 }

@@ -3,6 +3,7 @@
 
 use glam::{DVec2, DVec3};
 use sculpt_core::nurbs::{Certificate, NurbsSurface, SurfaceInverter};
+use sculpt_core::tolerance::{EXACT_EPS, ON_BOUNDARY_EPS, POINT_EPS};
 
 mod brute;
 
@@ -82,7 +83,7 @@ fn random_query(rng: &mut Rng, s: &NurbsSurface, t: usize) -> DVec3 {
 fn is_boundary(s: &NurbsSurface, uv: DVec2) -> bool {
     let (u0, u1) = s.domain_u();
     let (v0, v1) = s.domain_v();
-    let e = 1e-9;
+    let e = ON_BOUNDARY_EPS;
     uv.x <= u0 + e || uv.x >= u1 - e || uv.y <= v0 + e || uv.y >= v1 - e
 }
 
@@ -91,12 +92,12 @@ fn check_answer(s: &NurbsSurface, inv: &SurfaceInverter, p: DVec3, stats: &mut [
     let (bf, bf_uv) = brute_force(s, p);
     // The answer is a real surface point at the reported distance.
     assert!(
-        (s.point_uv(got.uv) - got.point).length() <= 1e-12,
+        (s.point_uv(got.uv) - got.point).length() <= EXACT_EPS,
         "point is S(uv)"
     );
-    assert!((got.point.distance(p) - got.distance).abs() <= 1e-12);
+    assert!((got.point.distance(p) - got.distance).abs() <= EXACT_EPS);
     assert!(
-        got.distance <= bf + 1e-9,
+        got.distance <= bf + POINT_EPS,
         "p = {p:?}: distance {} worse than brute force {} (got uv {:?}, brute uv {:?}, converged {})",
         got.distance,
         bf,
@@ -157,7 +158,7 @@ fn points_on_the_surface_invert_to_their_parameter() {
             let uv = DVec2::new(rng.next(), rng.next());
             let p = s.point_uv(uv);
             let got = inv.closest_point(p);
-            assert!(got.distance <= 1e-9, "{got:?}");
+            assert!(got.distance <= POINT_EPS, "{got:?}");
             assert!(got.converged);
         }
     }
@@ -181,7 +182,7 @@ fn seeded_queries_along_a_stroke_match_unseeded() {
     let batch = inv.closest_points(&pts);
     for ((a, b), p) in along.iter().zip(&batch).zip(&pts) {
         assert!(
-            a.distance <= b.distance + 1e-9 && b.distance <= a.distance + 1e-9,
+            a.distance <= b.distance + POINT_EPS && b.distance <= a.distance + POINT_EPS,
             "{p:?}: {a:?} vs {b:?}"
         );
         let single = inv.closest_point(*p);
@@ -243,12 +244,13 @@ fn queries_just_off_a_corner_converge() {
         let s = random_surface(&mut rng, k % 2 == 1);
         let inv = s.inverter();
         for (u, v) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)] {
+            // not a tolerance: offsets of the queries
             for h in [1e-9, 3.4e-7, 1e-6, -1e-6] {
                 let corner = s.point(u, v);
                 let p = corner + s.normal(u, v) * h;
                 let got = inv.closest_point(p);
                 assert!(got.converged, "corner ({u}, {v}), h = {h}: {got:?}");
-                assert!(got.distance <= corner.distance(p) + 1e-12, "{got:?}");
+                assert!(got.distance <= corner.distance(p) + EXACT_EPS, "{got:?}");
                 let seeded = inv.closest_point_from(p, DVec2::new(u, v));
                 assert!(
                     seeded.converged,
@@ -372,7 +374,7 @@ fn stress(seed: u64, surfaces: usize) -> [usize; Certificate::ALL.len()] {
                     .position(|&c| c == got.certificate)
                     .expect("every kind is listed");
                 kinds[kind] += 1;
-                if got.distance > bf + 1e-9 || !got.converged {
+                if got.distance > bf + POINT_EPS || !got.converged {
                     failures += 1;
                     eprintln!(
                         "surface {k}, p = {p:?} ({how}, seed {seed_uv:?}): got {} at {:?} (converged {}), brute force {bf} at {bf_uv:?}\n{}",

@@ -5,6 +5,7 @@ use glam::{DMat3, DVec3};
 use proptest::prelude::*;
 use sculpt_core::assert_near;
 use sculpt_core::nurbs::{KnotVector, NurbsSurface};
+use sculpt_core::tolerance::{CONVERSION_REL, SUM_EPS, ULP_EPS};
 
 /// A random valid knot vector: degree 1..=5, clamped or not, with repeated knots.
 fn knot_vector() -> impl Strategy<Value = KnotVector> {
@@ -47,14 +48,14 @@ proptest! {
         let s = kv.find_span(u);
         let n = kv.basis(s, u);
         let p = kv.degree();
-        prop_assert!(n[..=p].iter().all(|&x| x >= -1e-15), "{n:?}");
-        assert_near!(n[..=p].iter().sum::<f64>(), 1.0, 1e-13);
+        prop_assert!(n[..=p].iter().all(|&x| x >= -ULP_EPS), "{n:?}");
+        assert_near!(n[..=p].iter().sum::<f64>(), 1.0, SUM_EPS);
         // Derivatives of a partition of unity sum to zero.
         let d = kv.basis_ders2(s, u);
         let scale = 1.0 + d[1][..=p].iter().map(|x| x.abs()).sum::<f64>();
-        assert_near!(d[1][..=p].iter().sum::<f64>(), 0.0, 1e-11 * scale);
+        assert_near!(d[1][..=p].iter().sum::<f64>(), 0.0, CONVERSION_REL * scale);
         let row = kv.basis_row(u);
-        assert_near!(row.iter().sum::<f64>(), 1.0, 1e-13);
+        assert_near!(row.iter().sum::<f64>(), 1.0, SUM_EPS);
     }
 
     #[test]
@@ -74,7 +75,7 @@ proptest! {
         let moved: Vec<Vec<DVec3>> = pts.iter().map(|r| r.iter().map(|p| a * *p + t).collect()).collect();
         let s2 = NurbsSurface::new(3, 3, k.clone(), k, moved, Some(w)).unwrap();
         let want = a * s.point(u, v) + t;
-        assert_near!(s2.point(u, v).to_array(), want.to_array(), 1e-11 * (1.0 + want.abs().max_element()));
+        assert_near!(s2.point(u, v).to_array(), want.to_array(), CONVERSION_REL * (1.0 + want.abs().max_element()));
     }
 
     #[test]

@@ -7,7 +7,7 @@ use std::f64::consts::TAU;
 use glam::{DVec2, DVec3};
 use sculpt_core::assert_near;
 use sculpt_core::nurbs::{Direction, NurbsCurve, NurbsSurface};
-use sculpt_core::tolerance::EXACT_EPS;
+use sculpt_core::tolerance::{EXACT_EPS, POINT_EPS, STATIONARY_FOOT_EPS};
 
 fn lcg(seed: &mut u64) -> f64 {
     *seed = seed
@@ -38,23 +38,27 @@ fn sphere_closest_points_are_radial_everywhere_including_seam_and_poles() {
         DVec3::Z,
         -DVec3::Z,
         -DVec3::X,
-        DVec3::new(-1.0, 1e-9, 0.3).normalize(),
-        DVec3::new(-1.0, -1e-9, -0.3).normalize(),
-        DVec3::new(1e-7, 0.0, 1.0).normalize(),
+        DVec3::new(-1.0, 1e-9, 0.3).normalize(), // not a tolerance: directions just off a pole
+        DVec3::new(-1.0, -1e-9, -0.3).normalize(), // not a tolerance: as above
+        DVec3::new(1e-7, 0.0, 1.0).normalize(),  // not a tolerance: as above
     ]);
     for d in dirs {
         for dist in [0.05, 0.5, 3.0, 500.0] {
             let p = c + d * (r + dist);
             let got = inv.closest_point(p);
             assert!(got.converged, "{p:?}: {got:?}");
-            assert_near!(got.distance, dist, 1e-9, "p = {p:?}, got {got:?}");
+            assert_near!(got.distance, dist, POINT_EPS, "p = {p:?}, got {got:?}");
             // The distance is stationary at the foot, so the point is determined only to
             // about the square root of the distance tolerance.
-            assert_near!(got.point.to_array(), (c + d * r).to_array(), 1e-6);
+            assert_near!(
+                got.point.to_array(),
+                (c + d * r).to_array(),
+                STATIONARY_FOOT_EPS
+            );
         }
         // Inside the sphere too (not at the centre).
         let p = c + d * (r * 0.5);
-        assert_near!(inv.closest_point(p).distance, r * 0.5, 1e-9);
+        assert_near!(inv.closest_point(p).distance, r * 0.5, POINT_EPS);
     }
 }
 
@@ -78,12 +82,12 @@ fn torus_closest_points_wrap_both_seams() {
         let p = foot + normal * off;
         let got = inv.closest_point(p);
         assert!(got.converged, "{p:?}: {got:?}");
-        assert_near!(got.distance, off, 1e-9, "p = {p:?} got {got:?}");
+        assert_near!(got.distance, off, POINT_EPS, "p = {p:?} got {got:?}");
         // Seeded from the other side of the seam still finds it.
         let seeded = inv.closest_point_from(p, DVec2::new(0.999, 0.001));
-        assert_near!(seeded.distance, off, 1e-9);
+        assert_near!(seeded.distance, off, POINT_EPS);
         let newton = inv.newton_from(p, got.uv + DVec2::new(0.01, -0.01));
-        assert_near!(newton.distance, off, 1e-9);
+        assert_near!(newton.distance, off, POINT_EPS);
     }
 }
 
@@ -95,7 +99,7 @@ fn seeded_newton_wraps_across_the_seam() {
     let target = s.point(0.002, 0.5);
     let got = inv.newton_from(target * 1.1, DVec2::new(0.998, 0.5));
     assert!(got.converged);
-    assert_near!(got.distance, 0.1, 1e-9);
+    assert_near!(got.distance, 0.1, POINT_EPS);
     assert!(got.uv.x < 0.01 || got.uv.x > 0.99);
     assert!(!got.on_boundary, "the seam is not a boundary");
 }
@@ -136,7 +140,7 @@ fn curve_inversion_matches_brute_force() {
             }
         }
         assert!(
-            got.distance <= brute + 1e-9,
+            got.distance <= brute + POINT_EPS,
             "{p:?}: {} vs brute {brute} at {bu}",
             got.distance
         );

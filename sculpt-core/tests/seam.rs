@@ -16,6 +16,10 @@ use sculpt_core::sculpt::jordan::Location;
 use sculpt_core::sculpt::stroke::{Mode, Profile, Stroke, StrokeInput, Tool};
 use sculpt_core::sculpt::surface::{ParamSurface, normal_at, wrap_uv};
 use sculpt_core::sculpt::tessellate::{Detail, height};
+use sculpt_core::tolerance::{
+    ARC_LEN_REL, AREA_SYMMETRY_REL, CENTRELINE_TOL_REL, EXACT_EPS, EXPORT_WELD_EPS, POINT_EPS,
+    SEAM_DEPTH_TOL,
+};
 
 const SPHERE_R: f64 = 0.15;
 const MAJOR: f64 = 0.2;
@@ -75,7 +79,7 @@ fn carve(surface: NurbsSurface, samples: Vec<(f64, DVec3)>, tool: Tool) -> (Docu
 }
 
 fn tol(doc: &Document, tool: &Tool) -> f64 {
-    (1e-3 * doc.targets()[0].surface.size()).min(0.1 * tool.depth)
+    (CENTRELINE_TOL_REL * doc.targets()[0].surface.size()).min(0.1 * tool.depth)
 }
 
 /// Signed displacement measured by a ray coming down the normal at `uv` (in the square).
@@ -102,7 +106,7 @@ fn assert_watertight(doc: &Document) {
     for detail in [Detail::Interactive, Detail::Final] {
         let mesh = doc.mesh(detail);
         assert!(finite(&mesh), "{detail:?}: NaN in the mesh");
-        let r = mesh.welded(1e-6).edge_report();
+        let r = mesh.welded(EXPORT_WELD_EPS).edge_report();
         assert!(r.is_watertight(), "{detail:?}: {r:?}");
     }
 }
@@ -121,12 +125,17 @@ fn assert_groove(doc: &Document, id: u64, which: impl Fn(DVec2) -> bool) -> usiz
         if !which(uv) {
             continue;
         }
-        assert_near!(s.depth[i], s.tool.depth, 1e-12, "untapered at sample {i}");
+        assert_near!(
+            s.depth[i],
+            s.tool.depth,
+            EXACT_EPS,
+            "untapered at sample {i}"
+        );
         let p = surface.eval(uv).p;
         assert_near!(
             height(&strokes, uv, p),
             -s.tool.depth,
-            1e-4,
+            SEAM_DEPTH_TOL,
             "field at {uv}"
         );
         assert_near!(
@@ -175,14 +184,14 @@ fn carve_across_the_sphere_seam_is_one_groove() {
     assert!(u0.min(u1) < 0.0 || u0.max(u1) > 1.0, "{u0} {u1}");
     // Nothing is clipped: the centreline is as long as the drawn arc.
     let arc_len = (SPHERE_R * lat.cos()) * 80f64.to_radians();
-    assert_near!(length(s), arc_len, 1e-3 * arc_len);
+    assert_near!(length(s), arc_len, ARC_LEN_REL * arc_len);
     // The footprint's area equals the same stroke's turned half-way round, away from
     // the seam (the rational sphere's parametrisation repeats every quarter turn). The
     // tolerance, 0.1 %, covers the polygon boolean's grid and the Newton stopping test.
     let (away, away_id) = carve(sphere(), arc(std::f64::consts::PI), tool(0.01));
     let a = s.footprint.area();
     let b = away.stroke(away_id).expect("stroke").footprint.area();
-    assert_near!(a, b, 1e-6 * b);
+    assert_near!(a, b, AREA_SYMMETRY_REL * b);
     assert!(
         s.footprint
             .contours()
@@ -260,7 +269,7 @@ fn loop_around_the_torus_closes_on_itself() {
     let n = s.centre_uv.len();
     // Closed up to whole periods: the last point is the first, one turn on both ways.
     let span = s.centre_uv[n - 1] - s.centre_uv[0];
-    assert_near!(span.abs().to_array(), [1.0, 1.0], 1e-9);
+    assert_near!(span.abs().to_array(), [1.0, 1.0], POINT_EPS);
     assert_near!(
         s.centre[n - 1].to_array(),
         s.centre[0].to_array(),
@@ -300,7 +309,7 @@ fn regression_clipping_at_the_seam_lost_the_short_side() {
     );
     let s = doc.stroke(id).expect("stroke");
     let arc_len = (SPHERE_R * 0.2f64.cos()) * 50f64.to_radians();
-    assert_near!(length(s), arc_len, 1e-3 * arc_len);
+    assert_near!(length(s), arc_len, ARC_LEN_REL * arc_len);
     // The short side, 1 to 7 degrees past the seam (before the taper), at the tool
     // depth.
     let surface = doc.targets()[0].surface.clone();
@@ -470,7 +479,7 @@ fn check_random(surface: NurbsSurface, input: StrokeInput) -> Result<bool, TestC
     }
     // No crack, no hole (at the seams above all), no edge of more than two triangles
     // and one orientation.
-    let r = mesh.welded(1e-6).edge_report();
+    let r = mesh.welded(EXPORT_WELD_EPS).edge_report();
     prop_assert!(r.is_watertight(), "{r:?}");
     Ok(true)
 }

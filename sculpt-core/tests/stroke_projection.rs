@@ -16,7 +16,9 @@ use sculpt_core::assert_near;
 use sculpt_core::nurbs::NurbsSurface;
 use sculpt_core::sculpt::stroke::{Mode, Profile, Stroke, StrokeInput, Tool, resample};
 use sculpt_core::sculpt::surface::TargetSurface;
-use sculpt_core::tolerance::BASIN_JUMP_RATIO;
+use sculpt_core::tolerance::{
+    BASIN_JUMP_RATIO, INVERSION_EPS, LOST_TRACK_EPS, STATIONARY_FOOT_EPS,
+};
 
 mod brute;
 
@@ -106,7 +108,7 @@ fn strokes_over_a_waved_sheet_follow_the_true_closest_points_and_split_at_basin_
     for (p, (d, _)) in samples.iter().zip(&truth) {
         let local = inverter.newton_from(*p, seed);
         seed = local.uv;
-        if local.distance > d + 1e-4 {
+        if local.distance > d + LOST_TRACK_EPS {
             lost += 1;
         }
     }
@@ -115,13 +117,13 @@ fn strokes_over_a_waved_sheet_follow_the_true_closest_points_and_split_at_basin_
     let centre = &stroke.centre;
     assert!(centre.len() >= 5, "{} samples kept", centre.len());
     let start = (0..samples.len())
-        .find(|&k| truth[k].1.distance(centre[0]) <= 1e-6)
+        .find(|&k| truth[k].1.distance(centre[0]) <= STATIONARY_FOOT_EPS)
         .expect("the first centre point is the true foot of a sample");
     assert!(start + centre.len() <= samples.len());
     for (i, c) in centre.iter().enumerate() {
         let (p, (d, _)) = (samples[start + i], truth[start + i]);
         // A closest point: no farther from its sample than the brute-force foot.
-        assert_near!(p.distance(*c), d, 1e-8, "sample {}", start + i);
+        assert_near!(p.distance(*c), d, INVERSION_EPS, "sample {}", start + i);
     }
     // No jump inside the kept run.
     for w in centre.windows(2) {

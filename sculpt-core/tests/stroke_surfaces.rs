@@ -25,7 +25,7 @@ use sculpt_core::sculpt::stroke::{Mode, Profile, StrokeInput, Tool};
 use sculpt_core::sculpt::stroke_surface::{StrokeSurface, map_cap, visibility_margin};
 use sculpt_core::sculpt::surface::{ParamSurface, extent, normal_at, wrap_uv};
 use sculpt_core::sculpt::tessellate::{Detail, height};
-use sculpt_core::tolerance::POINT_EPS;
+use sculpt_core::tolerance::{CENTRELINE_TOL_REL, EXACT_EPS, POINT_EPS, ULP_EPS};
 
 const SCENES: [&str; 7] = [
     "curved-patch-carved.json",
@@ -52,8 +52,8 @@ fn closed(s: &dyn ParamSurface) -> [bool; 2] {
 fn mesh_tol(doc: &Document, profile: &Profile, depth: f64) -> f64 {
     let size = doc.targets()[0].surface.size();
     match profile {
-        Profile::V => 1e-3 * size,
-        _ => 0.1 * depth + 1e-3 * size,
+        Profile::V => CENTRELINE_TOL_REL * size,
+        _ => 0.1 * depth + CENTRELINE_TOL_REL * size,
     }
 }
 
@@ -388,7 +388,7 @@ fn undo_and_redo_keep_stroke_surfaces_right() {
     let fewer: Vec<_> = ids[..2].iter().map(|&id| area(&doc, id)).collect();
     // Without the third stroke the first two are trimmed less (or the same).
     for (a, b) in fewer.iter().zip(&before) {
-        assert!(a.unwrap() <= b.unwrap() + 1e-12);
+        assert!(a.unwrap() <= b.unwrap() + EXACT_EPS);
     }
     assert!(fewer[0].unwrap() < before[0].unwrap());
     // A fresh document with two strokes agrees with the undone one.
@@ -396,12 +396,12 @@ fn undo_and_redo_keep_stroke_surfaces_right() {
     let mut two = full.clone();
     two.undo();
     for (k, &id) in ids[..2].iter().enumerate() {
-        assert_near!(area(&two, id).unwrap(), fewer[k].unwrap(), 1e-15);
+        assert_near!(area(&two, id).unwrap(), fewer[k].unwrap(), ULP_EPS);
     }
     assert!(doc.redo());
     let after: Vec<_> = ids.iter().map(|&id| area(&doc, id)).collect();
     for (a, b) in after.iter().zip(&before) {
-        assert_near!(a.unwrap(), b.unwrap(), 1e-15);
+        assert_near!(a.unwrap(), b.unwrap(), ULP_EPS);
     }
 }
 
@@ -422,7 +422,7 @@ fn iges_export_carries_each_stroke_surface_trimmed_by_its_visible_faces() {
         assert_near!(
             flat(&model.surfaces[k].control_points),
             flat(&s.patch.control_points),
-            1e-12
+            EXACT_EPS
         );
     }
     // The strokes cross: both stroke surfaces are trimmed (entity 144).

@@ -19,6 +19,10 @@ use sculpt_core::formats::iges::{self, Face, IgesSurface, NurbsPatch};
 use sculpt_core::nurbs::NurbsSurface;
 use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::jordan::Location;
+use sculpt_core::tolerance::{
+    OCCT_AREA_ABS as AREA_ABS, OCCT_AREA_REL as AREA_REL, OCCT_POINT_REL as POINT_REL,
+    OCCT_STROKE_AREA_REL as STROKE_AREA_REL,
+};
 use serde_json::Value;
 
 const CHECKER_SOURCE: &str = "tools/occt-iges-check/iges_check.cpp";
@@ -127,7 +131,7 @@ fn occt(exe: &Path, name: &str, bytes: &[u8], queries: &[UvQuery]) -> Report {
         .arg(&igs)
         .arg("--queries")
         .arg(&qpath)
-        .args(["--area-eps", "1e-8"])
+        .args(["--area-eps", "1e-8"]) // not a tolerance: OCCT's integration target, passed to it
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -364,7 +368,9 @@ fn distance_to_loops(faces: &[Face], p: DVec2) -> f64 {
             for k in 0..lp.len() {
                 let (a, b) = (lp[k], lp[(k + 1) % lp.len()]);
                 let ab = b - a;
-                let t = ((p - a).dot(ab) / ab.length_squared().max(1e-300)).clamp(0.0, 1.0);
+                let t = ((p - a).dot(ab)
+                    / ab.length_squared().max(sculpt_core::tolerance::DIVISOR_MIN))
+                .clamp(0.0, 1.0);
                 d = d.min(p.distance(a + ab * t));
             }
         }
@@ -375,21 +381,6 @@ fn distance_to_loops(faces: &[Face], p: DVec2) -> f64 {
 /// Query points closer than this (normalised parameters) to a trimming loop are not
 /// asked: "well inside" and "well outside" only.
 const MARGIN_UV: f64 = 0.004;
-/// OCCT's face area against ours (Green's theorem over the same loops, 8-point Gauss
-/// per knot span): relative. Ours is converged to 1e-14; OCCT's adaptive integration
-/// is asked for 1e-8 (`--area-eps`) but on cubic stroke surfaces stays up to 2.4e-6 off
-/// while reporting 2e-7 to 1.3e-6, so this is 5e-6 plus twice the error it reports. A
-/// misread loop or surface changes an area by far more.
-const AREA_REL: f64 = 5e-6;
-/// The same for stroke surfaces. Since strokes wrap across the sphere's seam, the
-/// wrapped stroke of `sphere-overlaps.json` is a longer, more curved cubic surface on
-/// which OCCT's integration ends 1.8e-5 off (reporting 2.9e-7; first CI run of the
-/// merged branches). Still far below what a misread loop or surface changes.
-const STROKE_AREA_REL: f64 = 5e-5;
-/// The area tolerance's floor for sliver faces, m^2 (a square micrometre).
-const AREA_ABS: f64 = 1e-12;
-/// OCCT's surface points against our kernel's, relative to the surface's size.
-const POINT_REL: f64 = 1e-9;
 
 /// What one export looked like in OCCT, for the test's summary line.
 #[derive(Debug, Default)]

@@ -167,9 +167,14 @@ fn first_difference(live: &[u8], offline: &[u8]) -> String {
 /// offline replay's `scene.json`. The result must not depend on the pacing (times come
 /// from the frames' `ts`).
 fn live_equals_offline(name: &str) {
+    live_equals_offline_at(name, 3.0);
+}
+
+/// [`live_equals_offline`] served at `speed` (0: as fast as possible).
+fn live_equals_offline_at(name: &str, speed: f64) {
     let dir = tempfile::tempdir().unwrap();
     let expected = offline(name, &dir.path().join("offline"));
-    let (mut server, addr) = serve_tcp(name, 3.0);
+    let (mut server, addr) = serve_tcp(name, speed);
     let live = dir.path().join("live");
     let mut app = wandsculpt(&display_config(dir.path(), &addr), &live);
     assert!(server.wait_for("replay --serve", TIMEOUT).success());
@@ -179,7 +184,7 @@ fn live_equals_offline(name: &str) {
     let saved = std::fs::read(live.join(DOCUMENT_FILE)).unwrap();
     assert!(
         saved == expected,
-        "{name}: the live document differs from the offline scene.json: {}\n{log}",
+        "{name} at speed {speed}: the live document differs from the offline scene.json: {}\n{log}",
         first_difference(&saved, &expected)
     );
 }
@@ -200,6 +205,18 @@ fn a_session_with_tracking_loss_served_over_tcp_builds_the_offline_document() {
 #[test]
 fn a_reordered_session_served_over_tcp_builds_the_offline_document() {
     live_equals_offline("patch-carve-reordered");
+}
+
+/// Regression (issue 15, item 4): frame counters that jump ahead and then run
+/// backwards gave 2 strokes offline and at `--speed 1` but 3 live at `--speed 0`, 3
+/// or 10: the order rule let a source "quiet" for a second of arrival time restart its
+/// counter, and at higher speeds that second never passed. The rule now reads only the
+/// frames' contents, and the display server's stage sees every frame received.
+#[test]
+fn a_counter_running_backwards_gives_the_offline_document_at_any_speed() {
+    for speed in [0.0, 1.0, 3.0, 10.0] {
+        live_equals_offline_at("patch-carve-backwards", speed);
+    }
 }
 
 /// Regression (see above): a sketched surface followed by carving on it.

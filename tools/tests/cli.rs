@@ -8,7 +8,7 @@ use std::process::{Command, Output, Stdio};
 use glam::{DVec2, DVec3};
 use sculpt_core::assert_near;
 use sculpt_core::nurbs::NurbsSurface;
-use sculpt_core::tolerance::EXACT_EPS;
+use sculpt_core::tolerance::{EXACT_EPS, ULP_EPS};
 
 const SURFACE: &str = r#"{"degree_u": 2, "degree_v": 2,
  "knots_u": [0,0,0,0.5,1,1,1], "knots_v": [0,0,0,1,1,1],
@@ -135,7 +135,7 @@ fn project_reads_stdin_and_writes_out() {
             surface.point_uv(DVec2::new(row[0], row[1])).to_array(),
             EXACT_EPS
         );
-        assert_near!(row[5], point.distance(q), 1e-15);
+        assert_near!(row[5], point.distance(q), ULP_EPS);
     }
     // The query beyond the u = 1 edge lands on that edge; the far corner on (0, 0).
     assert_near!(got[1][0], 1.0, 0.0);
@@ -211,6 +211,33 @@ fn invalid_surfaces_name_file_and_line() {
     assert_one_line_error(&out, "/nonexistent/s.json: cannot read");
     let out = run(&["eval", "--surface", "-", "--uv", "-"], Some(SURFACE));
     assert_one_line_error(&out, "stdin");
+}
+
+/// Regression (issue 15 item 7): a surface that is valid JSON but invalid NURBS was
+/// reported at `S.json:0:0`; it names the entry that is wrong instead.
+#[test]
+fn semantic_surface_errors_name_the_entry_not_line_0_column_0() {
+    let dir = tempfile::tempdir().unwrap();
+    let uv = write(dir.path(), "uv.csv", "0.5,0.5\n");
+    let cases = [
+        (
+            "weights.json",
+            SURFACE.replace("[1,0.5,1]]", "[1,-0.5,1]]"),
+            "weights.json: invalid surface: invalid weights: control point [3][1]: weight -0.5 is not finite and positive",
+        ),
+        (
+            "knots.json",
+            SURFACE.replace("[0,0,0,0.5,1,1,1]", "[0,0,0,1,0.5,1,1]"),
+            "knots.json: invalid surface: invalid knot vector: knots_u: knots decrease at index 4: 1 > 0.5",
+        ),
+    ];
+    for (name, text, needle) in cases {
+        let p = write(dir.path(), name, &text);
+        let out = run(&["eval", "--surface", &p, "--uv", &uv], None);
+        assert_one_line_error(&out, needle);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains(":0:0"), "{err}");
+    }
 }
 
 #[test]

@@ -4,9 +4,7 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 use sculpt_core::assert_near;
-
-/// Sums and ratios of a few two-decimal numbers agree to this.
-const TABLE_EPS: f64 = 1e-9;
+use sculpt_core::tolerance::{DECIMAL_SUM_EPS, TRUNCATE_EPS};
 
 fn tools(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_sculpt-tools"))
@@ -86,7 +84,7 @@ fn golden_paper_tables_and_percentages() {
     for (row, (table, method, cells)) in summary[1..].iter().zip(want) {
         assert_eq!((row[0].as_str(), row[1].as_str()), (table, method));
         let got: Vec<f64> = row[2..].iter().map(|x| x.parse().unwrap()).collect();
-        assert_near!(got.as_slice(), cells.as_slice(), TABLE_EPS);
+        assert_near!(got.as_slice(), cells.as_slice(), DECIMAL_SUM_EPS);
     }
     assert_eq!(summary.len(), 7);
 
@@ -104,13 +102,13 @@ fn golden_paper_tables_and_percentages() {
     let ops_tr = pct("Trimming modeling", "operations");
     let t_ms = pct("Multi-surface modeling", "time_s");
     let t_tr = pct("Trimming modeling", "time_s");
-    assert_near!(ops_ms, 100.0 * 12.8 / 165.4, TABLE_EPS);
-    assert_near!(ops_tr, 100.0 * 12.8 / 35.6, TABLE_EPS);
-    assert_near!(t_ms, 100.0 * 12.01 / 100.62, TABLE_EPS);
-    assert_near!(t_tr, 100.0 * 12.01 / 30.53, TABLE_EPS);
+    assert_near!(ops_ms, 100.0 * 12.8 / 165.4, DECIMAL_SUM_EPS);
+    assert_near!(ops_tr, 100.0 * 12.8 / 35.6, DECIMAL_SUM_EPS);
+    assert_near!(t_ms, 100.0 * 12.01 / 100.62, DECIMAL_SUM_EPS);
+    assert_near!(t_tr, 100.0 * 12.01 / 30.53, DECIMAL_SUM_EPS);
     // The paper prints percentages truncated to two decimals: 7.73 % and 39.33 % are
     // reproduced exactly that way.
-    let trunc = |x: f64| (x * 100.0 + 1e-9).floor() / 100.0;
+    let trunc = |x: f64| (x * 100.0 + TRUNCATE_EPS).floor() / 100.0;
     assert_eq!(trunc(ops_ms), 7.73);
     assert_eq!(trunc(t_tr), 39.33);
     // The paper's other two figures do not follow from its own tables: 12.8 / 35.6 is

@@ -23,8 +23,8 @@
 //! let tracker_mm = [DVec3::ZERO, DVec3::X * 1000.0, DVec3::Y * 500.0, DVec3::new(300.0, 200.0, 900.0)];
 //! let pairs: Vec<_> = tracker_mm.iter().map(|&p| (p, truth.point_in_world(p))).collect();
 //! let got = fit(&pairs, &FitOptions::default()).unwrap();
-//! assert!(got.rms_residual_m < 1e-9);
-//! assert!(got.calibration.point_in_world(DVec3::ONE).distance(truth.point_in_world(DVec3::ONE)) < 1e-9);
+//! assert!(got.rms_residual_m < sculpt_core::tolerance::POINT_EPS);
+//! assert!(got.calibration.point_in_world(DVec3::ONE).distance(truth.point_in_world(DVec3::ONE)) < sculpt_core::tolerance::POINT_EPS);
 //! ```
 
 use crate::error::{Result, TrackingError};
@@ -103,14 +103,14 @@ impl Calibration {
             ));
         };
         let det = DMat3::from_cols(rows[0], rows[1], rows[2]).determinant();
-        if (det - 1.0).abs() > 1e-9 {
+        if (det - 1.0).abs() > sculpt_core::tolerance::ROTATION_DET_EPS {
             return bad(format!(
                 "axes {:?} are not a rotation (mirror or repeat)",
                 self.axes
             ));
         }
         let q = DQuat::from_array(self.rotation);
-        if !q.is_finite() || q.length() < 1e-6 {
+        if !q.is_finite() || q.length() < sculpt_core::tolerance::ZERO_QUAT_LEN {
             return bad("rotation must be a non-zero quaternion".into());
         }
         if !self.translation_m.iter().all(|v| v.is_finite()) {
@@ -239,7 +239,7 @@ pub fn fit(pairs: &[(DVec3, DVec3)], options: &FitOptions) -> Result<Fit> {
     };
     let mut sv: Vec<f64> = svd.singular_values.iter().copied().collect();
     sv.sort_by(|x, y| y.total_cmp(x));
-    if var_a <= 0.0 || sv[0] <= 0.0 || sv[1] <= 1e-12 * sv[0] {
+    if var_a <= 0.0 || sv[0] <= 0.0 || sv[1] <= sculpt_core::tolerance::SINGULAR_REL * sv[0] {
         return bad("points are degenerate (coincident or collinear)");
     }
     // The sign flip (a reflection otherwise) goes on the smallest singular value.
@@ -313,10 +313,9 @@ pub fn fit_tip(poses: &[(DVec3, DQuat)]) -> Result<TipFit> {
     if poses.len() < 3 {
         return bad("pivot calibration needs at least 3 poses");
     }
-    if poses
-        .iter()
-        .any(|(p, q)| !p.is_finite() || !q.is_finite() || q.length() < 1e-6)
-    {
+    if poses.iter().any(|(p, q)| {
+        !p.is_finite() || !q.is_finite() || q.length() < sculpt_core::tolerance::ZERO_QUAT_LEN
+    }) {
         return bad("poses must be finite with non-zero quaternions");
     }
     let n = poses.len();
@@ -335,11 +334,14 @@ pub fn fit_tip(poses: &[(DVec3, DQuat)]) -> Result<TipFit> {
     let svd = a.svd(true, true);
     let smax = svd.singular_values.max();
     let smin = svd.singular_values.min();
-    if !smax.is_finite() || smax <= 0.0 || smin < 1e-6 * smax {
+    if !smax.is_finite()
+        || smax <= 0.0
+        || smin < sculpt_core::tolerance::CALIBRATION_COND_MIN * smax
+    {
         return bad("poses are degenerate: turn the wand about two or more axes");
     }
     let x = svd
-        .solve(&b, 1e-12 * smax)
+        .solve(&b, sculpt_core::tolerance::SINGULAR_REL * smax)
         .map_err(|e| TrackingError::Calibration(e.to_string()))?;
     let tip = DVec3::new(x[0], x[1], x[2]);
     let pivot = DVec3::new(x[3], x[4], x[5]);
@@ -360,6 +362,7 @@ pub fn fit_tip(poses: &[(DVec3, DQuat)]) -> Result<TipFit> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use sculpt_core::tolerance::EXACT_EPS;
 
     #[test]
     fn axis_remap_z_up_to_y_up() {
@@ -370,9 +373,9 @@ mod tests {
         c.validate().unwrap();
         // Tracker: 1 m up (z). Display: 1 m up (y).
         let p = c.point_in_world(DVec3::new(0.0, 0.0, 1000.0));
-        assert!(p.distance(DVec3::Y) < 1e-12);
+        assert!(p.distance(DVec3::Y) < EXACT_EPS);
         let p = c.point_in_world(DVec3::new(0.0, 1000.0, 0.0));
-        assert!(p.distance(-DVec3::Z) < 1e-12);
+        assert!(p.distance(-DVec3::Z) < EXACT_EPS);
     }
 
     #[test]

@@ -19,7 +19,7 @@ use crate::dtrack::DecoderLimits;
 use crate::error::{Result, TrackingError};
 use crate::filter::FilterConfig;
 use serde::{Deserialize, Serialize};
-use std::net::SocketAddr;
+use std::net::{IpAddr, SocketAddr};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -102,6 +102,16 @@ impl SourceConfig {
     }
 }
 
+/// Whether `peer` is on the allow-list (an empty list allows every peer). An
+/// IPv4-mapped IPv6 address matches its IPv4 entry.
+pub fn peer_allowed(allow: &[IpAddr], peer: IpAddr) -> bool {
+    let peer = match peer {
+        IpAddr::V6(v6) => v6.to_ipv4_mapped().map_or(peer, IpAddr::V4),
+        v4 => v4,
+    };
+    allow.is_empty() || allow.contains(&peer)
+}
+
 /// Everything the tracking layer needs.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -117,8 +127,13 @@ pub struct TrackingConfig {
     pub reconnect_min_ms: u64,
     /// Longest reconnect delay, ms.
     pub reconnect_max_ms: u64,
-    /// Most simultaneous connections a TCP listener accepts.
+    /// Most simultaneous connections a TCP listener accepts (1: one active connection
+    /// per source; a further peer is refused and logged while it lasts).
     pub max_connections: usize,
+    /// Peer addresses that may feed a `tcp-listen` or `udp` source; connections and
+    /// datagrams from any other address are refused and logged, and never touch the
+    /// session. Empty (the default) allows any peer.
+    pub allow: Vec<IpAddr>,
     /// Decoder caps.
     pub limits: DecoderLimits,
     /// The One Euro filter.
@@ -137,7 +152,8 @@ impl Default for TrackingConfig {
             read_timeout_ms: 2000,
             reconnect_min_ms: 100,
             reconnect_max_ms: 2000,
-            max_connections: 4,
+            max_connections: 1,
+            allow: Vec::new(),
             limits: DecoderLimits::default(),
             filter: FilterConfig::default(),
             calibration: Calibration::default(),
@@ -184,6 +200,11 @@ impl TrackingConfig {
         }
         self.filter.validate()?;
         self.calibration.validate()
+    }
+
+    /// Whether `peer` may feed a listening source (see [`TrackingConfig::allow`]).
+    pub fn allows(&self, peer: IpAddr) -> bool {
+        peer_allowed(&self.allow, peer)
     }
 
     /// `lost_after_ms` as a duration.

@@ -27,18 +27,18 @@ pub enum TrackingError {
     },
     /// A serial wand line was malformed or failed its checksum.
     #[error("serial wand line: {0}")]
-    SerialLine(String),
+    SerialLine(SerialLineError),
     /// A pose-log line is corrupt.
     #[error("pose log line {line}: {reason}")]
     PoseLogLine {
         /// 1-based line number in the log file.
         line: usize,
         /// What was wrong.
-        reason: String,
+        reason: PoseLogLineError,
     },
     /// A pose log does not start with a supported header.
     #[error("not a Wandsculpt pose log (or unsupported version): {0}")]
-    PoseLogHeader(String),
+    PoseLogHeader(PoseLogHeaderError),
     /// Invalid configuration (TOML or programmatic).
     #[error("config: {0}")]
     Config(String),
@@ -49,7 +49,7 @@ pub enum TrackingError {
     #[error("simulator: {0}")]
     Sim(String),
     /// An I/O error, with the path or endpoint involved when known.
-    #[error("I/O on {what}: {source}")]
+    #[error("I/O on {what}")]
     Io {
         /// The file, socket address or port involved.
         what: String,
@@ -59,7 +59,7 @@ pub enum TrackingError {
     },
     /// A serial port could not be opened or configured.
     #[cfg(feature = "io")]
-    #[error("serial port {port}: {source}")]
+    #[error("serial port {port}")]
     Serial {
         /// The port path.
         port: String,
@@ -82,8 +82,150 @@ pub enum TrackingError {
     #[error("import: {0}")]
     Import(String),
     /// JSON in a pose-log header could not be (de)serialised.
-    #[error("JSON: {0}")]
+    #[error("JSON")]
     Json(#[from] serde_json::Error),
+}
+
+/// What is wrong with a pose-log line.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum PoseLogLineError {
+    /// A serial record was asked for as a DTrack frame.
+    #[error("not a DTrack record")]
+    NotDTrack,
+    /// The DTrack payload does not parse.
+    #[error("{0}")]
+    DTrack(Box<TrackingError>),
+    /// The record kind is neither `d` nor `s`.
+    #[error("unknown record kind (want `d` or `s`)")]
+    UnknownKind,
+    /// No payload after the time.
+    #[error("missing payload")]
+    MissingPayload,
+    /// The time field does not parse.
+    #[error("bad time (want seconds with 9 decimals)")]
+    BadTime,
+    /// The time goes back.
+    #[error("time {time} goes back before {previous}")]
+    TimeBackwards {
+        /// The record's time, as written.
+        time: String,
+        /// The previous record's time, as written.
+        previous: String,
+    },
+    /// The checksum field is not 8 hex digits.
+    #[error("bad checksum field (want 8 hex digits)")]
+    ChecksumField,
+    /// The payload does not match its checksum.
+    #[error("checksum mismatch (payload damaged or cut)")]
+    ChecksumMismatch,
+    /// A raw byte outside printable ASCII.
+    #[error("raw byte 0x{byte:02X} at column {column}")]
+    RawByte {
+        /// The byte.
+        byte: u8,
+        /// 1-based column in the payload.
+        column: usize,
+    },
+    /// A malformed `\` escape.
+    #[error("bad {}escape at column {column}", if *.hex { "\\x " } else { "" })]
+    BadEscape {
+        /// Whether it was a `\x` escape.
+        hex: bool,
+        /// 1-based column in the payload.
+        column: usize,
+    },
+    /// The line is longer than the cap.
+    #[error("longer than {max} bytes")]
+    TooLong {
+        /// The cap.
+        max: usize,
+    },
+}
+
+/// Why a pose log's first lines are not a supported header.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum PoseLogHeaderError {
+    /// No complete first line.
+    #[error("missing first line")]
+    MissingFirstLine,
+    /// The first line is not the magic and a version.
+    #[error("first line `{0}`")]
+    FirstLine(String),
+    /// The version is not the one this reader knows.
+    #[error("version {found}, this reader knows {supported}")]
+    Version {
+        /// The version in the file.
+        found: u32,
+        /// The version this reader knows.
+        supported: u32,
+    },
+    /// No complete header line.
+    #[error("missing header line")]
+    MissingHeaderLine,
+    /// The second line does not start with `header `.
+    #[error("second line is not `header {{json}}`")]
+    NotHeader,
+    /// The header JSON does not parse.
+    #[error("header JSON: {0}")]
+    Json(sculpt_core::error::JsonError),
+}
+
+/// Why a serial wand line was refused.
+#[derive(Debug, thiserror::Error, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum SerialLineError {
+    /// The line does not start with `$`.
+    #[error("missing `$`")]
+    NoDollar,
+    /// The line has no `*checksum`.
+    #[error("missing `*checksum`")]
+    NoChecksum,
+    /// The checksum is not 8 hex digits.
+    #[error("checksum must be 8 hex digits")]
+    ChecksumFormat,
+    /// The checksum does not match the payload.
+    #[error("checksum mismatch")]
+    ChecksumMismatch {
+        /// The checksum the line carries.
+        expected: u32,
+        /// The checksum of its payload.
+        actual: u32,
+    },
+    /// The payload is not ASCII.
+    #[error("not ASCII")]
+    NotAscii,
+    /// The sentence is not `WAND`.
+    #[error("unknown sentence (want WAND)")]
+    UnknownSentence,
+    /// Neither 3 nor 10 fields.
+    #[error("want 3 fields, or 10 with a pose")]
+    FieldCount {
+        /// Fields found.
+        got: usize,
+    },
+    /// The sequence number does not parse.
+    #[error("bad sequence number")]
+    Sequence,
+    /// The button mask is not 1 to 16 hex digits.
+    #[error("bad button mask")]
+    Buttons,
+    /// A pose number does not parse or is not finite.
+    #[error("bad pose number")]
+    PoseNumber {
+        /// Its index among the 7 pose fields.
+        index: usize,
+    },
+    /// The pose quaternion is far from unit length.
+    #[error("quaternion is not unit length")]
+    NotUnitQuaternion,
+    /// A line exceeded the length cap and was discarded.
+    #[error("line longer than {max} bytes")]
+    TooLong {
+        /// The cap.
+        max: usize,
+    },
 }
 
 impl TrackingError {
@@ -106,3 +248,19 @@ impl TrackingError {
 
 /// `Result` with [`TrackingError`].
 pub type Result<T, E = TrackingError> = std::result::Result<T, E>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Regression: `Io` printed its source in its message and as its `source()`, so
+    /// `{:#}` in the binaries said the cause twice.
+    #[test]
+    fn io_cause_is_printed_once_in_the_chain() {
+        let e = TrackingError::io("pose log", std::io::Error::other("disk on fire"));
+        assert_eq!(
+            sculpt_core::error::Chain(&e).to_string(),
+            "I/O on pose log: disk on fire"
+        );
+    }
+}

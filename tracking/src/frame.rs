@@ -19,7 +19,9 @@ use std::time::Duration;
 /// Frame counters this far behind the newest are out of order; further means a reset
 /// (the rule of the [`stage`](crate::stage) and of the tokio hub).
 pub const REORDER_WINDOW: u64 = 1_000;
-/// A source quiet for this long may restart its frame counter.
+/// A tracker whose clock (`ts`) went back this far may restart its frame counter (the
+/// [`stage`](crate::stage)); the hub, which watches arrival, also lets a source quiet
+/// for this long restart it.
 pub const COUNTER_RESET_AFTER: Duration = Duration::from_secs(1);
 
 /// A rigid pose in tracker space: position in millimetres, orientation as the

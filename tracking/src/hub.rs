@@ -4,9 +4,12 @@
 //! calibrated, filtered pose with its [`TrackingStatus`]), one ordered `broadcast`
 //! channel of [`TrackingEvent`]s (button edges and status changes), and a frame
 //! subscription ([`Hub::subscribe_frames`]): every accepted raw frame, with its
-//! source, in acceptance order, for consumers that must see every frame (the display
-//! server feeds them to the same per-frame stage as `replay`, so a live session equals
-//! the replay of its log). It is driven by
+//! source, in acceptance order, for consumers that must see every frame; and
+//! [`Hub::subscribe_received`]: every frame received, dropped or not, in arrival
+//! order, which is what a pose log records (the display server feeds these to the same
+//! per-frame stage as `replay`, which makes its own order decision from the frames'
+//! contents, so a live session equals the replay of its log whatever the arrival
+//! timing). It is driven by
 //! the transports (or directly, by replay) with frames stamped with their receive time,
 //! and is itself clock-free: staleness is checked against a time you pass in, so
 //! replaying a log is deterministic.
@@ -226,6 +229,9 @@ pub struct SourceStats {
     pub bad_frames: u64,
     /// Connections made (TCP) or port openings (serial).
     pub connections: u64,
+    /// Peers refused (a connection or datagram from outside the allow-list, or while
+    /// the source already had its peer); nothing they sent was read.
+    pub refused: u64,
 }
 
 #[derive(Debug)]
@@ -260,6 +266,7 @@ struct Inner {
     merge: Mutex<Merge>,
     events: broadcast::Sender<TrackingEvent>,
     frames: broadcast::Sender<SourcedFrame>,
+    received: broadcast::Sender<SourcedFrame>,
 }
 
 /// The merged tracking state; cheap to clone (shared).
@@ -279,6 +286,7 @@ impl Hub {
     pub fn new(config: &TrackingConfig) -> Self {
         let (events, _) = broadcast::channel(EVENT_CAPACITY);
         let (frames, _) = broadcast::channel(FRAME_CAPACITY);
+        let (received, _) = broadcast::channel(FRAME_CAPACITY);
         Self {
             inner: Arc::new(Inner {
                 epoch: Instant::now(),
@@ -292,6 +300,7 @@ impl Hub {
                 }),
                 events,
                 frames,
+                received,
             }),
         }
     }
@@ -344,7 +353,10 @@ impl Hub {
         if let Some(w) = m.recorder.as_mut()
             && let Err(e) = w.write(kind, time, bytes)
         {
-            tracing::error!("pose log recording stopped: {e}");
+            tracing::error!(
+                "pose log recording stopped: {}",
+                sculpt_core::error::Chain(&e)
+            );
             m.recorder = None;
         }
     }
@@ -365,6 +377,17 @@ impl Hub {
     pub fn subscribe_frames(&self) -> FrameSubscription {
         FrameSubscription {
             rx: self.inner.frames.subscribe(),
+            dropped: 0,
+        }
+    }
+
+    /// A subscription to every frame received from now on, whether the hub keeps it or
+    /// drops it as out of order, in arrival order: the frames a pose log records. The
+    /// display server's [`FrameStage`](crate::stage::FrameStage) reads these and
+    /// decides the order itself, as `replay` does on the log.
+    pub fn subscribe_received(&self) -> FrameSubscription {
+        FrameSubscription {
+            rx: self.inner.received.subscribe(),
             dropped: 0,
         }
     }
@@ -398,6 +421,14 @@ impl Hub {
     fn event(&self, e: TrackingEvent) {
         // No receivers is fine.
         let _ = self.inner.events.send(e);
+    }
+
+    /// Counts a refused peer against a source; returns the count so far.
+    pub fn refused(&self, source: SourceId) -> u64 {
+        self.lock().sources.get_mut(source.0).map_or(0, |s| {
+            s.stats.refused += 1;
+            s.stats.refused
+        })
     }
 
     /// Counts a dropped malformed frame against a source.
@@ -500,6 +531,14 @@ impl Hub {
         let Some(src) = m.sources.get_mut(source.0) else {
             return false;
         };
+        // Sent under the merge lock, so subscribers see frames in arrival order.
+        if self.inner.received.receiver_count() > 0 {
+            let _ = self.inner.received.send(SourcedFrame {
+                source,
+                frame: frame.clone(),
+                carries_pose,
+            });
+        }
         if let Some(last) = src.last_frame {
             let quiet = time.saturating_sub(src.last_accept) >= COUNTER_RESET_AFTER;
             if frame.number <= last && last - frame.number < REORDER_WINDOW && !quiet {

@@ -65,7 +65,7 @@ pub struct Plane {
 impl Target for Plane {
     fn hit(&self, p: DVec3, dir: DVec3) -> Option<(DVec3, DVec3)> {
         let denom = dir.dot(self.normal);
-        if denom.abs() < 1e-12 {
+        if denom.abs() < sculpt_core::tolerance::PARALLEL_COS_EPS {
             return None;
         }
         let s = (self.origin - p).dot(self.normal) / denom;
@@ -90,7 +90,7 @@ impl Target for DefaultSurface {
         for _ in 0..50 {
             let q = p + dir * s;
             let next = (default_surface_point(q.x, q.y).z - p.z) / dir.z;
-            if (next - s).abs() < 1e-13 {
+            if (next - s).abs() < sculpt_core::tolerance::FIXED_POINT_EPS {
                 s = next;
                 break;
             }
@@ -101,7 +101,8 @@ impl Target for DefaultSurface {
         let u = on.x - SURFACE_CENTER.x;
         let v = (on.y - SURFACE_CENTER.y) / 0.6;
         let normal = DVec3::new(u, 0.5 * v / 0.6, 1.0).normalize();
-        (on.is_finite() && (on - q).length() < 1e-9).then_some((on, normal))
+        (on.is_finite() && (on - q).length() < sculpt_core::tolerance::POINT_EPS)
+            .then_some((on, normal))
     }
 }
 
@@ -221,7 +222,10 @@ impl ImportOptions {
         {
             return bad("scale must be finite and > 0");
         }
-        if p.right.length() < 1e-9 || p.up.length() < 1e-9 || p.normal().length() < 0.5 {
+        if p.right.length() < sculpt_core::tolerance::POINT_EPS
+            || p.up.length() < sculpt_core::tolerance::POINT_EPS
+            || p.normal().length() < 0.5
+        {
             return bad("right and up must be non-zero and not parallel");
         }
         if self.button >= 32 {
@@ -319,12 +323,12 @@ pub fn wand_track(
     let mid = (lo + hi) * 0.5;
     let extent = hi - lo;
     let scale = p.scale.unwrap_or_else(|| {
-        let sx = if extent.x > 1e-9 {
+        let sx = if extent.x > sculpt_core::tolerance::POINT_EPS {
             p.fit_m[0] / extent.x
         } else {
             f64::INFINITY
         };
-        let sy = if extent.y > 1e-9 {
+        let sy = if extent.y > sculpt_core::tolerance::POINT_EPS {
             p.fit_m[1] / extent.y
         } else {
             f64::INFINITY
@@ -626,7 +630,7 @@ mod tests {
         let smp = track.samples[25];
         assert_eq!(smp.buttons, 1);
         let along = (smp.position_m.x - track.strokes[0].points_m[0].x) / track.scale;
-        assert_near!(along, 2.5, 1e-9);
+        assert_near!(along, 2.5, POINT_EPS);
     }
 
     #[test]

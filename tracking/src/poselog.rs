@@ -34,7 +34,7 @@
 //! ```
 
 use crate::dtrack;
-use crate::error::{Result, TrackingError};
+use crate::error::{PoseLogHeaderError, PoseLogLineError, Result, TrackingError};
 use crate::frame::Frame;
 use serde::{Deserialize, Serialize};
 use std::fs::{File, OpenOptions};
@@ -115,12 +115,12 @@ impl Record {
         if self.kind != RecordKind::DTrack {
             return Err(TrackingError::PoseLogLine {
                 line: self.line,
-                reason: "not a DTrack record".into(),
+                reason: PoseLogLineError::NotDTrack,
             });
         }
         let mut f = dtrack::parse_frame(&self.bytes).map_err(|e| TrackingError::PoseLogLine {
             line: self.line,
-            reason: e.to_string(),
+            reason: PoseLogLineError::DTrack(Box::new(e)),
         })?;
         f.receive_time = self.time;
         Ok(f)
@@ -148,14 +148,17 @@ pub fn escape(bytes: &[u8], out: &mut Vec<u8>) {
 }
 
 /// Undoes [`escape`]; `Err` names the first bad escape.
-pub fn unescape(text: &[u8]) -> std::result::Result<Vec<u8>, String> {
+pub fn unescape(text: &[u8]) -> std::result::Result<Vec<u8>, PoseLogLineError> {
     let mut out = Vec::with_capacity(text.len());
     let mut i = 0;
     while i < text.len() {
         let b = text[i];
         if b != b'\\' {
             if !(0x20..=0x7e).contains(&b) {
-                return Err(format!("raw byte 0x{b:02X} at column {}", i + 1));
+                return Err(PoseLogLineError::RawByte {
+                    byte: b,
+                    column: i + 1,
+                });
             }
             out.push(b);
             i += 1;
@@ -171,11 +174,19 @@ pub fn unescape(text: &[u8]) -> std::result::Result<Vec<u8>, String> {
                     .get(i + 2..i + 4)
                     .and_then(|h| std::str::from_utf8(h).ok())
                     .and_then(|h| u8::from_str_radix(h, 16).ok())
-                    .ok_or_else(|| format!("bad \\x escape at column {}", i + 1))?;
+                    .ok_or(PoseLogLineError::BadEscape {
+                        hex: true,
+                        column: i + 1,
+                    })?;
                 out.push(hex);
                 i += 2;
             }
-            _ => return Err(format!("bad escape at column {}", i + 1)),
+            _ => {
+                return Err(PoseLogLineError::BadEscape {
+                    hex: false,
+                    column: i + 1,
+                });
+            }
         }
         i += 2;
     }
@@ -355,30 +366,31 @@ impl<R: BufRead> PoseLogReader<R> {
     pub fn new(mut r: R) -> Result<Self> {
         let mut buf = Vec::new();
         let io = |e| TrackingError::io("pose log", e);
-        let bad = |s: &str| TrackingError::PoseLogHeader(s.to_string());
+        let bad = TrackingError::PoseLogHeader;
         match read_line_capped(&mut r, &mut buf, 256).map_err(io)? {
             Some((true, false)) => {}
-            _ => return Err(bad("missing first line")),
+            _ => return Err(bad(PoseLogHeaderError::MissingFirstLine)),
         }
         let first = String::from_utf8_lossy(&buf).into_owned();
         let version = first
             .strip_prefix(MAGIC)
             .and_then(|v| v.trim().parse::<u32>().ok())
-            .ok_or_else(|| bad(&format!("first line `{first}`")))?;
+            .ok_or_else(|| bad(PoseLogHeaderError::FirstLine(first.clone())))?;
         if version != VERSION {
-            return Err(bad(&format!(
-                "version {version}, this reader knows {VERSION}"
-            )));
+            return Err(bad(PoseLogHeaderError::Version {
+                found: version,
+                supported: VERSION,
+            }));
         }
         match read_line_capped(&mut r, &mut buf, MAX_LINE).map_err(io)? {
             Some((true, false)) => {}
-            _ => return Err(bad("missing header line")),
+            _ => return Err(bad(PoseLogHeaderError::MissingHeaderLine)),
         }
         let json = buf
             .strip_prefix(b"header ")
-            .ok_or_else(|| bad("second line is not `header {json}`"))?;
+            .ok_or(bad(PoseLogHeaderError::NotHeader))?;
         let header: PoseLogHeader =
-            serde_json::from_slice(json).map_err(|e| bad(&format!("header JSON: {e}")))?;
+            serde_json::from_slice(json).map_err(|e| bad(PoseLogHeaderError::Json(e.into())))?;
         Ok(Self {
             r,
             header,
@@ -399,7 +411,7 @@ impl<R: BufRead> PoseLogReader<R> {
         self.truncated_tail
     }
 
-    fn parse_record(&mut self) -> std::result::Result<Option<Record>, String> {
+    fn parse_record(&mut self) -> std::result::Result<Option<Record>, PoseLogLineError> {
         let line = &self.buf;
         if line.is_empty() || line[0] == b'#' {
             return Ok(None);
@@ -407,17 +419,16 @@ impl<R: BufRead> PoseLogReader<R> {
         let kind = match line.get(..2) {
             Some(b"d ") => RecordKind::DTrack,
             Some(b"s ") => RecordKind::Serial,
-            _ => return Err("unknown record kind (want `d` or `s`)".into()),
+            _ => return Err(PoseLogLineError::UnknownKind),
         };
         let rest = &line[2..];
-        let sp = memchr::memchr(b' ', rest).ok_or("missing payload")?;
-        let time = parse_time(&rest[..sp]).ok_or("bad time (want seconds with 9 decimals)")?;
+        let sp = memchr::memchr(b' ', rest).ok_or(PoseLogLineError::MissingPayload)?;
+        let time = parse_time(&rest[..sp]).ok_or(PoseLogLineError::BadTime)?;
         if time < self.last {
-            return Err(format!(
-                "time {} goes back before {}",
-                format_time(time),
-                format_time(self.last)
-            ));
+            return Err(PoseLogLineError::TimeBackwards {
+                time: format_time(time),
+                previous: format_time(self.last),
+            });
         }
         let rest = &rest[sp + 1..];
         let crc = rest
@@ -425,10 +436,10 @@ impl<R: BufRead> PoseLogReader<R> {
             .filter(|c| c[8] == b' ')
             .and_then(|c| std::str::from_utf8(&c[..8]).ok())
             .and_then(|c| u32::from_str_radix(c, 16).ok())
-            .ok_or("bad checksum field (want 8 hex digits)")?;
+            .ok_or(PoseLogLineError::ChecksumField)?;
         let bytes = unescape(&rest[9..])?;
         if crc32fast::hash(&bytes) != crc {
-            return Err("checksum mismatch (payload damaged or cut)".into());
+            return Err(PoseLogLineError::ChecksumMismatch);
         }
         self.last = time;
         Ok(Some(Record {
@@ -460,7 +471,7 @@ impl<R: BufRead> Iterator for PoseLogReader<R> {
             if too_long {
                 return Some(Err(TrackingError::PoseLogLine {
                     line,
-                    reason: format!("longer than {MAX_LINE} bytes"),
+                    reason: PoseLogLineError::TooLong { max: MAX_LINE },
                 }));
             }
             match self.parse_record() {

@@ -29,7 +29,7 @@
 //! assert_eq!(got.into_iter().filter_map(Result::ok).collect::<Vec<_>>(), vec![rec]);
 //! ```
 
-use crate::error::{Result, TrackingError};
+use crate::error::{Result, SerialLineError, TrackingError};
 use crate::frame::{Frame, Pose, Wand};
 use glam::{DQuat, DVec3};
 use std::io::Write as _;
@@ -85,43 +85,51 @@ pub fn encode_serial(rec: &SerialRecord, out: &mut Vec<u8>) {
 
 /// Parses one line (from `$` up to, not including, CR/LF).
 pub fn parse_serial(line: &[u8]) -> Result<SerialRecord> {
-    let bad = |s: &str| TrackingError::SerialLine(s.to_string());
-    let body = line.strip_prefix(b"$").ok_or_else(|| bad("missing `$`"))?;
-    let star = memchr::memrchr(b'*', body).ok_or_else(|| bad("missing `*checksum`"))?;
+    let bad = TrackingError::SerialLine;
+    let body = line
+        .strip_prefix(b"$")
+        .ok_or(bad(SerialLineError::NoDollar))?;
+    let star = memchr::memrchr(b'*', body).ok_or(bad(SerialLineError::NoChecksum))?;
     let (payload, crc) = (&body[..star], &body[star + 1..]);
     let crc = std::str::from_utf8(crc)
         .ok()
         .filter(|c| c.len() == 8)
         .and_then(|c| u32::from_str_radix(c, 16).ok())
-        .ok_or_else(|| bad("checksum must be 8 hex digits"))?;
-    if crc32fast::hash(payload) != crc {
-        return Err(bad("checksum mismatch"));
+        .ok_or(bad(SerialLineError::ChecksumFormat))?;
+    let actual = crc32fast::hash(payload);
+    if actual != crc {
+        return Err(bad(SerialLineError::ChecksumMismatch {
+            expected: crc,
+            actual,
+        }));
     }
-    let text = std::str::from_utf8(payload).map_err(|_| bad("not ASCII"))?;
+    let text = std::str::from_utf8(payload).map_err(|_| bad(SerialLineError::NotAscii))?;
     let fields: Vec<&str> = text.split(',').collect();
     if fields[0] != "WAND" {
-        return Err(bad("unknown sentence (want WAND)"));
+        return Err(bad(SerialLineError::UnknownSentence));
     }
     if fields.len() != 3 && fields.len() != 10 {
-        return Err(bad("want 3 fields, or 10 with a pose"));
+        return Err(bad(SerialLineError::FieldCount { got: fields.len() }));
     }
-    let seq = fields[1].parse().map_err(|_| bad("bad sequence number"))?;
+    let seq = fields[1]
+        .parse()
+        .map_err(|_| bad(SerialLineError::Sequence))?;
     if fields[2].is_empty() || fields[2].len() > 16 {
-        return Err(bad("bad button mask"));
+        return Err(bad(SerialLineError::Buttons));
     }
-    let buttons = u64::from_str_radix(fields[2], 16).map_err(|_| bad("bad button mask"))?;
+    let buttons = u64::from_str_radix(fields[2], 16).map_err(|_| bad(SerialLineError::Buttons))?;
     let pose = if fields.len() == 10 {
         let mut v = [0.0; 7];
-        for (slot, f) in v.iter_mut().zip(&fields[3..]) {
+        for (index, (slot, f)) in v.iter_mut().zip(&fields[3..]).enumerate() {
             *slot = f
                 .parse::<f64>()
                 .ok()
                 .filter(|x| x.is_finite())
-                .ok_or_else(|| bad("bad pose number"))?;
+                .ok_or(bad(SerialLineError::PoseNumber { index }))?;
         }
         let q = DQuat::from_xyzw(v[4], v[5], v[6], v[3]);
         if !(0.5..=1.5).contains(&q.length()) {
-            return Err(bad("quaternion is not unit length"));
+            return Err(bad(SerialLineError::NotUnitQuaternion));
         }
         Some(Pose::from_quat(DVec3::new(v[0], v[1], v[2]), q))
     } else {
@@ -174,9 +182,9 @@ impl SerialDecoder {
                 self.line.clear();
                 self.in_line = false;
                 out(
-                    Err(TrackingError::SerialLine(format!(
-                        "line longer than {MAX_LINE} bytes"
-                    ))),
+                    Err(TrackingError::SerialLine(SerialLineError::TooLong {
+                        max: MAX_LINE,
+                    })),
                     &[],
                 );
                 continue;
@@ -189,6 +197,7 @@ impl SerialDecoder {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use sculpt_core::tolerance::{WIRE_ANGLE_EPS, WIRE_MM_EPS};
 
     #[test]
     fn pose_round_trip() {
@@ -206,12 +215,12 @@ mod tests {
         assert_eq!(back.seq, rec.seq);
         assert_eq!(back.buttons, rec.buttons);
         let (a, b) = (back.pose.unwrap(), rec.pose.unwrap());
-        assert!(a.position_mm.distance(b.position_mm) < 1e-3);
+        assert!(a.position_mm.distance(b.position_mm) < WIRE_MM_EPS);
         assert!(
             a.orientation()
                 .unwrap()
                 .angle_between(b.orientation().unwrap())
-                < 1e-5
+                < WIRE_ANGLE_EPS
         );
     }
 
@@ -231,7 +240,9 @@ mod tests {
         SerialDecoder::default().push(&line, &mut |r, _| got.push(r));
         assert!(matches!(
             got.as_slice(),
-            [Err(TrackingError::SerialLine(_))]
+            [Err(TrackingError::SerialLine(
+                SerialLineError::ChecksumMismatch { .. }
+            ))]
         ));
     }
 }

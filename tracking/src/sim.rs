@@ -23,7 +23,7 @@
 //! let frames: Vec<_> = Simulator::new(&script, SimConfig::default()).unwrap().collect();
 //! assert_eq!(frames.len(), (script.duration() * 120.0).round() as usize + 1);
 //! let truth = script.timeline();
-//! assert!(truth.wand_at(0.6).position_m.distance(DVec3::new(0.2, 1.3, 0.1)) < 1e-9);
+//! assert!(truth.wand_at(0.6).position_m.distance(DVec3::new(0.2, 1.3, 0.1)) < sculpt_core::tolerance::POINT_EPS);
 //! ```
 
 use crate::error::{Result, TrackingError};

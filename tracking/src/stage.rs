@@ -10,9 +10,13 @@
 //!    where receive times differ, and an offline replay of its log therefore give the
 //!    same sample times;
 //! 2. **order**: a frame whose counter is not newer than the last accepted one is
-//!    dropped as out of order, unless the source was quiet for
-//!    [`COUNTER_RESET_AFTER`] (a restarted tracker counts from 1 again) or it is more
-//!    than [`REORDER_WINDOW`] behind (the same rule as the [`hub`](crate::hub));
+//!    dropped as out of order, unless it is more than [`REORDER_WINDOW`] behind or its
+//!    tracker time `ts` went back by [`COUNTER_RESET_AFTER`] or more (a restarted
+//!    tracker counts, and clocks, from the start again). The rule reads the frames'
+//!    contents only, never their arrival times, so a live run served at any speed
+//!    keeps the frames an offline replay of the same log keeps. Only frames without a
+//!    `ts` (whose time is their arrival anyway) fall back to a receive-time gap of
+//!    [`COUNTER_RESET_AFTER`] since the last accepted frame;
 //! 3. **timeout**: when more than [`StageConfig::timeout_s`] passed since the last wand
 //!    report, the wand was lost at that report's time plus the timeout. The caller's
 //!    [`FrameStage::idle`] detects the same gap while no frame arrives at all;
@@ -41,13 +45,15 @@
 //!     stage.push(&f, &mut out);
 //! }
 //! let StageEvent::Wand(last) = out.last().unwrap() else { panic!() };
-//! assert!(last.tracked && (last.t - 0.03).abs() < 1e-12);
-//! assert!((last.tip_m.y - 1.0).abs() < 1e-12);
+//! assert!(last.tracked);
+//! sculpt_core::assert_near!(last.t, 0.03, sculpt_core::tolerance::EXACT_EPS);
+//! sculpt_core::assert_near!(last.tip_m.y, 1.0, sculpt_core::tolerance::EXACT_EPS);
 //! // No frame for a second: the wand is lost at the last time plus the timeout.
 //! out.clear();
 //! stage.idle(Duration::from_millis(1530), &mut out);
 //! let StageEvent::Wand(lost) = &out[0] else { panic!() };
-//! assert!(!lost.tracked && (lost.t - 0.53).abs() < 1e-9);
+//! assert!(!lost.tracked);
+//! sculpt_core::assert_near!(lost.t, 0.53, sculpt_core::tolerance::TIME_EPS);
 //! assert_eq!(stage.metrics().losses, 1);
 //! ```
 
@@ -289,12 +295,13 @@ impl FrameStage {
     pub fn push(&mut self, frame: &Frame, out: &mut Vec<StageEvent>) -> bool {
         self.metrics.frames += 1;
         let receive = frame.receive_time;
-        if let Some((last, last_receive)) = self.last_frame {
-            let quiet = receive.saturating_sub(last_receive) >= COUNTER_RESET_AFTER;
-            if frame.number <= last && last - frame.number < REORDER_WINDOW && !quiet {
-                self.metrics.out_of_order += 1;
-                return false;
-            }
+        if let Some((last, last_receive)) = self.last_frame
+            && frame.number <= last
+            && last - frame.number < REORDER_WINDOW
+            && !self.restarted(frame, last_receive)
+        {
+            self.metrics.out_of_order += 1;
+            return false;
         }
         self.last_frame = Some((frame.number, receive));
         self.metrics.used += 1;
@@ -361,6 +368,18 @@ impl FrameStage {
         };
         out.push(StageEvent::Wand(sample));
         true
+    }
+
+    /// Whether a frame whose counter is not newer than the last accepted one comes from
+    /// a restarted tracker: its `ts` went back by [`COUNTER_RESET_AFTER`] or more from
+    /// the last accepted `ts` (content only, so arrival timing never matters). Without
+    /// a `ts` on both, a receive-time gap of that much since the last accepted frame.
+    fn restarted(&self, frame: &Frame, last_receive: Duration) -> bool {
+        let reset_s = COUNTER_RESET_AFTER.as_secs_f64();
+        match (tracker_time(frame), self.clock) {
+            (Some(ts), Some((_, last_ts, true))) => last_ts - ts >= reset_s,
+            _ => frame.receive_time.saturating_sub(last_receive) >= COUNTER_RESET_AFTER,
+        }
     }
 
     /// Tells the stage that no frame came until receive time `now` (the caller's clock,
@@ -452,9 +471,9 @@ impl FrameStage {
     /// with `ts 1e300` once froze the clock at 1e300, where 1/60 s steps vanish in the
     /// rounding, so every later stroke was "too short".
     fn stage_time(&mut self, frame: &Frame) -> f64 {
-        let (raw, is_ts) = match frame.tracker_time {
-            Some(ts) if ts.is_finite() && ts.abs() <= MAX_TRACKER_TIME_S => (ts, true),
-            _ => (frame.receive_time.as_secs_f64(), false),
+        let (raw, is_ts) = match tracker_time(frame) {
+            Some(ts) => (ts, true),
+            None => (frame.receive_time.as_secs_f64(), false),
         };
         let t = match self.clock {
             None => raw,
@@ -476,6 +495,14 @@ impl FrameStage {
     }
 }
 
+/// The frame's `ts` when the stage believes it (finite, within
+/// [`MAX_TRACKER_TIME_S`]).
+fn tracker_time(frame: &Frame) -> Option<f64> {
+    frame
+        .tracker_time
+        .filter(|ts| ts.is_finite() && ts.abs() <= MAX_TRACKER_TIME_S)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -493,8 +520,8 @@ mod tests {
     }
 
     fn sample(event: &WandEvent) -> InteractionSample {
-        match event.input {
-            WandInput::Sample(s) => s,
+        match &event.input {
+            WandInput::Sample(s) => *s,
             WandInput::Command(c) => panic!("a stage sample became a command: {c:?}"),
         }
     }

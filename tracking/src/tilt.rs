@@ -197,7 +197,7 @@ impl ControlPoint {
         let [x, y, z, w] = self.rotation.map(|c| c as f64);
         let q = DQuat::from_xyzw(x, y, z, w);
         let len = q.length();
-        if len.is_finite() && len > 1e-12 {
+        if len.is_finite() && len > sculpt_core::tolerance::NORMALISABLE_LEN {
             q / len
         } else {
             DQuat::IDENTITY

@@ -7,6 +7,16 @@
 //! complete no frame within the read timeout (so a slow-loris sender cannot hold a
 //! connection), and decoders cap line and frame sizes so memory stays bounded.
 //!
+//! Trust: anyone on the machine can open a loopback connection, so a listening source
+//! keeps one active peer. A `tcp-listen` source holds at most
+//! [`TrackingConfig::max_connections`] connections (1 by default): a further one is
+//! closed at once and logged, so a second peer can neither press buttons nor
+//! interleave frames. A `udp` source takes datagrams from one peer at a time (the
+//! first, until it goes quiet for the read timeout). With [`TrackingConfig::allow`]
+//! set, connections and datagrams from any other address are refused before a byte is
+//! read. Refused peers are counted in [`SourceStats::refused`](crate::hub::SourceStats)
+//! and never open, feed or close the source, so they cannot end a session either.
+//!
 //! ```no_run
 //! # async fn demo() -> tracking::Result<()> {
 //! use tracking::config::{SourceConfig, TrackingConfig};
@@ -18,7 +28,7 @@
 //! # Ok(()) }
 //! ```
 
-use crate::config::{SourceConfig, TrackingConfig};
+use crate::config::{SourceConfig, TrackingConfig, peer_allowed};
 use crate::dtrack::{DTrackDecoder, Decoded, DecoderLimits};
 use crate::error::{Result, TrackingError};
 use crate::hub::{Hub, SourceId};
@@ -49,6 +59,9 @@ pub struct TransportOptions {
     /// Most simultaneous connections per TCP listener.
     pub max_connections: usize,
 }
+
+/// The peers a listening source accepts (empty: any).
+type AllowList = Arc<[std::net::IpAddr]>;
 
 impl From<&TrackingConfig> for TransportOptions {
     fn from(c: &TrackingConfig) -> Self {
@@ -110,6 +123,7 @@ pub async fn start_with_hub(hub: Hub, config: &TrackingConfig) -> Result<Running
         hub.set_recorder(PoseLogWriter::create(path, &header)?);
     }
     let opts = TransportOptions::from(config);
+    let allow: AllowList = config.allow.clone().into();
     let mut running = Running {
         hub: hub.clone(),
         local_addrs: Vec::new(),
@@ -127,7 +141,7 @@ pub async fn start_with_hub(hub: Hub, config: &TrackingConfig) -> Result<Running
                 let local = listener.local_addr().ok();
                 (
                     local,
-                    tokio::spawn(tcp_listen(hub.clone(), src, listener, opts)),
+                    tokio::spawn(tcp_listen(hub.clone(), src, listener, opts, allow.clone())),
                 )
             }
             SourceConfig::TcpConnect { addr } => (
@@ -139,7 +153,10 @@ pub async fn start_with_hub(hub: Hub, config: &TrackingConfig) -> Result<Running
                     .await
                     .map_err(|e| TrackingError::io(addr.to_string(), e))?;
                 let local = sock.local_addr().ok();
-                (local, tokio::spawn(udp(hub.clone(), src, sock, opts)))
+                (
+                    local,
+                    tokio::spawn(udp(hub.clone(), src, sock, opts, allow.clone())),
+                )
             }
             SourceConfig::Serial {
                 port,
@@ -209,13 +226,25 @@ async fn read_within<R: AsyncRead + Unpin>(
 pub async fn pump_dtrack<R: AsyncRead + Unpin>(
     hub: &Hub,
     src: SourceId,
+    reader: R,
+    opts: &TransportOptions,
+) -> StreamEnd {
+    hub.connection_opened(src);
+    let end = pump_dtrack_open(hub, src, reader, opts).await;
+    hub.connection_closed(src, hub.now());
+    end
+}
+
+/// [`pump_dtrack`] on a connection the caller has opened and will close.
+async fn pump_dtrack_open<R: AsyncRead + Unpin>(
+    hub: &Hub,
+    src: SourceId,
     mut reader: R,
     opts: &TransportOptions,
 ) -> StreamEnd {
     let mut decoder = DTrackDecoder::new(opts.limits).keep_raw(hub.is_recording());
     let mut buf = vec![0u8; READ_BUF];
     let mut last_frame = Instant::now();
-    hub.connection_opened(src);
     let end = loop {
         let left = opts.read_timeout.saturating_sub(last_frame.elapsed());
         let n = match read_within(&mut reader, &mut buf, left).await {
@@ -234,7 +263,6 @@ pub async fn pump_dtrack<R: AsyncRead + Unpin>(
     if decoder.reset() {
         tracing::debug!("stream ended mid-frame; partial frame dropped");
     }
-    hub.connection_closed(src, hub.now());
     end
 }
 
@@ -256,26 +284,56 @@ fn deliver(hub: &Hub, src: SourceId, d: Decoded, now: Duration) -> bool {
     }
 }
 
-async fn tcp_listen(hub: Hub, src: SourceId, listener: TcpListener, opts: TransportOptions) {
+async fn tcp_listen(
+    hub: Hub,
+    src: SourceId,
+    listener: TcpListener,
+    opts: TransportOptions,
+    allow: AllowList,
+) {
     let slots = Arc::new(Semaphore::new(opts.max_connections));
     loop {
         let Ok((stream, peer)) = listener.accept().await else {
             tokio::time::sleep(opts.backoff_min).await;
             continue;
         };
+        if !peer_allowed(&allow, peer.ip()) {
+            refuse(&hub, src, peer, "not on the allow-list");
+            continue;
+        }
         let Ok(permit) = slots.clone().try_acquire_owned() else {
-            tracing::warn!("refusing tracker connection from {peer}: too many connections");
+            refuse(&hub, src, peer, "the source already has its connection");
             continue;
         };
         let _ = stream.set_nodelay(true);
         let hub = hub.clone();
         tokio::spawn(async move {
-            let end = pump_dtrack(&hub, src, stream, &opts).await;
+            let mut stream = stream;
+            hub.connection_opened(src);
+            let end = pump_dtrack_open(&hub, src, &mut stream, &opts).await;
             tracing::info!("tracker connection from {peer} ended: {end:?}");
+            // The slot is free before the peer sees the close or the source reads as
+            // closed, so a tracker that reconnects on either is never refused.
             drop(permit);
+            drop(stream);
+            hub.connection_closed(src, hub.now());
         });
     }
 }
+
+/// Logs and counts a refused peer (its stream, if any, is dropped by the caller):
+/// at `warn` for the first few, then at `debug` so a flood cannot fill the log.
+fn refuse(hub: &Hub, src: SourceId, peer: SocketAddr, why: &str) {
+    let n = hub.refused(src);
+    if n <= REFUSALS_LOGGED {
+        tracing::warn!(refused = n, "refusing tracking peer {peer}: {why}");
+    } else {
+        tracing::debug!(refused = n, "refusing tracking peer {peer}: {why}");
+    }
+}
+
+/// Refusals per source logged at `warn`; later ones go to `debug`.
+const REFUSALS_LOGGED: u64 = 20;
 
 async fn tcp_connect(hub: Hub, src: SourceId, addr: SocketAddr, opts: TransportOptions) {
     let mut backoff = opts.backoff_min;
@@ -295,17 +353,33 @@ async fn tcp_connect(hub: Hub, src: SourceId, addr: SocketAddr, opts: TransportO
     }
 }
 
-async fn udp(hub: Hub, src: SourceId, sock: UdpSocket, opts: TransportOptions) {
+async fn udp(hub: Hub, src: SourceId, sock: UdpSocket, opts: TransportOptions, allow: AllowList) {
     let mut decoder = DTrackDecoder::new(opts.limits).keep_raw(hub.is_recording());
     let mut buf = vec![0u8; READ_BUF];
+    // The one peer this source takes datagrams from, until it goes quiet.
+    let mut active: Option<SocketAddr> = None;
+    let mut last_datagram = Instant::now();
     loop {
-        match tokio::time::timeout(opts.read_timeout, sock.recv_from(&mut buf)).await {
-            Err(_) => hub.set_connected(src, false, hub.now()),
+        let left = opts.read_timeout.saturating_sub(last_datagram.elapsed());
+        match tokio::time::timeout(left, sock.recv_from(&mut buf)).await {
+            Err(_) => {
+                active = None;
+                last_datagram = Instant::now();
+                hub.set_connected(src, false, hub.now());
+            }
             Ok(Err(e)) => {
                 tracing::debug!("udp receive: {e}");
                 tokio::time::sleep(opts.backoff_min).await;
             }
-            Ok(Ok((n, _peer))) => {
+            Ok(Ok((_, peer))) if !peer_allowed(&allow, peer.ip()) => {
+                refuse(&hub, src, peer, "not on the allow-list");
+            }
+            Ok(Ok((_, peer))) if active.is_some_and(|a| a != peer) => {
+                refuse(&hub, src, peer, "the source already has its peer");
+            }
+            Ok(Ok((n, peer))) => {
+                active = Some(peer);
+                last_datagram = Instant::now();
                 let now = hub.now();
                 let mut sink = |d| {
                     deliver(&hub, src, d, now);
@@ -357,7 +431,7 @@ where
                 let end = pump(stream).await;
                 tracing::info!("serial {port}: {end:?}; reopening");
             }
-            Err(e) => tracing::debug!("open serial {port}: {e}"),
+            Err(e) => tracing::debug!("open serial {port}: {}", sculpt_core::error::Chain(&e)),
         }
         tokio::time::sleep(backoff).await;
         backoff = (backoff * 2).min(opts.backoff_max);

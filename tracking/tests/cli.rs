@@ -100,7 +100,12 @@ fn calibrate_from_csv() {
     assert!(text.contains("rms residual 0.000 mm"), "{text}");
     let cal: toml::Table = toml::from_str(&text).unwrap();
     let t = cal["calibration"]["translation_m"].as_array().unwrap();
-    assert!((t[2].as_float().unwrap() + 2.0).abs() < 1e-9, "{text}");
+    sculpt_core::assert_near!(
+        t[2].as_float().unwrap(),
+        -2.0,
+        sculpt_core::tolerance::POINT_EPS,
+        "{text}"
+    );
 }
 
 #[test]
@@ -147,7 +152,11 @@ fn pivot_from_a_recorded_log() {
         .collect();
     // Wire rounding (µm, 1e-6 in the matrix) and slerp between keyframes are far below a millimetre.
     let want = tip.to_array();
-    sculpt_core::assert_near!(got.as_slice(), want.as_slice(), 1e-3);
+    sculpt_core::assert_near!(
+        got.as_slice(),
+        want.as_slice(),
+        sculpt_core::tolerance::REPLAY_POSE_EPS
+    );
 }
 
 #[test]

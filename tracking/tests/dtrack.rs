@@ -3,6 +3,9 @@
 use glam::{DMat3, DQuat, DVec3};
 use proptest::prelude::*;
 use sculpt_core::assert_near;
+use sculpt_core::tolerance::{
+    DTRACK_ANALOG_EPS, DTRACK_MM_EPS, DTRACK_ROT_EPS, EXACT_EPS, QUAT_GEN_MIN_LEN, TIME_EPS,
+};
 use tracking::dtrack::{
     DTrackDecoder, Decoded, DecoderLimits, encode_frame, parse_frame, parse_line,
 };
@@ -26,7 +29,7 @@ fn decode_all(decoder: &mut DTrackDecoder, chunks: &[&[u8]]) -> (Vec<Frame>, usi
 fn golden_manual_frame() {
     let f = parse_frame(GOLDEN).unwrap();
     assert_eq!(f.number, 21753);
-    assert_near!(f.tracker_time.unwrap(), 39596.024831, 1e-9);
+    assert_near!(f.tracker_time.unwrap(), 39596.024831, TIME_EPS);
     assert_eq!(f.calibrated_bodies, Some(2));
     assert_eq!(f.bodies.len(), 1);
     let b = f.body(0).unwrap();
@@ -34,18 +37,18 @@ fn golden_manual_frame() {
     assert_near!(
         b.pose.position_mm.to_array(),
         [326.848, -187.216, 109.503],
-        1e-12
+        EXACT_EPS
     );
     // Column-major: b0 b1 b2 is the first column (the body's x axis in tracker axes).
     assert_near!(
         b.pose.tracker_from_body.x_axis.to_array(),
         [-0.940508, 0.339238, -0.019310],
-        1e-12
+        EXACT_EPS
     );
     assert_near!(
         b.pose.tracker_from_body.z_axis.to_array(),
         [-0.066403, -0.127574, 0.989604],
-        1e-12
+        EXACT_EPS
     );
     let w = f.wand(0).unwrap();
     assert_eq!(w.button_count, 6);
@@ -55,7 +58,7 @@ fn golden_manual_frame() {
     assert_near!(
         w.pose.position_mm.to_array(),
         [333.724, -188.909, 104.992],
-        1e-12
+        EXACT_EPS
     );
     assert!(w.is_tracked());
     // `3d` and `gl` lines are ignored.
@@ -123,7 +126,7 @@ fn malformed_lines_are_errors_not_panics() {
 
 fn rotation(q: [f64; 4]) -> DMat3 {
     let q = DQuat::from_array(q);
-    if q.length() < 1e-3 {
+    if q.length() < QUAT_GEN_MIN_LEN {
         DMat3::IDENTITY
     } else {
         DMat3::from_quat(q.normalize())
@@ -194,14 +197,14 @@ proptest! {
         prop_assert_eq!(back.bodies.len(), frame.bodies.len());
         prop_assert_eq!(back.wands.len(), frame.wands.len());
         for (a, b) in back.bodies.iter().zip(&frame.bodies) {
-            assert_near!(a.pose.position_mm.to_array(), b.pose.position_mm.to_array(), 5e-4);
-            assert_near!(a.pose.tracker_from_body.to_cols_array(), b.pose.tracker_from_body.to_cols_array(), 5e-7);
+            assert_near!(a.pose.position_mm.to_array(), b.pose.position_mm.to_array(), DTRACK_MM_EPS);
+            assert_near!(a.pose.tracker_from_body.to_cols_array(), b.pose.tracker_from_body.to_cols_array(), DTRACK_ROT_EPS);
         }
         for (a, b) in back.wands.iter().zip(&frame.wands) {
             prop_assert_eq!(a.buttons, b.buttons);
             prop_assert_eq!(a.button_count, b.button_count);
             prop_assert_eq!(a.is_tracked(), b.is_tracked());
-            assert_near!(a.analog.as_slice(), b.analog.as_slice(), 5e-3);
+            assert_near!(a.analog.as_slice(), b.analog.as_slice(), DTRACK_ANALOG_EPS);
         }
         // Re-encoding the parsed frame gives the same bytes.
         let mut again = Vec::new();

@@ -4,6 +4,7 @@ use glam::DVec3;
 use proptest::prelude::*;
 use std::time::Duration;
 use tracking::TrackingError;
+use tracking::error::PoseLogHeaderError;
 use tracking::poselog::{PoseLog, PoseLogHeader, PoseLogReader, PoseLogWriter, RecordKind};
 use tracking::sim::{Script, SimConfig, Simulator};
 
@@ -112,15 +113,20 @@ fn corrupt_lines_are_reported_with_line_numbers() {
 fn bad_headers_are_refused() {
     assert!(matches!(
         PoseLogReader::new(&b"hello\n"[..]),
-        Err(TrackingError::PoseLogHeader(_))
+        Err(TrackingError::PoseLogHeader(PoseLogHeaderError::FirstLine(
+            _
+        )))
     ));
     assert!(matches!(
         PoseLogReader::new(&b"wandsculpt-poselog 2\nheader {}\n"[..]),
-        Err(TrackingError::PoseLogHeader(_))
+        Err(TrackingError::PoseLogHeader(PoseLogHeaderError::Version {
+            found: 2,
+            supported: 1
+        }))
     ));
     assert!(matches!(
         PoseLogReader::new(&b"wandsculpt-poselog 1\nheader {nope\n"[..]),
-        Err(TrackingError::PoseLogHeader(_))
+        Err(TrackingError::PoseLogHeader(PoseLogHeaderError::Json(_)))
     ));
     assert!(PoseLogReader::new(&b"wandsculpt-poselog 1\nheader {}\n"[..]).is_ok());
 }

@@ -3,6 +3,11 @@
 use glam::{DQuat, DVec3};
 use proptest::prelude::*;
 use sculpt_core::assert_near;
+use sculpt_core::tolerance::NOISY_RMS_CEIL;
+use sculpt_core::tolerance::{
+    EXACT_EPS, NOISY_RMS_FLOOR, NORMALISED_EPS, POINT_EPS, QUAT_GEN_MIN_LEN, ROTATION_EPS,
+    WIRE_M_EPS,
+};
 use std::time::Duration;
 use tracking::calibration::{Calibration, FitOptions, WorldPose, fit};
 use tracking::config::TrackingConfig;
@@ -48,7 +53,7 @@ fn fit_recovers_the_transform_and_reports_noise() {
     };
     let f = fit(&pairs, &opts).unwrap();
     assert!(
-        f.rms_residual_m > 1e-5 && f.rms_residual_m < 0.001,
+        f.rms_residual_m > NOISY_RMS_FLOOR && f.rms_residual_m < NOISY_RMS_CEIL,
         "rms {}",
         f.rms_residual_m
     );
@@ -83,8 +88,8 @@ fn fit_scale_recovers_centimetres() {
         fit_scale: true,
     };
     let f = fit(&pairs, &opts).unwrap();
-    assert_near!(f.calibration.scale, 0.01, 1e-12);
-    assert!(f.rms_residual_m < 1e-9);
+    assert_near!(f.calibration.scale, 0.01, EXACT_EPS);
+    assert!(f.rms_residual_m < POINT_EPS);
 }
 
 #[test]
@@ -109,7 +114,7 @@ fn tip_offset_moves_the_tool_point() {
         DQuat::from_rotation_y(std::f64::consts::FRAC_PI_2),
     );
     let w = c.pose_in_world(DeviceId::Wand(0), &pose).unwrap();
-    assert_near!(w.tool_m.to_array(), [-0.15, 1.0, 0.0], 1e-12);
+    assert_near!(w.tool_m.to_array(), [-0.15, 1.0, 0.0], EXACT_EPS);
     // Other devices have no tip.
     let b = c.pose_in_world(DeviceId::Body(0), &pose).unwrap();
     assert_near!(b.tool_m.to_array(), b.position_m.to_array(), 0.0);
@@ -123,7 +128,7 @@ proptest! {
         let pts = [DVec3::ZERO, DVec3::X * 900.0, DVec3::Y * 1100.0, DVec3::new(-300.0, 250.0, 1200.0), DVec3::new(500.0, -400.0, 80.0)];
         let pairs: Vec<_> = pts.iter().map(|&p| (p, c.point_in_world(p))).collect();
         let f = fit(&pairs, &FitOptions::default()).unwrap();
-        prop_assert!(f.rms_residual_m < 1e-9);
+        prop_assert!(f.rms_residual_m < POINT_EPS);
     }
 
     #[test]
@@ -133,11 +138,11 @@ proptest! {
         for (dt, p, q) in steps {
             t += dt;
             let q = DQuat::from_array(q);
-            let q = if q.length() < 1e-3 { DQuat::IDENTITY } else { q.normalize() };
+            let q = if q.length() < QUAT_GEN_MIN_LEN { DQuat::IDENTITY } else { q.normalize() };
             let p = DVec3::from_array(p);
             let out = f.filter(t, WorldPose { position_m: p, orientation: q, tool_m: p });
             prop_assert!(out.position_m.is_finite() && out.orientation.is_finite() && out.tool_m.is_finite());
-            assert_near!(out.orientation.length(), 1.0, 1e-9);
+            assert_near!(out.orientation.length(), 1.0, NORMALISED_EPS);
         }
     }
 }
@@ -195,7 +200,7 @@ fn filter_ignores_quaternion_sign_flips() {
     for i in 0..50 {
         let qi = if i % 2 == 0 { q } else { -q };
         let out = f.filter(i as f64 / 100.0, wp(DVec3::ZERO, qi));
-        assert!(out.orientation.angle_between(q) < 1e-9);
+        assert!(out.orientation.angle_between(q) < ROTATION_EPS);
     }
 }
 
@@ -241,7 +246,7 @@ fn hub_follows_a_simulated_session() {
             assert_near!(
                 s.pose.unwrap().position_m.to_array(),
                 truth.wand_at(t).position_m.to_array(),
-                1e-6
+                WIRE_M_EPS
             );
         }
         assert_eq!(s.buttons, truth.buttons_at(t));
@@ -300,7 +305,7 @@ fn out_of_order_frames_are_dropped_and_stale_devices_lost() {
     assert!(!hub.apply_frame(src, &wand_frame(9, 9.0, 1)));
     assert!(!hub.apply_frame(src, &wand_frame(10, 9.0, 1)));
     assert!(hub.apply_frame(src, &wand_frame(12, 12.0, 2)));
-    assert_near!(wand.borrow().pose.unwrap().position_m.x, 0.012, 1e-12);
+    assert_near!(wand.borrow().pose.unwrap().position_m.x, 0.012, EXACT_EPS);
     assert_eq!(hub.source_stats(src).unwrap().out_of_order, 2);
     // A restarted tracker (after a quiet second) counts from 1 again.
     assert!(hub.apply_frame(src, &wand_frame(1, 1.0, 2000)));
@@ -309,7 +314,7 @@ fn out_of_order_frames_are_dropped_and_stale_devices_lost() {
     assert_eq!(wand.borrow().status, TrackingStatus::Tracking);
     hub.check_stale(Duration::from_millis(2101));
     assert_eq!(wand.borrow().status, TrackingStatus::Lost);
-    assert_near!(wand.borrow().pose.unwrap().position_m.x, 0.001, 1e-12);
+    assert_near!(wand.borrow().pose.unwrap().position_m.x, 0.001, EXACT_EPS);
     hub.set_connected(src, false, Duration::from_millis(2200));
     assert_eq!(wand.borrow().status, TrackingStatus::Disconnected);
 }
@@ -371,7 +376,7 @@ fn readme_config_example_parses() {
             .point_in_world(DVec3::new(0.0, 0.0, 1000.0))
             .to_array(),
         [0.0, 1.0, -2.0],
-        1e-12
+        EXACT_EPS
     );
 }
 
@@ -405,9 +410,9 @@ fn pivot_calibration_finds_the_tip() {
         })
         .collect();
     let f = fit_tip(&poses).unwrap();
-    assert_near!(f.tip_in_body_m.to_array(), tip.to_array(), 1e-9);
-    assert_near!(f.pivot_in_world_m.to_array(), pivot.to_array(), 1e-9);
-    assert!(f.rms_residual_m < 1e-9);
+    assert_near!(f.tip_in_body_m.to_array(), tip.to_array(), POINT_EPS);
+    assert_near!(f.pivot_in_world_m.to_array(), pivot.to_array(), POINT_EPS);
+    assert!(f.rms_residual_m < POINT_EPS);
     // One rotation axis only cannot pin the tip down along that axis.
     let flat: Vec<(DVec3, DQuat)> = (0..8)
         .map(|i| {
@@ -440,5 +445,5 @@ fn a_body_with_negative_quality_is_lost_not_moved() {
     hub.apply_frame(src, &g);
     let s = head.borrow().clone();
     assert_eq!(s.status, TrackingStatus::Lost);
-    assert_near!(s.pose.unwrap().position_m.x, 0.01, 1e-12);
+    assert_near!(s.pose.unwrap().position_m.x, 0.01, EXACT_EPS);
 }

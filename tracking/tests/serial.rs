@@ -2,6 +2,7 @@
 
 use glam::{DQuat, DVec3};
 use proptest::prelude::*;
+use sculpt_core::tolerance::{WIRE_ANGLE_EPS, WIRE_MM_EPS};
 use tracking::Pose;
 use tracking::config::TrackingConfig;
 use tracking::serial::{SerialDecoder, SerialRecord, encode_serial, parse_serial};
@@ -46,8 +47,8 @@ proptest! {
             prop_assert_eq!(a.buttons, b.buttons);
             prop_assert_eq!(a.pose.is_some(), b.pose.is_some());
             if let (Some(pa), Some(pb)) = (a.pose, b.pose) {
-                prop_assert!(pa.position_mm.distance(pb.position_mm) < 1e-3);
-                prop_assert!(pa.orientation().unwrap().angle_between(pb.orientation().unwrap()) < 1e-5);
+                prop_assert!(pa.position_mm.distance(pb.position_mm) < WIRE_MM_EPS);
+                prop_assert!(pa.orientation().unwrap().angle_between(pb.orientation().unwrap()) < WIRE_ANGLE_EPS);
             }
         }
     }

@@ -124,7 +124,7 @@ async fn serial_wand_over_a_pty_with_line_noise() {
     sculpt_core::assert_near!(
         state.pose.unwrap().position_m.to_array(),
         [0.4, 1.5, -0.02],
-        1e-9
+        sculpt_core::tolerance::POINT_EPS
     );
     let mut edges = Vec::new();
     while let Ok(e) = events.try_recv() {

@@ -2,6 +2,9 @@
 
 use glam::DVec3;
 use sculpt_core::assert_near;
+use sculpt_core::tolerance::{
+    BOUND_MARGIN, EXACT_EPS, MM_ROUNDING_EPS, VELOCITY_EPS, VELOCITY_FD_STEP,
+};
 use tracking::sim::{Script, SimConfig, Simulator};
 
 fn reach() -> Script {
@@ -21,7 +24,7 @@ fn reach() -> Script {
 fn exact_config_follows_the_script() {
     let script = reach();
     let truth = script.timeline();
-    assert_near!(truth.duration, 2.9, 1e-12);
+    assert_near!(truth.duration, 2.9, EXACT_EPS);
     let frames: Vec<_> = Simulator::new(&script, SimConfig::exact())
         .unwrap()
         .collect();
@@ -33,7 +36,7 @@ fn exact_config_follows_the_script() {
             assert!(!w.is_tracked());
         } else {
             let p = truth.wand_at(t).position_m * 1000.0;
-            assert_near!(w.pose.position_mm.to_array(), p.to_array(), 1e-6);
+            assert_near!(w.pose.position_mm.to_array(), p.to_array(), MM_ROUNDING_EPS);
         }
         assert_eq!(w.buttons, truth.buttons_at(t));
     }
@@ -47,16 +50,17 @@ fn exact_config_follows_the_script() {
 #[test]
 fn minimum_jerk_is_smooth_and_symmetric() {
     let tl = Script::new(DVec3::ZERO).move_to(DVec3::X, 1.0).timeline();
-    assert_near!(tl.wand_at(0.5).position_m.x, 0.5, 1e-12);
+    assert_near!(tl.wand_at(0.5).position_m.x, 0.5, EXACT_EPS);
     // s(0.25) = 10/64 - 15/256 + 6/1024
     assert_near!(
         tl.wand_at(0.25).position_m.x,
         10.0 / 64.0 - 15.0 / 256.0 + 6.0 / 1024.0,
-        1e-12
+        EXACT_EPS
     );
     // Zero velocity at both ends.
-    let v0 = (tl.wand_at(1e-4).position_m.x - tl.wand_at(0.0).position_m.x) / 1e-4;
-    assert_near!(v0, 0.0, 1e-6);
+    let v0 = (tl.wand_at(VELOCITY_FD_STEP).position_m.x - tl.wand_at(0.0).position_m.x)
+        / VELOCITY_FD_STEP;
+    assert_near!(v0, 0.0, VELOCITY_EPS);
 }
 
 #[test]
@@ -73,7 +77,10 @@ fn tremor_and_noise_have_the_configured_size() {
         .map(|f| f.wands[0].pose.position_mm.x)
         .collect();
     let max = xs.iter().map(|x| x.abs()).fold(0.0, f64::max);
-    assert!(max > 0.1 && max <= 0.3 + 1e-9, "peak tremor {max} mm");
+    assert!(
+        max > 0.1 && max <= 0.3 + BOUND_MARGIN,
+        "peak tremor {max} mm"
+    );
     // Zero crossings of an 8-12 Hz oscillation over 4 s: about 64-96 of them.
     let crossings = xs
         .windows(2)
@@ -139,7 +146,7 @@ op = "mark"
 label = "done"
 "#;
     let script: Script = toml::from_str(text).unwrap();
-    assert_near!(script.duration(), 0.6, 1e-12);
+    assert_near!(script.duration(), 0.6, EXACT_EPS);
     assert_eq!(script.timeline().buttons_at(0.55), 2);
     let back: Script = toml::from_str(&toml::to_string(&script).unwrap()).unwrap();
     assert_eq!(back, script);

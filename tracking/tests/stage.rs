@@ -4,7 +4,7 @@
 use glam::{DMat3, DQuat, DVec3};
 use proptest::prelude::*;
 use sculpt_core::assert_near;
-use sculpt_core::tolerance::EXACT_EPS;
+use sculpt_core::tolerance::{DURATION_EPS, EXACT_EPS, FILTERED_UNIT_EPS, SIM_END_TOL, TIME_EPS};
 use std::collections::BTreeMap;
 use std::time::Duration;
 use tracking::calibration::Calibration;
@@ -60,10 +60,10 @@ fn the_stage_clock_continues_across_a_tracker_restart() {
     let t: Vec<f64> = wands(&out).iter().map(|w| w.t).collect();
     assert_eq!(t.len(), 5, "a timeout sample, then the restarted frames");
     assert!(t.windows(2).all(|w| w[1] >= w[0]), "{t:?}");
-    assert!((t[2] - 10.51).abs() < 1e-9, "lost at the timeout: {t:?}");
+    assert_near!(t[2], 10.51, TIME_EPS, "lost at the timeout: {t:?}");
     // Restart 9.76 s (receive time) after the last frame, then 10 ms on.
-    assert!((t[3] - (10.01 + 9.74)).abs() < 1e-6, "{t:?}");
-    assert!((t[4] - t[3] - 0.01).abs() < 1e-9, "{t:?}");
+    assert_near!(t[3], 10.01 + 9.74, DURATION_EPS, "{t:?}");
+    assert_near!(t[4] - t[3], 0.01, TIME_EPS, "{t:?}");
 }
 
 /// Regression (issue 15, item 1): one frame with `ts 1e300` (or any `ts` of 1e15 or
@@ -240,7 +240,7 @@ fn a_simulated_session_passes_through_with_every_frame_used() {
     assert_eq!(w.len(), frames.len());
     assert!(w.iter().all(|s| s.tracked));
     assert!(w.iter().any(|s| s.buttons & 1 == 1));
-    assert_near!(w.last().unwrap().tip_m.x, 0.2, 0.01);
+    assert_near!(w.last().unwrap().tip_m.x, 0.2, SIM_END_TOL);
 }
 
 fn pose_strategy() -> impl Strategy<Value = Pose> {
@@ -319,7 +319,7 @@ proptest! {
                     last_t = w.t;
                     prop_assert!(w.tip_m.is_finite() && w.position_m.is_finite());
                     prop_assert!(w.orientation.is_finite());
-                    prop_assert!(!w.tracked || (w.orientation.length() - 1.0).abs() < 1e-6);
+                    prop_assert!(!w.tracked || (w.orientation.length() - 1.0).abs() < FILTERED_UNIT_EPS);
                 }
                 StageEvent::Head(h) => {
                     prop_assert!(h.t.is_finite());
@@ -332,4 +332,64 @@ proptest! {
         prop_assert_eq!(m.used + m.out_of_order, m.frames);
         prop_assert!(m.lost_s.is_finite() && m.lost_s >= 0.0);
     }
+}
+
+/// Regression (issue 15, item 4): frames 151 to 250 renumbered 9850 down to 9751 were
+/// kept or dropped by how fast they arrived: a source "quiet" for a second of arrival
+/// time since the last accepted frame could restart its counter, so at speed 1 frame
+/// 212 (a second after 151) was kept, and at speed 3 it was not. The order rule now
+/// reads only the frames' contents: every arrival spacing keeps the same frames.
+#[test]
+fn a_counter_running_backwards_is_ordered_alike_at_any_arrival_speed() {
+    let run = |speed: f64| {
+        let mut stage = FrameStage::new(unfiltered()).unwrap();
+        let mut out = Vec::new();
+        let mut kept = Vec::new();
+        for k in 1..=300u64 {
+            let n = if (151..=250).contains(&k) {
+                10_001 - k
+            } else {
+                k
+            };
+            let ts = k as f64 / 60.0;
+            let mut f = wand_frame(n, ts, DVec3::new(ts * 10.0, 1000.0, 0.0), 1);
+            f.receive_time = Duration::from_secs_f64(ts / speed);
+            if stage.push(&f, &mut out) {
+                kept.push(n);
+            }
+        }
+        (kept, wands(&out), stage.metrics().clone())
+    };
+    let (kept, samples, metrics) = run(1.0);
+    let mut want: Vec<u64> = (1..=151).collect();
+    want[150] = 9850;
+    want.extend(251..=300);
+    assert_eq!(kept, want, "the backward run is dropped, 251 is a reset");
+    assert_eq!(metrics.out_of_order, 99);
+    for speed in [0.25, 3.0, 10.0, 1e6] {
+        let (k, s, m) = run(speed);
+        assert_eq!(k, kept, "speed {speed}");
+        assert_eq!(s, samples, "speed {speed}");
+        assert_eq!(m, metrics, "speed {speed}");
+    }
+}
+
+/// A restarted tracker (counter and `ts` from the start again) is accepted at once,
+/// however close its first frame arrives to the last one: the `ts` going back a second
+/// or more is the signal, not the arrival gap.
+#[test]
+fn a_restart_is_recognised_by_its_clock_not_by_arrival() {
+    let mut s = FrameStage::new(StageConfig::default()).unwrap();
+    let mut out = Vec::new();
+    s.push(&rframe(50, Some(30.0), 0.0), &mut out);
+    let mut f = rframe(1, Some(0.0), 0.0);
+    f.receive_time = Duration::from_secs_f64(30.26);
+    assert!(s.push(&f, &mut out), "ts went back 30 s: a restart");
+    assert!(s.push(&rframe(3, Some(0.05), 0.0), &mut out));
+    // A late frame whose clock went back less than a second is out of order, however
+    // long after the last one it arrives.
+    let mut late = rframe(2, Some(0.04), 0.0);
+    late.receive_time = Duration::from_secs_f64(40.0);
+    assert!(!s.push(&late, &mut out));
+    assert_eq!(s.metrics().out_of_order, 1);
 }

@@ -175,6 +175,8 @@ async fn garbage_flood_of_100_mb_keeps_memory_bounded() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn slow_loris_is_cut_off_while_a_good_sender_goes_on() {
     let mut config = cfg(listen_any());
+    // Two slots, so the slow sender gets in and the read timeout is what cuts it.
+    config.max_connections = 2;
     config.read_timeout_ms = 500;
     config.lost_after_ms = 5_000;
     let running = start(&config).await.unwrap();
@@ -270,4 +272,136 @@ async fn recording_keeps_every_frame_byte_for_byte() {
     assert_eq!(logged, sent);
     assert!(log.header.config.get("source").is_some());
     assert!(log.records.windows(2).all(|w| w[0].time <= w[1].time));
+}
+
+/// Frames of a session whose wand holds `buttons` throughout, numbered from `first`.
+fn frames_with_buttons(first: u64, n: usize, buttons: u64) -> Vec<Vec<u8>> {
+    let script = Script::new(DVec3::new(0.0, 1.0, 0.0)).hold(n as f64 / 60.0);
+    let sim = Simulator::new(&script, SimConfig::default()).unwrap();
+    sim.take(n)
+        .enumerate()
+        .map(|(k, mut f)| {
+            f.number = first + k as u64;
+            for w in &mut f.wands {
+                w.buttons = buttons;
+            }
+            let mut bytes = Vec::new();
+            tracking::dtrack::encode_frame(&f, &mut bytes);
+            bytes
+        })
+        .collect()
+}
+
+/// Whether the server closed `s` (reads end or fail within the patience).
+async fn closed_by_server(s: &mut TcpStream) -> bool {
+    let mut buf = [0u8; 64];
+    matches!(
+        tokio::time::timeout(PATIENCE, s.read(&mut buf)).await,
+        Ok(Ok(0) | Err(_))
+    )
+}
+
+/// Regression (issue 15, item 6): a second loopback connection to a listening source
+/// could press button 3 (undo) while the sculptor's tracker was connected. A source now
+/// keeps one active connection: the second peer is refused before a byte is read, and
+/// counted.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_second_peer_on_a_listening_source_is_refused_and_presses_nothing() {
+    let running = start(&cfg(listen_any())).await.unwrap();
+    let addr = running.local_addrs[0].unwrap();
+    let mut wand = running.hub.watch(DeviceId::Wand(0));
+    let mut events = running.hub.subscribe();
+    let mut tracker = TcpStream::connect(addr).await.unwrap();
+    for f in frames_with_buttons(1, 5, 0) {
+        tracker.write_all(&f).await.unwrap();
+    }
+    wait_for(&mut wand, "tracker frame 5", |s| s.frame == 5).await;
+    let mut stray = TcpStream::connect(addr).await.unwrap();
+    // Button 3 held, with counters far ahead of the tracker's.
+    for f in frames_with_buttons(1_000_000, 5, 1 << 3) {
+        let _ = stray.write_all(&f).await;
+    }
+    assert!(
+        closed_by_server(&mut stray).await,
+        "the stray was not refused"
+    );
+    // The tracker goes on; the hub saw no button at all.
+    for f in frames_with_buttons(6, 5, 0) {
+        tracker.write_all(&f).await.unwrap();
+    }
+    let st = wait_for(&mut wand, "tracker frame 10", |s| s.frame == 10).await;
+    assert_eq!(st.buttons, 0);
+    while let Ok(e) = events.try_recv() {
+        assert!(
+            !matches!(e, tracking::hub::TrackingEvent::Button { .. }),
+            "a refused peer pressed a button: {e:?}"
+        );
+    }
+    let stats = running.hub.source_stats(running.sources[0]).unwrap();
+    assert_eq!(stats.refused, 1);
+    assert_eq!(stats.connections, 1);
+    assert!(stats.connected);
+}
+
+/// Regression (issue 15, item 6): four loopback connections sending one tiny frame a
+/// second held every slot of a listening source and locked out the real tracker. With
+/// an allow-list, peers from other addresses are refused before they take a slot; the
+/// tracker (here from 127.0.0.2) still gets in and its frames are applied.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn peers_off_the_allow_list_cannot_take_the_trackers_slot() {
+    let mut config = cfg(listen_any());
+    config.allow = vec!["127.0.0.2".parse().unwrap()];
+    let running = start(&config).await.unwrap();
+    let addr = running.local_addrs[0].unwrap();
+    let mut wand = running.hub.watch(DeviceId::Wand(0));
+    let mut strays = Vec::new();
+    for k in 0..4 {
+        let mut s = TcpStream::connect(addr).await.unwrap();
+        let _ = s.write_all(&frames_with_buttons(k + 1, 1, 0)[0]).await;
+        strays.push(s);
+    }
+    for s in &mut strays {
+        assert!(closed_by_server(s).await, "a stray kept its connection");
+    }
+    let socket = tokio::net::TcpSocket::new_v4().unwrap();
+    socket.bind("127.0.0.2:0".parse().unwrap()).unwrap();
+    let mut tracker = socket.connect(addr).await.unwrap();
+    for f in frames_with_buttons(1, 10, 0) {
+        tracker.write_all(&f).await.unwrap();
+    }
+    wait_for(&mut wand, "tracker frame 10", |s| s.frame == 10).await;
+    let stats = running.hub.source_stats(running.sources[0]).unwrap();
+    assert_eq!(stats.refused, 4);
+    assert_eq!(stats.connections, 1);
+    assert_eq!(stats.frames, 10, "nothing a stray sent was applied");
+}
+
+/// Regression (issue 15, item 6): a UDP source took datagrams from anyone, so a second
+/// local sender could interleave frames with the tracker's. It now takes one peer at a
+/// time (and only allowed ones).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_udp_source_takes_datagrams_from_one_peer_only() {
+    let running = start(&cfg(SourceConfig::Udp {
+        addr: "127.0.0.1:0".parse().unwrap(),
+    }))
+    .await
+    .unwrap();
+    let addr = running.local_addrs[0].unwrap();
+    let mut wand = running.hub.watch(DeviceId::Wand(0));
+    let tracker = UdpSocket::bind("127.0.0.1:0").await.unwrap();
+    let stray = UdpSocket::bind("127.0.0.1:0").await.unwrap();
+    let frames = frames_with_buttons(1, 6, 0);
+    tracker.send_to(&frames[0], addr).await.unwrap();
+    wait_for(&mut wand, "frame 1", |s| s.frame == 1).await;
+    for f in frames_with_buttons(1_000, 3, 1 << 3) {
+        stray.send_to(&f, addr).await.unwrap();
+    }
+    for f in &frames[1..] {
+        tracker.send_to(f, addr).await.unwrap();
+    }
+    let st = wait_for(&mut wand, "frame 6", |s| s.frame == 6).await;
+    assert_eq!(st.buttons, 0);
+    let stats = running.hub.source_stats(running.sources[0]).unwrap();
+    assert_eq!(stats.refused, 3);
+    assert_eq!(stats.frames, 6);
 }

@@ -4,9 +4,11 @@
 //! window here.
 
 use glam::DVec3;
-use sculpt_core::interaction::{Mode, Profile, StrokeMode};
+use sculpt_core::interaction::{Profile, StrokeMode};
 
 use crate::config::Config;
+use crate::desktop_view::DesktopView;
+use crate::desktop_wand::EmulatedWand;
 use crate::error::VrResult;
 pub use crate::input::TrackingState;
 use crate::projection::{HeadPose, Screen, StereoRig};
@@ -31,6 +33,9 @@ pub struct AppState {
     pub tracking: TrackingState,
     /// Smoothed frames per second, for the HUD.
     pub fps: f64,
+    /// The desktop camera (desktop mode: no `[tracking]`), framing the document at
+    /// start; `None` on a tracked wall, whose view is the physical one.
+    pub view: Option<DesktopView>,
     fixed_head: HeadPose,
     scene: SceneState,
 }
@@ -46,7 +51,11 @@ impl AppState {
         } else {
             TrackingState::Emulated
         };
-        Ok(Self {
+        let view = config
+            .tracking
+            .is_none()
+            .then(|| DesktopView::new(&screen, head.position, EmulatedWand::default().depth));
+        let mut app = Self {
             rig: config.stereo,
             config,
             session,
@@ -54,9 +63,54 @@ impl AppState {
             head,
             tracking,
             fps: 0.0,
+            view,
             fixed_head: head,
             scene: SceneState::default(),
-        })
+        };
+        app.reset_view();
+        Ok(app)
+    }
+
+    /// The bounding box of the document's targets (their control nets, which hold
+    /// the surfaces), display frame; `None` for an empty document.
+    pub fn document_bounds(&self) -> Option<(DVec3, DVec3)> {
+        self.session
+            .doc
+            .targets()
+            .iter()
+            .map(|t| t.surface.control_bounds())
+            .filter(|(lo, hi)| lo.is_finite() && hi.is_finite())
+            .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
+    }
+
+    /// Frames the whole document again (desktop mode; no-op on a wall).
+    pub fn reset_view(&mut self) {
+        let bounds = self.document_bounds();
+        if let (Some(view), Some((lo, hi))) = (&mut self.view, bounds) {
+            view.frame(lo, hi);
+        }
+    }
+
+    /// The screen as the viewer sees it: moved by the desktop view, if any.
+    pub fn view_screen(&self) -> Screen {
+        self.view
+            .and_then(|v| v.screen(&self.screen).ok())
+            .unwrap_or(self.screen)
+    }
+
+    /// How the renderer tells targets apart: sketched targets (named `sketch ...` by
+    /// the editor) tinted, the selected one outlined when there are several.
+    pub fn surface_classes(&self) -> crate::scene::SurfaceClasses {
+        let targets = self.session.doc.targets();
+        crate::scene::SurfaceClasses {
+            selected: (targets.len() > 1).then(|| self.session.interaction.target().0),
+            sketched: targets
+                .iter()
+                .enumerate()
+                .filter(|(_, t)| t.name.starts_with("sketch"))
+                .map(|(i, _)| i as u32)
+                .collect(),
+        }
     }
 
     /// Sets the tracked head, or returns to the fixed head with `None`. A head pose
@@ -69,15 +123,21 @@ impl AppState {
         }
     }
 
-    /// The cameras for the current head.
+    /// The cameras for the current head (through the desktop view, if any).
     pub fn views(&self) -> VrResult<Views> {
+        if let Some(v) = &self.view
+            && let Ok(screen) = v.screen(&self.screen)
+            && let Ok(views) = Views::new(&v.rig(&self.rig), &screen, &v.head(&self.head))
+        {
+            return Ok(views);
+        }
         Views::new(&self.rig, &self.screen, &self.head)
             .or_else(|_| Views::new(&self.rig, &self.screen, &self.fixed_head))
     }
 
-    /// The direction the targets face (the screen normal).
+    /// The direction the targets face (the normal of the screen as seen).
     pub fn facing(&self) -> DVec3 {
-        self.screen.basis().2
+        self.view_screen().basis().2
     }
 
     /// Brings the meshes up to date: the document's changed patches at the detail to
@@ -102,22 +162,20 @@ impl AppState {
     /// joined to the tip), or around the tip when the target is out of reach; and the
     /// rows of a live sketch.
     pub fn overlay_lines(&mut self) -> Vec<LineVertex> {
+        let screen = self.view_screen();
         self.scene
-            .overlay_lines(&self.session.doc, &self.session.interaction, &self.screen)
+            .overlay_lines(&self.session.doc, &self.session.interaction, &screen)
     }
 
     /// HUD text: mode, tool, target, tracking, fps, operations.
     pub fn hud_lines(&self) -> Vec<String> {
         let i = &self.session.interaction;
-        let mode = match i.mode() {
-            Mode::Sketch => "sketch",
-            Mode::Carve => "carve",
-            Mode::Emboss => "emboss",
-        };
+        let mode = i.mode().name();
         let t = i.tool();
         let profile = match t.profile {
             Profile::V => "V",
             Profile::U => "U",
+            Profile::Custom(_) => "custom",
         };
         let tracking = match (self.tracking, i.gesture_paused()) {
             (_, true) => "TRACKING LOST (stroke paused)",
@@ -135,7 +193,7 @@ impl AppState {
                 "{mode} {profile} {:.1}x{:.1}mm  target {}/{}{live}",
                 t.width * 1000.0,
                 t.depth * 1000.0,
-                i.target() + 1,
+                i.target().0 + 1,
                 self.session.doc.targets().len()
             ),
             format!(
@@ -168,6 +226,7 @@ mod tests {
     use sculpt_core::interaction::{Command, WandEvent, WandSample};
     use sculpt_core::mesh::PatchMesh;
     use sculpt_core::sculpt::tessellate::Detail;
+    use sculpt_core::tolerance::{COSINE_EPS, CURSOR_RING_TOL, CURSOR_RING_Z_TOL, POINT_EPS};
 
     struct Meshes {
         final_detail: PatchMesh,
@@ -268,6 +327,31 @@ mod tests {
     }
 
     #[test]
+    fn the_desktop_view_starts_framing_the_whole_sheet() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut cfg = Config::default();
+        cfg.files.dir = dir.path().to_path_buf();
+        let mut app = AppState::new(cfg).unwrap();
+        let (lo, hi) = app.document_bounds().unwrap();
+        let views = app.views().unwrap();
+        // Every corner of the sheet's box is in view, with a margin: the silhouette
+        // shows against the background.
+        for x in [lo.x, hi.x] {
+            for y in [lo.y, hi.y] {
+                for z in [lo.z, hi.z] {
+                    let ndc = views.center.project(DVec3::new(x, y, z)).unwrap();
+                    assert!(ndc.x.abs() < 0.95 && ndc.y.abs() < 0.95, "{ndc}");
+                }
+            }
+        }
+        // Orbiting moves the cameras; reset returns to the framed view.
+        app.view.as_mut().unwrap().orbit(50.0, 20.0);
+        assert_ne!(app.views().unwrap(), views);
+        app.reset_view();
+        assert_eq!(app.views().unwrap(), views);
+    }
+
+    #[test]
     fn the_tool_footprint_lies_on_the_target_under_the_wand() {
         let dir = tempfile::tempdir().unwrap();
         let mut cfg = Config::default();
@@ -285,8 +369,8 @@ mod tests {
         let tip = on + DVec3::Z * 0.05;
         let (foot, n) = app.project_on_target(tip).unwrap();
         // The closest point: on the surface, straight below the tip along the normal.
-        assert_near!(foot.z, default_surface_point(foot.x, foot.y).z, 1e-9);
-        assert_near!((tip - foot).normalize().dot(n), 1.0, 1e-9);
+        assert_near!(foot.z, default_surface_point(foot.x, foot.y).z, POINT_EPS);
+        assert_near!((tip - foot).normalize().dot(n), 1.0, COSINE_EPS);
         assert!(n.z > 0.9, "{n}");
         let lines = app.overlay_lines();
         let ring_colour = [1.0, 0.95, 0.3, 1.0];
@@ -297,9 +381,11 @@ mod tests {
             .collect();
         assert!(!ring.is_empty());
         let r = 0.5 * app.session.interaction.tool().width;
+        // not a tolerance: 1e-6 is the square of the ring's 1 mm lift
+        let lifted = (r * r + 1e-6).sqrt();
         for p in ring {
-            assert_near!(p.distance(foot), (r * r + 1e-6).sqrt(), 1e-4);
-            assert_near!(p.z, default_surface_point(p.x, p.y).z, 2e-3);
+            assert_near!(p.distance(foot), lifted, CURSOR_RING_TOL);
+            assert_near!(p.z, default_surface_point(p.x, p.y).z, CURSOR_RING_Z_TOL);
         }
         assert!(app.project_on_target(on + DVec3::Z * 2.0).is_none());
     }

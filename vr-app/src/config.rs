@@ -28,7 +28,7 @@
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use sculpt_core::interaction::{InteractionConfig, Mode, Profile, Tool};
+use sculpt_core::interaction::{InteractionConfig, InteractionMode, Profile, StrokeMode, Tool};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{VrError, VrResult};
@@ -41,6 +41,8 @@ use crate::projection::{HeadPose, Screen, StereoRig};
 pub struct Config {
     /// Outputs and windows.
     pub display: DisplayConfig,
+    /// Picture: material and anti-aliasing.
+    pub render: RenderConfig,
     /// The physical screen.
     pub screen: ScreenConfig,
     /// Eye separation and clip planes.
@@ -91,6 +93,25 @@ impl Default for DisplayConfig {
             height: 720,
             wireframe: false,
             hud: true,
+        }
+    }
+}
+
+/// Picture settings (`[render]`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RenderConfig {
+    /// Surface material: `clay`, `stone` or `wood` (the `M` key steps through them).
+    pub material: crate::render::material::Material,
+    /// Samples per pixel wanted: 1 (off), 2 or 4; the adapter may allow fewer.
+    pub msaa: u32,
+}
+
+impl Default for RenderConfig {
+    fn default() -> Self {
+        Self {
+            material: Default::default(),
+            msaa: 4,
         }
     }
 }
@@ -286,13 +307,14 @@ impl TrackingSection {
     }
 }
 
-/// Starting tool and mode.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+/// Starting tool and mode (the `[tool]` table); what is left out is
+/// [`Tool::default`]'s, in carve mode.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ToolConfig {
-    /// Starting mode.
-    pub mode: Mode,
-    /// Profile, `v` or `u`.
+    /// Starting mode: `sketch`, `carve` or `emboss`.
+    pub mode: InteractionMode,
+    /// Profile: `v`, `u` or `{ custom = [[x, f], ...] }`.
     pub profile: Profile,
     /// Width (metres).
     pub width: f64,
@@ -306,7 +328,7 @@ impl Default for ToolConfig {
     fn default() -> Self {
         let t = Tool::default();
         Self {
-            mode: Mode::Carve,
+            mode: InteractionMode::Stroke(t.mode),
             profile: t.profile,
             width: t.width,
             depth: t.depth,
@@ -316,12 +338,14 @@ impl Default for ToolConfig {
 }
 
 impl ToolConfig {
-    /// The tool.
+    /// The tool; starting in sketch mode, it carves once the mode button leaves
+    /// sketching.
     pub fn tool(&self) -> Tool {
         Tool {
-            profile: self.profile,
+            profile: self.profile.clone(),
             width: self.width,
             depth: self.depth,
+            mode: self.mode.stroke_mode().unwrap_or(StrokeMode::Carve),
             taper: self.taper,
         }
     }
@@ -388,7 +412,17 @@ impl Config {
                 d.width, d.height
             )));
         }
+        if ![1, 2, 4].contains(&self.render.msaa) {
+            return Err(VrError::Config(format!(
+                "render.msaa must be 1, 2 or 4, got {}",
+                self.render.msaa
+            )));
+        }
         self.tool.tool().validate()?;
+        // The same check as replay's (sculpt-core's, one for both).
+        self.interaction
+            .validate()
+            .map_err(|e| VrError::Config(e.to_string()))?;
         if let Some(p) = self.head.position {
             let p = DVec3::from(p);
             let (_, _, vn) = screen.basis();
@@ -430,6 +464,7 @@ impl Config {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use sculpt_core::tolerance::EXACT_EPS;
 
     fn example(name: &str) -> Config {
         Config::load(
@@ -455,6 +490,16 @@ mod tests {
         let desk = example("desktop.toml");
         assert!(desk.tracking.is_none());
         assert_eq!(desk.display.mode, OutputMode::Mono);
+        assert_eq!(
+            desk.render.material,
+            crate::render::material::Material::Clay
+        );
+        let stone = Config::from_toml_str("[render]\nmaterial = \"stone\"\nmsaa = 1").unwrap();
+        assert_eq!(
+            stone.render.material,
+            crate::render::material::Material::Stone
+        );
+        assert_eq!(stone.render.msaa, 1);
     }
 
     #[test]
@@ -462,7 +507,7 @@ mod tests {
         let c = Config::from_toml_str("").unwrap();
         assert_eq!(c, Config::default());
         let head = c.fixed_head().unwrap();
-        sculpt_core::assert_near!(head.position.to_array(), [0.0, 1.17, 0.6], 1e-12);
+        sculpt_core::assert_near!(head.position.to_array(), [0.0, 1.17, 0.6], EXACT_EPS);
     }
 
     #[test]
@@ -488,6 +533,8 @@ mod tests {
                 "speed",
             ),
             ("[display]\nwidth = 0", "size"),
+            ("[render]\nmaterial = \"marble\"", "unknown variant"),
+            ("[render]\nmsaa = 3", "render.msaa"),
         ] {
             let e = Config::from_toml_str(text).unwrap_err().to_string();
             assert!(e.contains(needle), "{text:?} gave {e:?}");

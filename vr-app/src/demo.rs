@@ -99,7 +99,7 @@ pub fn demo_events(screen: &Screen) -> Vec<WandEvent> {
     s.stroke(&groove(0.0, 1.0), Some(30));
     s.stroke(&groove(-0.25, 2.0), None);
     s.command(Command::SetMode {
-        mode: sculpt_core::interaction::Mode::Emboss,
+        mode: sculpt_core::interaction::InteractionMode::EMBOSS,
     });
     s.command(Command::SetWidth { width: 0.03 });
     let ridge: Vec<DVec3> = (0..=40)

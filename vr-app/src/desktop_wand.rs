@@ -12,7 +12,7 @@
 //! let wand = EmulatedWand { depth: 0.0, ..Default::default() };
 //! // The window centre on the screen plane is the screen centre.
 //! let tip = wand.tip(&screen, eye, (400.0, 300.0), (800, 600)).unwrap();
-//! assert!((tip - screen.center()).length() < 1e-12);
+//! assert!((tip - screen.center()).length() < sculpt_core::tolerance::EXACT_EPS);
 //! # Ok::<(), vr_app::VrError>(())
 //! ```
 
@@ -70,7 +70,7 @@ impl EmulatedWand {
         let dir = on_screen - eye;
         let plane_point = screen.lower_left + vn * self.depth;
         let denom = dir.dot(vn);
-        if denom.abs() < 1e-12 {
+        if denom.abs() < sculpt_core::tolerance::PARALLEL_COS_EPS {
             return None;
         }
         let s = (plane_point - eye).dot(vn) / denom;
@@ -82,6 +82,7 @@ impl EmulatedWand {
 mod tests {
     use super::*;
     use sculpt_core::assert_near;
+    use sculpt_core::tolerance::EXACT_EPS;
 
     #[test]
     fn tip_lies_on_the_wand_plane_along_the_eye_ray() {
@@ -99,11 +100,11 @@ mod tests {
         // Upper-left pixel corner maps to the screen's upper-left, halfway to the eye.
         let tip = wand.tip(&screen, eye, (0.0, 0.0), (800, 600)).unwrap();
         let expected = eye.lerp(DVec3::new(-0.3, 1.34, 0.0), 0.5);
-        assert_near!(tip.to_array(), expected.to_array(), 1e-12);
+        assert_near!(tip.to_array(), expected.to_array(), EXACT_EPS);
         wand.scroll(1000.0);
-        assert_near!(wand.depth, 0.4, 1e-12);
+        assert_near!(wand.depth, 0.4, EXACT_EPS);
         wand.scroll(f64::NAN);
-        assert_near!(wand.depth, 0.4, 1e-12);
+        assert_near!(wand.depth, 0.4, EXACT_EPS);
         // A plane behind the eye gives no tip.
         wand.depth_range = (-1.0, 1.0);
         wand.depth = 0.9;

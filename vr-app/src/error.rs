@@ -8,10 +8,10 @@ use thiserror::Error;
 pub enum VrError {
     /// A screen definition is unusable.
     #[error("screen: {0}")]
-    Screen(String),
+    Screen(ScreenError),
     /// A projection could not be built (eye behind the screen, bad clip planes).
     #[error("projection: {0}")]
-    Projection(String),
+    Projection(ProjectionError),
     /// No GPU adapter was found.
     #[error(
         "no GPU adapter found ({0}). Install a Vulkan driver: on Debian/Ubuntu \
@@ -31,10 +31,10 @@ pub enum VrError {
         /// The journal file.
         path: String,
         /// What went wrong.
-        reason: String,
+        reason: JournalError,
     },
     /// A file could not be read or written.
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Io {
         /// The file.
         path: String,
@@ -43,12 +43,13 @@ pub enum VrError {
         source: std::io::Error,
     },
     /// An image could not be encoded or decoded.
-    #[error("image {path}: {reason}")]
+    #[error("image {path}")]
     Image {
         /// The file.
         path: String,
         /// What went wrong.
-        reason: String,
+        #[source]
+        source: image::ImageError,
     },
     /// An OpenXR problem (no runtime, session failure).
     #[error("OpenXR: {0}")]
@@ -56,6 +57,95 @@ pub enum VrError {
     /// An error from the geometry core.
     #[error(transparent)]
     Core(#[from] sculpt_core::Error),
+}
+
+/// Why a screen definition is unusable.
+#[derive(Debug, Error, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum ScreenError {
+    /// A corner is NaN or infinite.
+    #[error("a corner is not finite")]
+    CornerNotFinite,
+    /// An edge is shorter than 0.1 mm.
+    #[error("an edge is shorter than 0.1 mm")]
+    EdgeTooShort,
+    /// The lower and left edges are not perpendicular.
+    #[error("the lower and left edges are not perpendicular")]
+    NotRectangular,
+}
+
+/// Why a projection cannot be built.
+#[derive(Debug, Error, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub enum ProjectionError {
+    /// The eye position is NaN or infinite.
+    #[error("eye position is not finite")]
+    EyeNotFinite,
+    /// The clip planes are not `0 < near < far`.
+    #[error("need 0 < near < far, got {near} and {far}")]
+    ClipPlanes {
+        /// Near plane, metres.
+        near: f64,
+        /// Far plane, metres.
+        far: f64,
+    },
+    /// The eye is too close to (or behind) the screen plane.
+    #[error(
+        "eye is {distance_m:.4} m in front of the screen plane; it must be at least {min_m} m in front"
+    )]
+    EyeTooClose {
+        /// Distance in front of the plane, metres.
+        distance_m: f64,
+        /// The least allowed, metres.
+        min_m: f64,
+    },
+}
+
+/// Why the operation journal is unreadable or could not be written.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum JournalError {
+    /// A line is longer than the cap.
+    #[error("line {line} is longer than {max} bytes")]
+    LineTooLong {
+        /// 1-based line.
+        line: usize,
+        /// The cap.
+        max: usize,
+    },
+    /// A line is not UTF-8.
+    #[error("line {line} is not UTF-8")]
+    NotUtf8 {
+        /// 1-based line.
+        line: usize,
+    },
+    /// The first line is not the journal header.
+    #[error("not a wandsculpt journal (line 1 is {found:?})")]
+    NotAJournal {
+        /// The first line (truncated).
+        found: String,
+    },
+    /// A line is not a journal entry.
+    #[error("line {line}: {error}")]
+    Entry {
+        /// 1-based line.
+        line: usize,
+        /// The JSON error.
+        error: sculpt_core::error::JsonError,
+    },
+    /// An entry's sequence number is out of order.
+    #[error("line {line}: sequence {found} where {expected} was expected")]
+    Sequence {
+        /// 1-based line.
+        line: usize,
+        /// The sequence number read.
+        found: u64,
+        /// The one expected.
+        expected: u64,
+    },
+    /// An entry could not be encoded.
+    #[error("encoding an entry: {0}")]
+    Encode(sculpt_core::error::JsonError),
 }
 
 /// `Result` with [`VrError`].

@@ -55,17 +55,21 @@ pub struct HeadlessReport {
 }
 
 /// Runs `inputs` through the session in `app`, rendering with `gpu`, and writes
-/// `left.png`, `right.png` and `frame.png` (the `mode` composition), the saved
-/// document, the journal and the operator log into the session directory.
+/// `frame.png` (the `mode` composition) and, in the stereo modes, `left.png` and
+/// `right.png` (each eye as its projector shows it), the saved document, the journal
+/// and the operator log into the session directory. The pictures carry no HUD (it is
+/// the desktop's status line, not part of the scene).
 pub fn run_headless(
     app: &mut AppState,
     gpu: &Gpu,
     inputs: impl IntoIterator<Item = Input>,
     opts: &HeadlessOptions,
 ) -> VrResult<HeadlessReport> {
-    let mut renderer = Renderer::new(gpu, wgpu::TextureFormat::Rgba8Unorm);
+    let mut renderer =
+        Renderer::with_samples(gpu, wgpu::TextureFormat::Rgba8Unorm, app.config.render.msaa);
     renderer.wireframe = app.config.display.wireframe;
     renderer.swap_eyes = app.config.display.swap_eyes;
+    renderer.set_material(app.config.render.material);
     let mut frame_times: Vec<Duration> = Vec::new();
     let mut count = 0usize;
     let mut wand_events = 0usize;
@@ -98,32 +102,33 @@ pub fn run_headless(
     app.session.tick(last_t + 10.0)?;
     let doc_path = app.session.save_document()?;
     renderer.sync_with(|sinks| app.sync_meshes(sinks));
+    renderer.classes = app.surface_classes();
     let views = app.views()?;
     let lines = app.overlay_lines();
-    let hud = if app.config.display.hud {
-        app.hud_lines()
-    } else {
-        Vec::new()
-    };
     let input = FrameInput {
         views: &views,
         lines: &lines,
-        hud: &hud,
+        hud: &[],
     };
     let frame = renderer.render_offscreen(&input, opts.mode, opts.width, opts.height)?;
     frame_times.push(renderer.last_frame().cpu);
     let dir = app.session.dir().to_path_buf();
     let mut files = vec![doc_path, dir.join(JOURNAL_FILE), dir.join(OPLOG_FILE)];
-    for (name, img) in [
-        ("left.png", &frame.left),
-        ("right.png", &frame.right),
-        ("frame.png", &frame.composite),
-    ] {
+    let mut images = vec![("frame.png", &frame.composite)];
+    if opts.mode != OutputMode::Mono {
+        images.extend([("left.png", &frame.left), ("right.png", &frame.right)]);
+    }
+    for (name, img) in images {
         let p = dir.join(name);
-        img.save(&p).map_err(|e| VrError::Image {
-            path: p.display().to_string(),
-            reason: e.to_string(),
-        })?;
+        // Encoded in memory, then written through a temporary file and renamed: a
+        // full disk never leaves half a PNG behind.
+        let mut png = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut png, image::ImageFormat::Png)
+            .map_err(|source| VrError::Image {
+                path: p.display().to_string(),
+                source,
+            })?;
+        crate::session::write_atomic(&p, png.get_ref())?;
         files.push(p);
     }
     // The journal is the record of truth: make sure it reads back.
@@ -153,9 +158,9 @@ fn render_frame(
     opts: &HeadlessOptions,
 ) -> VrResult<Duration> {
     renderer.sync_with(|sinks| app.sync_meshes(sinks));
+    renderer.classes = app.surface_classes();
     let views = app.views()?;
     let lines = app.overlay_lines();
-    let hud = app.hud_lines();
     let texture = renderer.output_texture(opts.width, opts.height);
     let view = texture.create_view(&Default::default());
     let content = match opts.mode {
@@ -168,7 +173,7 @@ fn render_frame(
         &FrameInput {
             views: &views,
             lines: &lines,
-            hud: &hud,
+            hud: &[],
         },
         &[OutputTarget {
             view: &view,

@@ -18,7 +18,7 @@ pub enum TrackingState {
 }
 
 /// One input of a session (headless, windowed or live).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum Input {
     /// A wand event.
     Wand(WandEvent),

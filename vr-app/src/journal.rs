@@ -31,7 +31,7 @@ use std::path::{Path, PathBuf};
 use sculpt_core::interaction::Edit;
 use serde::{Deserialize, Serialize};
 
-use crate::error::{VrError, VrResult};
+use crate::error::{JournalError, VrError, VrResult};
 
 /// The header line.
 pub const HEADER: &str = "{\"wandsculpt_journal\":1}";
@@ -58,10 +58,10 @@ pub struct Journal {
     next_seq: u64,
 }
 
-fn jerr(path: &Path, reason: impl Into<String>) -> VrError {
+fn jerr(path: &Path, reason: JournalError) -> VrError {
     VrError::Journal {
         path: path.display().to_string(),
-        reason: reason.into(),
+        reason,
     }
 }
 
@@ -130,8 +130,8 @@ impl Journal {
             t: if t.is_finite() { t } else { 0.0 },
             edit: edit.clone(),
         };
-        let mut line =
-            serde_json::to_string(&entry).map_err(|e| jerr(&self.path, e.to_string()))?;
+        let mut line = serde_json::to_string(&entry)
+            .map_err(|e| jerr(&self.path, JournalError::Encode(e.into())))?;
         line.push('\n');
         self.file
             .write_all(line.as_bytes())
@@ -189,32 +189,45 @@ fn read_entries(path: &Path, file: &mut File) -> VrResult<(Vec<JournalEntry>, u6
             if n > MAX_LINE {
                 return Err(jerr(
                     path,
-                    format!("line {line_no} is longer than {MAX_LINE} bytes"),
+                    JournalError::LineTooLong {
+                        line: line_no,
+                        max: MAX_LINE,
+                    },
                 ));
             }
             // Torn final write: stop here, the caller cuts it off.
             break;
         }
         let text = std::str::from_utf8(&buf[..n - 1])
-            .map_err(|_| jerr(path, format!("line {line_no} is not UTF-8")))?;
+            .map_err(|_| jerr(path, JournalError::NotUtf8 { line: line_no }))?;
         if line_no == 1 {
             if text.trim() != HEADER {
                 return Err(jerr(
                     path,
-                    format!("not a wandsculpt journal (line 1 is {:?})", truncate(text)),
+                    JournalError::NotAJournal {
+                        found: truncate(text),
+                    },
                 ));
             }
         } else {
-            let entry: JournalEntry = serde_json::from_str(text)
-                .map_err(|e| jerr(path, format!("line {line_no}: {e}")))?;
+            let entry: JournalEntry = serde_json::from_str(text).map_err(|e| {
+                jerr(
+                    path,
+                    JournalError::Entry {
+                        line: line_no,
+                        error: e.into(),
+                    },
+                )
+            })?;
             let want = entries.len() as u64;
             if entry.seq != want {
                 return Err(jerr(
                     path,
-                    format!(
-                        "line {line_no}: sequence {} where {want} was expected",
-                        entry.seq
-                    ),
+                    JournalError::Sequence {
+                        line: line_no,
+                        found: entry.seq,
+                        expected: want,
+                    },
                 ));
             }
             entries.push(entry);
@@ -231,14 +244,13 @@ fn truncate(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sculpt_core::interaction::{StrokeEdit, StrokeMode, StrokeSample, Tool};
+    use sculpt_core::interaction::{StrokeEdit, StrokeSample, TargetIndex, Tool};
 
     fn stroke() -> Edit {
-        Edit::Stroke(StrokeEdit {
-            target: 0,
-            mode: StrokeMode::Carve,
-            tool: Tool::default(),
-            samples: vec![
+        Edit::Stroke(StrokeEdit::new(
+            TargetIndex(0),
+            Tool::default(),
+            vec![
                 StrokeSample {
                     t: 0.0,
                     position: glam::DVec3::new(0.0, 1.0, 0.0),
@@ -248,7 +260,7 @@ mod tests {
                     position: glam::DVec3::new(0.1, 1.0, 0.0),
                 },
             ],
-        })
+        ))
     }
 
     #[test]
@@ -290,7 +302,18 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("c.journal");
         std::fs::write(&p, format!("{HEADER}\nnot json\n")).unwrap();
-        let e = Journal::open(&p).unwrap_err().to_string();
+        let e = Journal::open(&p).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                VrError::Journal {
+                    reason: JournalError::Entry { line: 2, .. },
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
+        let e = e.to_string();
         assert!(e.contains("line 2"), "{e}");
         std::fs::write(&p, "hello\n").unwrap();
         assert!(

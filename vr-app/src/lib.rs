@@ -13,13 +13,15 @@
 //! * leaves: [`error`], [`projection`], [`output`] ([`OutputMode`](output::OutputMode)),
 //!   [`input`] (session [`Input`](input::Input)s and
 //!   [`TrackingState`](input::TrackingState)), [`journal`], [`preview`];
-//! * [`config`] -> output (it also holds [`Playback`](config::Playback));
+//! * [`config`] -> output, `render::material` (pure) (it also holds
+//!   [`Playback`](config::Playback));
 //! * [`session`] -> config, journal;
 //! * [`scene`] (a frame as plain values: cameras, overlay lines, the meshes of a
 //!   document and an interaction) -> preview;
 //! * [`render`] (wgpu) -> scene, output: it draws a [`FrameInput`](scene::FrameInput)
 //!   and fills mesh sinks it is handed, and never sees the app state;
-//! * [`app`] ([`AppState`](app::AppState)) -> config, session, scene, input;
+//! * [`app`] ([`AppState`](app::AppState)) -> config, session, scene, input,
+//!   [`desktop_view`] (the desktop camera), [`desktop_wand`];
 //! * [`live`] (tracking hub on tokio) -> config, input;
 //! * [`headless`] -> app, render, session, journal, input, output; `window` -> app,
 //!   render, output, input, [`desktop_wand`].
@@ -38,6 +40,7 @@
 pub mod app;
 pub mod config;
 pub mod demo;
+pub mod desktop_view;
 pub mod desktop_wand;
 pub mod error;
 pub mod headless;

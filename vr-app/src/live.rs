@@ -2,7 +2,7 @@
 //! owned here, plus the app's own playback sources (a pose-log file or the tracker
 //! simulator, fed into the same hub in real time), and the per-frame stage.
 //!
-//! **Every** frame the hub accepts goes, in order, through the same pure
+//! **Every** frame received goes, in arrival order, through the same pure
 //! [`FrameStage`] that `replay` runs (`tracking::stage`: order check, time from the
 //! frame's DTrack `ts`, calibration with the tool tip, filter, loss and timeout), then
 //! to the interaction as wand events stamped with the stage's time. Nothing is
@@ -172,6 +172,9 @@ pub struct LiveTracking {
     extra_buttons: u64,
     /// Receive time of the last frame.
     last_receive: Option<Duration>,
+    /// Sources that have sent a frame with the configured wand: only these can end a
+    /// session by going away (a stray peer's frame and close cannot).
+    served: std::collections::BTreeSet<tracking::hub::SourceId>,
     /// Time of the lost sample the idle check emitted, until a tick ended the pause.
     idle_lost_at: Option<f64>,
     state: Option<TrackingState>,
@@ -196,8 +199,11 @@ impl LiveTracking {
             .build()
             .map_err(|e| VrError::Config(format!("tracking runtime: {e}")))?;
         let hub = Hub::new(&section.input);
-        // Subscribe before any source starts, so no frame is missed.
-        let frames = hub.subscribe_frames();
+        // Subscribe before any source starts, so no frame is missed. Every frame
+        // received, not only those the hub keeps: the stage makes the order decision
+        // from the frames' contents, exactly as `replay` does on the pose log (whose
+        // records are every frame received), whatever the arrival timing.
+        let frames = hub.subscribe_received();
         let running = runtime
             .block_on(transport::start_with_hub(hub.clone(), &section.input))
             .map_err(|e| VrError::Config(format!("tracking: {e}")))?;
@@ -222,6 +228,7 @@ impl LiveTracking {
             pause_timeout,
             extra_buttons: 0,
             last_receive: None,
+            served: std::collections::BTreeSet::new(),
             idle_lost_at: None,
             state: None,
             events: Vec::new(),
@@ -249,8 +256,10 @@ impl LiveTracking {
         self.frames.dropped()
     }
 
-    /// True once every source has been connected (or played) and is now gone, with
-    /// at least one frame received: a served session is over.
+    /// True once every source has served the session (sent a frame with the
+    /// configured wand) and is now gone: a served session is over. A peer that sends a
+    /// frame without the wand and closes (a stray local connection) does not end it;
+    /// peers the transports refuse never reach here at all.
     pub fn sources_done(&self) -> bool {
         let mut ids = self.running.sources.clone();
         if self.playback.is_some() {
@@ -259,9 +268,11 @@ impl LiveTracking {
         }
         self.last_receive.is_some()
             && ids.iter().all(|&s| {
-                self.hub
-                    .source_stats(s)
-                    .is_some_and(|st| st.connections > 0 && !st.connected)
+                self.served.contains(&s)
+                    && self
+                        .hub
+                        .source_stats(s)
+                        .is_some_and(|st| st.connections > 0 && !st.connected)
             })
     }
 
@@ -275,6 +286,9 @@ impl LiveTracking {
         while let Some(f) = self.frames.try_recv() {
             got = true;
             self.last_receive = Some(f.frame.receive_time);
+            if f.frame.wand(self.wand_id).is_some() {
+                self.served.insert(f.source);
+            }
             if !f.carries_pose {
                 if let Some(w) = f.frame.wand(self.wand_id) {
                     self.extra_buttons = w.buttons;
@@ -295,7 +309,7 @@ impl LiveTracking {
         if let (Some(lost_t), Some(stage_t), Some(last)) =
             (self.idle_lost_at, self.stage.time(), self.last_receive)
         {
-            let end = lost_t + self.pause_timeout + 1e-9;
+            let end = lost_t + self.pause_timeout + sculpt_core::tolerance::TIME_EPS;
             let now = stage_t + self.hub.now().saturating_sub(last).as_secs_f64();
             if now > end + TICK_MARGIN_S {
                 out.push(Input::Tick(end));

@@ -8,7 +8,7 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
-use clap::Parser;
+use clap::{CommandFactory, FromArgMatches, Parser};
 use vr_app::app::AppState;
 use vr_app::config::Config;
 use vr_app::demo::demo_events;
@@ -99,7 +99,16 @@ fn main() -> std::process::ExitCode {
         .with_writer(std::io::stderr)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
-    match run(Cli::parse()) {
+    // The desktop keys come from the same table as the on-screen help.
+    let keys = format!(
+        "Desktop keys and mouse (desktop mode; F1 shows them in the window):\n  {}",
+        vr_app::window::key_help().join("\n  ")
+    );
+    let cli = match Cli::from_arg_matches(&Cli::command().after_help(keys).get_matches()) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
+    match run(cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("wandsculpt: {e:#}");

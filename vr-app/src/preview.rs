@@ -8,16 +8,12 @@
 //!
 //! ```
 //! use glam::DVec3;
-//! use sculpt_core::interaction::{StrokeEdit, StrokeMode, StrokeSample, Tool};
+//! use sculpt_core::interaction::{StrokeEdit, StrokeSample, TargetIndex, Tool};
 //! use sculpt_core::mesh::PatchMesh;
-//! let stroke = StrokeEdit {
-//!     target: 0,
-//!     mode: StrokeMode::Carve,
-//!     tool: Tool::default(),
-//!     samples: (0..4)
-//!         .map(|i| StrokeSample { t: i as f64, position: DVec3::new(0.01 * i as f64, 1.2, 0.0) })
-//!         .collect(),
-//! };
+//! let samples = (0..4)
+//!     .map(|i| StrokeSample { t: i as f64, position: DVec3::new(0.01 * i as f64, 1.2, 0.0) })
+//!     .collect();
+//! let stroke = StrokeEdit::new(TargetIndex(0), Tool::default(), samples);
 //! let mut mesh = PatchMesh::new();
 //! vr_app::preview::write_stroke_ribbon(&stroke, DVec3::Z, 7, &mut mesh);
 //! assert_eq!(mesh.triangle_count(), 6);
@@ -61,7 +57,7 @@ pub fn write_stroke_ribbon(
     for (i, p) in pts.iter().enumerate() {
         let tangent = pts[(i + 1).min(pts.len() - 1)] - pts[i.saturating_sub(1)];
         let across = tangent.cross(facing);
-        let across = if across.length_squared() > 1e-18 {
+        let across = if across.length_squared() > sculpt_core::tolerance::ZERO_LEN2_EPS {
             across.normalize()
         } else {
             across_prev
@@ -88,15 +84,18 @@ pub fn write_stroke_ribbon(
 mod tests {
     use super::*;
     use sculpt_core::assert_near;
-    use sculpt_core::interaction::{StrokeSample, Tool};
+    use sculpt_core::interaction::{StrokeSample, TargetIndex, Tool};
     use sculpt_core::mesh::PatchMesh;
+    use sculpt_core::tolerance::F32_EPS;
 
     fn stroke(points: &[DVec3], mode: StrokeMode) -> StrokeEdit {
-        StrokeEdit {
-            target: 0,
-            mode,
-            tool: Tool::default(),
-            samples: points
+        StrokeEdit::new(
+            TargetIndex(0),
+            Tool {
+                mode,
+                ..Tool::default()
+            },
+            points
                 .iter()
                 .enumerate()
                 .map(|(i, p)| StrokeSample {
@@ -104,7 +103,7 @@ mod tests {
                     position: *p,
                 })
                 .collect(),
-        }
+        )
     }
 
     #[test]
@@ -118,8 +117,12 @@ mod tests {
             assert_eq!((v.len(), t.len()), (6, 4));
             let width = DVec3::from(v[0].position.map(f64::from))
                 .distance(DVec3::from(v[1].position.map(f64::from)));
-            assert_near!(width, s.tool.width, 1e-6);
-            assert_near!(f64::from(v[2].position[2]), sign * 0.5 * s.tool.depth, 1e-6);
+            assert_near!(width, s.tool.width, F32_EPS);
+            assert_near!(
+                f64::from(v[2].position[2]),
+                sign * 0.5 * s.tool.depth,
+                F32_EPS
+            );
         }
     }
 

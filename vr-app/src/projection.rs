@@ -21,13 +21,14 @@
 //! // A point on the screen plane has zero parallax: both eyes see it at the same place.
 //! let p = DVec3::new(0.3, 0.5, 0.0);
 //! let (l, r) = (left.project(p).unwrap(), right.project(p).unwrap());
-//! assert!((l - r).length() < 1e-9);
+//! assert!((l - r).length() < sculpt_core::tolerance::POINT_EPS);
 //! ```
 
 use glam::{DMat4, DQuat, DVec2, DVec3, DVec4};
 use serde::{Deserialize, Serialize};
 
-use crate::error::{VrError, VrResult};
+use crate::error::{ProjectionError, ScreenError, VrError, VrResult};
+use sculpt_core::tolerance::{MIN_EYE_DISTANCE, MIN_SCREEN_EDGE, SQUARE_COS_TOL};
 
 /// A planar rectangular screen in the display frame (metres).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -39,14 +40,6 @@ pub struct Screen {
     /// Upper-left corner `pc`.
     pub upper_left: DVec3,
 }
-
-/// Largest |cos| between the screen's right and up edges that still counts as a
-/// rectangle (about 0.6 degrees off square).
-const SQUARE_COS_TOL: f64 = 1e-2;
-/// Smallest screen edge (metres).
-const MIN_EDGE: f64 = 1e-4;
-/// Smallest eye-to-screen-plane distance (metres) for a valid frustum.
-const MIN_EYE_DISTANCE: f64 = 1e-3;
 
 impl Screen {
     /// A screen from its lower-left, lower-right and upper-left corners.
@@ -65,20 +58,20 @@ impl Screen {
 
     /// Checks the corners (see [`Screen::new`]).
     pub fn validate(&self) -> VrResult<()> {
-        let bad = |why: &str| Err(VrError::Screen(why.to_string()));
+        let bad = |why: ScreenError| Err(VrError::Screen(why));
         if !(self.lower_left.is_finite()
             && self.lower_right.is_finite()
             && self.upper_left.is_finite())
         {
-            return bad("a corner is not finite");
+            return bad(ScreenError::CornerNotFinite);
         }
         let right = self.lower_right - self.lower_left;
         let up = self.upper_left - self.lower_left;
-        if right.length() < MIN_EDGE || up.length() < MIN_EDGE {
-            return bad("an edge is shorter than 0.1 mm");
+        if right.length() < MIN_SCREEN_EDGE || up.length() < MIN_SCREEN_EDGE {
+            return bad(ScreenError::EdgeTooShort);
         }
         if right.normalize().dot(up.normalize()).abs() > SQUARE_COS_TOL {
-            return bad("the lower and left edges are not perpendicular");
+            return bad(ScreenError::NotRectangular);
         }
         Ok(())
     }
@@ -182,12 +175,13 @@ pub fn frustum_rh_zo(l: f64, r: f64, b: f64, t: f64, near: f64, far: f64) -> DMa
 /// or when `0 < near < far` does not hold.
 pub fn kooima(screen: &Screen, pe: DVec3, near: f64, far: f64) -> VrResult<EyeCamera> {
     if !pe.is_finite() {
-        return Err(VrError::Projection("eye position is not finite".into()));
+        return Err(VrError::Projection(ProjectionError::EyeNotFinite));
     }
     if !(near > 0.0 && far > near && far.is_finite()) {
-        return Err(VrError::Projection(format!(
-            "need 0 < near < far, got {near} and {far}"
-        )));
+        return Err(VrError::Projection(ProjectionError::ClipPlanes {
+            near,
+            far,
+        }));
     }
     let (vr, vu, vn) = screen.basis();
     let va = screen.lower_left - pe;
@@ -195,9 +189,10 @@ pub fn kooima(screen: &Screen, pe: DVec3, near: f64, far: f64) -> VrResult<EyeCa
     let vc = screen.upper_left - pe;
     let d = -va.dot(vn);
     if d < MIN_EYE_DISTANCE {
-        return Err(VrError::Projection(format!(
-            "eye is {d:.4} m in front of the screen plane; it must be at least {MIN_EYE_DISTANCE} m in front"
-        )));
+        return Err(VrError::Projection(ProjectionError::EyeTooClose {
+            distance_m: d,
+            min_m: MIN_EYE_DISTANCE,
+        }));
     }
     let s = near / d;
     let (l, r, b, t) = (
@@ -398,7 +393,7 @@ mod tests {
             let (pl, pr) = (l.project(p).unwrap(), r.project(p).unwrap());
             let parallax_m = (pr.x - pl.x) * 0.5 * screen.width();
             let expected = rig.ipd * depth_behind / (2.0 + depth_behind);
-            assert_near!(parallax_m, expected, 1e-12, "depth {depth_behind}");
+            assert_near!(parallax_m, expected, EXACT_EPS, "depth {depth_behind}");
             assert_near!(pl.y, pr.y, EXACT_EPS, "no vertical parallax");
         }
     }
@@ -425,12 +420,24 @@ mod tests {
 
     #[test]
     fn bad_screens_and_eyes_are_rejected() {
-        assert!(Screen::new(DVec3::ZERO, DVec3::ZERO, DVec3::Y).is_err());
-        assert!(Screen::new(DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0)).is_err());
-        assert!(Screen::new(DVec3::ZERO, DVec3::X * f64::NAN, DVec3::Y).is_err());
+        assert!(matches!(
+            Screen::new(DVec3::ZERO, DVec3::ZERO, DVec3::Y),
+            Err(VrError::Screen(ScreenError::EdgeTooShort))
+        ));
+        assert!(matches!(
+            Screen::new(DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0)),
+            Err(VrError::Screen(ScreenError::NotRectangular))
+        ));
+        assert!(matches!(
+            Screen::new(DVec3::ZERO, DVec3::X * f64::NAN, DVec3::Y),
+            Err(VrError::Screen(ScreenError::CornerNotFinite))
+        ));
         let s = wall();
         assert!(
-            kooima(&s, DVec3::new(0.0, 0.5, -1.0), 0.1, 10.0).is_err(),
+            matches!(
+                kooima(&s, DVec3::new(0.0, 0.5, -1.0), 0.1, 10.0),
+                Err(VrError::Projection(ProjectionError::EyeTooClose { distance_m, .. })) if distance_m < 0.0
+            ),
             "behind the screen"
         );
         assert!(

@@ -19,6 +19,83 @@ use crate::projection::{EyeCamera, HeadPose, Screen, StereoRig, kooima};
 /// Patch key of the live stroke preview (in the preview sink).
 pub const PREVIEW_KEY: PatchKey = PatchKey::MAX - 1;
 
+/// Patches whose keys agree above these low bits share a GPU batch (the renderer's
+/// mesh store groups them so).
+pub const BATCH_SHIFT: u32 = 6;
+
+/// What a drawn surface is, for its colour and outline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum SurfaceClass {
+    /// A target surface (with its carved strokes).
+    Target,
+    /// A target made by a sketch.
+    Sketched,
+    /// The selected target, outlined (only when there are several targets).
+    Selected,
+    /// The live stroke ribbon.
+    Preview,
+}
+
+impl SurfaceClass {
+    /// The class number written into the geometry image (0 is nothing or an overlay).
+    pub fn id(self) -> f32 {
+        match self {
+            SurfaceClass::Target => 1.0,
+            SurfaceClass::Sketched => 2.0,
+            SurfaceClass::Selected => 3.0,
+            SurfaceClass::Preview => 4.0,
+        }
+    }
+
+    /// Every class, in the order of the renderer's material bind groups.
+    pub const ALL: [SurfaceClass; 4] = [
+        SurfaceClass::Target,
+        SurfaceClass::Sketched,
+        SurfaceClass::Selected,
+        SurfaceClass::Preview,
+    ];
+
+    /// Index into [`Self::ALL`].
+    pub fn index(self) -> usize {
+        match self {
+            SurfaceClass::Target => 0,
+            SurfaceClass::Sketched => 1,
+            SurfaceClass::Selected => 2,
+            SurfaceClass::Preview => 3,
+        }
+    }
+}
+
+/// Which targets are drawn how: the selected one outlined (set it only when there
+/// are several targets), sketched ones tinted. Target indices as in the document.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct SurfaceClasses {
+    /// The selected target, outlined in amber.
+    pub selected: Option<u32>,
+    /// Targets made by sketching.
+    pub sketched: Vec<u32>,
+}
+
+impl SurfaceClasses {
+    /// The class of the document batch `batch` (a patch key shifted right by
+    /// `BATCH_SHIFT` bits (the renderer's batches)): target patches carry their target's index in the
+    /// key's high 32 bits; stroke surfaces (key's top bit set) count as targets.
+    pub fn of_batch(&self, batch: u64) -> SurfaceClass {
+        let key = batch << BATCH_SHIFT;
+        if key >> 63 == 1 {
+            return SurfaceClass::Target;
+        }
+        let target = (key >> 32) as u32;
+        if self.selected == Some(target) {
+            SurfaceClass::Selected
+        } else if self.sketched.contains(&target) {
+            SurfaceClass::Sketched
+        } else {
+            SurfaceClass::Target
+        }
+    }
+}
+
 /// How far (metres) the wand tip may be from the selected target for the tool
 /// footprint to be drawn on it.
 pub const FOOTPRINT_REACH: f64 = 0.25;
@@ -145,7 +222,7 @@ impl SceneState {
         match &live_stroke {
             Some(stroke) if stroke.samples.len() != self.previewed_samples => {
                 self.previewed_samples = stroke.samples.len();
-                let target = doc.targets().get(stroke.target as usize).map(|t| t.id);
+                let target = doc.target_at(stroke.target).map(|t| t.id);
                 self.preview_carved = target.is_some_and(|id| {
                     doc.set_preview(id, &sculpt_core::editor::stroke_input(stroke))
                         .is_ok()
@@ -198,8 +275,7 @@ impl SceneState {
         interaction: &Interaction,
         p: DVec3,
     ) -> Option<(DVec3, DVec3)> {
-        let index = interaction.target() as usize;
-        let target = doc.targets().get(index)?;
+        let target = doc.target_at(interaction.target())?;
         let hit = target.target_surface().inverter().closest_point(p);
         let n = target.surface.normal(hit.uv.x, hit.uv.y);
         (hit.distance <= FOOTPRINT_REACH && hit.point.is_finite() && n.is_finite())
@@ -224,7 +300,8 @@ impl SceneState {
         let (vr, vu, vn) = screen.basis();
         let (centre, e1, e2, lift) = match self.project_on_target(doc, interaction, tip) {
             Some((foot, n)) => {
-                let e1 = if n.cross(vu).length_squared() > 1e-12 {
+                let e1 = if n.cross(vu).length_squared() > sculpt_core::tolerance::PARALLEL_SIN2_EPS
+                {
                     vu.cross(n).normalize()
                 } else {
                     vr
@@ -299,6 +376,35 @@ pub fn cursor_lines(
         if w[0].is_finite() && w[1].is_finite() {
             out.push(LineVertex::new(w[0], ring));
             out.push(LineVertex::new(w[1], ring));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn batches_take_the_class_of_their_target() {
+        let classes = SurfaceClasses {
+            selected: Some(2),
+            sketched: vec![1, 2],
+        };
+        let batch = |target: u64, root: u64| ((target << 32) | root) >> BATCH_SHIFT;
+        assert_eq!(classes.of_batch(batch(0, 0)), SurfaceClass::Target);
+        assert_eq!(classes.of_batch(batch(0, 200)), SurfaceClass::Target);
+        assert_eq!(classes.of_batch(batch(1, 63)), SurfaceClass::Sketched);
+        // Selection wins over the sketch tint: the outline is what marks it.
+        assert_eq!(classes.of_batch(batch(2, 64)), SurfaceClass::Selected);
+        // Stroke surfaces (top key bit) are drawn as their targets are.
+        let stroke = sculpt_core::sculpt::document::stroke_patch_key(7) >> BATCH_SHIFT;
+        assert_eq!(classes.of_batch(stroke), SurfaceClass::Target);
+        assert_eq!(
+            SurfaceClasses::default().of_batch(batch(1, 0)),
+            SurfaceClass::Target
+        );
+        for (i, c) in SurfaceClass::ALL.iter().enumerate() {
+            assert_eq!(c.index(), i);
         }
     }
 }

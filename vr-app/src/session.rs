@@ -39,6 +39,7 @@ use std::path::{Path, PathBuf};
 
 use sculpt_core::edit_loop::{EditHooks, EditLoop, LoopError, NoHooks, Step};
 use sculpt_core::editor::{self, Applied};
+use sculpt_core::error::Chain;
 use sculpt_core::interaction::{Command, Edit, Interaction, OperatorEvent, WandEvent};
 use sculpt_core::oplog::{OpLogHeader, OpLogWriter};
 use sculpt_core::sculpt::document::Document;
@@ -65,6 +66,21 @@ fn io_err(path: &Path, source: std::io::Error) -> VrError {
     }
 }
 
+/// Creates an output directory (and its parents). A path that exists and is not a
+/// directory is an error that says so (`create_dir_all` alone says only "File
+/// exists").
+pub fn create_output_dir(dir: &Path) -> std::io::Result<()> {
+    if let Ok(meta) = std::fs::metadata(dir)
+        && !meta.is_dir()
+    {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::NotADirectory,
+            "exists and is not a directory; give an output directory",
+        ));
+    }
+    std::fs::create_dir_all(dir)
+}
+
 /// Reads a base scene in the [`Document::to_json`] format.
 pub fn load_scene(path: &Path) -> VrResult<Document> {
     let bytes = std::fs::read(path).map_err(|e| io_err(path, e))?;
@@ -72,21 +88,32 @@ pub fn load_scene(path: &Path) -> VrResult<Document> {
         .map_err(|e| VrError::Config(format!("scene {}: {e}", path.display())))
 }
 
-/// Writes document bytes atomically: a temporary file, fsync, rename.
+/// Writes bytes atomically: a temporary file beside `path`, fsync, rename. On any
+/// failure (a full disk) the temporary file is removed and `path` keeps its old
+/// content, so no partial file is ever left behind.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> VrResult<()> {
     let tmp = path.with_extension("tmp");
-    let mut f = File::create(&tmp).map_err(|e| io_err(&tmp, e))?;
-    f.write_all(bytes).map_err(|e| io_err(&tmp, e))?;
-    f.sync_all().map_err(|e| io_err(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))
+    let written = File::create(&tmp)
+        .and_then(|mut f| f.write_all(bytes).and_then(|()| f.sync_all()))
+        .map_err(|e| io_err(&tmp, e))
+        .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| io_err(path, e)));
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    written
 }
 
 /// The operator log file: one event per line, written and flushed as it happens.
+///
+/// It is a by-product of sculpting (the journal is the record of truth), so once a
+/// write fails (a full disk) it warns once and stops writing; sculpting goes on.
 #[derive(Debug)]
 struct OperatorLog {
     path: PathBuf,
     file: File,
     writer: OpLogWriter,
+    /// Set by the first failed write: nothing more is written.
+    failed: bool,
 }
 
 impl OperatorLog {
@@ -110,8 +137,13 @@ impl OperatorLog {
                 .with_source(OPLOG_SOURCE)
                 .with_method(method),
         );
-        let mut log = Self { path, file, writer };
-        log.flush()?;
+        let mut log = Self {
+            path,
+            file,
+            writer,
+            failed: false,
+        };
+        log.flush();
         Ok(log)
     }
 
@@ -119,18 +151,26 @@ impl OperatorLog {
         // The state machine never goes back in time; an event it could not order is
         // reported and left out rather than corrupting the log.
         if let Err(e) = self.writer.push(t, editor::oplog_event(event)) {
-            tracing::warn!("operator log: {e}");
+            tracing::warn!("operator log: {}", Chain(&e));
             return Ok(());
         }
-        self.flush()
+        self.flush();
+        Ok(())
     }
 
-    fn flush(&mut self) -> VrResult<()> {
+    /// Writes what is pending; after a failure, warns once and writes nothing more.
+    fn flush(&mut self) {
         let bytes = self.writer.take();
-        self.file
-            .write_all(&bytes)
-            .and_then(|()| self.file.flush())
-            .map_err(|e| io_err(&self.path, e))
+        if self.failed {
+            return;
+        }
+        if let Err(e) = self.file.write_all(&bytes).and_then(|()| self.file.flush()) {
+            self.failed = true;
+            tracing::warn!(
+                "operator log {} could not be written ({e}); it stops here, sculpting goes on",
+                self.path.display()
+            );
+        }
     }
 }
 
@@ -187,7 +227,7 @@ impl EditHooks for SessionFiles {
         let seq = self.seq;
         match applied {
             Applied::Rejected(e) => {
-                tracing::warn!(seq, "the sculpting layer refused an edit: {e}");
+                tracing::warn!(seq, "the sculpting layer refused an edit: {}", Chain(e));
             }
             a => tracing::debug!(seq, "applied: {a:?}"),
         }
@@ -242,7 +282,7 @@ impl Session {
     /// (recovering after a crash) and starts the operator log.
     pub fn open(config: &Config) -> VrResult<Self> {
         let dir = config.files.dir.clone();
-        std::fs::create_dir_all(&dir).map_err(|e| io_err(&dir, e))?;
+        create_output_dir(&dir).map_err(|e| io_err(&dir, e))?;
         let doc = match &config.files.scene {
             Some(p) => load_scene(p)?,
             None => editor::default_document(),
@@ -257,13 +297,17 @@ impl Session {
                 Edit::SelectTarget { index } => selected = Some(*index),
                 edit => {
                     if let Applied::Rejected(err) = edit_loop.apply(edit) {
-                        tracing::debug!(seq = e.seq, "journalled edit refused again: {err}");
+                        tracing::debug!(
+                            seq = e.seq,
+                            "journalled edit refused again: {}",
+                            Chain(&err)
+                        );
                     }
                 }
             }
         }
         let oplog = OperatorLog::create(dir.join(OPLOG_FILE), editor::mode_name(config.tool.mode))?;
-        if let Some(index) = selected.filter(|&i| i < edit_loop.target_count()) {
+        if let Some(index) = selected.filter(|&i| i.0 < edit_loop.target_count()) {
             // At t = 0, so that any live event may follow; not journalled again.
             let select = WandEvent::command(0.0, Command::SelectTarget { index });
             match edit_loop.handle(&select, &mut NoHooks) {
@@ -316,7 +360,7 @@ impl Session {
         let step = match self.edit_loop.handle(ev, &mut self.files) {
             Ok(step) => step,
             Err(LoopError::Refused(e)) => {
-                tracing::warn!("dropped an input: {e}");
+                tracing::warn!("dropped an input: {}", Chain(&e));
                 return Ok(Vec::new());
             }
             Err(LoopError::Hook(e)) => {
@@ -358,7 +402,7 @@ impl Session {
 mod tests {
     use super::*;
     use glam::{DQuat, DVec3};
-    use sculpt_core::interaction::WandSample;
+    use sculpt_core::interaction::{TargetIndex, WandSample};
     use sculpt_core::oplog::{EventKind, decode_bytes};
 
     fn config(dir: &Path) -> Config {
@@ -441,6 +485,70 @@ mod tests {
         assert_eq!(log.events.last().unwrap().kind, EventKind::Undo);
     }
 
+    /// Regression (issue 15, item 7): on a full disk a failed `operator.log` write
+    /// ended the live session. The operator log (here `/dev/full`, where every write
+    /// fails with ENOSPC) now warns once and stops; strokes are still journalled and
+    /// applied.
+    #[test]
+    fn a_full_disk_under_the_operator_log_does_not_stop_sculpting() {
+        let dir = tempfile::tempdir().unwrap();
+        std::os::unix::fs::symlink("/dev/full", dir.path().join(OPLOG_FILE)).unwrap();
+        let cfg = config(dir.path());
+        let mut s = Session::open(&cfg).unwrap();
+        stroke(&mut s, 0.0, 1.1);
+        stroke(&mut s, 1.0, 1.2);
+        assert_eq!(s.doc.strokes().len(), 2);
+        assert_eq!(s.operations(), 2);
+        assert!(s.files.oplog.failed);
+        assert_eq!(
+            Journal::read(dir.path().join(JOURNAL_FILE)).unwrap().len(),
+            2
+        );
+    }
+
+    /// Regression (issue 15, item 7): a failed write left a partial `scene.tmp` behind.
+    /// A write that fails now removes its temporary file and keeps the old content.
+    #[test]
+    fn a_failed_atomic_write_leaves_no_temporary_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("scene.json");
+        std::fs::write(&path, b"old").unwrap();
+        // The rename fails (a directory stands where the file goes) after the
+        // temporary file was written in full.
+        let blocked = dir.path().join("blocked.json");
+        std::fs::create_dir(&blocked).unwrap();
+        std::fs::write(blocked.join("inside"), b"x").unwrap();
+        assert!(write_atomic(&blocked, b"new").is_err());
+        assert!(
+            !dir.path().join("blocked.tmp").exists(),
+            "temporary file left"
+        );
+        // A full disk: the temporary file is `/dev/full`, where writes fail.
+        let full = dir.path().join("full.json");
+        std::os::unix::fs::symlink("/dev/full", dir.path().join("full.tmp")).unwrap();
+        let e = write_atomic(&full, &vec![7u8; 1 << 16]).unwrap_err();
+        assert!(e.to_string().contains("full.tmp"), "{e}");
+        assert!(!dir.path().join("full.tmp").exists(), "temporary file left");
+        assert!(!full.exists());
+        assert!(write_atomic(&path, b"new").is_ok());
+        assert_eq!(std::fs::read(&path).unwrap(), b"new");
+    }
+
+    /// Regression (issue 15, item 7): `--out /etc/hostname` said only "File exists".
+    #[test]
+    fn an_output_path_that_is_a_file_says_it_is_not_a_directory() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("hostname");
+        std::fs::write(&file, b"x").unwrap();
+        // As the binary prints it: the error and its causes on one line.
+        let e = Session::open(&config(&file)).unwrap_err();
+        let e = sculpt_core::error::Chain(&e).to_string();
+        assert!(e.contains("hostname"), "{e}");
+        assert!(e.contains("exists and is not a directory"), "{e}");
+        create_output_dir(&dir.path().join("a/b")).unwrap();
+        assert!(dir.path().join("a/b").is_dir());
+    }
+
     #[test]
     fn a_base_scene_file_is_the_starting_document_and_bad_ones_are_errors() {
         let dir = tempfile::tempdir().unwrap();
@@ -454,10 +562,18 @@ mod tests {
         assert_eq!(s.doc.targets().len(), 2);
         s.handle(&WandEvent::command(0.0, Command::SelectNextTarget))
             .unwrap();
-        assert_eq!(s.interaction.target(), 1, "both targets can be selected");
+        assert_eq!(
+            s.interaction.target(),
+            TargetIndex(1),
+            "both targets can be selected"
+        );
         drop(s);
         let s = Session::open(&cfg).unwrap();
-        assert_eq!(s.interaction.target(), 1, "the selection is recovered");
+        assert_eq!(
+            s.interaction.target(),
+            TargetIndex(1),
+            "the selection is recovered"
+        );
         std::fs::write(&scene, b"{\"format\":\"nope\"}").unwrap();
         let e = Session::open(&cfg).unwrap_err().to_string();
         assert!(e.contains("base.json"), "{e}");

@@ -1,20 +1,22 @@
 //! Windowed mode: desktop with the emulated wand, the built-in demo, and projector
 //! outputs (`dual`: one fullscreen window per projector on the chosen monitors).
 //!
-//! Keys: `1` sketch, `2` carve, `3` emboss, `V`/`U` profile, `[`/`]` width,
-//! `-`/`=` depth, `Ctrl+Z` undo, `Ctrl+Y` redo, `Tab` next target, `Ctrl+S` save,
-//! `W` wireframe, `E` swap eyes, `Esc` quit. Mouse: move to aim the wand, scroll
-//! to move the wand plane nearer or farther, left button to carve/emboss/sketch.
+//! The desktop keys and mouse ([`KEYS`], [`MOUSE`]) are one table, which also gives
+//! the on-screen help (`F1`, `H` or `?`) and `wandsculpt --help` ([`key_help`]). In
+//! desktop mode the right button orbits the view, the middle button (or Shift with the
+//! right) pans it and Ctrl with the wheel zooms ([`DesktopView`](crate::desktop_view::DesktopView));
+//! the plain wheel moves the wand plane.
 
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Instant;
 
-use sculpt_core::interaction::{Command, Mode, Profile, WandEvent, WandSample};
+use sculpt_core::interaction::{Command, InteractionMode, Profile, WandEvent, WandSample};
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
+use winit::keyboard::ModifiersState;
 use winit::keyboard::{Key, NamedKey};
 use winit::window::{Fullscreen, Window, WindowId};
 
@@ -23,6 +25,195 @@ use crate::desktop_wand::EmulatedWand;
 use crate::error::{VrError, VrResult};
 use crate::output::OutputMode;
 use crate::render::{FrameInput, Gpu, OutputContent, OutputTarget, Renderer};
+
+/// What a desktop key does.
+#[derive(Debug, Clone, PartialEq)]
+pub enum KeyAction {
+    /// Switch to a mode.
+    Mode(InteractionMode),
+    /// Switch the groove profile.
+    Profile(Profile),
+    /// Tool width down by a factor 1.25.
+    Narrower,
+    /// Tool width up by a factor 1.25.
+    Wider,
+    /// Tool depth down by a factor 1.25.
+    Shallower,
+    /// Tool depth up by a factor 1.25.
+    Deeper,
+    /// Undo the last edit.
+    Undo,
+    /// Redo.
+    Redo,
+    /// Save the document.
+    Save,
+    /// Select the next target.
+    NextTarget,
+    /// Toggle the wireframe.
+    Wireframe,
+    /// Swap the eyes.
+    SwapEyes,
+    /// Next material (clay, stone, wood).
+    Material,
+    /// Back to the start view (frames the whole document).
+    ResetView,
+    /// Toggle the key help.
+    Help,
+    /// Quit (saving).
+    Quit,
+}
+
+/// One desktop key: its name as `--help` shows it, the logical key (a character,
+/// lower case, or a named key's winit name), whether Ctrl is held, and the action.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KeyBinding {
+    /// As shown to people.
+    pub label: &'static str,
+    /// The logical key: a character (lower case) or a named key (`Tab`, `Escape`,
+    /// `F1`, `Home`).
+    pub key: &'static str,
+    /// Ctrl held.
+    pub ctrl: bool,
+    /// What it does.
+    pub action: KeyAction,
+    /// What it does, for people.
+    pub help: &'static str,
+}
+
+const fn bind(
+    label: &'static str,
+    key: &'static str,
+    ctrl: bool,
+    action: KeyAction,
+    help: &'static str,
+) -> KeyBinding {
+    KeyBinding {
+        label,
+        key,
+        ctrl,
+        action,
+        help,
+    }
+}
+
+/// Every desktop key.
+pub const KEYS: &[KeyBinding] = &[
+    bind(
+        "1",
+        "1",
+        false,
+        KeyAction::Mode(InteractionMode::Sketch),
+        "sketch mode",
+    ),
+    bind(
+        "2",
+        "2",
+        false,
+        KeyAction::Mode(InteractionMode::CARVE),
+        "carve mode",
+    ),
+    bind(
+        "3",
+        "3",
+        false,
+        KeyAction::Mode(InteractionMode::EMBOSS),
+        "emboss mode",
+    ),
+    bind("V", "v", false, KeyAction::Profile(Profile::V), "V profile"),
+    bind("U", "u", false, KeyAction::Profile(Profile::U), "U profile"),
+    bind("[", "[", false, KeyAction::Narrower, "narrower tool"),
+    bind("]", "]", false, KeyAction::Wider, "wider tool"),
+    bind("-", "-", false, KeyAction::Shallower, "shallower tool"),
+    bind("=", "=", false, KeyAction::Deeper, "deeper tool"),
+    bind("+", "+", false, KeyAction::Deeper, "deeper tool"),
+    bind("Ctrl+Z", "z", true, KeyAction::Undo, "undo"),
+    bind("Ctrl+Y", "y", true, KeyAction::Redo, "redo"),
+    bind("Ctrl+S", "s", true, KeyAction::Save, "save"),
+    bind("Tab", "Tab", false, KeyAction::NextTarget, "next target"),
+    bind("W", "w", false, KeyAction::Wireframe, "wireframe on/off"),
+    bind("E", "e", false, KeyAction::SwapEyes, "swap eyes"),
+    bind(
+        "M",
+        "m",
+        false,
+        KeyAction::Material,
+        "next material (clay, stone, wood)",
+    ),
+    bind(
+        "R",
+        "r",
+        false,
+        KeyAction::ResetView,
+        "reset the view (frame the document)",
+    ),
+    bind(
+        "Home",
+        "Home",
+        false,
+        KeyAction::ResetView,
+        "reset the view",
+    ),
+    bind("F1", "F1", false, KeyAction::Help, "key help on/off"),
+    bind("H", "h", false, KeyAction::Help, "key help on/off"),
+    bind("?", "?", false, KeyAction::Help, "key help on/off"),
+    bind("Esc", "Escape", false, KeyAction::Quit, "quit (saves)"),
+];
+
+/// The mouse in desktop mode: (what, what it does).
+pub const MOUSE: &[(&str, &str)] = &[
+    ("move", "aim the wand"),
+    ("left button", "carve, emboss or sketch"),
+    ("wheel", "wand plane nearer or farther"),
+    ("right drag", "orbit the view"),
+    ("middle drag, Shift+right drag", "pan the view"),
+    ("Ctrl+wheel", "zoom the view"),
+];
+
+/// The action of `key` (a character or a named key, as in [`KeyBinding::key`]) with
+/// Ctrl held or not.
+pub fn key_action(key: &str, ctrl: bool) -> Option<KeyAction> {
+    let key = if key.chars().count() == 1 {
+        key.to_lowercase()
+    } else {
+        key.to_string()
+    };
+    KEYS.iter()
+        .find(|b| b.key == key && b.ctrl == ctrl)
+        .map(|b| b.action.clone())
+}
+
+/// The help lines: every key and mouse action, one per line (shown on screen and in
+/// `wandsculpt --help`). Keys with the same action share a line.
+pub fn key_help() -> Vec<String> {
+    let mut lines: Vec<(String, KeyAction, &str)> = Vec::new();
+    for b in KEYS {
+        match lines.iter_mut().find(|(_, action, _)| *action == b.action) {
+            Some((label, ..)) => {
+                label.push(' ');
+                label.push_str(b.label);
+            }
+            None => lines.push((b.label.to_string(), b.action.clone(), b.help)),
+        }
+    }
+    let width = lines
+        .iter()
+        .map(|(l, ..)| l.len())
+        .chain(MOUSE.iter().map(|(m, _)| m.len()))
+        .max()
+        .unwrap_or(0);
+    lines
+        .iter()
+        .map(|(l, _, h)| format!("{l:width$}  {h}"))
+        .chain(MOUSE.iter().map(|(m, h)| format!("{m:width$}  {h}")))
+        .collect()
+}
+
+/// What a mouse drag does to the view.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Drag {
+    Orbit,
+    Pan,
+}
 
 /// Where wand input comes from in windowed mode.
 pub enum WindowInput {
@@ -67,7 +258,9 @@ struct WindowApp {
     last_frame: Instant,
     cursor: (f64, f64),
     buttons: u32,
-    ctrl: bool,
+    modifiers: ModifiersState,
+    drag: Option<Drag>,
+    help: bool,
     wand: EmulatedWand,
     last_t: f64,
     /// Frames still to draw before exiting (`--frames`), if limited.
@@ -85,7 +278,7 @@ pub fn run_windowed(app: AppState, input: WindowInput, frames: Option<u64>) -> V
     })?;
     event_loop.set_control_flow(ControlFlow::Poll);
     let scripted = match &input {
-        WindowInput::Scripted(ev) => ev.iter().copied().collect(),
+        WindowInput::Scripted(ev) => ev.iter().cloned().collect(),
         _ => VecDeque::new(),
     };
     let mut wa = WindowApp {
@@ -98,7 +291,9 @@ pub fn run_windowed(app: AppState, input: WindowInput, frames: Option<u64>) -> V
         last_frame: Instant::now(),
         cursor: (0.0, 0.0),
         buttons: 0,
-        ctrl: false,
+        modifiers: ModifiersState::empty(),
+        drag: None,
+        help: false,
         wand: EmulatedWand::default(),
         last_t: 0.0,
         frames_left: frames,
@@ -165,12 +360,13 @@ impl WindowApp {
         let gpu = Gpu::from_adapter(instance, adapter)?;
         tracing::info!(adapter = %gpu.describe(), "rendering");
         let caps = surfaces[0].get_capabilities(&gpu.adapter);
-        // The shaders write display values directly: prefer a non-sRGB format.
+        // The composition writes linear light: an sRGB surface encodes it (the
+        // renderer encodes by hand for any other format).
         let format = caps
             .formats
             .iter()
             .copied()
-            .find(|f| !f.is_srgb())
+            .find(|f| f.is_srgb())
             .or_else(|| caps.formats.first().copied())
             .ok_or_else(|| VrError::Gpu("the window surface supports no format".into()))?;
         let mut outputs = Vec::new();
@@ -191,9 +387,15 @@ impl WindowApp {
                 content,
             });
         }
-        let mut renderer = Renderer::new(&gpu, format);
+        let mut renderer = Renderer::with_samples(&gpu, format, self.app.config.render.msaa);
         renderer.wireframe = d.wireframe;
         renderer.swap_eyes = d.swap_eyes;
+        renderer.set_material(self.app.config.render.material);
+        tracing::info!(
+            samples = renderer.sample_count(),
+            material = renderer.material().name(),
+            "renderer"
+        );
         Ok(Running {
             gpu,
             renderer,
@@ -214,47 +416,74 @@ impl WindowApp {
     }
 
     fn key(&mut self, key: &Key, event_loop: &ActiveEventLoop) {
-        let tool = self.app.session.interaction.tool();
-        match key {
-            Key::Named(NamedKey::Escape) => event_loop.exit(),
-            Key::Named(NamedKey::Tab) => self.command(Command::SelectNextTarget),
-            Key::Character(s) => match (s.to_lowercase().as_str(), self.ctrl) {
-                ("z", true) => self.command(Command::Undo),
-                ("y", true) => self.command(Command::Redo),
-                ("s", true) => self.command(Command::Save),
-                ("1", _) => self.command(Command::SetMode { mode: Mode::Sketch }),
-                ("2", _) => self.command(Command::SetMode { mode: Mode::Carve }),
-                ("3", _) => self.command(Command::SetMode { mode: Mode::Emboss }),
-                ("v", _) => self.command(Command::SetProfile {
-                    profile: Profile::V,
-                }),
-                ("u", _) => self.command(Command::SetProfile {
-                    profile: Profile::U,
-                }),
-                ("[", _) => self.command(Command::SetWidth {
-                    width: (tool.width / 1.25).max(0.002),
-                }),
-                ("]", _) => self.command(Command::SetWidth {
-                    width: (tool.width * 1.25).min(0.2),
-                }),
-                ("-", _) => self.command(Command::SetDepth {
-                    depth: (tool.depth / 1.25).max(0.0005),
-                }),
-                ("=", _) | ("+", _) => self.command(Command::SetDepth {
-                    depth: (tool.depth * 1.25).min(0.1),
-                }),
-                ("w", _) => {
-                    if let Some(r) = &mut self.running {
-                        r.renderer.wireframe = !r.renderer.wireframe;
-                    }
+        let name = match key {
+            Key::Named(NamedKey::Escape) => "Escape",
+            Key::Named(NamedKey::Tab) => "Tab",
+            Key::Named(NamedKey::F1) => "F1",
+            Key::Named(NamedKey::Home) => "Home",
+            Key::Character(s) => s.as_str(),
+            _ => return,
+        };
+        let Some(action) = key_action(name, self.modifiers.control_key()) else {
+            return;
+        };
+        let tool = self.app.session.interaction.tool().clone();
+        match action {
+            KeyAction::Quit => event_loop.exit(),
+            KeyAction::NextTarget => self.command(Command::SelectNextTarget),
+            KeyAction::Undo => self.command(Command::Undo),
+            KeyAction::Redo => self.command(Command::Redo),
+            KeyAction::Save => self.command(Command::Save),
+            KeyAction::Mode(mode) => self.command(Command::SetMode { mode }),
+            KeyAction::Profile(profile) => self.command(Command::SetProfile { profile }),
+            KeyAction::Narrower => self.command(Command::SetWidth {
+                width: (tool.width / 1.25).max(0.002),
+            }),
+            KeyAction::Wider => self.command(Command::SetWidth {
+                width: (tool.width * 1.25).min(0.2),
+            }),
+            KeyAction::Shallower => self.command(Command::SetDepth {
+                depth: (tool.depth / 1.25).max(0.0005),
+            }),
+            KeyAction::Deeper => self.command(Command::SetDepth {
+                depth: (tool.depth * 1.25).min(0.1),
+            }),
+            KeyAction::Wireframe => {
+                if let Some(r) = &mut self.running {
+                    r.renderer.wireframe = !r.renderer.wireframe;
                 }
-                ("e", _) => {
-                    if let Some(r) = &mut self.running {
-                        r.renderer.swap_eyes = !r.renderer.swap_eyes;
-                    }
+            }
+            KeyAction::SwapEyes => {
+                if let Some(r) = &mut self.running {
+                    r.renderer.swap_eyes = !r.renderer.swap_eyes;
                 }
-                _ => {}
-            },
+            }
+            KeyAction::Material => {
+                if let Some(r) = &mut self.running {
+                    let next = r.renderer.material().next();
+                    r.renderer.set_material(next);
+                }
+            }
+            KeyAction::ResetView => self.app.reset_view(),
+            KeyAction::Help => self.help = !self.help,
+        }
+    }
+
+    fn window_size(&self) -> (u32, u32) {
+        self.running
+            .as_ref()
+            .and_then(|r| r.outputs.first())
+            .map(|o| (o.config.width, o.config.height))
+            .unwrap_or((1, 1))
+    }
+
+    fn cursor_moved(&mut self, to: (f64, f64)) {
+        let (dx, dy) = (to.0 - self.cursor.0, to.1 - self.cursor.1);
+        self.cursor = to;
+        let size = self.window_size();
+        match (self.drag, &mut self.app.view) {
+            (Some(Drag::Orbit), Some(view)) => view.orbit(dx, dy),
+            (Some(Drag::Pan), Some(view)) => view.pan(dx, dy, size),
             _ => {}
         }
     }
@@ -263,15 +492,16 @@ impl WindowApp {
         self.last_t = t;
         match &mut self.input {
             WindowInput::Desktop => {
-                let size = self
-                    .running
-                    .as_ref()
-                    .and_then(|r| r.outputs.first())
-                    .map(|o| (o.config.width, o.config.height))
-                    .unwrap_or((1, 1));
+                let size = self.window_size();
                 let eye = self.app.head.position;
-                let sample = match self.wand.tip(&self.app.screen, eye, self.cursor, size) {
-                    Some(p) => WandSample::tracked(p, glam::DQuat::IDENTITY, self.buttons),
+                // The tip in the rig, then through the desktop view into the display.
+                let tip = self.wand.tip(&self.app.screen, eye, self.cursor, size);
+                let (tip, q) = match &self.app.view {
+                    Some(v) => (tip.map(|p| v.display_from_rig(p)), v.rotation()),
+                    None => (tip, glam::DQuat::IDENTITY),
+                };
+                let sample = match tip {
+                    Some(p) => WandSample::tracked(p, q, self.buttons),
                     None => WandSample::lost(self.buttons),
                 };
                 if let Err(e) = self.app.session.handle(&WandEvent::sample(t, sample)) {
@@ -325,11 +555,18 @@ impl WindowApp {
         run.renderer.sync_with(|sinks| app.sync_meshes(sinks));
         let Ok(views) = self.app.views() else { return };
         let lines = self.app.overlay_lines();
-        let hud = if self.app.config.display.hud {
-            self.app.hud_lines()
+        run.renderer.classes = self.app.surface_classes();
+        let mut hud = if self.app.config.display.hud {
+            let mut h = self.app.hud_lines();
+            h.push(format!("{}  F1 keys", run.renderer.material().name()));
+            h
         } else {
             Vec::new()
         };
+        if self.help {
+            hud.push(String::new());
+            hud.extend(key_help());
+        }
         let mut frames = Vec::new();
         for o in &run.outputs {
             match o.surface.get_current_texture() {
@@ -404,15 +641,33 @@ impl ApplicationHandler for WindowApp {
                     o.surface.configure(&run.gpu.device, &o.config);
                 }
             }
-            WindowEvent::CursorMoved { position, .. } => self.cursor = (position.x, position.y),
+            WindowEvent::CursorMoved { position, .. } => {
+                self.cursor_moved((position.x, position.y));
+            }
             WindowEvent::MouseInput { state, button, .. } => {
                 let bit = match button {
                     MouseButton::Left => 1 << self.app.config.interaction.buttons.action,
                     _ => 0,
                 };
+                let drag = match button {
+                    MouseButton::Right if self.modifiers.shift_key() => Some(Drag::Pan),
+                    MouseButton::Right => Some(Drag::Orbit),
+                    MouseButton::Middle => Some(Drag::Pan),
+                    _ => None,
+                };
                 match state {
-                    ElementState::Pressed => self.buttons |= bit,
-                    ElementState::Released => self.buttons &= !bit,
+                    ElementState::Pressed => {
+                        self.buttons |= bit;
+                        if drag.is_some() {
+                            self.drag = drag;
+                        }
+                    }
+                    ElementState::Released => {
+                        self.buttons &= !bit;
+                        if drag.is_some() {
+                            self.drag = None;
+                        }
+                    }
                 }
             }
             WindowEvent::MouseWheel { delta, .. } => {
@@ -420,9 +675,12 @@ impl ApplicationHandler for WindowApp {
                     MouseScrollDelta::LineDelta(_, y) => f64::from(y),
                     MouseScrollDelta::PixelDelta(p) => p.y / 40.0,
                 };
-                self.wand.scroll(lines);
+                match &mut self.app.view {
+                    Some(view) if self.modifiers.control_key() => view.zoom(lines),
+                    _ => self.wand.scroll(lines),
+                }
             }
-            WindowEvent::ModifiersChanged(m) => self.ctrl = m.state().control_key(),
+            WindowEvent::ModifiersChanged(m) => self.modifiers = m.state(),
             WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
                 self.key(&event.logical_key, event_loop);
             }
@@ -453,5 +711,44 @@ impl ApplicationHandler for WindowApp {
         {
             o.window.request_redraw();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_key_maps_to_its_action_and_only_with_the_right_modifier() {
+        for b in KEYS {
+            assert_eq!(key_action(b.key, b.ctrl), Some(b.action.clone()), "{b:?}");
+            if b.ctrl {
+                assert_eq!(key_action(b.key, false), None, "{} needs Ctrl", b.label);
+            }
+        }
+        // Letters work in either case; unknown keys do nothing.
+        assert_eq!(key_action("M", false), Some(KeyAction::Material));
+        assert_eq!(key_action("Z", true), Some(KeyAction::Undo));
+        assert_eq!(key_action("q", false), None);
+        assert_eq!(key_action("", false), None);
+    }
+
+    #[test]
+    fn the_help_lists_every_key_and_mouse_action_once() {
+        let help = key_help();
+        let text = help.join("\n");
+        for b in KEYS {
+            let lines = help
+                .iter()
+                .filter(|l| l.split_whitespace().any(|w| w == b.label))
+                .count();
+            assert!(lines >= 1, "{} missing from\n{text}", b.label);
+        }
+        for (what, does) in MOUSE {
+            assert!(text.contains(what) && text.contains(does), "{what}");
+        }
+        // Keys sharing an action share a line.
+        let reset = help.iter().filter(|l| l.contains("reset the view")).count();
+        assert_eq!(reset, 1, "{text}");
     }
 }

@@ -14,7 +14,7 @@
 //! let cam = eye_camera(&pose, &fov, &XrPose::IDENTITY, 0.05, 100.0).unwrap();
 //! // A point straight ahead of the eye lands in the middle of the image.
 //! let ndc = cam.project(DVec3::new(0.0, 1.6, -2.0)).unwrap();
-//! assert!(ndc.length() < 1e-12);
+//! assert!(ndc.length() < sculpt_core::tolerance::EXACT_EPS);
 //! ```
 
 use glam::{DMat4, DQuat, DVec3};
@@ -56,7 +56,7 @@ impl XrPose {
     fn is_valid(&self) -> bool {
         self.position.is_finite()
             && self.orientation.is_finite()
-            && self.orientation.length_squared() > 1e-6
+            && self.orientation.length_squared() > sculpt_core::tolerance::ZERO_QUAT_LEN2
     }
 }
 
@@ -76,7 +76,7 @@ pub struct XrFov {
 /// The projection for an OpenXR field of view, depth range [0, 1]:
 /// `frustum(n tan(left), n tan(right), n tan(down), n tan(up), n, f)`.
 pub fn projection_from_fov(fov: &XrFov, near: f64, far: f64) -> VrResult<DMat4> {
-    let half_pi = std::f64::consts::FRAC_PI_2 - 1e-6;
+    let half_pi = std::f64::consts::FRAC_PI_2 - sculpt_core::tolerance::POLE_ANGLE_MARGIN;
     let angles = [
         fov.angle_left,
         fov.angle_right,
@@ -199,6 +199,7 @@ mod tests {
     use super::*;
     use sculpt_core::assert_near;
     use sculpt_core::interaction::WandInput;
+    use sculpt_core::tolerance::EXACT_EPS;
 
     #[test]
     fn symmetric_fov_matches_a_hand_computed_frustum() {
@@ -215,9 +216,9 @@ mod tests {
         )
         .unwrap();
         // tan 45 = 1: l = -0.1, r = 0.1, so x scale 2n/(r-l) = 1.
-        assert_near!(p.x_axis.x, 1.0, 1e-12);
-        assert_near!(p.y_axis.y, 1.0, 1e-12);
-        assert_near!(p.z_axis.x, 0.0, 1e-12);
+        assert_near!(p.x_axis.x, 1.0, EXACT_EPS);
+        assert_near!(p.y_axis.y, 1.0, EXACT_EPS);
+        assert_near!(p.z_axis.x, 0.0, EXACT_EPS);
     }
 
     #[test]
@@ -231,9 +232,9 @@ mod tests {
         let cam = eye_camera(&XrPose::IDENTITY, &fov, &XrPose::IDENTITY, 0.1, 50.0).unwrap();
         // A point at depth 2 along the right edge direction projects to x = +1.
         let p = DVec3::new(2.0 * 0.6f64.tan(), 0.0, -2.0);
-        assert_near!(cam.project(p).unwrap().x, 1.0, 1e-12);
+        assert_near!(cam.project(p).unwrap().x, 1.0, EXACT_EPS);
         let q = DVec3::new(0.0, -2.0 * 0.8f64.tan(), -2.0);
-        assert_near!(cam.project(q).unwrap().y, -1.0, 1e-12);
+        assert_near!(cam.project(q).unwrap().y, -1.0, EXACT_EPS);
     }
 
     #[test]
@@ -254,9 +255,9 @@ mod tests {
             orientation: DQuat::IDENTITY,
         };
         let cam = eye_camera(&eye, &fov, &stage, 0.1, 50.0).unwrap();
-        assert_near!(cam.eye.to_array(), [0.0, 1.6, 1.0], 1e-12);
+        assert_near!(cam.eye.to_array(), [0.0, 1.6, 1.0], EXACT_EPS);
         let ndc = cam.project(DVec3::new(-3.0, 1.6, 1.0)).unwrap();
-        assert_near!(ndc.to_array(), [0.0, 0.0], 1e-12);
+        assert_near!(ndc.to_array(), [0.0, 0.0], EXACT_EPS);
         assert!(
             cam.project(DVec3::new(3.0, 1.6, 1.0)).is_none(),
             "behind the eye"
@@ -322,7 +323,7 @@ mod tests {
         let (tracked, b, p) = buttons(m.map(0.0, &c, &stage));
         assert!(tracked);
         assert_eq!(b, 1 << 3);
-        assert_near!(p.to_array(), [0.1, 1.2, 0.7], 1e-12);
+        assert_near!(p.to_array(), [0.1, 1.2, 0.7], EXACT_EPS);
         for (v, held) in [
             (0.5, false),
             (0.65, true),

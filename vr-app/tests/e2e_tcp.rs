@@ -190,3 +190,84 @@ fn listening_on_an_ephemeral_port_and_finishing_when_the_tracker_leaves() {
     let doc = Document::from_json(&std::fs::read(out.join(DOCUMENT_FILE)).unwrap()).unwrap();
     assert_eq!(doc.strokes().len(), 1, "{stderr}");
 }
+
+/// Regression (issue 15, item 6): anyone on the machine could drive the display
+/// server. A stray loopback peer that sent one frame and closed ended a headless run
+/// before the tracker came, and a second connection pressing button 3 undid the
+/// sculptor's stroke. Now a peer that never sent the configured wand cannot end the
+/// session, and a second peer is refused while the tracker is connected.
+#[test]
+fn stray_loopback_peers_neither_end_the_session_nor_undo_strokes() {
+    use std::io::Read;
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("session");
+    let addr_file = dir.path().join("addr");
+    let child = Command::new(env!("CARGO_BIN_EXE_wandsculpt"))
+        .arg("--headless")
+        .args(["--listen", "127.0.0.1:0", "--addr-file"])
+        .arg(&addr_file)
+        .arg("--out")
+        .arg(&out)
+        .args(["--size", "96x54", "--idle-exit", "30", "--duration", "90"])
+        .env("WANDSCULPT_ADAPTER", "llvmpipe")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let addr = loop {
+        if let Ok(text) = std::fs::read_to_string(&addr_file) {
+            break text.trim().to_string();
+        }
+        assert!(Instant::now() < deadline, "no address file");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    // A stray peer first: one frame without the wand, then it closes. The display
+    // server reads it to the end (our read sees its close) and must not finish.
+    let mut stray = std::net::TcpStream::connect(&addr).unwrap();
+    stray.write_all(b"fr 1\r\nts 0.0\r\n\r\n").unwrap();
+    stray.shutdown(std::net::Shutdown::Write).unwrap();
+    let mut rest = Vec::new();
+    let _ = stray.read_to_end(&mut rest);
+    drop(stray);
+    // The tracker: the built-in session's frames up to the stroke's release...
+    let frames: Vec<tracking::Frame> =
+        Simulator::new(&vr_app::live::builtin_script(), SimConfig::default())
+            .unwrap()
+            .collect();
+    let encode = |fs: &[tracking::Frame]| {
+        let mut bytes = Vec::new();
+        for f in fs {
+            tracking::dtrack::encode_frame(f, &mut bytes);
+        }
+        bytes
+    };
+    let released = frames.len() - 10;
+    let mut tracker = std::net::TcpStream::connect(&addr).unwrap();
+    tracker.write_all(&encode(&frames[..released])).unwrap();
+    // ...a second peer pressing button 3 (undo) with a newer counter: refused...
+    let mut undo = frames[released].clone();
+    undo.number += 1_000_000;
+    for w in &mut undo.wands {
+        w.buttons = 1 << 3;
+    }
+    let mut second = std::net::TcpStream::connect(&addr).unwrap();
+    let _ = second.write_all(&encode(&[undo]));
+    let mut rest = Vec::new();
+    let _ = second.read_to_end(&mut rest);
+    drop(second);
+    // ...and the rest of the session.
+    tracker.write_all(&encode(&frames[released..])).unwrap();
+    drop(tracker);
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(stderr.contains("sources_gone=true"), "{stderr}");
+    assert!(stderr.contains("refusing tracking peer"), "{stderr}");
+    let doc = Document::from_json(&std::fs::read(out.join(DOCUMENT_FILE)).unwrap()).unwrap();
+    assert_eq!(
+        doc.strokes().len(),
+        1,
+        "the tracker's stroke, not undone\n{stderr}"
+    );
+}

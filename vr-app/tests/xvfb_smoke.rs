@@ -49,3 +49,24 @@ fn desktop_window_draws_frames_under_xvfb_and_exits_cleanly() {
     let doc = Document::from_json(&std::fs::read(out.join(AUTOSAVE_FILE)).unwrap()).unwrap();
     assert_eq!(doc.targets().len(), 1);
 }
+
+/// `wandsculpt --help` lists every desktop key and mouse action (from the same table
+/// as the on-screen help). Needs no display.
+#[test]
+fn help_lists_the_desktop_keys() {
+    let output = Command::new(env!("CARGO_BIN_EXE_wandsculpt"))
+        .arg("--help")
+        .output()
+        .unwrap();
+    assert!(output.status.success());
+    let help = String::from_utf8_lossy(&output.stdout);
+    for line in vr_app::window::key_help() {
+        assert!(
+            help.contains(&line),
+            "{line:?} missing from --help:\n{help}"
+        );
+    }
+    for key in ["Ctrl+Z", "F1", "right drag", "Ctrl+wheel", "M"] {
+        assert!(help.contains(key), "{key}");
+    }
+}

@@ -2,7 +2,7 @@ use glam::{DQuat, DVec3};
 
 use super::*;
 use crate::editor::default_surface_point;
-use crate::interaction::{Command, EndReason, Mode, Tool, WandSample};
+use crate::interaction::{Command, EndReason, InteractionMode, TargetIndex, Tool, WandSample};
 
 /// Every hook call, in order.
 #[derive(Debug, Default)]
@@ -144,7 +144,7 @@ fn the_preview_follows_the_live_stroke() {
 #[test]
 fn a_sketch_adds_a_target_the_selection_wraps_over_and_undo_removes() {
     let mut edits = EditLoop::new(
-        Interaction::new(Default::default(), Mode::Sketch, Tool::default()),
+        Interaction::new(Default::default(), InteractionMode::Sketch, Tool::default()),
         editor::default_document(),
     );
     for i in 0..=20 {
@@ -172,13 +172,17 @@ fn a_sketch_adds_a_target_the_selection_wraps_over_and_undo_removes() {
             .unwrap();
         edits.interaction.target()
     };
-    assert_eq!(edits.interaction.target(), 0);
+    assert_eq!(edits.interaction.target(), TargetIndex(0));
     assert_eq!(
         select(&mut edits, 1.0),
-        1,
+        TargetIndex(1),
         "the sketched target can be selected"
     );
-    assert_eq!(select(&mut edits, 1.1), 0, "and the selection wraps");
+    assert_eq!(
+        select(&mut edits, 1.1),
+        TargetIndex(0),
+        "and the selection wraps"
+    );
     select(&mut edits, 1.2);
     let undo = edits
         .handle(&WandEvent::command(1.3, Command::Undo), &mut NoHooks)
@@ -187,7 +191,7 @@ fn a_sketch_adds_a_target_the_selection_wraps_over_and_undo_removes() {
     assert_eq!(edits.target_count(), 1);
     assert_eq!(
         edits.interaction.target(),
-        0,
+        TargetIndex(0),
         "the selection follows the removal"
     );
 }
@@ -312,8 +316,23 @@ fn an_impossible_jump_is_a_glitch() {
 #[test]
 fn recovered_edits_keep_the_target_count() {
     let mut edits = carve_loop();
-    assert_eq!(edits.apply(&Edit::Undo), Applied::Undone);
-    assert_eq!(edits.target_count(), 0);
-    assert_eq!(edits.apply(&Edit::Redo), Applied::Redone);
+    // The base surface is sealed: an undo at the start changes nothing.
+    assert_eq!(edits.apply(&Edit::Undo), Applied::Unchanged);
     assert_eq!(edits.target_count(), 1);
+    let rows = (0..=20)
+        .map(|i| {
+            (0..8)
+                .map(|j| DVec3::new(-0.2 + 0.05 * j as f64, 1.0 + 0.01 * i as f64, 0.3))
+                .collect()
+        })
+        .collect();
+    assert!(matches!(
+        edits.apply(&Edit::Sketch { rows }),
+        Applied::Sketch { .. }
+    ));
+    assert_eq!(edits.target_count(), 2);
+    assert_eq!(edits.apply(&Edit::Undo), Applied::Undone);
+    assert_eq!(edits.target_count(), 1);
+    assert_eq!(edits.apply(&Edit::Redo), Applied::Redone);
+    assert_eq!(edits.target_count(), 2);
 }

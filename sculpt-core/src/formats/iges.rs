@@ -157,7 +157,8 @@ fn clean_loop(points: &[DVec2], outer: bool) -> Option<Vec<DVec2>> {
         .iter()
         .fold((pts[0], pts[0]), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
     let size = (hi - lo).max_element();
-    if twice_area.is_nan() || twice_area.abs() <= 1e-12 * size * size {
+    if twice_area.is_nan() || twice_area.abs() <= crate::tolerance::COLLINEAR_AREA_REL * size * size
+    {
         return None;
     }
     if (twice_area > 0.0) != outer {
@@ -352,7 +353,7 @@ pub fn write(surfaces: &[IgesSurface]) -> Vec<u8> {
         "1".into(),
         "1.".into(),
         h("20260101.000000"),
-        "1.E-9".into(),
+        "1.E-9".into(), // not a tolerance: the text of IGES's resolution field (POINT_EPS), fixed bytes
         real(max_coordinate(surfaces)),
         h("wandsculpt"),
         h("wandsculpt"),
@@ -665,9 +666,10 @@ mod tests {
     fn reals_always_have_a_decimal_point() {
         assert_eq!(real(1.0), "1.E0");
         assert_eq!(real(0.0), "0.E0");
-        assert_eq!(real(-2.0e-3), "-2.E-3");
-        assert_eq!(real(0.123456789012345), "1.23456789012345E-1");
+        assert_eq!(real(-2.0e-3), "-2.E-3"); // not a tolerance: a value to format
+        assert_eq!(real(0.123456789012345), "1.23456789012345E-1"); // not a tolerance: formatted text
         assert_eq!(real(f64::NAN), "0.E0");
+        // not a tolerance: values to round-trip
         for x in [1.0, -0.5, 1e-300, 123456.789, 0.1 + 0.2] {
             assert_eq!(real(x).parse::<f64>().unwrap(), x, "round trip of {x}");
         }
@@ -781,7 +783,7 @@ mod tests {
             .map(|l| l[..72].trim_end())
             .collect();
         // Parameters 19 (resolution) and 20 follow each other.
-        let after_resolution = global.split_once("1.E-9,").map(|(_, rest)| rest);
+        let after_resolution = global.split_once("1.E-9,").map(|(_, rest)| rest); // not a tolerance: the field's text
         let max = after_resolution.and_then(|r| r.split([',', ';']).next());
         assert_eq!(max, Some("1.2345E3"), "global section {global}");
     }

@@ -34,93 +34,94 @@
 use glam::{DQuat, DVec3};
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use crate::error::{Error, InteractionConfigError, InteractionError, Result, StrokeRejection};
 
-/// What the action button does.
+pub use crate::sculpt::document::TargetIndex;
+/// Carve or emboss: the sculpting layer's [`Mode`](crate::sculpt::stroke::Mode), named
+/// for what it is beside [`InteractionMode`].
+pub use crate::sculpt::stroke::Mode as StrokeMode;
+pub use crate::sculpt::stroke::{Profile, Tool};
+
+/// What the action button does: sweep a sketch, or stroke in the tool's carve or emboss
+/// mode.
+///
+/// Written as `"sketch"`, `"carve"` or `"emboss"` (pose-log commands, the configuration's
+/// `[tool] mode`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Mode {
+#[serde(from = "ModeName", into = "ModeName")]
+pub enum InteractionMode {
     /// Sweep to create a surface.
     Sketch,
-    /// Strokes cut grooves.
-    Carve,
-    /// Strokes raise ridges.
-    Emboss,
+    /// Strokes cut grooves ([`StrokeMode::Carve`]) or raise ridges
+    /// ([`StrokeMode::Emboss`]).
+    Stroke(StrokeMode),
 }
 
-impl Mode {
+impl InteractionMode {
+    /// Carving strokes.
+    pub const CARVE: Self = Self::Stroke(StrokeMode::Carve);
+    /// Embossing strokes.
+    pub const EMBOSS: Self = Self::Stroke(StrokeMode::Emboss);
+
     /// The next mode in the cycle sketch -> carve -> emboss -> sketch.
     pub fn next(self) -> Self {
         match self {
-            Mode::Sketch => Mode::Carve,
-            Mode::Carve => Mode::Emboss,
-            Mode::Emboss => Mode::Sketch,
+            Self::Sketch => Self::CARVE,
+            Self::Stroke(StrokeMode::Carve) => Self::EMBOSS,
+            Self::Stroke(StrokeMode::Emboss) => Self::Sketch,
+        }
+    }
+
+    /// The stroke mode, or `None` when sketching.
+    pub fn stroke_mode(self) -> Option<StrokeMode> {
+        match self {
+            Self::Sketch => None,
+            Self::Stroke(mode) => Some(mode),
+        }
+    }
+
+    /// The mode's name, as it is written: `sketch`, `carve` or `emboss`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Sketch => "sketch",
+            Self::Stroke(StrokeMode::Carve) => "carve",
+            Self::Stroke(StrokeMode::Emboss) => "emboss",
         }
     }
 }
 
-/// Cross-section of the chisel.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+impl From<StrokeMode> for InteractionMode {
+    fn from(mode: StrokeMode) -> Self {
+        Self::Stroke(mode)
+    }
+}
+
+/// How an [`InteractionMode`] is written: one word.
+#[derive(Clone, Copy, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
-pub enum Profile {
-    /// V-shaped groove.
-    V,
-    /// U-shaped (round) groove.
-    U,
+enum ModeName {
+    Sketch,
+    Carve,
+    Emboss,
 }
 
-/// Tool settings for strokes.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Tool {
-    /// Profile.
-    pub profile: Profile,
-    /// Width across the stroke (metres).
-    pub width: f64,
-    /// Depth of the groove or height of the ridge (metres).
-    pub depth: f64,
-    /// Length over which each stroke end tapers to nothing (metres; 0: blunt ends).
-    #[serde(default = "Tool::default_taper")]
-    pub taper: f64,
-}
-
-impl Default for Tool {
-    fn default() -> Self {
-        Self {
-            profile: Profile::V,
-            width: 0.02,
-            depth: 0.005,
-            taper: Self::default_taper(),
+impl From<ModeName> for InteractionMode {
+    fn from(name: ModeName) -> Self {
+        match name {
+            ModeName::Sketch => Self::Sketch,
+            ModeName::Carve => Self::CARVE,
+            ModeName::Emboss => Self::EMBOSS,
         }
     }
 }
 
-impl Tool {
-    /// The default end taper, 1 cm.
-    pub fn default_taper() -> f64 {
-        0.01
-    }
-
-    /// Checks that width and depth are finite and positive, at most
-    /// [`MAX_TOOL_SIZE`](crate::sculpt::stroke::MAX_TOOL_SIZE) (10 m), and the
-    /// taper finite and in `[0, 10]` m.
-    pub fn validate(&self) -> Result<()> {
-        for (name, v) in [("width", self.width), ("depth", self.depth)] {
-            if !(v.is_finite() && v > 0.0 && v <= crate::sculpt::stroke::MAX_TOOL_SIZE) {
-                return Err(Error::Interaction(format!(
-                    "tool {name} must be in (0, 10] m, got {v}"
-                )));
-            }
+impl From<InteractionMode> for ModeName {
+    fn from(mode: InteractionMode) -> Self {
+        match mode {
+            InteractionMode::Sketch => Self::Sketch,
+            InteractionMode::Stroke(StrokeMode::Carve) => Self::Carve,
+            InteractionMode::Stroke(StrokeMode::Emboss) => Self::Emboss,
         }
-        if !(self.taper.is_finite()
-            && (0.0..=crate::sculpt::stroke::MAX_TOOL_SIZE).contains(&self.taper))
-        {
-            return Err(Error::Interaction(format!(
-                "tool taper must be in [0, 10] m, got {}",
-                self.taper
-            )));
-        }
-        Ok(())
     }
 }
 
@@ -163,18 +164,18 @@ impl WandSample {
         self.tracked
             && self.position.is_finite()
             && self.orientation.is_finite()
-            && self.orientation.length_squared() > 1e-6
+            && self.orientation.length_squared() > crate::tolerance::ZERO_QUAT_LEN2
     }
 }
 
 /// A discrete command from a keyboard, menu or voice (desktop mode uses these).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "command", rename_all = "kebab-case")]
 pub enum Command {
     /// Switch mode.
     SetMode {
         /// The new mode.
-        mode: Mode,
+        mode: InteractionMode,
     },
     /// Change the profile.
     SetProfile {
@@ -195,10 +196,10 @@ pub enum Command {
     Undo,
     /// Redo the last undone edit.
     Redo,
-    /// Select target surface `index`.
+    /// Select the target surface at position `index`.
     SelectTarget {
-        /// Target index.
-        index: u32,
+        /// Its position in the document's targets.
+        index: TargetIndex,
     },
     /// Select the next target surface.
     SelectNextTarget,
@@ -207,7 +208,7 @@ pub enum Command {
 }
 
 /// What happened at time `t`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "kebab-case")]
 pub enum WandInput {
     /// A tracker sample.
@@ -217,7 +218,7 @@ pub enum WandInput {
 }
 
 /// A timestamped input.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct WandEvent {
     /// Seconds on the session clock (monotonic, non-decreasing).
     pub t: f64,
@@ -252,22 +253,23 @@ pub struct StrokeSample {
     pub position: DVec3,
 }
 
-/// Carve or emboss.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum StrokeMode {
-    /// Cut a groove.
-    Carve,
-    /// Raise a ridge.
-    Emboss,
-}
-
-/// A finished stroke, ready for the sculpting layer.
+/// A finished stroke, ready for the sculpting layer: the interaction's request to
+/// stroke a target (what [`crate::editor::apply`] turns into a document stroke). The
+/// document keeps a stroke as a
+/// [`StrokeInput`](crate::sculpt::stroke::StrokeInput), on a target named by its id,
+/// made from this by [`crate::editor::stroke_input`].
+///
+/// Journalled as `{"target": 0, "mode": "carve", "tool": {"profile": "v", "width":
+/// 0.02, "depth": 0.005, "taper": 0.01}, "samples": [{"t": 0.0, "position": [x, y,
+/// z]}, ...]}`: the mode beside the tool, not in it; a tool without `taper` gets
+/// [`DEFAULT_TAPER`](crate::sculpt::stroke::DEFAULT_TAPER).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(from = "StrokeEditJson", into = "StrokeEditJson")]
 pub struct StrokeEdit {
-    /// Target surface index.
-    pub target: u32,
-    /// Carve or emboss.
+    /// The target's position in the document's targets.
+    pub target: TargetIndex,
+    /// Carve or emboss. [`StrokeEdit::new`] takes it from `tool.mode`, and it is the
+    /// one applied ([`crate::editor::stroke_input`]) and journalled.
     pub mode: StrokeMode,
     /// Tool at the time of the stroke.
     pub tool: Tool,
@@ -275,7 +277,80 @@ pub struct StrokeEdit {
     pub samples: Vec<StrokeSample>,
 }
 
-/// A document edit.
+impl StrokeEdit {
+    /// A stroke on the target at `target` with `tool` (carving or embossing as
+    /// `tool.mode` says).
+    pub fn new(target: TargetIndex, tool: Tool, samples: Vec<StrokeSample>) -> Self {
+        Self {
+            target,
+            mode: tool.mode,
+            tool,
+            samples,
+        }
+    }
+}
+
+/// How a [`StrokeEdit`] is journalled (see there).
+#[derive(Clone, Serialize, Deserialize)]
+struct StrokeEditJson {
+    target: TargetIndex,
+    mode: StrokeMode,
+    tool: ToolJson,
+    samples: Vec<StrokeSample>,
+}
+
+/// A journalled stroke's tool: the [`Tool`] without its mode.
+#[derive(Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ToolJson {
+    profile: Profile,
+    width: f64,
+    depth: f64,
+    #[serde(default = "default_taper")]
+    taper: f64,
+}
+
+fn default_taper() -> f64 {
+    crate::sculpt::stroke::DEFAULT_TAPER
+}
+
+impl From<StrokeEditJson> for StrokeEdit {
+    fn from(j: StrokeEditJson) -> Self {
+        let t = j.tool;
+        Self {
+            target: j.target,
+            mode: j.mode,
+            tool: Tool {
+                profile: t.profile,
+                width: t.width,
+                depth: t.depth,
+                mode: j.mode,
+                taper: t.taper,
+            },
+            samples: j.samples,
+        }
+    }
+}
+
+impl From<StrokeEdit> for StrokeEditJson {
+    fn from(e: StrokeEdit) -> Self {
+        let t = e.tool;
+        Self {
+            target: e.target,
+            mode: e.mode,
+            tool: ToolJson {
+                profile: t.profile,
+                width: t.width,
+                depth: t.depth,
+                taper: t.taper,
+            },
+            samples: e.samples,
+        }
+    }
+}
+
+/// A document edit the interaction asks for (and the journal records); what applying
+/// it did is an [`Applied`](crate::editor::Applied).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "edit", rename_all = "kebab-case")]
 pub enum Edit {
@@ -291,10 +366,10 @@ pub enum Edit {
     Undo,
     /// Redo.
     Redo,
-    /// Make `index` the target of later strokes.
+    /// Make the target at position `index` the target of later strokes.
     SelectTarget {
-        /// Target index.
-        index: u32,
+        /// Its position in the document's targets.
+        index: TargetIndex,
     },
     /// Save the document.
     Save,
@@ -329,9 +404,9 @@ pub enum OperatorEvent {
     /// The mode changed.
     ModeChange {
         /// Old mode.
-        from: Mode,
+        from: InteractionMode,
         /// New mode.
-        to: Mode,
+        to: InteractionMode,
     },
     /// The tool changed.
     ToolChange {
@@ -341,16 +416,20 @@ pub enum OperatorEvent {
     /// A stroke or sketch began.
     GestureStart {
         /// The mode it began in.
-        mode: Mode,
+        mode: InteractionMode,
     },
     /// A stroke or sketch ended.
     GestureEnd {
         /// The mode.
-        mode: Mode,
+        mode: InteractionMode,
         /// Whether it produced an edit.
         committed: bool,
         /// Why it ended.
         reason: EndReason,
+        /// Why it produced no edit: too short a stroke or too few sketch rows (`None`
+        /// when committed). Not serialised: the event's serde form is unchanged.
+        #[serde(skip)]
+        dropped: Option<StrokeRejection>,
     },
     /// The wand stopped being tracked.
     TrackingLost,
@@ -462,6 +541,54 @@ impl Default for InteractionConfig {
     }
 }
 
+impl InteractionConfig {
+    /// Checks every value the types cannot: the one validation `wandsculpt` and
+    /// `replay` both run on `[interaction]`, so neither accepts what the other
+    /// rejects. The error names the key (`interaction: pause_timeout must be >= 0`).
+    pub fn validate(&self) -> Result<()> {
+        let bad = |e: InteractionConfigError| Err(Error::Interaction(InteractionError::Config(e)));
+        let positive = [
+            ("max_speed", self.max_speed),
+            ("sketch_row_spacing", self.sketch_row_spacing),
+        ];
+        for (setting, value) in positive {
+            if !(value.is_finite() && value > 0.0) {
+                return bad(InteractionConfigError::NotPositive { setting, value });
+            }
+        }
+        let non_negative = [
+            ("pause_timeout", self.pause_timeout),
+            ("max_resume_jump", self.max_resume_jump),
+            ("min_stroke_length", self.min_stroke_length),
+        ];
+        for (setting, value) in non_negative {
+            if !(value.is_finite() && value >= 0.0) {
+                return bad(InteractionConfigError::Negative { setting, value });
+            }
+        }
+        if self.max_samples < 2 {
+            return bad(InteractionConfigError::MaxSamples);
+        }
+        if !(2..=64).contains(&self.sketch_columns) || !(2..=10_000).contains(&self.min_sketch_rows)
+        {
+            return bad(InteractionConfigError::SketchSize);
+        }
+        if !self.sketch_axis.is_finite()
+            || self.sketch_axis.length() < crate::tolerance::ZERO_QUAT_LEN
+        {
+            return bad(InteractionConfigError::SketchAxis);
+        }
+        let b = self.buttons;
+        if [b.action, b.mode, b.profile, b.undo, b.redo, b.select]
+            .iter()
+            .any(|&x| x >= 32)
+        {
+            return bad(InteractionConfigError::ButtonIndex);
+        }
+        Ok(())
+    }
+}
+
 #[derive(Debug, Clone, PartialEq)]
 enum Gesture {
     Idle,
@@ -482,9 +609,10 @@ enum Gesture {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Interaction {
     config: InteractionConfig,
-    mode: Mode,
+    /// Sketching; otherwise stroking in `tool.mode`.
+    sketching: bool,
     tool: Tool,
-    target: u32,
+    target: TargetIndex,
     target_count: u32,
     last_t: Option<f64>,
     buttons: u32,
@@ -496,18 +624,27 @@ pub struct Interaction {
 
 impl Default for Interaction {
     fn default() -> Self {
-        Self::new(InteractionConfig::default(), Mode::Carve, Tool::default())
+        Self::new(
+            InteractionConfig::default(),
+            InteractionMode::CARVE,
+            Tool::default(),
+        )
     }
 }
 
 impl Interaction {
-    /// A machine in `mode` with `tool`, targeting surface 0 of 1.
-    pub fn new(config: InteractionConfig, mode: Mode, tool: Tool) -> Self {
+    /// A machine in `mode` with `tool`, targeting surface 0 of 1. A stroke mode
+    /// replaces `tool.mode`; in sketch mode `tool.mode` is the stroke mode the mode
+    /// button cycles back to.
+    pub fn new(config: InteractionConfig, mode: InteractionMode, mut tool: Tool) -> Self {
+        if let InteractionMode::Stroke(stroke_mode) = mode {
+            tool.mode = stroke_mode;
+        }
         Self {
             config,
-            mode,
+            sketching: mode == InteractionMode::Sketch,
             tool,
-            target: 0,
+            target: TargetIndex(0),
             target_count: 1,
             last_t: None,
             buttons: 0,
@@ -519,17 +656,21 @@ impl Interaction {
     }
 
     /// Current mode.
-    pub fn mode(&self) -> Mode {
-        self.mode
+    pub fn mode(&self) -> InteractionMode {
+        if self.sketching {
+            InteractionMode::Sketch
+        } else {
+            InteractionMode::Stroke(self.tool.mode)
+        }
     }
 
-    /// Current tool.
-    pub fn tool(&self) -> Tool {
-        self.tool
+    /// Current tool (its mode is the stroke mode, also while sketching).
+    pub fn tool(&self) -> &Tool {
+        &self.tool
     }
 
-    /// Current target surface index.
-    pub fn target(&self) -> u32 {
+    /// Current target surface's position in the document's targets.
+    pub fn target(&self) -> TargetIndex {
         self.target
     }
 
@@ -568,12 +709,11 @@ impl Interaction {
     /// The live stroke so far (for the preview), if a stroke is in progress.
     pub fn live_stroke(&self) -> Option<StrokeEdit> {
         match &self.gesture {
-            Gesture::Stroke { samples, .. } => Some(StrokeEdit {
-                target: self.target,
-                mode: self.stroke_mode(),
-                tool: self.tool,
-                samples: samples.clone(),
-            }),
+            Gesture::Stroke { samples, .. } => Some(StrokeEdit::new(
+                self.target,
+                self.tool.clone(),
+                samples.clone(),
+            )),
             _ => None,
         }
     }
@@ -598,15 +738,8 @@ impl Interaction {
     /// Tells the machine how many target surfaces exist (selection wraps around them).
     pub fn set_target_count(&mut self, n: u32) {
         self.target_count = n.max(1);
-        if self.target >= self.target_count {
-            self.target = self.target_count - 1;
-        }
-    }
-
-    fn stroke_mode(&self) -> StrokeMode {
-        match self.mode {
-            Mode::Emboss => StrokeMode::Emboss,
-            _ => StrokeMode::Carve,
+        if self.target.0 >= self.target_count {
+            self.target = TargetIndex(self.target_count - 1);
         }
     }
 
@@ -620,27 +753,26 @@ impl Interaction {
     /// command carries an invalid value.
     pub fn handle(&mut self, ev: &WandEvent, out: &mut Vec<Output>) -> Result<()> {
         if !ev.t.is_finite() {
-            return Err(Error::Interaction(format!(
-                "event time {} is not finite",
-                ev.t
-            )));
+            return Err(Error::Interaction(InteractionError::TimeNotFinite {
+                t: ev.t,
+            }));
         }
         if let Some(last) = self.last_t
             && ev.t < last
         {
-            return Err(Error::Interaction(format!(
-                "event time {} is before the previous {last}",
-                ev.t
-            )));
+            return Err(Error::Interaction(InteractionError::TimeBackwards {
+                t: ev.t,
+                previous: last,
+            }));
         }
-        if let WandInput::Command(c) = ev.input {
-            self.check_command(&c)?;
+        if let WandInput::Command(c) = &ev.input {
+            self.check_command(c)?;
         }
         self.last_t = Some(ev.t);
         self.tick_inner(ev.t, out);
-        match ev.input {
-            WandInput::Sample(s) => self.on_sample(ev.t, &s, out),
-            WandInput::Command(c) => self.on_command(ev.t, c, out),
+        match &ev.input {
+            WandInput::Sample(s) => self.on_sample(ev.t, s, out),
+            WandInput::Command(c) => self.on_command(ev.t, c.clone(), out),
         }
         Ok(())
     }
@@ -670,11 +802,29 @@ impl Interaction {
     }
 
     fn check_command(&self, c: &Command) -> Result<()> {
-        match *c {
-            Command::SetWidth { width } => Tool { width, ..self.tool }.validate(),
-            Command::SetDepth { depth } => Tool { depth, ..self.tool }.validate(),
-            _ => Ok(()),
-        }
+        let tool = match c {
+            Command::SetWidth { width } => Tool {
+                width: *width,
+                ..self.tool.clone()
+            },
+            Command::SetDepth { depth } => Tool {
+                depth: *depth,
+                ..self.tool.clone()
+            },
+            Command::SetProfile { profile } => Tool {
+                profile: profile.clone(),
+                ..self.tool.clone()
+            },
+            _ => return Ok(()),
+        };
+        // The one set of caps, `Tool::validate`'s; breaking them refuses the input.
+        tool.validate().map_err(|e| match e {
+            Error::StrokeRejected(StrokeRejection::Tool(range)) => {
+                Error::Interaction(InteractionError::Tool(range))
+            }
+            Error::StrokeRejected(why) => Error::Interaction(InteractionError::Profile(why)),
+            other => other,
+        })
     }
 
     fn on_command(&mut self, t: f64, c: Command, out: &mut Vec<Output>) {
@@ -684,16 +834,30 @@ impl Interaction {
                 t,
                 Tool {
                     profile,
-                    ..self.tool
+                    ..self.tool.clone()
                 },
                 out,
             ),
-            Command::SetWidth { width } => self.set_tool(t, Tool { width, ..self.tool }, out),
-            Command::SetDepth { depth } => self.set_tool(t, Tool { depth, ..self.tool }, out),
+            Command::SetWidth { width } => self.set_tool(
+                t,
+                Tool {
+                    width,
+                    ..self.tool.clone()
+                },
+                out,
+            ),
+            Command::SetDepth { depth } => self.set_tool(
+                t,
+                Tool {
+                    depth,
+                    ..self.tool.clone()
+                },
+                out,
+            ),
             Command::Undo => self.command_edit(t, Edit::Undo, out),
             Command::Redo => self.command_edit(t, Edit::Redo, out),
             Command::SelectTarget { index } => {
-                if index < self.target_count {
+                if index.0 < self.target_count {
                     self.target = index;
                     self.command_edit(t, Edit::SelectTarget { index }, out);
                 }
@@ -707,7 +871,7 @@ impl Interaction {
         if self.gesture_active() {
             return;
         }
-        self.target = (self.target + 1) % self.target_count;
+        self.target = TargetIndex((self.target.0 + 1) % self.target_count);
         let index = self.target;
         self.command_edit(t, Edit::SelectTarget { index }, out);
     }
@@ -724,25 +888,31 @@ impl Interaction {
         out.push(Output::Edit(edit));
     }
 
-    fn set_mode(&mut self, t: f64, mode: Mode, out: &mut Vec<Output>) {
-        if self.gesture_active() || mode == self.mode {
+    fn set_mode(&mut self, t: f64, mode: InteractionMode, out: &mut Vec<Output>) {
+        if self.gesture_active() || mode == self.mode() {
             return;
         }
         out.push(Output::Op {
             t,
             event: OperatorEvent::ModeChange {
-                from: self.mode,
+                from: self.mode(),
                 to: mode,
             },
         });
-        self.mode = mode;
+        match mode {
+            InteractionMode::Sketch => self.sketching = true,
+            InteractionMode::Stroke(stroke_mode) => {
+                self.sketching = false;
+                self.tool.mode = stroke_mode;
+            }
+        }
     }
 
     fn set_tool(&mut self, t: f64, tool: Tool, out: &mut Vec<Output>) {
         if self.gesture_active() || tool == self.tool {
             return;
         }
-        self.tool = tool;
+        self.tool = tool.clone();
         out.push(Output::Op {
             t,
             event: OperatorEvent::ToolChange { tool },
@@ -789,7 +959,7 @@ impl Interaction {
     fn is_glitch(&self, t: f64, s: &WandSample) -> bool {
         match self.last_good {
             Some((t0, p0, _)) if self.tracked => {
-                let dt = (t - t0).max(1e-3);
+                let dt = (t - t0).max(crate::tolerance::MIN_SPEED_DT);
                 (s.position - p0).length() / dt > self.config.max_speed
             }
             _ => false,
@@ -877,21 +1047,14 @@ impl Interaction {
             self.start_gesture(t, out);
         }
         if down & self.bit(map.mode) != 0 {
-            self.set_mode(t, self.mode.next(), out);
+            self.set_mode(t, self.mode().next(), out);
         }
         if down & self.bit(map.profile) != 0 {
-            let profile = match self.tool.profile {
-                Profile::V => Profile::U,
-                Profile::U => Profile::V,
+            let tool = Tool {
+                profile: self.tool.profile.toggled(),
+                ..self.tool.clone()
             };
-            self.set_tool(
-                t,
-                Tool {
-                    profile,
-                    ..self.tool
-                },
-                out,
-            );
+            self.set_tool(t, tool, out);
         }
         if down & self.bit(map.undo) != 0 {
             self.command_edit(t, Edit::Undo, out);
@@ -913,8 +1076,8 @@ impl Interaction {
             self.gesture = Gesture::Spent;
             return;
         };
-        self.gesture = match self.mode {
-            Mode::Sketch => Gesture::Sketch {
+        self.gesture = match self.mode() {
+            InteractionMode::Sketch => Gesture::Sketch {
                 rows: vec![sketch_row(
                     p,
                     q,
@@ -924,37 +1087,46 @@ impl Interaction {
                 last_tip: p,
                 paused_since: None,
             },
-            Mode::Carve | Mode::Emboss => Gesture::Stroke {
+            InteractionMode::Stroke(_) => Gesture::Stroke {
                 samples: vec![StrokeSample { t, position: p }],
                 paused_since: None,
             },
         };
         out.push(Output::Op {
             t,
-            event: OperatorEvent::GestureStart { mode: self.mode },
+            event: OperatorEvent::GestureStart { mode: self.mode() },
         });
     }
 
     /// Ends the live gesture (if any), emitting its edit when it is long enough.
     fn finish(&mut self, t: f64, reason: EndReason, out: &mut Vec<Output>) {
         let gesture = std::mem::replace(&mut self.gesture, Gesture::Spent);
+        let mut dropped = None;
         let edit = match gesture {
             Gesture::Stroke { samples, .. } => {
                 let length: f64 = samples
                     .windows(2)
                     .map(|w| (w[1].position - w[0].position).length())
                     .sum();
-                (samples.len() >= 2 && length >= self.config.min_stroke_length).then(|| {
-                    Edit::Stroke(StrokeEdit {
-                        target: self.target,
-                        mode: self.stroke_mode(),
-                        tool: self.tool,
-                        samples,
-                    })
-                })
+                if samples.len() < 2 || length < self.config.min_stroke_length {
+                    dropped = Some(StrokeRejection::TooShort {
+                        length_m: length,
+                        min_m: self.config.min_stroke_length,
+                    });
+                }
+                (samples.len() >= 2 && length >= self.config.min_stroke_length)
+                    .then(|| Edit::Stroke(StrokeEdit::new(self.target, self.tool.clone(), samples)))
             }
-            Gesture::Sketch { rows, .. } => (rows.len() >= self.config.min_sketch_rows as usize)
-                .then_some(Edit::Sketch { rows }),
+            Gesture::Sketch { rows, .. } => {
+                if rows.len() < self.config.min_sketch_rows as usize {
+                    dropped = Some(StrokeRejection::TooFewRows {
+                        rows: rows.len(),
+                        min_rows: self.config.min_sketch_rows as usize,
+                    });
+                }
+                (rows.len() >= self.config.min_sketch_rows as usize)
+                    .then_some(Edit::Sketch { rows })
+            }
             idle @ (Gesture::Idle | Gesture::Spent) => {
                 self.gesture = idle;
                 return;
@@ -963,9 +1135,10 @@ impl Interaction {
         out.push(Output::Op {
             t,
             event: OperatorEvent::GestureEnd {
-                mode: self.mode,
+                mode: self.mode(),
                 committed: edit.is_some(),
                 reason,
+                dropped,
             },
         });
         if let Some(edit) = edit {

@@ -1,6 +1,7 @@
 use super::*;
 use crate::assert_near;
-use crate::tolerance::EXACT_EPS;
+use crate::error::{ToolParam, ToolRangeError};
+use crate::tolerance::{BOUND_MARGIN, EXACT_EPS, MIN_SPEED_DT, POINT_EPS};
 
 fn at(x: f64) -> DVec3 {
     DVec3::new(x, 1.0, 0.2)
@@ -67,14 +68,20 @@ fn carve_stroke_press_move_release() {
     let o = ops(&out);
     assert_eq!(o[0], &OperatorEvent::TrackingRegained);
     assert_eq!(o[1], &OperatorEvent::ButtonDown { button: 0 });
-    assert_eq!(o[2], &OperatorEvent::GestureStart { mode: Mode::Carve });
+    assert_eq!(
+        o[2],
+        &OperatorEvent::GestureStart {
+            mode: InteractionMode::CARVE
+        }
+    );
     assert_eq!(o[3], &OperatorEvent::ButtonUp { button: 0 });
     assert_eq!(
         o[4],
         &OperatorEvent::GestureEnd {
-            mode: Mode::Carve,
+            mode: InteractionMode::CARVE,
             committed: true,
-            reason: EndReason::Released
+            reason: EndReason::Released,
+            dropped: None
         }
     );
     // Poses are logged for every tracked sample.
@@ -107,11 +114,15 @@ fn tiny_strokes_are_discarded() {
     let mut m = Interaction::default();
     let out = run(&mut m, &[(0.0, Some(0.0), 1), (0.01, Some(0.001), 0)]);
     assert!(edits(&out).is_empty());
-    assert!(ops(&out).contains(&&OperatorEvent::GestureEnd {
-        mode: Mode::Carve,
-        committed: false,
-        reason: EndReason::Released
-    }));
+    assert!(ops(&out).iter().any(|e| matches!(
+        e,
+        OperatorEvent::GestureEnd {
+            mode: InteractionMode::CARVE,
+            committed: false,
+            reason: EndReason::Released,
+            dropped: Some(StrokeRejection::TooShort { length_m, min_m })
+        } if *length_m < *min_m
+    )));
 }
 
 #[test]
@@ -120,8 +131,8 @@ fn mode_button_cycles_and_emboss_strokes_are_emboss() {
     // Button 1 press: carve -> emboss.
     let out = run(&mut m, &[(0.0, Some(0.0), 0b10), (0.01, Some(0.0), 0)]);
     assert!(ops(&out).contains(&&OperatorEvent::ModeChange {
-        from: Mode::Carve,
-        to: Mode::Emboss
+        from: InteractionMode::CARVE,
+        to: InteractionMode::EMBOSS
     }));
     let out = run(
         &mut m,
@@ -141,7 +152,12 @@ fn mode_and_tool_do_not_change_mid_stroke() {
     run(&mut m, &[(0.0, Some(0.0), 1)]);
     let mut out = Vec::new();
     m.handle(
-        &WandEvent::command(0.01, Command::SetMode { mode: Mode::Sketch }),
+        &WandEvent::command(
+            0.01,
+            Command::SetMode {
+                mode: InteractionMode::Sketch,
+            },
+        ),
         &mut out,
     )
     .unwrap();
@@ -153,7 +169,7 @@ fn mode_and_tool_do_not_change_mid_stroke() {
     m.handle(&WandEvent::command(0.01, Command::Undo), &mut out)
         .unwrap();
     assert!(out.is_empty());
-    assert_eq!(m.mode(), Mode::Carve);
+    assert_eq!(m.mode(), InteractionMode::CARVE);
 }
 
 #[test]
@@ -183,7 +199,16 @@ fn tool_commands_validate_and_log() {
             &WandEvent::command(0.1, Command::SetDepth { depth: bad }),
             &mut out,
         );
-        assert!(matches!(r, Err(Error::Interaction(_))), "depth {bad}");
+        assert!(
+            matches!(
+                r,
+                Err(Error::Interaction(InteractionError::Tool(ToolRangeError {
+                    param: ToolParam::Depth,
+                    ..
+                })))
+            ),
+            "depth {bad}"
+        );
     }
     assert_near!(m.tool().depth, Tool::default().depth, EXACT_EPS);
 }
@@ -208,7 +233,9 @@ fn undo_redo_select_save_from_buttons_and_commands() {
         vec![
             &Edit::Undo,
             &Edit::Redo,
-            &Edit::SelectTarget { index: 1 },
+            &Edit::SelectTarget {
+                index: TargetIndex(1)
+            },
             &Edit::Undo
         ]
     );
@@ -216,7 +243,12 @@ fn undo_redo_select_save_from_buttons_and_commands() {
     m.handle(&WandEvent::command(0.4, Command::Save), &mut out)
         .unwrap();
     m.handle(
-        &WandEvent::command(0.4, Command::SelectTarget { index: 7 }),
+        &WandEvent::command(
+            0.4,
+            Command::SelectTarget {
+                index: TargetIndex(7),
+            },
+        ),
         &mut out,
     )
     .unwrap();
@@ -225,7 +257,7 @@ fn undo_redo_select_save_from_buttons_and_commands() {
         vec![&Edit::Save],
         "out-of-range selection is ignored"
     );
-    assert_eq!(m.target(), 1);
+    assert_eq!(m.target(), TargetIndex(1));
 }
 
 #[test]
@@ -234,13 +266,16 @@ fn time_going_backwards_is_rejected_without_changing_state() {
     run(&mut m, &[(1.0, Some(0.0), 1)]);
     let before = m.clone();
     let mut out = Vec::new();
-    assert!(
+    assert!(matches!(
         m.handle(
             &WandEvent::sample(0.5, WandSample::tracked(at(0.0), DQuat::IDENTITY, 0)),
             &mut out
-        )
-        .is_err()
-    );
+        ),
+        Err(Error::Interaction(InteractionError::TimeBackwards {
+            t: 0.5,
+            previous: 1.0
+        }))
+    ));
     assert!(
         m.handle(&WandEvent::sample(f64::NAN, WandSample::lost(0)), &mut out)
             .is_err()
@@ -295,9 +330,10 @@ fn regression_tracking_returns_far_away_ends_stroke_without_a_jump() {
         "{s:?}"
     );
     assert!(ops(&out).contains(&&OperatorEvent::GestureEnd {
-        mode: Mode::Carve,
+        mode: InteractionMode::CARVE,
         committed: true,
-        reason: EndReason::TrackingLost
+        reason: EndReason::TrackingLost,
+        dropped: None
     }));
     // The held button after the early end starts nothing until it is released.
     assert!(!m.gesture_active());
@@ -384,7 +420,11 @@ fn press_while_untracked_starts_nothing() {
 
 #[test]
 fn sketch_sweep_builds_a_point_grid() {
-    let mut m = Interaction::new(InteractionConfig::default(), Mode::Sketch, Tool::default());
+    let mut m = Interaction::new(
+        InteractionConfig::default(),
+        InteractionMode::Sketch,
+        Tool::default(),
+    );
     let script: Vec<_> = (0..=10)
         .map(|i| (i as f64 * 0.02, Some(0.0), if i < 10 { 1 } else { 0 }))
         .collect();
@@ -400,7 +440,7 @@ fn sketch_sweep_builds_a_point_grid() {
     };
     assert_eq!(rows.len(), 11);
     assert!(rows.iter().all(|r| r.len() == 8));
-    assert_near!(rows[3][7].to_array(), [0.3, 1.06, 0.2], 1e-12);
+    assert_near!(rows[3][7].to_array(), [0.3, 1.06, 0.2], EXACT_EPS);
     assert_eq!(
         m.target_count, 2,
         "the sketched surface becomes a selectable target"
@@ -413,7 +453,7 @@ fn sample_cap_bounds_memory() {
         max_samples: 5,
         ..Default::default()
     };
-    let mut m = Interaction::new(cfg, Mode::Carve, Tool::default());
+    let mut m = Interaction::new(cfg, InteractionMode::CARVE, Tool::default());
     let script: Vec<_> = (0..20)
         .map(|i| (i as f64 * 0.01, Some(i as f64 * 0.01), 1))
         .collect();
@@ -442,6 +482,181 @@ fn same_events_same_outputs() {
     assert_eq!(a, b);
 }
 
+/// Regression: the interaction and the sculpting layer each had a `Profile`, a
+/// carve/emboss `Mode` and a `Tool` (serde kebab-case and lowercase). The one set must
+/// read every former spelling and write the same bytes: the journal, pose-log commands,
+/// documents and configurations depend on it.
+#[test]
+fn one_vocabulary_reads_and_writes_every_former_spelling() {
+    use crate::sculpt::stroke::DEFAULT_TAPER;
+    fn round_trip<T>(text: &str, value: &T)
+    where
+        T: serde::Serialize + serde::de::DeserializeOwned + PartialEq + std::fmt::Debug,
+    {
+        assert_eq!(&serde_json::from_str::<T>(text).unwrap(), value, "{text}");
+        assert_eq!(serde_json::to_string(value).unwrap(), text);
+    }
+    // Kebab-case (the interaction's) and lowercase (the sculpting layer's) spell every
+    // profile and mode alike.
+    round_trip("\"v\"", &Profile::V);
+    round_trip("\"u\"", &Profile::U);
+    round_trip(
+        "{\"custom\":[[0.0,1.0],[0.5,0.8]]}",
+        &Profile::Custom(vec![[0.0, 1.0], [0.5, 0.8]]),
+    );
+    round_trip("\"carve\"", &StrokeMode::Carve);
+    round_trip("\"emboss\"", &StrokeMode::Emboss);
+    round_trip("\"sketch\"", &InteractionMode::Sketch);
+    round_trip("\"carve\"", &InteractionMode::CARVE);
+    round_trip("\"emboss\"", &InteractionMode::EMBOSS);
+    for bad in ["\"V\"", "\"Carve\"", "\"paint\""] {
+        assert!(serde_json::from_str::<Profile>(bad).is_err(), "{bad}");
+        assert!(
+            serde_json::from_str::<InteractionMode>(bad).is_err(),
+            "{bad}"
+        );
+    }
+    // A document's stroke tool: the mode inside; no taper means blunt ends.
+    let tool = Tool {
+        profile: Profile::U,
+        width: 0.05,
+        depth: 0.01,
+        mode: StrokeMode::Emboss,
+        taper: 0.02,
+    };
+    round_trip(
+        r#"{"profile":"u","width":0.05,"depth":0.01,"mode":"emboss","taper":0.02}"#,
+        &tool,
+    );
+    let blunt: Tool =
+        serde_json::from_str(r#"{"profile":"v","width":0.05,"depth":0.01,"mode":"carve"}"#)
+            .unwrap();
+    assert_eq!(blunt.taper, 0.0);
+    // A journalled stroke: the mode beside the tool, the target a position.
+    let samples = vec![
+        StrokeSample {
+            t: 0.0,
+            position: DVec3::new(0.0, 1.0, 0.0),
+        },
+        StrokeSample {
+            t: 0.1,
+            position: DVec3::new(0.1, 1.0, 0.0),
+        },
+    ];
+    let stroke = Edit::Stroke(StrokeEdit::new(
+        TargetIndex(1),
+        Tool {
+            taper: DEFAULT_TAPER,
+            ..tool.clone()
+        },
+        samples.clone(),
+    ));
+    let line = r#"{"edit":"stroke","target":1,"mode":"emboss","tool":{"profile":"u","width":0.05,"depth":0.01,"taper":0.01},"samples":[{"t":0.0,"position":[0.0,1.0,0.0]},{"t":0.1,"position":[0.1,1.0,0.0]}]}"#;
+    round_trip(line, &stroke);
+    let Edit::Stroke(read) = serde_json::from_str::<Edit>(line).unwrap() else {
+        panic!("{line} is a stroke")
+    };
+    assert_eq!(
+        read.tool.mode,
+        StrokeMode::Emboss,
+        "the mode reaches the tool"
+    );
+    // No taper in a journalled tool: the default taper.
+    let no_taper = line.replace(",\"taper\":0.01", "");
+    assert_eq!(serde_json::from_str::<Edit>(&no_taper).unwrap(), stroke);
+    // The tool of a journalled stroke carries no mode of its own.
+    let mode_in_tool = line.replace("\"taper\"", "\"mode\":\"carve\",\"taper\"");
+    assert!(serde_json::from_str::<Edit>(&mode_in_tool).is_err());
+    round_trip(
+        r#"{"edit":"select-target","index":2}"#,
+        &Edit::SelectTarget {
+            index: TargetIndex(2),
+        },
+    );
+    // Pose-log commands.
+    round_trip(
+        r#"{"command":"set-mode","mode":"sketch"}"#,
+        &Command::SetMode {
+            mode: InteractionMode::Sketch,
+        },
+    );
+    round_trip(
+        r#"{"command":"set-mode","mode":"emboss"}"#,
+        &Command::SetMode {
+            mode: InteractionMode::EMBOSS,
+        },
+    );
+    round_trip(
+        r#"{"command":"set-profile","profile":"u"}"#,
+        &Command::SetProfile {
+            profile: Profile::U,
+        },
+    );
+    round_trip(
+        r#"{"command":"select-target","index":1}"#,
+        &Command::SelectTarget {
+            index: TargetIndex(1),
+        },
+    );
+}
+
+/// The mode button cycles sketch, carve, emboss; the tool keeps the stroke mode while
+/// sketching, and strokes carry it.
+#[test]
+fn interaction_modes_are_built_on_the_stroke_mode() {
+    let mut m = Interaction::new(
+        InteractionConfig::default(),
+        InteractionMode::EMBOSS,
+        Tool::default(),
+    );
+    assert_eq!(
+        m.tool().mode,
+        StrokeMode::Emboss,
+        "the mode reaches the tool"
+    );
+    let mut out = Vec::new();
+    for (t, mode) in [
+        (0.0, InteractionMode::Sketch),
+        (0.1, InteractionMode::CARVE),
+    ] {
+        m.handle(&WandEvent::command(t, Command::SetMode { mode }), &mut out)
+            .unwrap();
+        assert_eq!(m.mode(), mode);
+    }
+    assert_eq!(m.tool().mode, StrokeMode::Carve);
+    assert_eq!(
+        InteractionMode::Sketch.next().next().next(),
+        InteractionMode::Sketch
+    );
+    assert_eq!(
+        InteractionMode::CARVE.stroke_mode(),
+        Some(StrokeMode::Carve)
+    );
+    assert_eq!(InteractionMode::Sketch.stroke_mode(), None);
+    // A custom profile is a profile like any other; the profile button leaves it for V.
+    m.handle(
+        &WandEvent::command(
+            0.2,
+            Command::SetProfile {
+                profile: Profile::Custom(vec![[0.0, 1.0], [0.5, 0.5]]),
+            },
+        ),
+        &mut out,
+    )
+    .unwrap();
+    assert!(matches!(m.tool().profile, Profile::Custom(_)));
+    assert_eq!(m.tool().profile.toggled(), Profile::V);
+    let bad = Command::SetProfile {
+        profile: Profile::Custom(vec![[0.5, 1.0], [0.2, 0.5]]),
+    };
+    assert!(matches!(
+        m.handle(&WandEvent::command(0.3, bad), &mut out),
+        Err(Error::Interaction(InteractionError::Profile(
+            StrokeRejection::ProfileX { .. }
+        )))
+    ));
+}
+
 mod props {
     use super::*;
     use proptest::prelude::*;
@@ -466,8 +681,8 @@ mod props {
                     for w in s.samples.windows(2) {
                         // No jump larger than the resume bound or the glitch bound allows.
                         let step = (w[1].position - w[0].position).length();
-                        let dt = (w[1].t - w[0].t).max(1e-3);
-                        prop_assert!(step <= 0.05 + 1e-9 || step / dt <= 15.0 + 1e-9);
+                        let dt = (w[1].t - w[0].t).max(MIN_SPEED_DT);
+                        prop_assert!(step <= 0.05 + POINT_EPS || step / dt <= 15.0 + BOUND_MARGIN);
                     }
                 }
             }

@@ -12,24 +12,24 @@ use glam::{DVec3, DVec4};
 use super::curve::NurbsCurve;
 use super::knots::KnotVector;
 use super::surface::NurbsSurface;
-use crate::error::{Error, Result};
+use crate::error::{Error, ParameterError, Result};
 
-fn check_finite(what: &str, values: &[f64]) -> Result<()> {
+fn check_finite(what: &'static str, values: &[f64]) -> Result<()> {
     if values.iter().all(|v| v.is_finite()) {
         Ok(())
     } else {
-        Err(Error::InvalidParameter(format!("{what} must be finite")))
+        Err(Error::InvalidParameter(ParameterError::NotFinite { what }))
     }
 }
 
 /// The arc layout of P&T A7.1: number of arcs, the knot vector and the weight of the
 /// middle control points, for a sweep of `theta` radians.
 fn arc_layout(theta: f64) -> (usize, Vec<f64>, f64) {
-    let narcs = if theta <= PI / 2.0 + 1e-12 {
+    let narcs = if theta <= PI / 2.0 + crate::tolerance::ANGLE_EPS {
         1
-    } else if theta <= PI + 1e-12 {
+    } else if theta <= PI + crate::tolerance::ANGLE_EPS {
         2
-    } else if theta <= 1.5 * PI + 1e-12 {
+    } else if theta <= 1.5 * PI + crate::tolerance::ANGLE_EPS {
         3
     } else {
         4
@@ -85,22 +85,26 @@ impl NurbsCurve {
                 y_axis.z,
             ],
         )?;
-        let x = x_axis
-            .try_normalize()
-            .ok_or_else(|| Error::InvalidParameter("arc x axis is zero".into()))?;
+        let x =
+            x_axis
+                .try_normalize()
+                .ok_or(Error::InvalidParameter(ParameterError::ZeroVector {
+                    what: "arc x axis",
+                }))?;
         let y = (y_axis - x * x.dot(y_axis))
             .try_normalize()
-            .ok_or_else(|| Error::InvalidParameter("arc axes are parallel".into()))?;
+            .ok_or(Error::InvalidParameter(ParameterError::Parallel {
+                what: "arc axes",
+            }))?;
         if radius <= 0.0 {
-            return Err(Error::InvalidParameter(format!(
-                "arc radius {radius} must be positive"
-            )));
+            return Err(Error::InvalidParameter(ParameterError::NotPositive {
+                what: "arc radius",
+                value: radius,
+            }));
         }
         let theta = (end - start).min(TAU);
         if theta <= 0.0 {
-            return Err(Error::InvalidParameter(
-                "arc end must be after its start".into(),
-            ));
+            return Err(Error::InvalidParameter(ParameterError::ArcEndBeforeStart));
         }
         let (_, knots, _) = arc_layout(theta);
         let pw = arc_points(center, x, y, radius, start, theta);
@@ -132,9 +136,7 @@ impl NurbsSurface {
     /// The planar parallelogram `origin + u * u_edge + v * v_edge`, `u, v` in `[0, 1]`.
     pub fn plane(origin: DVec3, u_edge: DVec3, v_edge: DVec3) -> Result<Self> {
         if u_edge.cross(v_edge).length_squared() == 0.0 {
-            return Err(Error::InvalidParameter(
-                "plane edges are parallel or zero".into(),
-            ));
+            return Err(Error::InvalidParameter(ParameterError::DegeneratePlane));
         }
         Self::bilinear(
             origin,
@@ -154,14 +156,17 @@ impl NurbsSurface {
         angle: f64,
     ) -> Result<Self> {
         check_finite("revolution angle", &[angle])?;
-        let t = axis_dir
-            .try_normalize()
-            .ok_or_else(|| Error::InvalidParameter("revolution axis is zero".into()))?;
+        let t = axis_dir.try_normalize().ok_or(Error::InvalidParameter(
+            ParameterError::ZeroVector {
+                what: "revolution axis",
+            },
+        ))?;
         let theta = angle.min(TAU);
         if theta <= 0.0 {
-            return Err(Error::InvalidParameter(
-                "revolution angle must be positive".into(),
-            ));
+            return Err(Error::InvalidParameter(ParameterError::NotPositive {
+                what: "revolution angle",
+                value: theta,
+            }));
         }
         let (narcs, knots_u, _) = arc_layout(theta);
         let rows = 2 * narcs + 1;
@@ -205,9 +210,10 @@ impl NurbsSurface {
     pub fn sphere(center: DVec3, radius: f64) -> Result<Self> {
         check_finite("sphere", &[center.x, center.y, center.z, radius])?;
         if radius <= 0.0 {
-            return Err(Error::InvalidParameter(format!(
-                "sphere radius {radius} must be positive"
-            )));
+            return Err(Error::InvalidParameter(ParameterError::NotPositive {
+                what: "sphere radius",
+                value: radius,
+            }));
         }
         let profile = NurbsCurve::arc(center, DVec3::Z, DVec3::X, radius, PI, TAU)?;
         Self::revolution(&profile, center, DVec3::Z, TAU)
@@ -218,9 +224,10 @@ impl NurbsSurface {
     pub fn torus(center: DVec3, major: f64, minor: f64) -> Result<Self> {
         check_finite("torus", &[center.x, center.y, center.z, major, minor])?;
         if !(minor > 0.0 && major > minor) {
-            return Err(Error::InvalidParameter(format!(
-                "torus radii must satisfy 0 < minor ({minor}) < major ({major})"
-            )));
+            return Err(Error::InvalidParameter(ParameterError::TorusRadii {
+                minor,
+                major,
+            }));
         }
         let profile = NurbsCurve::circle(center + DVec3::X * major, DVec3::X, DVec3::Z, minor)?;
         Self::revolution(&profile, center, DVec3::Z, TAU)
@@ -231,9 +238,7 @@ impl NurbsSurface {
     pub fn cylinder(base_center: DVec3, axis: DVec3, radius: f64) -> Result<Self> {
         check_finite("cylinder", &[radius, axis.x, axis.y, axis.z])?;
         if radius <= 0.0 || axis.length_squared() == 0.0 {
-            return Err(Error::InvalidParameter(
-                "cylinder needs a positive radius and a non-zero axis".into(),
-            ));
+            return Err(Error::InvalidParameter(ParameterError::DegenerateCylinder));
         }
         let x = axis.any_orthonormal_vector();
         let a = base_center + x * radius;
@@ -264,7 +269,7 @@ impl NurbsSurface {
 mod tests {
     use super::*;
     use crate::assert_near;
-    use crate::tolerance::EXACT_EPS;
+    use crate::tolerance::{COSINE_EPS, EXACT_EPS, ULP_EPS};
     use std::f64::consts::FRAC_1_SQRT_2;
 
     #[test]
@@ -276,7 +281,7 @@ mod tests {
         }
         assert_near!(c.point(0.0).to_array(), c.point(1.0).to_array(), EXACT_EPS);
         assert_eq!(c.homogeneous().len(), 9);
-        assert_near!(c.weights()[1], FRAC_1_SQRT_2, 1e-15);
+        assert_near!(c.weights()[1], FRAC_1_SQRT_2, ULP_EPS);
     }
 
     #[test]
@@ -294,7 +299,7 @@ mod tests {
                 );
                 let n = s.normal(u, v);
                 let radial = (s.point(u, v) - DVec3::new(0.5, -1.0, 2.0)) / 1.5;
-                assert_near!(n.dot(radial).abs(), 1.0, 1e-9);
+                assert_near!(n.dot(radial).abs(), 1.0, COSINE_EPS);
             }
         }
     }

@@ -8,7 +8,7 @@ use glam::{DVec3, DVec4};
 use serde::{Deserialize, Serialize};
 
 use super::knots::KnotVector;
-use crate::error::{Error, Result};
+use crate::error::{ControlNetError, Error, NetIndex, Result, WeightError};
 
 /// A NURBS curve `C(u) = sum N_{i,p}(u) w_i P_i / sum N_{i,p}(u) w_i`.
 ///
@@ -71,25 +71,25 @@ impl From<NurbsCurve> for CurveJson {
     }
 }
 
-pub(crate) fn check_weight(w: f64, at: impl FnOnce() -> String) -> Result<()> {
+pub(crate) fn check_weight(w: f64, at: NetIndex) -> Result<()> {
     if w.is_finite() && w > 0.0 {
         Ok(())
     } else {
-        Err(Error::InvalidWeights(format!(
-            "weight {w} at {} must be finite and positive",
-            at()
-        )))
+        Err(Error::InvalidWeights(WeightError::NotPositive {
+            at,
+            weight: w,
+        }))
     }
 }
 
-pub(crate) fn check_point(p: DVec3, at: impl FnOnce() -> String) -> Result<()> {
+pub(crate) fn check_point(p: DVec3, at: NetIndex) -> Result<()> {
     if p.is_finite() {
         Ok(())
     } else {
-        Err(Error::InvalidControlNet(format!(
-            "control point {} is not finite: {p}",
-            at()
-        )))
+        Err(Error::InvalidControlNet(ControlNetError::NotFinite {
+            at,
+            point: p,
+        }))
     }
 }
 
@@ -103,27 +103,26 @@ impl NurbsCurve {
     ) -> Result<Self> {
         let knots = KnotVector::new(degree, knots)?;
         if control_points.len() != knots.count() {
-            return Err(Error::InvalidControlNet(format!(
-                "{} control points, but {} knots of degree {degree} need {}",
-                control_points.len(),
-                knots.knots().len(),
-                knots.count()
-            )));
+            return Err(Error::InvalidControlNet(ControlNetError::CurveCount {
+                got: control_points.len(),
+                knots: knots.knots().len(),
+                degree,
+                need: knots.count(),
+            }));
         }
         if let Some(w) = &weights
             && w.len() != control_points.len()
         {
-            return Err(Error::InvalidWeights(format!(
-                "{} weights for {} control points",
-                w.len(),
-                control_points.len()
-            )));
+            return Err(Error::InvalidWeights(WeightError::Count {
+                got: w.len(),
+                need: control_points.len(),
+            }));
         }
         let mut pw = Vec::with_capacity(control_points.len());
         for (i, p) in control_points.iter().enumerate() {
-            check_point(*p, || i.to_string())?;
+            check_point(*p, NetIndex::Curve(i))?;
             let w = weights.as_ref().map_or(1.0, |w| w[i]);
-            check_weight(w, || i.to_string())?;
+            check_weight(w, NetIndex::Curve(i))?;
             pw.push((*p * w).extend(w));
         }
         let rational = weights.is_some_and(|w| w.iter().any(|&x| x != 1.0));
@@ -137,15 +136,16 @@ impl NurbsCurve {
     /// Builds a curve from a validated knot vector and homogeneous points `(w P, w)`.
     pub fn from_homogeneous(knots: KnotVector, pw: Vec<DVec4>) -> Result<Self> {
         if pw.len() != knots.count() {
-            return Err(Error::InvalidControlNet(format!(
-                "{} control points for {} expected",
-                pw.len(),
-                knots.count()
-            )));
+            return Err(Error::InvalidControlNet(
+                ControlNetError::HomogeneousCount {
+                    got: pw.len(),
+                    need: knots.count(),
+                },
+            ));
         }
         for (i, q) in pw.iter().enumerate() {
-            check_weight(q.w, || i.to_string())?;
-            check_point(q.truncate() / q.w, || i.to_string())?;
+            check_weight(q.w, NetIndex::Curve(i))?;
+            check_point(q.truncate() / q.w, NetIndex::Curve(i))?;
         }
         let rational = pw.iter().any(|q| q.w != 1.0);
         Ok(Self {
@@ -155,9 +155,12 @@ impl NurbsCurve {
         })
     }
 
-    /// Reads the JSON schema above.
+    /// Reads the JSON schema above: text that is not JSON or not the schema is
+    /// [`Error::Json`] (with its line and column); a curve the schema allows but that
+    /// is invalid is the error saying which entry is wrong.
     pub fn from_json(text: &str) -> Result<Self> {
-        serde_json::from_str(text).map_err(|e| Error::Json(e.to_string()))
+        let json: CurveJson = serde_json::from_str(text).map_err(|e| Error::Json(e.into()))?;
+        Self::try_from(json)
     }
 
     /// Writes the JSON schema above.
@@ -254,6 +257,7 @@ impl NurbsCurve {
 mod tests {
     use super::*;
     use crate::assert_near;
+    use crate::tolerance::{FD_D1_EPS, FD_EPS, FD_STEP, ROUNDING_EPS, ULP_EPS};
 
     /// The rational quadratic quarter circle (P&T Ex4.1 style).
     fn quarter_circle() -> NurbsCurve {
@@ -272,23 +276,23 @@ mod tests {
         let c = quarter_circle();
         for i in 0..=50 {
             let u = i as f64 / 50.0;
-            assert_near!(c.point(u).length(), 1.0, 1e-15);
+            assert_near!(c.point(u).length(), 1.0, ULP_EPS);
             let d = c.derivatives(u);
             // Tangent is perpendicular to the radius.
-            assert_near!(d.point.dot(d.d1), 0.0, 1e-14);
+            assert_near!(d.point.dot(d.d1), 0.0, ROUNDING_EPS);
         }
     }
 
     #[test]
     fn derivatives_match_finite_differences() {
         let c = quarter_circle();
-        let h = 1e-6;
+        let h = FD_STEP;
         for &u in &[0.1, 0.37, 0.5, 0.9] {
             let d = c.derivatives(u);
             let fd1 = (c.point(u + h) - c.point(u - h)) / (2.0 * h);
             let fd2 = (c.derivatives(u + h).d1 - c.derivatives(u - h).d1) / (2.0 * h);
-            assert_near!(d.d1.to_array(), fd1.to_array(), 1e-6);
-            assert_near!(d.d2.to_array(), fd2.to_array(), 1e-5);
+            assert_near!(d.d1.to_array(), fd1.to_array(), FD_D1_EPS);
+            assert_near!(d.d2.to_array(), fd2.to_array(), FD_EPS);
         }
     }
 
@@ -299,6 +303,14 @@ mod tests {
         assert_eq!(c, back);
         assert!(matches!(
             NurbsCurve::from_json(r#"{"degree":1,"knots":[0,0,1,1],"control_points":[[0,0,0]]}"#),
+            Err(Error::InvalidControlNet(ControlNetError::CurveCount {
+                got: 1,
+                need: 2,
+                ..
+            }))
+        ));
+        assert!(matches!(
+            NurbsCurve::from_json(r#"{"degree":1,"knots":[0,0,1,1]"#),
             Err(Error::Json(_))
         ));
         assert!(matches!(
@@ -308,7 +320,10 @@ mod tests {
                 vec![DVec3::ZERO, DVec3::X],
                 Some(vec![1., 0.])
             ),
-            Err(Error::InvalidWeights(_))
+            Err(Error::InvalidWeights(WeightError::NotPositive {
+                at: NetIndex::Curve(1),
+                ..
+            }))
         ));
     }
 }

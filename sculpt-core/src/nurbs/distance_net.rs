@@ -327,7 +327,7 @@ impl DistanceNets {
         let a = m * (m - 1.0) * uu[0];
         let cc = n * (n - 1.0) * vv[0];
         let twist = m * n * uv[0].abs().max(uv[1].abs());
-        a > 0.0 && cc > 0.0 && a * cc > twist * twist * (1.0 + 1e-9)
+        a > 0.0 && cc > 0.0 && a * cc > twist * twist * (1.0 + crate::tolerance::CONVEX_MARGIN_REL)
     }
 }
 
@@ -729,6 +729,7 @@ fn halve(work: &mut [f64], mut left: impl FnMut(usize, f64), mut right: impl FnM
 mod tests {
     use super::*;
     use crate::assert_near;
+    use crate::tolerance::{EXACT_EPS, FD_D1_EPS, FD_STEP, ULP_EPS};
 
     /// Evaluates a net at `(s, t)` in its patch by the Bernstein sum.
     fn eval(net: &[f64], m1: usize, n1: usize, s: f64, t: f64) -> f64 {
@@ -785,17 +786,17 @@ mod tests {
         nets.query(0, p, f_star, 0.0, &mut net);
         for (s, t) in [(0.0, 0.0), (0.3, 0.8), (1.0, 0.5), (0.5, 0.5)] {
             let (g, gs, gt) = eval_with_gradient(&net, m1, n1, s, t);
-            assert_near!(g, eval(&net, m1, n1, s, t), 1e-12);
-            let h = 1e-6;
+            assert_near!(g, eval(&net, m1, n1, s, t), EXACT_EPS);
+            let h = FD_STEP;
             let fd_s = (eval(&net, m1, n1, s + h, t) - eval(&net, m1, n1, s - h, t)) / (2.0 * h);
             let fd_t = (eval(&net, m1, n1, s, t + h) - eval(&net, m1, n1, s, t - h)) / (2.0 * h);
-            assert_near!(gs, fd_s, 1e-6);
-            assert_near!(gt, fd_t, 1e-6);
+            assert_near!(gs, fd_s, FD_D1_EPS);
+            assert_near!(gt, fd_t, FD_D1_EPS);
             let b =
                 |i: usize, x: f64| binomial(2, i) * x.powi(i as i32) * (1.0 - x).powi(2 - i as i32);
             let w: f64 = (0..9).map(|k| pc[k].w * b(k / 3, s) * b(k % 3, t)).sum();
             let expect = w * w * (point(&pc, s, t).distance_squared(p) - f_star);
-            assert_near!(eval(&net, m1, n1, s, t), expect, 1e-12);
+            assert_near!(eval(&net, m1, n1, s, t), expect, EXACT_EPS);
         }
         // The bound: no coefficient is above the polynomial's minimum.
         let lowest = (0..=20)
@@ -823,7 +824,7 @@ mod tests {
                 assert_near!(
                     eval(&quarters[q], m1, n1, s, t),
                     eval(&net, m1, n1, s0 + 0.5 * s, t0 + 0.5 * t),
-                    1e-12
+                    EXACT_EPS
                 );
             }
         }
@@ -880,7 +881,7 @@ mod tests {
                 s + t2 - 1.2 * t + 0.36 - 0.01
             })
             .collect();
-        assert_near!(eval(&net, 3, 3, 0.3, 0.2), g(0.3, 0.2), 1e-12);
+        assert_near!(eval(&net, 3, 3, 0.3, 0.2), g(0.3, 0.2), EXACT_EPS);
         assert_eq!(monotone_side(&net, 3, 3), Some(Side::ULo));
         let mut side = [0.0; MAX_SIDE];
         let len = side_net(&net, 3, 3, Side::ULo, &mut side);
@@ -913,9 +914,9 @@ mod tests {
         // The tangent-plane bounds never exceed the true minimum (-0.01), and the one at
         // the minimum is tight.
         for (s, t) in [(0.0, 0.0), (1.0, 0.0), (0.5, 1.0), (0.2, 0.9)] {
-            assert!(convex_bound_at(&bowl, 3, 3, s, t) <= -0.01 + 1e-15);
+            assert!(convex_bound_at(&bowl, 3, 3, s, t) <= -0.01 + ULP_EPS);
         }
-        assert_near!(convex_bound_at(&bowl, 3, 3, 0.3, 0.6), -0.01, 1e-15);
+        assert_near!(convex_bound_at(&bowl, 3, 3, 0.3, 0.6), -0.01, ULP_EPS);
         let saddle: Vec<f64> = bowl
             .iter()
             .enumerate()

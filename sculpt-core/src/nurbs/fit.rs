@@ -18,22 +18,25 @@ use nalgebra::DMatrix;
 
 use super::knots::KnotVector;
 use super::surface::NurbsSurface;
-use crate::error::{Error, Result};
+use crate::error::{Error, FitError, Result};
 
 fn check_grid(points: &[Vec<DVec3>]) -> Result<(usize, usize)> {
     let n_u = points.len();
     let n_v = points.first().map_or(0, Vec::len);
     if n_u == 0 || n_v == 0 {
-        return Err(Error::FitFailed("the grid is empty".into()));
+        return Err(Error::FitFailed(FitError::EmptyGrid));
     }
     if let Some(i) = points.iter().position(|r| r.len() != n_v) {
-        return Err(Error::FitFailed(format!(
-            "grid row {i} has {} points, expected {n_v}",
-            points[i].len()
-        )));
+        return Err(Error::FitFailed(FitError::RaggedGrid {
+            row: i,
+            got: points[i].len(),
+            need: n_v,
+        }));
     }
     if points.iter().flatten().any(|p| !p.is_finite()) {
-        return Err(Error::FitFailed("grid points must be finite".into()));
+        return Err(Error::FitFailed(FitError::NotFinite {
+            what: "grid points",
+        }));
     }
     Ok((n_u, n_v))
 }
@@ -127,13 +130,13 @@ fn solve(a: &DMatrix<f64>, b: &DMatrix<f64>) -> Result<DMatrix<f64>> {
         _ => a
             .clone()
             .svd(true, true)
-            .solve(b, 1e-12)
-            .map_err(|e| Error::FitFailed(format!("singular system: {e}")))?,
+            .solve(b, crate::tolerance::SINGULAR_REL)
+            .map_err(|e| Error::FitFailed(FitError::Singular(e)))?,
     };
     if x.iter().all(|v| v.is_finite()) {
         Ok(x)
     } else {
-        Err(Error::FitFailed("the solution is not finite".into()))
+        Err(Error::FitFailed(FitError::NonFiniteSolution))
     }
 }
 
@@ -184,9 +187,12 @@ impl NurbsSurface {
     ) -> Result<(Self, Vec<f64>, Vec<f64>)> {
         let (n_u, n_v) = check_grid(points)?;
         if n_u <= degree_u || n_v <= degree_v {
-            return Err(Error::FitFailed(format!(
-                "a {n_u} x {n_v} grid is too small for degrees ({degree_u}, {degree_v})"
-            )));
+            return Err(Error::FitFailed(FitError::GridTooSmall {
+                n_u,
+                n_v,
+                degree_u,
+                degree_v,
+            }));
         }
         let tu = averaged_chord_params(&transpose(points));
         let tv = averaged_chord_params(points);
@@ -216,9 +222,14 @@ impl NurbsSurface {
     ) -> Result<Self> {
         let (n_u, n_v) = check_grid(points)?;
         if count_u <= degree_u || count_v <= degree_v || count_u > n_u || count_v > n_v {
-            return Err(Error::FitFailed(format!(
-                "need degree < control count <= grid size: grid {n_u} x {n_v}, net {count_u} x {count_v}, degrees ({degree_u}, {degree_v})"
-            )));
+            return Err(Error::FitFailed(FitError::NetSize {
+                n_u,
+                n_v,
+                count_u,
+                count_v,
+                degree_u,
+                degree_v,
+            }));
         }
         let tu = averaged_chord_params(&transpose(points));
         let tv = averaged_chord_params(points);
@@ -248,16 +259,15 @@ impl NurbsSurface {
         degree_v: usize,
     ) -> Result<Self> {
         if points.is_empty() || points.len() != params.len() {
-            return Err(Error::FitFailed(format!(
-                "{} points with {} parameters",
-                points.len(),
-                params.len()
-            )));
+            return Err(Error::FitFailed(FitError::ParamCount {
+                points: points.len(),
+                params: params.len(),
+            }));
         }
         if points.iter().any(|p| !p.is_finite()) || params.iter().any(|t| !t.is_finite()) {
-            return Err(Error::FitFailed(
-                "points and parameters must be finite".into(),
-            ));
+            return Err(Error::FitFailed(FitError::NotFinite {
+                what: "points and parameters",
+            }));
         }
         let ku = KnotVector::uniform_clamped(degree_u, count_u)?;
         let kv = KnotVector::uniform_clamped(degree_v, count_v)?;
@@ -298,6 +308,7 @@ impl NurbsSurface {
 mod tests {
     use super::*;
     use crate::assert_near;
+    use crate::tolerance::{APPROX_FIT_TOL, EXACT_EPS, FIT_EPS, POINT_EPS};
 
     fn grid(n_u: usize, n_v: usize) -> Vec<Vec<DVec3>> {
         (0..n_u)
@@ -318,7 +329,7 @@ mod tests {
         let (s, tu, tv) = NurbsSurface::interpolate_grid(&pts, 3, 2).unwrap();
         for (k, row) in pts.iter().enumerate() {
             for (l, p) in row.iter().enumerate() {
-                assert_near!(s.point(tu[k], tv[l]).to_array(), p.to_array(), 1e-12);
+                assert_near!(s.point(tu[k], tv[l]).to_array(), p.to_array(), EXACT_EPS);
             }
         }
     }
@@ -337,7 +348,7 @@ mod tests {
         let s = NurbsSurface::approximate_grid(&pts, 4, 4, 3, 3).unwrap();
         let inv = s.inverter();
         for p in pts.iter().flatten() {
-            assert!(inv.closest_point(*p).distance < 1e-9);
+            assert!(inv.closest_point(*p).distance < POINT_EPS);
         }
         // A wavy grid is approximated with a small residual.
         let pts = grid(20, 15);
@@ -348,7 +359,7 @@ mod tests {
             .flatten()
             .map(|p| inv.closest_point(*p).distance)
             .fold(0.0, f64::max);
-        assert!(worst < 5e-3, "worst residual {worst}");
+        assert!(worst < APPROX_FIT_TOL, "worst residual {worst}");
     }
 
     #[test]
@@ -362,7 +373,7 @@ mod tests {
         let points: Vec<DVec3> = params.iter().map(|&t| f(t)).collect();
         let s = NurbsSurface::approximate_scattered(&points, &params, 4, 4, 3, 3).unwrap();
         for (t, p) in params.iter().zip(&points) {
-            assert_near!(s.point_uv(*t).to_array(), p.to_array(), 1e-10);
+            assert_near!(s.point_uv(*t).to_array(), p.to_array(), FIT_EPS);
         }
         // Fewer points (10) than control points (36): the minimum-norm solution
         // interpolates every point.
@@ -373,7 +384,7 @@ mod tests {
             .collect();
         let s = NurbsSurface::approximate_scattered(&pts, &few, 6, 6, 3, 3).unwrap();
         for (t, p) in few.iter().zip(&pts) {
-            assert_near!(s.point_uv(*t).to_array(), p.to_array(), 1e-9);
+            assert_near!(s.point_uv(*t).to_array(), p.to_array(), POINT_EPS);
         }
         assert!(NurbsSurface::approximate_scattered(&pts, &few[..3], 6, 6, 3, 3).is_err());
         assert!(

@@ -86,7 +86,7 @@ use super::distance_net::{
 };
 use super::power::PowerPatches;
 use super::surface::{NurbsSurface, SurfaceDerivs};
-use crate::tolerance::{COSINE_EPS, POINT_EPS};
+use crate::tolerance::{CERTIFY_TOL, COSINE_EPS, POINT_EPS};
 
 /// Newton iterations per run before giving up.
 const MAX_ITERS: u32 = 40;
@@ -305,7 +305,7 @@ impl Leaf {
             let r = b - p;
             let (a, m, c) = (bs.dot(bs), bs.dot(bt), bt.dot(bt));
             let det = a * c - m * m;
-            if det <= 1e-14 * (a * c) || det.is_nan() {
+            if det <= crate::tolerance::BILINEAR_SINGULAR_REL * (a * c) || det.is_nan() {
                 break;
             }
             let (g0, g1) = (bs.dot(r), bt.dot(r));
@@ -513,10 +513,6 @@ pub struct SurfaceInverter {
 
 /// Largest number of net coefficients kept for the certificate (40 bytes each).
 const MAX_NET_COEFFICIENTS: usize = 1 << 20;
-
-/// Distance (metres) by which a point must beat an answer for the certificate to look
-/// for it: closer points within this are not worth the search.
-const CERTIFY_TOL: f64 = 1e-10;
 
 /// Subdivision depth of a leaf's net before the certificate settles for a Newton run.
 const MAX_CERTIFY_DEPTH: u32 = 6;
@@ -980,7 +976,7 @@ impl SurfaceInverter {
     }
 
     fn to_projection(&self, c: Candidate, certificate: Certificate) -> Projection {
-        let eps = 1e-12 * (self.domain_hi - self.domain_lo);
+        let eps = crate::tolerance::DOMAIN_EDGE_REL * (self.domain_hi - self.domain_lo);
         let on = |k: usize| {
             !self.closed[k]
                 && (c.uv[k] <= self.domain_lo[k] + eps[k] || c.uv[k] >= self.domain_hi[k] - eps[k])
@@ -1020,7 +1016,7 @@ impl SurfaceInverter {
             * f64::EPSILON
             * best.dist2.sqrt()
             * (p.abs().max_element() + best.point.abs().max_element());
-        let mut out = if polished.dist2 <= best.dist2 * (1.0 + 1e-12) + noise {
+        let mut out = if polished.dist2 <= best.dist2 * (1.0 + crate::tolerance::REL_EPS) + noise {
             polished
         } else {
             best
@@ -1587,7 +1583,7 @@ impl SurfaceInverter {
         let mut converged = false;
         // Squared forms of the tests, so the loop takes no square roots.
         const POINT_EPS2: f64 = POINT_EPS * POINT_EPS;
-        const RESIDUAL_EPS2: f64 = (1e-3 * POINT_EPS) * (1e-3 * POINT_EPS);
+        const RESIDUAL_EPS2: f64 = crate::tolerance::RESIDUAL_EPS * crate::tolerance::RESIDUAL_EPS;
         // Rounding scale of f (see `noise` below).
         let p_scale = p.abs().max_element();
         loop {
@@ -1696,7 +1692,8 @@ impl SurfaceInverter {
             if !accepted {
                 // No descent left: a numerical minimum. Accept it if the cosines are
                 // small to a looser tolerance.
-                converged = (0..2).all(|k| !free[k] || cos_small(k, 1e-6));
+                converged =
+                    (0..2).all(|k| !free[k] || cos_small(k, crate::tolerance::LOOSE_COSINE_EPS));
                 break;
             }
         }
@@ -1723,7 +1720,7 @@ fn newton_step_2(h00: f64, h01: f64, h11: f64, g: DVec2) -> DVec2 {
     let det = h00 * h11 - h01 * h01;
     // Clearly positive definite (`lmin / lmax > 1e-12`, as `det = lmin lmax` and
     // `tr = lmin + lmax`): no eigenvalues needed.
-    if h00 > 0.0 && det > 1e-11 * tr * tr && det.is_finite() {
+    if h00 > 0.0 && det > crate::tolerance::POS_DEF_REL * tr * tr && det.is_finite() {
         return DVec2::new(
             -(h11 * g.x - h01 * g.y) / det,
             -(h00 * g.y - h01 * g.x) / det,
@@ -1733,8 +1730,9 @@ fn newton_step_2(h00: f64, h01: f64, h11: f64, g: DVec2) -> DVec2 {
     let lmin = 0.5 * (tr - disc);
     let lmax = 0.5 * (tr + disc);
     let mut shift = 0.0;
-    if lmin.is_nan() || lmin <= 1e-12 * lmax.abs() {
-        shift = -lmin + 1e-6 * lmax.abs().max(1e-300);
+    if lmin.is_nan() || lmin <= crate::tolerance::SINGULAR_REL * lmax.abs() {
+        shift = -lmin
+            + crate::tolerance::HESSIAN_SHIFT_REL * lmax.abs().max(crate::tolerance::DIVISOR_MIN);
     }
     let (a, b, c) = (h00 + shift, h01, h11 + shift);
     let det = a * c - b * b;
@@ -1747,7 +1745,11 @@ fn newton_step_2(h00: f64, h01: f64, h11: f64, g: DVec2) -> DVec2 {
 /// The 1D Newton step `-g / h`, falling back to Gauss-Newton when `h <= 0`.
 #[inline]
 fn newton_step_1(h: f64, jtj: f64, g: f64) -> f64 {
-    let den = if h > 1e-12 * jtj { h } else { jtj.max(h.abs()) };
+    let den = if h > crate::tolerance::SINGULAR_REL * jtj {
+        h
+    } else {
+        jtj.max(h.abs())
+    };
     if den > 0.0 && den.is_finite() {
         -g / den
     } else {
@@ -1831,7 +1833,7 @@ impl super::curve::NurbsCurve {
         }
         // Polish on the whole domain.
         let c = self.newton_1d(p, best.u, a, b);
-        if c.distance <= best.distance * (1.0 + 1e-12) {
+        if c.distance <= best.distance * (1.0 + crate::tolerance::REL_EPS) {
             best = c;
         }
         best.iterations += iters;
@@ -1879,17 +1881,17 @@ impl super::curve::NurbsCurve {
             if rl <= POINT_EPS
                 || active
                 || g.abs() <= COSINE_EPS * l1 * rl
-                || g.abs() <= 1e-3 * POINT_EPS * l1
+                || g.abs() <= crate::tolerance::RESIDUAL_EPS * l1
             {
                 converged = true;
                 break;
             }
             iters += 1;
             let h = d.d2.dot(r) + l1 * l1;
-            let step = if h > 1e-12 * l1 * l1 {
+            let step = if h > crate::tolerance::SINGULAR_REL * l1 * l1 {
                 -g / h
             } else {
-                -g / (l1 * l1).max(1e-300)
+                -g / (l1 * l1).max(crate::tolerance::DIVISOR_MIN)
             };
             let noise =
                 8.0 * f64::EPSILON * rl * (p.abs().max_element() + d.point.abs().max_element());
@@ -1929,7 +1931,7 @@ impl super::curve::NurbsCurve {
 mod tests {
     use super::*;
     use crate::nurbs::NurbsSurface;
-    use crate::tolerance::within;
+    use crate::tolerance::{EXACT_EPS, INVERSION_EPS, POINT_EPS, within};
 
     /// SplitMix64, so the stress test needs no extra crates.
     struct Rng(u64);
@@ -1996,12 +1998,12 @@ mod tests {
             _ => rng.in_range(leaf.uv_lo[k], leaf.uv_hi[k]),
         };
         let uv = DVec2::new(pick(rng, 0), pick(rng, 1))
-            + DVec2::new(rng.in_range(-1e-7, 1e-7), rng.in_range(-1e-7, 1e-7));
+            + DVec2::new(rng.in_range(-1e-7, 1e-7), rng.in_range(-1e-7, 1e-7)); // not a tolerance: a random perturbation of the query
         let uv = s.clamp_uv(uv);
         let d = s.derivatives(uv.x, uv.y);
         let n = s.normal(uv.x, uv.y);
         match (rng.unit() * 5.0) as u32 {
-            0 => d.point + n * rng.in_range(-1e-6, 1e-6),
+            0 => d.point + n * rng.in_range(-1e-6, 1e-6), // not a tolerance: a random offset of the query
             1 => d.point + n * rng.in_range(-0.3, 0.3),
             2 => {
                 // Beyond the domain edge the point lies on, or beside it.
@@ -2077,8 +2079,8 @@ mod tests {
         assert!(inv.leaf_count() > MAX_LEAVES);
         for (u, v) in [(0.1, 0.2), (0.5, 0.5), (0.93, 0.71)] {
             let on = s.point(u, v);
-            let pr = inv.closest_point(on + DVec3::Z * 1e-3);
-            assert!(pr.distance <= 1e-3 + 1e-12, "{pr:?}");
+            let pr = inv.closest_point(on + DVec3::Z * 0.001);
+            assert!(pr.distance <= 0.001 + EXACT_EPS, "{pr:?}");
         }
     }
 
@@ -2194,12 +2196,12 @@ mod tests {
             let s = NurbsSurface::from_json(json).expect("valid surface");
             let inv = s.inverter();
             let wrong = inv.newton(p, wrong_uv, inv.domain_lo, inv.domain_hi, inv.closed);
-            assert!(wrong.converged && wrong.dist2.sqrt() > brute_force + 1e-8);
+            assert!(wrong.converged && wrong.dist2.sqrt() > brute_force + INVERSION_EPS);
             let mut visited = Visited::new();
             visited.overflow = true;
             let (fixed, _) = inv.certify(p, wrong, &visited);
             assert!(
-                fixed.dist2.sqrt() <= brute_force + 1e-9,
+                fixed.dist2.sqrt() <= brute_force + POINT_EPS,
                 "{} vs brute force {brute_force}",
                 fixed.dist2.sqrt()
             );

@@ -8,7 +8,7 @@
 // code checkable against the book.
 #![allow(clippy::needless_range_loop)]
 
-use crate::error::{Error, Result};
+use crate::error::{Error, KnotError, Result};
 
 /// The highest degree the kernel supports (basis functions live in stack arrays).
 pub const MAX_DEGREE: usize = 9;
@@ -75,31 +75,39 @@ fn differentiate(
     out
 }
 
+fn knot_error(reason: KnotError) -> Error {
+    Error::InvalidKnots {
+        direction: None,
+        reason,
+    }
+}
+
 impl KnotVector {
     /// Validates `knots` for degree `degree`.
     pub fn new(degree: usize, knots: Vec<f64>) -> Result<Self> {
         if degree == 0 || degree > MAX_DEGREE {
-            return Err(Error::InvalidDegree(format!(
-                "degree {degree} is outside 1..={MAX_DEGREE}"
-            )));
+            return Err(Error::InvalidDegree {
+                direction: None,
+                degree,
+            });
         }
         let m = knots.len();
         if m < 2 * (degree + 1) {
-            return Err(Error::InvalidKnots(format!(
-                "{m} knots are too few for degree {degree} (need at least {})",
-                2 * (degree + 1)
-            )));
+            return Err(knot_error(KnotError::TooFew {
+                count: m,
+                degree,
+                need: 2 * (degree + 1),
+            }));
         }
         if let Some(i) = knots.iter().position(|k| !k.is_finite()) {
-            return Err(Error::InvalidKnots(format!("knot {i} is not finite")));
+            return Err(knot_error(KnotError::NotFinite { index: i }));
         }
         if let Some(i) = knots.windows(2).position(|w| w[1] < w[0]) {
-            return Err(Error::InvalidKnots(format!(
-                "knots decrease at index {}: {} > {}",
-                i + 1,
-                knots[i],
-                knots[i + 1]
-            )));
+            return Err(knot_error(KnotError::Decreasing {
+                index: i + 1,
+                previous: knots[i],
+                knot: knots[i + 1],
+            }));
         }
         // Multiplicities.
         let mut i = 0;
@@ -112,19 +120,23 @@ impl KnotVector {
             let is_end = i == 0 || j == m - 1;
             let max = if is_end { degree + 1 } else { degree };
             if mult > max {
-                return Err(Error::InvalidKnots(format!(
-                    "knot {} has multiplicity {mult}, more than {max} allowed for degree {degree}",
-                    knots[i]
-                )));
+                return Err(knot_error(KnotError::Multiplicity {
+                    knot: knots[i],
+                    multiplicity: mult,
+                    max,
+                    degree,
+                }));
             }
             i = j + 1;
         }
         let n = m - degree - 2; // index of the last control point
         let (a, b) = (knots[degree], knots[n + 1]);
         if b <= a {
-            return Err(Error::InvalidKnots(format!(
-                "empty domain [{a}, {b}] for degree {degree}"
-            )));
+            return Err(knot_error(KnotError::EmptyDomain {
+                start: a,
+                end: b,
+                degree,
+            }));
         }
         let mut last_span = n;
         while knots[last_span] >= knots[last_span + 1] {
@@ -145,9 +157,7 @@ impl KnotVector {
     /// control points of degree `degree`.
     pub fn uniform_clamped(degree: usize, count: usize) -> Result<Self> {
         if count < degree + 1 {
-            return Err(Error::InvalidKnots(format!(
-                "{count} control points are too few for degree {degree}"
-            )));
+            return Err(knot_error(KnotError::TooFewControlPoints { count, degree }));
         }
         let spans = count - degree;
         let mut knots = vec![0.0; degree + 1];
@@ -420,6 +430,7 @@ impl KnotVector {
 mod tests {
     use super::*;
     use crate::assert_near;
+    use crate::tolerance::{BASIS_DERIV_REL, ROUNDING_EPS, ULP_EPS};
 
     /// P&T Ex2.3: U = {0,0,0,1,2,3,4,4,5,5,5}, p = 2, u = 5/2.
     fn book() -> KnotVector {
@@ -433,7 +444,7 @@ mod tests {
         assert_eq!(s, 4);
         let n = kv.basis(s, 2.5);
         // N_{2,2} = 1/8, N_{3,2} = 6/8, N_{4,2} = 1/8.
-        assert_near!([n[0], n[1], n[2]], [0.125, 0.75, 0.125], 1e-15);
+        assert_near!([n[0], n[1], n[2]], [0.125, 0.75, 0.125], ULP_EPS);
     }
 
     #[test]
@@ -441,8 +452,8 @@ mod tests {
         let kv = book();
         let d = kv.basis_ders(4, 2.5, 2);
         // N'_{2,2}(5/2) = -1/2, N'_{3,2} = 0, N'_{4,2} = 1/2; second derivatives 1, -2, 1.
-        assert_near!([d[1][0], d[1][1], d[1][2]], [-0.5, 0.0, 0.5], 1e-14);
-        assert_near!([d[2][0], d[2][1], d[2][2]], [1.0, -2.0, 1.0], 1e-14);
+        assert_near!([d[1][0], d[1][1], d[1][2]], [-0.5, 0.0, 0.5], ROUNDING_EPS);
+        assert_near!([d[2][0], d[2][1], d[2][2]], [1.0, -2.0, 1.0], ROUNDING_EPS);
     }
 
     #[test]
@@ -465,7 +476,8 @@ mod tests {
                     assert_near!(
                         fast[r],
                         slow[r],
-                        1e-9 * (1.0 + slow[r].iter().fold(0.0, |m: f64, x| m.max(x.abs())))
+                        BASIS_DERIV_REL
+                            * (1.0 + slow[r].iter().fold(0.0, |m: f64, x| m.max(x.abs())))
                     );
                 }
             }
@@ -487,27 +499,44 @@ mod tests {
     fn rejects_bad_vectors() {
         assert!(matches!(
             KnotVector::new(2, vec![0., 0., 1., 0.5, 1., 1.]),
-            Err(Error::InvalidKnots(_))
+            Err(Error::InvalidKnots {
+                direction: None,
+                reason: KnotError::Decreasing { index: 3, .. }
+            })
         ));
         assert!(matches!(
             KnotVector::new(2, vec![0., 0., 0., 1., 1.]),
-            Err(Error::InvalidKnots(_))
+            Err(Error::InvalidKnots {
+                reason: KnotError::TooFew {
+                    count: 5,
+                    need: 6,
+                    ..
+                },
+                ..
+            })
         ));
         assert!(matches!(
             KnotVector::new(2, vec![0., 0., 0., 0.5, 0.5, 0.5, 1., 1., 1.]),
-            Err(Error::InvalidKnots(_))
+            Err(Error::InvalidKnots {
+                reason: KnotError::Multiplicity {
+                    multiplicity: 3,
+                    max: 2,
+                    ..
+                },
+                ..
+            })
         ));
         assert!(matches!(
             KnotVector::new(0, vec![0., 1.]),
-            Err(Error::InvalidDegree(_))
+            Err(Error::InvalidDegree { degree: 0, .. })
         ));
         assert!(matches!(
             KnotVector::new(1, vec![0., f64::NAN, 1., 1.]),
-            Err(Error::InvalidKnots(_))
+            Err(Error::InvalidKnots { .. })
         ));
         assert!(matches!(
             KnotVector::new(1, vec![1., 1., 1., 1.]),
-            Err(Error::InvalidKnots(_))
+            Err(Error::InvalidKnots { .. })
         ));
     }
 
@@ -518,6 +547,6 @@ mod tests {
         assert_eq!(kv.domain(), (2.0, 5.0));
         assert_eq!(kv.find_span(5.0), 4);
         let n = kv.basis(kv.find_span(3.3), 3.3);
-        assert_near!(n.iter().sum::<f64>(), 1.0, 1e-15);
+        assert_near!(n.iter().sum::<f64>(), 1.0, ULP_EPS);
     }
 }

@@ -303,6 +303,7 @@ fn horner0<V: Lin>(c: &[V], x: f64) -> V {
 mod tests {
     use super::*;
     use crate::assert_near;
+    use crate::tolerance::{CONVERSION_REL, EXACT_EPS};
 
     fn check(s: &NurbsSurface) {
         let inv = s.inverter();
@@ -320,7 +321,11 @@ mod tests {
                     (a.duv, b.duv),
                     (a.dvv, b.dvv),
                 ] {
-                    assert_near!(x.to_array(), y.to_array(), 1e-11 * (1.0 + x.length()));
+                    assert_near!(
+                        x.to_array(),
+                        y.to_array(),
+                        CONVERSION_REL * (1.0 + x.length())
+                    );
                 }
             }
         }
@@ -348,8 +353,12 @@ mod tests {
         assert!(inv.power().is_none());
         let p = s.point(0.3, 0.6) + s.normal(0.3, 0.6) * 0.01;
         let got = inv.closest_point(p);
-        assert!(got.converged && got.distance <= 0.01 + 1e-12, "{got:?}");
-        assert_near!(s.point_uv(got.uv).to_array(), got.point.to_array(), 1e-12);
+        assert!(got.converged && got.distance <= 0.01 + EXACT_EPS, "{got:?}");
+        assert_near!(
+            s.point_uv(got.uv).to_array(),
+            got.point.to_array(),
+            EXACT_EPS
+        );
     }
 
     #[test]

@@ -12,7 +12,7 @@ use glam::DVec4;
 use super::curve::NurbsCurve;
 use super::knots::KnotVector;
 use super::surface::NurbsSurface;
-use crate::error::{Error, Result};
+use crate::error::{Error, ParameterError, Result};
 
 /// P&T A2.1 exactly as the book has it (`n` at the right end), as A5.1 and A5.4 expect.
 fn book_span(knots: &[f64], p: usize, n: usize, u: f64) -> usize {
@@ -36,9 +36,11 @@ fn check_in_domain(kv: &KnotVector, u: f64) -> Result<()> {
     if u.is_finite() && u >= a && u <= b {
         Ok(())
     } else {
-        Err(Error::InvalidParameter(format!(
-            "knot {u} is outside the domain [{a}, {b}]"
-        )))
+        Err(Error::InvalidParameter(ParameterError::KnotOutsideDomain {
+            knot: u,
+            start: a,
+            end: b,
+        }))
     }
 }
 
@@ -60,9 +62,14 @@ pub(crate) fn insert_pw(
         return Ok((up.to_vec(), pw.to_vec()));
     }
     if s + r > p {
-        return Err(Error::InvalidParameter(format!(
-            "inserting knot {u} {r} times would raise its multiplicity {s} above the degree {p}"
-        )));
+        return Err(Error::InvalidParameter(
+            ParameterError::MultiplicityAboveDegree {
+                knot: u,
+                times: r,
+                multiplicity: s,
+                degree: p,
+            },
+        ));
     }
     let k = book_span(up, p, np, u);
     let mp = np + p + 1;
@@ -106,9 +113,7 @@ pub(crate) fn refine_pw(
         check_in_domain(kv, u)?;
     }
     if x.windows(2).any(|w| w[1] < w[0]) {
-        return Err(Error::InvalidParameter(
-            "knots to insert must be sorted".into(),
-        ));
+        return Err(Error::InvalidParameter(ParameterError::UnsortedKnots));
     }
     let p = kv.degree();
     let u = kv.knots();

@@ -9,7 +9,8 @@ use serde::{Deserialize, Serialize};
 
 use super::curve::{check_point, check_weight};
 use super::knots::KnotVector;
-use crate::error::{Error, Result};
+use super::refine::Direction;
+use crate::error::{ControlNetError, Error, NetIndex, Result, WeightError};
 
 /// A NURBS surface `S(u,v) = sum_i sum_j N_{i,p}(u) N_{j,q}(v) w_ij P_ij / sum sum N N w`.
 ///
@@ -120,9 +121,64 @@ struct SurfaceJson {
     weights: Option<Vec<Vec<f64>>>,
 }
 
+/// The most control points a surface read from JSON (a surface file, or a document's
+/// target) may have: a 256 x 256 net. Beyond it the reader refuses the surface, so a
+/// hostile file cannot make `project` or the tessellator take gigabytes (a 10^6-point
+/// net took 1 GB).
+pub const MAX_JSON_CONTROL_POINTS: usize = 65_536;
+/// The largest control point coordinate (metres, absolute) a surface read from JSON
+/// may have: squared distances of larger ones overflow in the point inversion
+/// (coordinates near 1e308 gave `inf`), and a sculpted object is never 1000 km wide.
+pub const MAX_JSON_COORDINATE_M: f64 = 1e6;
+/// Weights of a surface read from JSON lie in `[1 / MAX_JSON_WEIGHT, MAX_JSON_WEIGHT]`:
+/// weights of 1e150 made `project` return `inf`.
+pub const MAX_JSON_WEIGHT: f64 = 1e6;
+
+impl SurfaceJson {
+    /// The reader's caps (see [`MAX_JSON_CONTROL_POINTS`], [`MAX_JSON_COORDINATE_M`],
+    /// [`MAX_JSON_WEIGHT`]), checked before the surface is built.
+    fn check_caps(&self) -> Result<()> {
+        let count: usize = self.control_points.iter().map(Vec::len).sum();
+        if count > MAX_JSON_CONTROL_POINTS {
+            return Err(Error::InvalidControlNet(ControlNetError::TooMany {
+                count,
+                max: MAX_JSON_CONTROL_POINTS,
+            }));
+        }
+        for (i, row) in self.control_points.iter().enumerate() {
+            for (j, p) in row.iter().enumerate() {
+                if p.iter().any(|c| c.abs() > MAX_JSON_COORDINATE_M) {
+                    return Err(Error::InvalidControlNet(ControlNetError::TooFar {
+                        at: NetIndex::Surface(i, j),
+                        point: DVec3::from_array(*p),
+                        max_m: MAX_JSON_COORDINATE_M,
+                    }));
+                }
+            }
+        }
+        for (i, row) in self.weights.iter().flatten().enumerate() {
+            for (j, &w) in row.iter().enumerate() {
+                // Non-positive and non-finite weights get their own error below.
+                if w.is_finite()
+                    && w > 0.0
+                    && !(1.0 / MAX_JSON_WEIGHT..=MAX_JSON_WEIGHT).contains(&w)
+                {
+                    return Err(Error::InvalidWeights(WeightError::OutOfRange {
+                        at: NetIndex::Surface(i, j),
+                        weight: w,
+                        max: MAX_JSON_WEIGHT,
+                    }));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 impl TryFrom<SurfaceJson> for NurbsSurface {
     type Error = Error;
     fn try_from(j: SurfaceJson) -> Result<Self> {
+        j.check_caps()?;
         let pts = j
             .control_points
             .into_iter()
@@ -149,6 +205,21 @@ impl From<NurbsSurface> for SurfaceJson {
     }
 }
 
+/// A knot vector error of a surface, naming its direction.
+fn in_direction(e: Error, d: Direction) -> Error {
+    match e {
+        Error::InvalidKnots { reason, .. } => Error::InvalidKnots {
+            direction: Some(d),
+            reason,
+        },
+        Error::InvalidDegree { degree, .. } => Error::InvalidDegree {
+            direction: Some(d),
+            degree,
+        },
+        e => e,
+    }
+}
+
 impl NurbsSurface {
     /// Builds a surface from Cartesian control points `control_points[i][j]` (`i` along
     /// `u`) and optional weights of the same shape (default 1).
@@ -160,43 +231,47 @@ impl NurbsSurface {
         control_points: Vec<Vec<DVec3>>,
         weights: Option<Vec<Vec<f64>>>,
     ) -> Result<Self> {
-        let knots_u = KnotVector::new(degree_u, knots_u)
-            .map_err(|e| Error::InvalidKnots(format!("knots_u: {e}")))?;
-        let knots_v = KnotVector::new(degree_v, knots_v)
-            .map_err(|e| Error::InvalidKnots(format!("knots_v: {e}")))?;
+        let knots_u =
+            KnotVector::new(degree_u, knots_u).map_err(|e| in_direction(e, Direction::U))?;
+        let knots_v =
+            KnotVector::new(degree_v, knots_v).map_err(|e| in_direction(e, Direction::V))?;
         let (n_u, n_v) = (knots_u.count(), knots_v.count());
         if control_points.len() != n_u {
-            return Err(Error::InvalidControlNet(format!(
-                "{} rows of control points along u, but knots_u of degree {degree_u} need {n_u}",
-                control_points.len()
-            )));
+            return Err(Error::InvalidControlNet(ControlNetError::RowCount {
+                got: control_points.len(),
+                degree: degree_u,
+                need: n_u,
+            }));
         }
         if let Some(i) = control_points.iter().position(|r| r.len() != n_v) {
-            return Err(Error::InvalidControlNet(format!(
-                "row {i} has {} control points along v, but knots_v of degree {degree_v} need {n_v}",
-                control_points[i].len()
-            )));
+            return Err(Error::InvalidControlNet(ControlNetError::RowLength {
+                row: i,
+                got: control_points[i].len(),
+                degree: degree_v,
+                need: n_v,
+            }));
         }
         if let Some(w) = &weights {
             if w.len() != n_u {
-                return Err(Error::InvalidWeights(format!(
-                    "{} rows of weights for {n_u} rows of control points",
-                    w.len()
-                )));
+                return Err(Error::InvalidWeights(WeightError::RowCount {
+                    got: w.len(),
+                    need: n_u,
+                }));
             }
             if let Some(i) = w.iter().position(|r| r.len() != n_v) {
-                return Err(Error::InvalidWeights(format!(
-                    "weight row {i} has {} entries, expected {n_v}",
-                    w[i].len()
-                )));
+                return Err(Error::InvalidWeights(WeightError::RowLength {
+                    row: i,
+                    got: w[i].len(),
+                    need: n_v,
+                }));
             }
         }
         let mut pw = Vec::with_capacity(n_u * n_v);
         for (i, row) in control_points.iter().enumerate() {
             for (j, p) in row.iter().enumerate() {
-                check_point(*p, || format!("[{i}][{j}]"))?;
+                check_point(*p, NetIndex::Surface(i, j))?;
                 let w = weights.as_ref().map_or(1.0, |w| w[i][j]);
-                check_weight(w, || format!("[{i}][{j}]"))?;
+                check_weight(w, NetIndex::Surface(i, j))?;
                 pw.push((*p * w).extend(w));
             }
         }
@@ -212,13 +287,15 @@ impl NurbsSurface {
     ) -> Result<Self> {
         let (n_u, n_v) = (knots_u.count(), knots_v.count());
         if pw.len() != n_u * n_v {
-            return Err(Error::InvalidControlNet(format!(
-                "{} homogeneous points for a {n_u} x {n_v} net",
-                pw.len()
-            )));
+            return Err(Error::InvalidControlNet(
+                ControlNetError::HomogeneousCount {
+                    got: pw.len(),
+                    need: n_u * n_v,
+                },
+            ));
         }
         for (k, q) in pw.iter().enumerate() {
-            let at = || format!("[{}][{}]", k / n_v, k % n_v);
+            let at = NetIndex::Surface(k / n_v, k % n_v);
             check_weight(q.w, at)?;
             check_point(q.truncate() / q.w, at)?;
         }
@@ -237,9 +314,13 @@ impl NurbsSurface {
         }
     }
 
-    /// Reads the JSON schema of the module docs.
+    /// Reads the JSON schema of the module docs: text that is not JSON or not the
+    /// schema is [`Error::Json`] (with its line and column); a surface the schema
+    /// allows but that is invalid is the error naming the entry (knots in which
+    /// direction, control point `[i][j]`, weight row).
     pub fn from_json(text: &str) -> Result<Self> {
-        serde_json::from_str(text).map_err(|e| Error::Json(e.to_string()))
+        let json: SurfaceJson = serde_json::from_str(text).map_err(|e| Error::Json(e.into()))?;
+        Self::try_from(json)
     }
 
     /// Writes the JSON schema of the module docs (`weights` only when rational).
@@ -418,14 +499,16 @@ impl NurbsSurface {
         let d = self.derivatives(u, v);
         let n = d.du.cross(d.dv);
         let scale = d.du.length_squared().max(d.dv.length_squared());
-        if n.length_squared() > 1e-24 * scale * scale && n.length_squared() > 0.0 {
+        if n.length_squared() > crate::tolerance::NORMAL_DEGENERATE_REL2 * scale * scale
+            && n.length_squared() > 0.0
+        {
             return n.normalize();
         }
         let (u0, u1) = self.domain_u();
         let (v0, v1) = self.domain_v();
         let c = DVec2::new(0.5 * (u0 + u1), 0.5 * (v0 + v1));
         let uv = self.clamp_uv(DVec2::new(u, v));
-        for t in [1e-7, 1e-5, 1e-3] {
+        for t in crate::tolerance::POLE_NORMAL_STEPS {
             let p = uv + (c - uv) * t;
             let d = self.derivatives(p.x, p.y);
             let n = d.du.cross(d.dv);
@@ -503,13 +586,59 @@ impl NurbsSurface {
     /// Same Cartesian point and same weight.
     fn same_node(&self, a: usize, b: usize) -> bool {
         let (wa, wb) = (self.pw[a].w, self.pw[b].w);
-        self.same_point(a, b) && (wa - wb).abs() <= 1e-12 * wa.max(wb)
+        self.same_point(a, b) && (wa - wb).abs() <= crate::tolerance::REL_EPS * wa.max(wb)
     }
 
     fn same_point(&self, a: usize, b: usize) -> bool {
         let (pa, pb) = (self.pw[a], self.pw[b]);
         let (ca, cb) = (pa.truncate() / pa.w, pb.truncate() / pb.w);
-        let tol = 1e-12 * (1.0 + ca.abs().max_element().max(cb.abs().max_element()));
+        let tol =
+            crate::tolerance::REL_EPS * (1.0 + ca.abs().max_element().max(cb.abs().max_element()));
         (ca - cb).abs().max_element() <= tol
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A degree-1 surface JSON with an `n x n` net spanning `size` metres, all weights
+    /// `weight`.
+    fn grid_json(n: usize, size: f64, weight: f64) -> String {
+        let knots: Vec<f64> = std::iter::once(0.0)
+            .chain((0..n).map(|i| i as f64 / (n - 1) as f64))
+            .chain(std::iter::once(1.0))
+            .collect();
+        let pts: Vec<Vec<[f64; 3]>> = (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|j| [i as f64 * size / n as f64, j as f64 * size / n as f64, 0.0])
+                    .collect()
+            })
+            .collect();
+        let w = vec![vec![weight; n]; n];
+        serde_json::json!({
+            "degree_u": 1, "degree_v": 1, "knots_u": knots, "knots_v": knots,
+            "control_points": pts, "weights": w,
+        })
+        .to_string()
+    }
+
+    /// Regression (issue 15, item 7): a 10^6-control-point surface took 1 GB in
+    /// `project`, and coordinates near 1e308 or weights of 1e150 made it return `inf`.
+    /// The JSON reader now refuses such surfaces with a message naming the cap.
+    #[test]
+    fn surfaces_beyond_the_reader_caps_are_refused_with_the_cap_named() {
+        assert!(NurbsSurface::from_json(&grid_json(4, 1.0, 1.0)).is_ok());
+        assert!(NurbsSurface::from_json(&grid_json(256, 1.0, 2.0)).is_ok());
+        let e = NurbsSurface::from_json(&grid_json(257, 1.0, 1.0)).unwrap_err();
+        assert!(e.to_string().contains("65536"), "{e}");
+        let e = NurbsSurface::from_json(&grid_json(4, 1e300, 1.0)).unwrap_err();
+        assert!(e.to_string().contains("beyond 1000000 m"), "{e}");
+        let e = NurbsSurface::from_json(&grid_json(4, 1.0, 1e150)).unwrap_err();
+        assert!(e.to_string().contains("weight 1e150"), "{e}");
+        // not a tolerance: a hostile weight, far below the reader's cap
+        let e = NurbsSurface::from_json(&grid_json(4, 1.0, 1e-150)).unwrap_err();
+        assert!(e.to_string().contains("outside"), "{e}");
     }
 }

@@ -67,7 +67,7 @@ use super::stroke::{Stroke, StrokeInput, Tool};
 use super::stroke_surface::StrokeSurface;
 use super::surface::{TargetSurface, extent};
 use super::tessellate::{Detail, GridPlan, StrokeRef, TargetTessellation, TessStats};
-use crate::error::{Error, Result};
+use crate::error::{DocumentError, Error, Result};
 use crate::formats::iges::{Face, IgesSurface, NurbsPatch};
 use crate::mesh::{MeshSink, PatchMesh};
 use crate::nurbs::NurbsSurface;
@@ -83,8 +83,27 @@ pub const VERSION: u32 = 1;
 /// Largest document accepted by [`Document::from_json`], bytes.
 pub const MAX_DOCUMENT_BYTES: usize = 256 << 20;
 
-/// Identifies a target surface in a document.
+/// Identifies a target surface in a document: how every part of the program refers to
+/// a target (strokes, the editor's results, the live preview, replay metrics).
 pub type TargetId = u64;
+
+/// A target's position in [`Document::targets`] (0 first), not its id.
+///
+/// Only the interaction counts targets this way: it does not know the document, so it
+/// selects and cycles targets by position (and the journal, the pose log's commands
+/// and the HUD carry that position, written as a plain number). It becomes a
+/// [`TargetId`] in one place, [`Document::target_at`].
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
+#[serde(transparent)]
+pub struct TargetIndex(pub u32);
+
+impl std::fmt::Display for TargetIndex {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.0.fmt(f)
+    }
+}
 /// Identifies a stroke in a document.
 pub type StrokeId = u64;
 
@@ -145,6 +164,9 @@ pub struct Document {
     strokes: Vec<StrokeRecord>,
     redo: Vec<Step>,
     next_id: u64,
+    /// Steps with ids up to this are the document's base (made before its first edit,
+    /// or loaded): undo stops there ([`Self::seal_history`]).
+    history_floor: u64,
     built: HashMap<StrokeId, Stroke>,
     views: HashMap<(TargetId, Detail), TargetTessellation>,
     /// Areas changed since the last tessellation, per target and detail
@@ -213,6 +235,12 @@ impl Document {
         &self.targets
     }
 
+    /// The target at `index` in [`Document::targets`], if there is one: where the
+    /// interaction's target positions become targets (and their ids).
+    pub fn target_at(&self, index: TargetIndex) -> Option<&TargetRecord> {
+        self.targets.get(index.0 as usize)
+    }
+
     /// The strokes, in the order they were applied.
     pub fn strokes(&self) -> &[StrokeRecord] {
         &self.strokes
@@ -245,10 +273,19 @@ impl Document {
         Ok(record.id)
     }
 
-    /// Undoes the last step; false when there is nothing to undo.
+    /// Makes everything now in the document its base, which [`Self::undo`] never
+    /// removes (the default surface of a new session, a loaded scene).
+    pub fn seal_history(&mut self) {
+        self.history_floor = self.next_id.saturating_sub(1);
+    }
+
+    /// Undoes the last step; false when there is nothing to undo (the base, see
+    /// [`Self::seal_history`], is never undone).
     pub fn undo(&mut self) -> bool {
-        let last_stroke = self.strokes.last().map(|s| s.id);
-        let last_target = self.targets.last().map(|t| t.id);
+        // Ids are strictly increasing, so every base step is older than every edit.
+        let floor = self.history_floor;
+        let last_stroke = self.strokes.last().map(|s| s.id).filter(|&id| id > floor);
+        let last_target = self.targets.last().map(|t| t.id).filter(|&id| id > floor);
         // Steps are strictly ordered by id: undo whichever came last.
         let step = match (last_stroke, last_target) {
             (Some(s), Some(t)) if s > t => self.pop_stroke(),
@@ -282,7 +319,9 @@ impl Document {
 
     /// True when [`Self::undo`] would do something.
     pub fn can_undo(&self) -> bool {
-        !self.targets.is_empty()
+        let floor = self.history_floor;
+        self.strokes.last().is_some_and(|s| s.id > floor)
+            || self.targets.last().is_some_and(|t| t.id > floor)
     }
 
     /// True when [`Self::redo`] would do something.
@@ -322,10 +361,7 @@ impl Document {
 
     fn push_stroke(&mut self, record: StrokeRecord) -> Result<()> {
         if self.strokes.iter().any(|s| s.id == record.id) {
-            return Err(Error::Document(format!(
-                "duplicate stroke id {}",
-                record.id
-            )));
+            return Err(Error::Document(DocumentError::StrokeId { id: record.id }));
         }
         let target =
             self.targets
@@ -730,45 +766,40 @@ impl Document {
     /// Reads a document, replaying every stroke; rejects bad files with a clear error.
     pub fn from_json(bytes: &[u8]) -> Result<Self> {
         if bytes.len() > MAX_DOCUMENT_BYTES {
-            return Err(Error::Document(format!(
-                "{} bytes is larger than the {MAX_DOCUMENT_BYTES}-byte limit",
-                bytes.len()
-            )));
+            return Err(Error::Document(DocumentError::TooLarge {
+                bytes: bytes.len(),
+                max: MAX_DOCUMENT_BYTES,
+            }));
         }
         let header: Header = serde_json::from_slice(bytes)
-            .map_err(|e| Error::Document(format!("not a JSON object: {e}")))?;
+            .map_err(|e| Error::Document(DocumentError::NotAnObject(e.into())))?;
         if header.format.as_deref() != Some(FORMAT) {
-            return Err(Error::Document(format!(
-                "\"format\" must be \"{FORMAT}\", found {:?}",
-                header.format
-            )));
+            return Err(Error::Document(DocumentError::Format {
+                expected: FORMAT,
+                found: header.format,
+            }));
         }
         match header.version.as_ref().and_then(serde_json::Value::as_u64) {
             Some(v) if v == u64::from(VERSION) => {}
             other => {
-                return Err(Error::Document(format!(
-                    "unsupported version {other:?} (this build reads version {VERSION})"
-                )));
+                return Err(Error::Document(DocumentError::Version {
+                    found: other,
+                    supported: VERSION,
+                }));
             }
         }
-        let json: DocumentJson =
-            serde_json::from_slice(bytes).map_err(|e| Error::Document(e.to_string()))?;
+        let json: DocumentJson = serde_json::from_slice(bytes)
+            .map_err(|e| Error::Document(DocumentError::Schema(e.into())))?;
         let mut doc = Document::new();
         for t in json.targets {
             if t.id == 0 || doc.targets.iter().any(|o| o.id == t.id) {
-                return Err(Error::Document(format!(
-                    "target id {} is zero or repeated",
-                    t.id
-                )));
+                return Err(Error::Document(DocumentError::TargetId { id: t.id }));
             }
             doc.push_target(TargetRecord::new(t.id, t.name, t.surface));
         }
         for s in json.strokes {
             if s.id == 0 || doc.targets.iter().any(|t| t.id == s.id) {
-                return Err(Error::Document(format!(
-                    "stroke id {} is zero or repeated",
-                    s.id
-                )));
+                return Err(Error::Document(DocumentError::StrokeId { id: s.id }));
             }
             let input = StrokeInput {
                 samples: s
@@ -784,7 +815,12 @@ impl Document {
                 target: s.target,
                 input,
             })
-            .map_err(|e| Error::Document(format!("stroke {id}: {e}")))?;
+            .map_err(|e| {
+                Error::Document(DocumentError::Stroke {
+                    id,
+                    error: Box::new(e),
+                })
+            })?;
         }
         doc.next_id = doc
             .targets
@@ -794,6 +830,8 @@ impl Document {
             .max()
             .unwrap_or(0)
             + 1;
+        // A loaded document has no history: what it holds is the base.
+        doc.seal_history();
         Ok(doc)
     }
 }

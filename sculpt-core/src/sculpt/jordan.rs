@@ -22,7 +22,7 @@
 use glam::DVec2;
 
 /// Distance (in normalised parameter units) within which a point counts as on an edge.
-pub const ON_EDGE_EPS: f64 = 1e-12;
+pub use crate::tolerance::ON_EDGE_EPS;
 
 /// Number of horizontal bands of the segment index.
 const BANDS: usize = 64;
@@ -265,6 +265,7 @@ pub fn point_segment_distance(p: DVec2, a: DVec2, b: DVec2) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tolerance::CLASSIFY_MARGIN;
     use proptest::prelude::*;
 
     fn square(c: DVec2, h: f64) -> Vec<DVec2> {
@@ -317,8 +318,8 @@ mod tests {
             let p = DVec2::new(px, py);
             let min_side = (0..n).map(|i| (c[(i + 1) % n] - c[i]).perp_dot(p - c[i])).fold(f64::INFINITY, f64::min);
             let loc = r.locate(p);
-            if min_side > 1e-9 { prop_assert_eq!(loc, Location::Inside); }
-            if min_side < -1e-9 { prop_assert_eq!(loc, Location::Outside); }
+            if min_side > CLASSIFY_MARGIN { prop_assert_eq!(loc, Location::Inside); }
+            if min_side < -CLASSIFY_MARGIN { prop_assert_eq!(loc, Location::Outside); }
         }
 
         #[test]

@@ -65,7 +65,7 @@ use super::jordan::{Rect, Region, signed_area};
 use super::surface::{
     ParamSurface, SurfacePoint, TargetSurface, extent_sampled, normal_at, unwrap_near, wrap_uv,
 };
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, StrokeRejection, ToolParam, ToolRangeError};
 use crate::tolerance::BASIN_JUMP_RATIO;
 use glam::{DVec2, DVec3};
 use i_overlay::core::fill_rule::FillRule;
@@ -91,7 +91,13 @@ pub const MAX_INPUT_SAMPLES: usize = 1_000_000;
 /// or a depth query (a stroke may wind round a torus a few times).
 const MAX_PERIODS: i64 = 8;
 
-/// Cross-section of the chisel.
+/// Cross-section of the chisel: the one profile type, used by the interaction (its
+/// current tool, commands, the journal) and by the sculpting layer (strokes, the
+/// document).
+///
+/// Written as `"v"`, `"u"` or `{"custom": [[x, f], ...]}` in every format (journal,
+/// document, scene, TOML configuration); the kebab-case and lowercase spellings the
+/// interaction and the sculpting layer once wrote separately are the same words.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Profile {
@@ -169,20 +175,29 @@ impl Profile {
         !matches!(self, Profile::V)
     }
 
+    /// The profile a profile button switches to: V to U, U (or a custom profile) to V.
+    pub fn toggled(&self) -> Self {
+        match self {
+            Profile::V => Profile::U,
+            Profile::U | Profile::Custom(_) => Profile::V,
+        }
+    }
+
     fn validate(&self) -> Result<()> {
         if let Profile::Custom(pts) = self {
             if pts.is_empty() || pts.len() > 256 {
-                return Err(reject("a custom profile needs 1 to 256 points"));
+                return Err(reject(StrokeRejection::ProfilePointCount {
+                    count: pts.len(),
+                    max: 256,
+                }));
             }
             let mut last = -1.0;
-            for p in pts {
+            for (index, p) in pts.iter().enumerate() {
                 if !(p[0].is_finite() && p[1].is_finite()) || p[0] <= last || p[0] > 1.0 {
-                    return Err(reject(
-                        "custom profile x values must increase within [0, 1] and be finite",
-                    ));
+                    return Err(reject(StrokeRejection::ProfileX { index }));
                 }
                 if !(0.0..=1.0).contains(&p[1]) {
-                    return Err(reject("custom profile depth fractions must lie in [0, 1]"));
+                    return Err(reject(StrokeRejection::ProfileDepth { index }));
                 }
                 last = p[0];
             }
@@ -191,8 +206,12 @@ impl Profile {
     }
 }
 
-/// Carve into the surface or emboss onto it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+/// Carve into the surface or emboss onto it: the one carve/emboss type (the
+/// interaction re-exports it as `StrokeMode`, next to its
+/// [`InteractionMode`](crate::interaction::InteractionMode), which adds sketching).
+///
+/// Written as `"carve"` or `"emboss"` in every format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Mode {
     /// Remove material: the groove goes in against the normal.
@@ -201,7 +220,20 @@ pub enum Mode {
     Emboss,
 }
 
-/// The chisel.
+/// The chisel and what it does: the one tool type, the interaction's current tool
+/// (its [`Interaction::tool`](crate::interaction::Interaction::tool)) and every
+/// stroke's tool in the document.
+///
+/// **Defaults** ([`Tool::default`]): a V profile, 2 cm wide, 5 mm deep, carving, with
+/// ends tapered over [`DEFAULT_TAPER`] (1 cm). **Caps** ([`Tool::validate`]): width
+/// and depth in `(0, MAX_TOOL_SIZE]`, the taper in `[0, MAX_TOOL_SIZE]`
+/// ([`MAX_TOOL_SIZE`] is 10 m), and a custom profile of 1 to 256 increasing points.
+///
+/// Serialized with its mode (`{"profile", "width", "depth", "mode", "taper"}`, the
+/// document's and scene files' stroke tools); a stored stroke without `taper` has
+/// blunt ends (0), as files written before tapers existed meant. The journal writes a
+/// stroke's mode beside its tool instead (see
+/// [`StrokeEdit`](crate::interaction::StrokeEdit)).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Tool {
@@ -223,24 +255,42 @@ pub struct Tool {
 /// back, so that no mesh or file written from them holds a non-finite number.
 pub const MAX_TOOL_SIZE: f64 = 10.0;
 
+/// The default end taper (metres): [`Tool::default`]'s, and the taper of a journalled
+/// stroke or a configured tool that does not give one.
+pub const DEFAULT_TAPER: f64 = 0.01;
+
+impl Default for Tool {
+    fn default() -> Self {
+        Self {
+            profile: Profile::V,
+            width: 0.02,
+            depth: 0.005,
+            mode: Mode::Carve,
+            taper: DEFAULT_TAPER,
+        }
+    }
+}
+
 impl Tool {
     /// Checks the parameters: width and depth in `(0, MAX_TOOL_SIZE]`, the taper in
     /// `[0, MAX_TOOL_SIZE]`, and the profile; the error says which one is wrong.
     pub fn validate(&self) -> Result<()> {
-        let size = |name: &str, v: f64, zero_ok: bool| {
+        let size = |param: ToolParam, v: f64| {
+            let zero_ok = param == ToolParam::Taper;
             let low_ok = if zero_ok { v >= 0.0 } else { v > 0.0 };
             if v.is_finite() && low_ok && v <= MAX_TOOL_SIZE {
                 Ok(())
             } else {
-                let low = if zero_ok { "[0" } else { "(0" };
-                Err(Error::StrokeRejected(format!(
-                    "tool {name} must be in {low}, {MAX_TOOL_SIZE}] m, got {v}"
-                )))
+                Err(reject(StrokeRejection::Tool(ToolRangeError {
+                    param,
+                    value: v,
+                    max: MAX_TOOL_SIZE,
+                })))
             }
         };
-        size("width", self.width, false)?;
-        size("depth", self.depth, false)?;
-        size("taper", self.taper, true)?;
+        size(ToolParam::Width, self.width)?;
+        size(ToolParam::Depth, self.depth)?;
+        size(ToolParam::Taper, self.taper)?;
         self.profile.validate()
     }
 }
@@ -290,8 +340,8 @@ pub struct Stroke {
     buckets: Buckets,
 }
 
-fn reject(why: &str) -> Error {
-    Error::StrokeRejected(why.to_string())
+fn reject(why: StrokeRejection) -> Error {
+    Error::StrokeRejected(why)
 }
 
 /// Cleans, resamples by arc length and smooths a polyline, keeping corners (see the
@@ -310,7 +360,9 @@ pub fn resample(points: &[DVec3], spacing: f64) -> Vec<DVec3> {
         return pts;
     }
     let length: f64 = pts.windows(2).map(|w| w[0].distance(w[1])).sum();
-    let spacing = spacing.max(length / MAX_SAMPLES as f64).max(1e-12);
+    let spacing = spacing
+        .max(length / MAX_SAMPLES as f64)
+        .max(crate::tolerance::MIN_SPACING);
     // Corners: the turn between the directions one window back and ahead.
     let mut cum = vec![0.0];
     for w in pts.windows(2) {
@@ -384,27 +436,32 @@ impl Stroke {
         let tool = input.tool.clone();
         tool.validate()?;
         if input.samples.len() > MAX_INPUT_SAMPLES {
-            return Err(reject("too many samples"));
+            return Err(reject(StrokeRejection::TooManySamples {
+                count: input.samples.len(),
+                max: MAX_INPUT_SAMPLES,
+            }));
         }
         if let Some(k) = input
             .samples
             .iter()
             .position(|(t, p)| !(t.is_finite() && p.is_finite()))
         {
-            return Err(Error::StrokeRejected(format!("sample {k} is not finite")));
+            return Err(reject(StrokeRejection::SampleNotFinite { index: k }));
         }
         let ext = extent_sampled(surface, 8);
         if tool.width > ext.diagonal() {
-            return Err(Error::StrokeRejected(format!(
-                "tool width {} m is larger than the surface ({} m across)",
-                tool.width,
-                ext.diagonal()
-            )));
+            return Err(reject(StrokeRejection::ToolWiderThanSurface {
+                width_m: tool.width,
+                across_m: ext.diagonal(),
+            }));
         }
         let raw: Vec<DVec3> = input.samples.iter().map(|s| s.1).collect();
         let length: f64 = raw.windows(2).map(|w| w[0].distance(w[1])).sum();
-        if raw.len() < 2 || length <= tool.width * 1e-3 {
-            return Err(reject("the stroke has zero length"));
+        if raw.len() < 2 || length <= tool.width * crate::tolerance::MIN_STROKE_LEN_REL {
+            return Err(reject(StrokeRejection::TooShort {
+                length_m: length,
+                min_m: tool.width * crate::tolerance::MIN_STROKE_LEN_REL,
+            }));
         }
         let pts = resample(&raw, tool.width * 0.25);
         // Project through the target's certified inverter, seeded from the previous
@@ -442,8 +499,8 @@ impl Stroke {
         let mut run = runs.into_iter().max_by_key(|r| r.len()).unwrap_or_default();
         run = through_poles(&run);
         let run_len: f64 = run.windows(2).map(|w| w[0].1.distance(w[1].1)).sum();
-        if run.len() < 2 || run_len <= tool.width * 1e-3 {
-            return Err(reject("the stroke does not lie on the surface"));
+        if run.len() < 2 || run_len <= tool.width * crate::tolerance::MIN_STROKE_LEN_REL {
+            return Err(reject(StrokeRejection::OffSurface));
         }
         // A stroke whose end comes back to its start is a loop: it is closed with one
         // more segment and carved without tapered ends, one continuous groove.
@@ -550,7 +607,7 @@ impl Stroke {
                     piece = clip_to_box(&piece, DVec2::splat(-1.0), DVec2::splat(2.0));
                 }
                 let a = signed_area(&piece);
-                if piece.len() < 3 || a.abs() < 1e-18 || !a.is_finite() {
+                if piece.len() < 3 || a.abs() < crate::tolerance::UV_AREA_EPS || !a.is_finite() {
                     continue;
                 }
                 if a < 0.0 {
@@ -565,7 +622,7 @@ impl Stroke {
         let clipped = domain_overlay(&union, &[square.to_vec()], OverlayRule::Intersect);
         let footprint = region_from_shapes(clipped);
         if footprint.is_empty() {
-            return Err(reject("the stroke's footprint is empty"));
+            return Err(reject(StrokeRejection::EmptyFootprint));
         }
         let mut bounds = Rect::new(DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
         for c in footprint.contours() {
@@ -960,7 +1017,7 @@ fn wrapped_segments(line: &[DVec2], closed: [bool; 2]) -> Vec<[DVec2; 2]> {
 fn uv_step(du: DVec3, dv: DVec3, d: DVec3) -> DVec2 {
     let (aa, ab, bb) = (du.dot(du), du.dot(dv), dv.dot(dv));
     let det = aa * bb - ab * ab;
-    if det.abs() <= 1e-300 || !det.is_finite() {
+    if det.abs() <= crate::tolerance::DIVISOR_MIN || !det.is_finite() {
         return DVec2::ZERO;
     }
     let (ga, gb) = (du.dot(d), dv.dot(d));
@@ -1081,7 +1138,7 @@ impl Buckets {
                 lo = lo.min(rim[i]).min(rim[i + 1]);
                 hi = hi.max(rim[i]).max(rim[i + 1]);
             }
-            let pad = (hi - lo) * 0.25 + DVec2::splat(1e-9);
+            let pad = (hi - lo) * 0.25 + DVec2::splat(crate::tolerance::UV_PAD);
             let (a, b) = (me.cell_of(lo - pad), me.cell_of(hi + pad));
             for y in a.1..=b.1 {
                 for x in a.0..=b.0 {
@@ -1094,11 +1151,12 @@ impl Buckets {
     }
 
     fn pad(&self) -> DVec2 {
-        (self.bounds.max - self.bounds.min) * 0.25 + DVec2::splat(1e-9)
+        (self.bounds.max - self.bounds.min) * 0.25 + DVec2::splat(crate::tolerance::UV_PAD)
     }
 
     fn cell_of(&self, p: DVec2) -> (usize, usize) {
-        let size = (self.bounds.max - self.bounds.min).max(DVec2::splat(1e-12));
+        let size =
+            (self.bounds.max - self.bounds.min).max(DVec2::splat(crate::tolerance::UV_EXTENT_MIN));
         let f = ((p - self.bounds.min) / size * self.n as f64).floor();
         let c = |x: f64| (x.max(0.0) as usize).min(self.n - 1);
         (c(f.x), c(f.y))
@@ -1137,6 +1195,9 @@ mod tests {
     use crate::assert_near;
     use crate::sculpt::jordan::Location;
     use crate::sculpt::surface::test_surfaces::plane;
+    use crate::tolerance::{
+        AREA_SYMMETRY_EPS, EXACT_EPS, FOOTPRINT_AREA_TOL, POINT_EPS, SEAM_DEPTH_TOL,
+    };
 
     fn tool() -> Tool {
         Tool {
@@ -1181,12 +1242,12 @@ mod tests {
         assert_near!(
             st.depth_at(DVec2::new(0.5, 0.5), DVec3::new(0.5, 0.5, 0.0)),
             0.02,
-            1e-9
+            POINT_EPS
         );
         assert_near!(
             st.depth_at(DVec2::new(0.5, 0.525), DVec3::new(0.5, 0.525, 0.0)),
             0.01,
-            1e-9
+            POINT_EPS
         );
         assert_eq!(
             st.depth_at(DVec2::new(0.5, 0.6), DVec3::new(0.5, 0.6, 0.0)),
@@ -1201,7 +1262,7 @@ mod tests {
         assert_near!(
             st.footprint.area(),
             0.06 + std::f64::consts::PI * 0.0025,
-            1e-4
+            FOOTPRINT_AREA_TOL
         );
     }
 
@@ -1320,8 +1381,8 @@ mod tests {
             let a = f64::to_radians(deg);
             [a.cos(), a.sin(), 0.0]
         };
-        assert_near!(s.eval(wrap_uv(first)).p.to_array(), at(150.0), 1e-9);
-        assert_near!(s.eval(wrap_uv(last)).p.to_array(), at(205.0), 1e-9);
+        assert_near!(s.eval(wrap_uv(first)).p.to_array(), at(150.0), POINT_EPS);
+        assert_near!(s.eval(wrap_uv(last)).p.to_array(), at(205.0), POINT_EPS);
         // The footprint in the square covers both sides of the seam.
         for u in [0.002, 0.05, 0.95, 0.998] {
             assert_eq!(
@@ -1340,13 +1401,22 @@ mod tests {
         // Same area as the stroke turned half-way round, away from the seam (the
         // sphere's four quarter arcs have the same parametrisation).
         let away = build(&s, equator(-30.0, 25.0));
-        assert_near!(st.footprint.area(), away.footprint.area(), 1e-6);
+        assert_near!(
+            st.footprint.area(),
+            away.footprint.area(),
+            AREA_SYMMETRY_EPS
+        );
         // Full depth on the centreline either side of the seam, from either copy (the
         // depth is measured from the centreline's chords: their sag, spacing^2 / 8R, is
         // under 1e-4 m).
         for u in [0.999, 0.001, 1.001, -0.001] {
             let uv = DVec2::new(u, 0.5);
-            assert_near!(st.depth_at(uv, s.eval(wrap_uv(uv)).p), 0.02, 1e-4, "{u}");
+            assert_near!(
+                st.depth_at(uv, s.eval(wrap_uv(uv)).p),
+                0.02,
+                SEAM_DEPTH_TOL,
+                "{u}"
+            );
         }
     }
 
@@ -1375,7 +1445,7 @@ mod tests {
         assert!(round.depth.iter().all(|&d| d == 0.02));
         // Full depth at the join (the start, at angle 0).
         let join = DVec2::new(0.7, 0.5);
-        assert_near!(round.depth_at(join, join.extend(0.0)), 0.02, 1e-9);
+        assert_near!(round.depth_at(join, join.extend(0.0)), 0.02, POINT_EPS);
         // Three quarters of a turn is no loop: its ends taper.
         let open = Stroke::build(&s, &input(circle(0.75)), 0.1).unwrap();
         assert!(!open.is_loop());
@@ -1416,7 +1486,7 @@ mod tests {
         let c = clip_to_box(&tri, DVec2::splat(-1.0), DVec2::splat(2.0));
         assert!(c.iter().all(|p| p.x >= -1.0));
         // The triangle's area right of x = -1: the integral of (x + 2) / 3 over [-1, 1].
-        assert_near!(signed_area(&c).abs(), 4.0 / 3.0, 1e-12);
+        assert_near!(signed_area(&c).abs(), 4.0 / 3.0, EXACT_EPS);
     }
 
     #[test]
@@ -1429,10 +1499,10 @@ mod tests {
         let out = resample(&pts, 0.05);
         assert!(
             out.iter()
-                .any(|p| p.distance(DVec3::new(1.0, 0.0, 0.0)) < 1e-12)
+                .any(|p| p.distance(DVec3::new(1.0, 0.0, 0.0)) < EXACT_EPS)
         );
         for w in out.windows(2) {
-            assert!(w[0].distance(w[1]) <= 0.05 + 1e-9);
+            assert!(w[0].distance(w[1]) <= 0.05 + POINT_EPS);
         }
     }
 }

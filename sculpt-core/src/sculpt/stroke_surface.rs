@@ -82,7 +82,7 @@ use super::stroke::{Mode, Profile, Stroke, domain_overlay, region_from_shapes};
 use super::surface::{ParamSurface, TargetSurface, normal_from, wrap_uv};
 use super::tessellate::{Detail, StrokeRef};
 use super::uvmap::UvMap;
-use crate::error::{Error, Result};
+use crate::error::{Error, FitError, Result};
 use crate::mesh::{MeshSink, MeshVertex, PatchKey};
 use crate::nurbs::NurbsSurface;
 use glam::{DVec2, DVec3};
@@ -157,8 +157,8 @@ pub struct StrokeSurface {
     maps: [UvMap; 2],
 }
 
-fn fail(why: impl Into<String>) -> Error {
-    Error::FitFailed(why.into())
+fn fail(why: FitError) -> Error {
+    Error::FitFailed(why)
 }
 
 /// The target parameter of the groove point at profile fraction `f` of sample `i`.
@@ -242,14 +242,14 @@ impl StrokeSurface {
             || stroke.rims_uv[1].len() != n
             || stroke.half_width.len() != n
         {
-            return Err(fail("the stroke has fewer than two samples"));
+            return Err(fail(FitError::StrokeTooFewSamples));
         }
         let widest = stroke.half_width.iter().copied().fold(0.0, f64::max);
         if widest.is_nan() || widest <= crate::tolerance::POINT_EPS {
-            return Err(fail("the stroke has no width"));
+            return Err(fail(FitError::StrokeNoWidth));
         }
         if stroke.depth.len() != n {
-            return Err(fail("the stroke's depth list does not match its samples"));
+            return Err(fail(FitError::StrokeDepthCount));
         }
         let picked: Vec<usize> = if n <= MAX_ROWS {
             (0..n).collect()
@@ -291,7 +291,7 @@ impl StrokeSurface {
                 .map(|(&q, &f)| groove_point(target, stroke, q, f.abs() == 1.0))
                 .collect();
             if row.iter().any(|p| !p.is_finite()) || row_uv.iter().any(|q| !q.is_finite()) {
-                return Err(fail(format!("stroke sample {i} is not finite")));
+                return Err(fail(FitError::StrokeSampleNotFinite { at: i }));
             }
             uv.push(row_uv);
             grid.push(row);
@@ -312,7 +312,7 @@ impl StrokeSurface {
             .map(|row| row.windows(2).map(|w| w[0].distance(w[1])).sum::<f64>())
             .fold(0.0, f64::max);
         let aspect = if along > 0.0 && across > 0.0 && (along / across).is_finite() {
-            (along / across).clamp(1e-3, 1e6)
+            (along / across).clamp(crate::tolerance::ASPECT_MIN, 1e6)
         } else {
             1.0
         };
@@ -326,13 +326,16 @@ impl StrokeSurface {
             uv,
             mode: stroke.tool.mode,
             fit_error: 0.0,
-            fit_tolerance: 0.075 * stroke.tool.depth + 1e-3 * stroke.tool.width,
+            fit_tolerance: crate::tolerance::FIT_TOL_DEPTH_REL * stroke.tool.depth
+                + crate::tolerance::FIT_TOL_WIDTH_REL * stroke.tool.width,
             trim: Region::empty(),
             maps: [UvMap::new(MAP_ROOTS), UvMap::new(MAP_ROOTS)],
         };
         me.fit_error = me.measure_fit(target, stroke);
         if !me.fit_error.is_finite() {
-            return Err(fail("the stroke surface is not finite"));
+            return Err(fail(FitError::NotFinite {
+                what: "the stroke surface",
+            }));
         }
         Ok(me)
     }
@@ -509,7 +512,7 @@ impl StrokeSurface {
         let Some((_, me)) = strokes.get(own) else {
             return Region::empty();
         };
-        let pad = DVec2::splat(1e-9);
+        let pad = DVec2::splat(crate::tolerance::UV_PAD);
         let reach = Rect::new(me.bounds.min - pad, me.bounds.max + pad);
         let others: Vec<usize> = (0..strokes.len())
             .filter(|&j| j != own)
@@ -709,7 +712,7 @@ impl StrokeSurface {
         let mut n = sp.dv.cross(sp.du).normalize_or_zero();
         if n == DVec3::ZERO || !n.is_finite() {
             // A degenerate point (a tapered end): the normal a little way inside.
-            let q = st + (DVec2::splat(0.5) - st) * 1e-3;
+            let q = st + (DVec2::splat(0.5) - st) * crate::tolerance::DEGENERATE_NORMAL_INSET;
             let sq = ParamSurface::eval(&self.surface, q);
             n = sq.dv.cross(sq.du).normalize_or_zero();
         }

@@ -95,11 +95,14 @@ pub fn normal_at(surface: &dyn ParamSurface, uv: DVec2) -> DVec3 {
 pub fn normal_from(surface: &dyn ParamSurface, uv: DVec2, sp: &SurfacePoint) -> DVec3 {
     let n = sp.du.cross(sp.dv);
     let scale = (sp.du.length() * sp.dv.length()).max(f64::MIN_POSITIVE);
-    if n.is_finite() && n.length() > 1e-9 * scale && n.length() > 0.0 {
+    if n.is_finite()
+        && n.length() > crate::tolerance::NORMAL_DEGENERATE_REL * scale
+        && n.length() > 0.0
+    {
         return n.normalize();
     }
     let centre = DVec2::splat(0.5);
-    for step in [1e-6, 1e-4, 1e-2] {
+    for step in crate::tolerance::DEGENERATE_NORMAL_STEPS {
         let q = uv + (centre - uv).normalize_or_zero() * step;
         let sp = surface.eval(clamp_uv(q));
         let n = sp.du.cross(sp.dv);
@@ -299,7 +302,7 @@ pub fn extent_sampled(surface: &dyn ParamSurface, n: usize) -> SurfaceExtent {
     }
     let at = |i: usize, j: usize| grid[j * (N + 1) + i];
     let diag = (max - min).length().max(f64::MIN_POSITIVE);
-    let tol = 1e-7 * diag;
+    let tol = crate::tolerance::SEAM_REL * diag;
     let closed_u = (0..=N).all(|j| at(0, j).distance(at(N, j)) <= tol);
     let closed_v = (0..=N).all(|i| at(i, 0).distance(at(i, N)) <= tol);
     let mut curvature: f64 = 0.0;
@@ -367,6 +370,7 @@ mod tests {
     use super::test_surfaces::*;
     use super::*;
     use crate::assert_near;
+    use crate::tolerance::{COSINE_EPS, ULP_EPS};
 
     /// Projections come back in the normalised square, through the target's inverter,
     /// certified; on a sphere, the seeded query across the seam is unwrapped next to
@@ -407,7 +411,7 @@ mod tests {
         // At the south pole `Su` vanishes: the normal is taken beside it, along the
         // axis.
         let n = normal_at(&sph, DVec2::new(0.3, 0.0));
-        assert_near!(n.z.abs(), 1.0, 1e-9);
+        assert_near!(n.z.abs(), 1.0, COSINE_EPS);
         let e = extent(&sph);
         assert!(e.closed_u && !e.closed_v);
     }
@@ -417,12 +421,12 @@ mod tests {
         assert_near!(
             wrap_uv(DVec2::new(1.25, 0.5)).to_array(),
             [0.25, 0.5],
-            1e-15
+            ULP_EPS
         );
         assert_near!(
             wrap_uv(DVec2::new(-0.25, 1.0)).to_array(),
             [0.75, 1.0],
-            1e-15
+            ULP_EPS
         );
         assert_near!(wrap_uv(DVec2::new(0.0, 1.0)).to_array(), [0.0, 1.0], 0.0);
         assert_near!(

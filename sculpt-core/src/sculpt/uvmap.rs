@@ -95,7 +95,11 @@ pub struct UvMap {
 /// Chooses the base grid size `n` so that a flat quad of parameter size `1/n` deviates
 /// from the surface by at most `tol` (chord error `h^2 |S''| / 8`), between 2 and 64.
 pub fn base_grid(extent: &SurfaceExtent, tol: f64) -> u32 {
-    let tol = if tol > 0.0 { tol } else { 1e-3 };
+    let tol = if tol > 0.0 {
+        tol
+    } else {
+        crate::tolerance::DEFAULT_CHORD_TOL
+    };
     let n = (extent.curvature / (8.0 * tol)).sqrt().ceil();
     if n.is_finite() {
         (n as u32).clamp(2, 64)

@@ -39,20 +39,25 @@ pub fn display_name(path: &Path) -> String {
     }
 }
 
-/// Reads a surface in the JSON schema of `sculpt_core::nurbs`; errors name the file,
-/// line and column.
+/// Reads a surface in the JSON schema of `sculpt_core::nurbs`; errors name the file
+/// and, for text that is not JSON or not the schema, the line and column; a surface
+/// the schema allows but that is invalid names the entry instead (knots in which
+/// direction, control point `[i][j]`).
 pub fn read_surface(path: &Path) -> Result<NurbsSurface> {
     let text = read_input(path)?;
-    serde_json::from_str::<NurbsSurface>(&text).map_err(|e| {
-        let msg = e.to_string();
-        // serde_json appends " at line L column C"; we put the position in front.
-        let msg = msg.split(" at line ").next().unwrap_or(&msg).to_string();
-        anyhow::anyhow!(
-            "{}:{}:{}: invalid surface: {msg}",
-            display_name(path),
-            e.line(),
-            e.column()
-        )
+    NurbsSurface::from_json(&text).map_err(|e| match e {
+        sculpt_core::Error::Json(json) => {
+            let msg = json.to_string();
+            // serde_json appends " at line L column C"; we put the position in front.
+            let msg = msg.split(" at line ").next().unwrap_or(&msg).to_string();
+            anyhow::anyhow!(
+                "{}:{}:{}: invalid surface: {msg}",
+                display_name(path),
+                json.line(),
+                json.column()
+            )
+        }
+        e => anyhow::anyhow!("{}: invalid surface: {e}", display_name(path)),
     })
 }
 
@@ -81,17 +86,29 @@ pub fn read_rows<const N: usize>(path: &Path, header: &str) -> Result<Vec<[f64; 
         }
         let mut row = [0.0; N];
         for (slot, field) in row.iter_mut().zip(&fields) {
-            let value: f64 = field
-                .parse()
-                .map_err(|_| anyhow::anyhow!("{name}:{}: '{field}' is not a number", i + 1))?;
+            let value: f64 = field.parse().map_err(|_| {
+                anyhow::anyhow!("{name}:{}: {} is not a number", i + 1, quote(field))
+            })?;
             if !value.is_finite() {
-                bail!("{name}:{}: '{field}' is not a finite number", i + 1);
+                bail!("{name}:{}: {} is not a finite number", i + 1, quote(field));
             }
             *slot = value;
         }
         rows.push(row);
     }
     Ok(rows)
+}
+
+/// The most characters of input an error message quotes.
+pub const QUOTE_MAX_CHARS: usize = 40;
+
+/// Input quoted for an error message: `'text'`, cut to its first [`QUOTE_MAX_CHARS`]
+/// characters (`'text...' (N bytes)`) so a 200 MB line never becomes a 200 MB message.
+pub fn quote(text: &str) -> String {
+    match text.char_indices().nth(QUOTE_MAX_CHARS) {
+        None => format!("'{text}'"),
+        Some((cut, _)) => format!("'{}...' ({} bytes)", &text[..cut], text.len()),
+    }
 }
 
 /// The output: the file `out`, or stdout.
@@ -127,6 +144,21 @@ pub fn finish_output(mut out: Box<dyn Write>, name: Option<&PathBuf>) -> Result<
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// Regression (issue 15, item 7): a 200 MB CSV line gave a 200 MB error message,
+    /// quoting the whole field. The quote is now cut to a short prefix with the size.
+    #[test]
+    fn a_huge_csv_field_is_quoted_by_a_short_prefix() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("huge.csv");
+        let field = "9".repeat(5 << 20) + "x";
+        std::fs::write(&path, format!("{field},1\n")).unwrap();
+        let msg = read_rows::<2>(&path, "u,v").unwrap_err().to_string();
+        assert!(msg.len() < 200, "{} bytes of message", msg.len());
+        assert!(msg.contains("huge.csv:1:"), "{msg}");
+        assert!(msg.contains(&format!("({} bytes)", field.len())), "{msg}");
+        assert_eq!(quote("1.5e"), "'1.5e'");
+    }
 
     fn parse<const N: usize>(text: &str) -> Result<Vec<[f64; N]>> {
         let dir = tempfile::tempdir().unwrap();

@@ -135,7 +135,10 @@ pub fn run(args: MeshArgs) -> Result<()> {
         .iter()
         .map(|t| t.surface.size())
         .fold(0.0, f64::max);
-    let welded = mesh.welded((size * 1e-7).max(1e-9) as f32);
+    let welded = mesh.welded(
+        (size * sculpt_core::tolerance::MESH_WELD_REL).max(sculpt_core::tolerance::MESH_WELD_MIN)
+            as f32,
+    );
     let bytes = format.write(&welded);
     std::fs::write(&args.out, &bytes).with_context(|| format!("writing {}", args.out.display()))?;
     let report = welded.edge_report();

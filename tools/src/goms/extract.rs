@@ -545,7 +545,8 @@ fn fitts(
         Some((_, centre, w)) => {
             let amplitude = centre.distance(start.p);
             let alpha = angle(ray(start.q), centre - start.p);
-            let width_rad = (amplitude > 1e-9).then(|| 2.0 * (w / (2.0 * amplitude)).atan());
+            let width_rad = (amplitude > sculpt_core::tolerance::AMPLITUDE_EPS)
+                .then(|| 2.0 * (w / (2.0 * amplitude)).atan());
             Fitts {
                 amplitude,
                 width: Some(w),

@@ -139,7 +139,10 @@ fn method_chart<'a, DB: DrawingBackend>(
         .x_labels(n.max(2) * 2 + 1)
         .x_label_formatter(&|x| {
             let i = x.round();
-            if (x - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < labels.len() {
+            if (x - i).abs() < sculpt_core::tolerance::AXIS_INTEGER_EPS
+                && i >= 0.0
+                && (i as usize) < labels.len()
+            {
                 labels[i as usize].clone()
             } else {
                 String::new()
@@ -176,7 +179,7 @@ fn bars<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, a: &Analysis, time: b
             }
         })
         .fold(0.0, f64::max)
-        .max(1e-9)
+        .max(sculpt_core::tolerance::PLOT_RANGE_MIN)
         * 1.15;
     let caption = if time {
         "Mean execution time per method (s)"
@@ -223,7 +226,7 @@ fn strips<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, a: &Analysis) -> Re
         .iter()
         .flat_map(|m| m.per_participant.iter().map(|p| p.2))
         .fold(0.0, f64::max)
-        .max(1e-9)
+        .max(sculpt_core::tolerance::PLOT_RANGE_MIN)
         * 1.15;
     let mut chart = method_chart(root, a, "Total time per participant (s)", top, "seconds")?;
     for (i, m) in a.methods.iter().enumerate() {
@@ -253,7 +256,7 @@ fn gantt<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, t: &Trial) -> Result
         .filter(|k| t.ops.iter().any(|o| o.op == *k))
         .collect();
     let rows = kinds.len().max(1);
-    let (t0, t1) = (t.t0, t.t1.max(t.t0 + 1e-3));
+    let (t0, t1) = (t.t0, t.t1.max(t.t0 + sculpt_core::tolerance::MIN_PLOT_SPAN));
     let mut chart = ChartBuilder::on(root)
         .caption(
             format!(
@@ -274,7 +277,10 @@ fn gantt<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, t: &Trial) -> Result
         .y_labels(rows * 2 + 1)
         .y_label_formatter(&|y| {
             let i = y.round();
-            if (y - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < names.len() {
+            if (y - i).abs() < sculpt_core::tolerance::AXIS_INTEGER_EPS
+                && i >= 0.0
+                && (i as usize) < names.len()
+            {
                 names[i as usize].to_owned()
             } else {
                 String::new()
@@ -306,13 +312,13 @@ fn speed<DB: DrawingBackend>(
     cfg: &ExtractConfig,
 ) -> Result<()> {
     root.fill(&WHITE).p()?;
-    let (t0, t1) = (t.t0, t.t1.max(t.t0 + 1e-3));
+    let (t0, t1) = (t.t0, t.t1.max(t.t0 + sculpt_core::tolerance::MIN_PLOT_SPAN));
     let vmax = t
         .speed
         .iter()
         .map(|s| s.1)
         .fold(cfg.v_on, f64::max)
-        .max(1e-6)
+        .max(sculpt_core::tolerance::PLOT_SPEED_MIN)
         * 1.1;
     let mut chart = ChartBuilder::on(root)
         .caption(

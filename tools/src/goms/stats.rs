@@ -145,10 +145,7 @@ pub fn paired(a: &[f64], b: &[f64]) -> Option<Paired> {
 mod tests {
     use super::*;
     use sculpt_core::assert_near;
-    use sculpt_core::tolerance::EXACT_EPS;
-
-    /// Printed statistical tables give 6 significant digits.
-    const TABLE_EPS: f64 = 1e-5;
+    use sculpt_core::tolerance::{EXACT_EPS, PRINTED_TABLE_EPS};
 
     #[test]
     fn describe_by_hand() {
@@ -160,8 +157,8 @@ mod tests {
         // t(0.975, 7) = 2.364624 (tables).
         let h = 2.364_624 * (32.0f64 / 7.0).sqrt() / 8f64.sqrt();
         let (lo, hi) = d.ci_t.unwrap();
-        assert_near!(lo, 5.0 - h, TABLE_EPS);
-        assert_near!(hi, 5.0 + h, TABLE_EPS);
+        assert_near!(lo, 5.0 - h, PRINTED_TABLE_EPS);
+        assert_near!(hi, 5.0 + h, PRINTED_TABLE_EPS);
         let (blo, bhi) = d.ci_boot.unwrap();
         assert!(blo < 5.0 && bhi > 5.0 && blo >= 2.0 && bhi <= 9.0);
         // Same seed, same interval.
@@ -173,8 +170,8 @@ mod tests {
 
     #[test]
     fn t_critical_values() {
-        assert_near!(t_crit95(4).unwrap(), 2.776_445, TABLE_EPS);
-        assert_near!(t_crit95(1).unwrap(), 12.706_2, 100.0 * TABLE_EPS);
+        assert_near!(t_crit95(4).unwrap(), 2.776_445, PRINTED_TABLE_EPS);
+        assert_near!(t_crit95(1).unwrap(), 12.706_2, 100.0 * PRINTED_TABLE_EPS);
         assert!(t_crit95(0).is_none());
     }
 
@@ -192,7 +189,7 @@ mod tests {
         assert_near!(p.mean_diff, 2.0, EXACT_EPS);
         assert_near!(p.t.unwrap(), 2.0 * 3f64.sqrt(), EXACT_EPS);
         assert_eq!(p.df, 2);
-        assert_near!(p.p.unwrap(), 0.074_180, TABLE_EPS);
+        assert_near!(p.p.unwrap(), 0.074_180, PRINTED_TABLE_EPS);
         // Constant differences: no t.
         let c = paired(&[2.0, 3.0], &[1.0, 2.0]).unwrap();
         assert_eq!((c.t, c.p), (None, None));

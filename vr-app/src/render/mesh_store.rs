@@ -13,8 +13,7 @@ use bytemuck::{Pod, Zeroable};
 use sculpt_core::mesh::{MeshSink, MeshVertex, PatchKey};
 use wgpu::util::DeviceExt;
 
-/// Patches whose keys agree above these low bits share a GPU batch.
-pub const BATCH_SHIFT: u32 = 6;
+pub use crate::scene::BATCH_SHIFT;
 
 fn batch_of(key: PatchKey) -> u64 {
     key >> BATCH_SHIFT
@@ -100,6 +99,12 @@ impl GpuMeshStore {
     /// The uploaded batches, for drawing (call [`Self::flush`] first).
     pub fn batches(&self) -> impl Iterator<Item = &GpuPatch> {
         self.batches.values()
+    }
+
+    /// The uploaded batches with their batch numbers (a patch key shifted right by
+    /// [`BATCH_SHIFT`]), in key order.
+    pub fn keyed_batches(&self) -> impl Iterator<Item = (u64, &GpuPatch)> {
+        self.batches.iter().map(|(&k, p)| (k, p))
     }
 
     /// The keys of the patches held.

@@ -1,6 +1,19 @@
 //! The wgpu renderer: shaded meshes, optional wireframe, wand cursor lines and a HUD,
 //! drawn for each eye and composed into the outputs of the chosen [`OutputMode`].
 //!
+//! **Picture.** Each eye is drawn multisampled (4x where the adapter supports it for
+//! every attachment, else 1: [`Renderer::sample_count`]) into an sRGB colour image, so
+//! lighting is computed in linear light and encoded once. The lighting is fixed to the
+//! viewer: a key light from the upper left, a weak rim light and a sky/ground
+//! hemisphere fill; the surface takes one of the [`Material`]s. A second image holds
+//! each pixel's view depth and surface class; the composition pass darkens cavities
+//! (grooves) by unsharp masking that depth (Luft, Colditz and Deussen 2006), draws a
+//! dark silhouette outline where a surface lies in front of a deeper one or of the
+//! background, an amber one around the selected target when there are several
+//! ([`SurfaceClasses`]), and encodes sRGB by hand for non-sRGB outputs (the
+//! `Rgba8Unorm` offscreen images that become PNGs). The wand cursor is drawn twice: in
+//! front of the surfaces as it is, and behind them faded, so it never disappears.
+//!
 //! Geometry arrives only through [`MeshSink`](sculpt_core::mesh::MeshSink): the
 //! [`GpuMeshStore`]s (the document at each detail, and the live preview) pack patches
 //! into batches of neighbouring patches, so an edit re-uploads only the batches it
@@ -23,6 +36,7 @@
 
 pub mod gpu;
 pub mod hud;
+pub mod material;
 pub mod mesh_store;
 
 use std::time::{Duration, Instant};
@@ -34,10 +48,14 @@ pub use mesh_store::{GpuMeshStore, GpuVertex, UploadStats};
 use sculpt_core::sculpt::tessellate::Detail;
 
 pub use crate::output::OutputMode;
-pub use crate::scene::{FrameInput, LineVertex, MeshSinks, MeshSync, Views, cursor_lines};
+pub use crate::scene::{
+    FrameInput, LineVertex, MeshSinks, MeshSync, SurfaceClasses, Views, cursor_lines,
+};
 
 use crate::error::{VrError, VrResult};
 use hud::HudVertex;
+pub use material::{Material, SurfaceClass};
+use material::{MaterialUniform, srgb_to_linear};
 
 /// What one output shows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -68,9 +86,10 @@ pub struct OutputTarget<'a> {
 /// The outputs of an offscreen frame.
 #[derive(Debug, Clone)]
 pub struct OffscreenFrame {
-    /// The left eye's image (the head-centre view in mono).
+    /// The left eye's image as a projector would show it, without the HUD (in mono,
+    /// the composite: the head-centre view).
     pub left: image::RgbaImage,
-    /// The right eye's image (the head-centre view in mono).
+    /// The right eye's image (in mono, the composite).
     pub right: image::RgbaImage,
     /// What the display shows: the mode's composition; for `dual`, the two projector
     /// outputs side by side.
@@ -93,14 +112,8 @@ pub struct FrameStats {
 #[repr(C)]
 struct CameraUniform {
     clip_from_display: [[f32; 4]; 4],
+    view_from_display: [[f32; 4]; 4],
     eye: [f32; 4],
-}
-
-#[derive(Debug, Clone, Copy, Pod, Zeroable)]
-#[repr(C)]
-struct MaterialUniform {
-    color: [f32; 4],
-    wire_color: [f32; 4],
 }
 
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
@@ -110,18 +123,51 @@ struct ComposeUniform {
     half_width: u32,
     width: u32,
     height: u32,
+    encode_srgb: u32,
+    effects: u32,
+    focal_px: f32,
+    pad: f32,
 }
 
-const EYE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+/// The eye images' colour format: sRGB, so the shaders write linear light.
+pub const EYE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+/// The geometry image (view depth as a half-float pair, coverage, surface class).
+const GEOM_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-/// Most outputs one frame may have (two projectors).
-const MAX_OUTPUTS: usize = 2;
+/// The offscreen output format (read back into PNGs, which are sRGB-encoded).
+const OFFSCREEN_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+/// Most outputs one frame may have (two projectors, or an offscreen composition and
+/// both eyes).
+const MAX_OUTPUTS: usize = 4;
+/// The multisample count asked for.
+pub const WANTED_SAMPLES: u32 = 4;
+
+/// The largest sample count up to `want` (4, 2 or 1) that `adapter` supports for
+/// every eye attachment, with resolve for the colour images.
+pub fn supported_samples(adapter: &wgpu::Adapter, want: u32) -> u32 {
+    [4, 2]
+        .into_iter()
+        .filter(|&n| n <= want)
+        .find(|&n| {
+            [EYE_FORMAT, GEOM_FORMAT, DEPTH_FORMAT].iter().all(|&f| {
+                let flags = adapter.get_texture_format_features(f).flags;
+                flags.sample_count_supported(n)
+                    && (f == DEPTH_FORMAT
+                        || flags.contains(wgpu::TextureFormatFeatureFlags::MULTISAMPLE_RESOLVE))
+            })
+        })
+        .unwrap_or(1)
+}
 
 #[derive(Debug)]
 struct EyeTargets {
     size: (u32, u32),
-    color: [wgpu::Texture; 2],
+    /// Resolved (single-sample) colour, read by the composition.
     color_views: [wgpu::TextureView; 2],
+    /// Multisampled colour and geometry (absent at one sample: drawn directly).
+    msaa_color_views: Option<[wgpu::TextureView; 2]>,
+    msaa_geom_views: Option<[wgpu::TextureView; 2]>,
+    geom_views: [wgpu::TextureView; 2],
     depth_views: [wgpu::TextureView; 2],
     compose_bg: wgpu::BindGroup,
 }
@@ -154,18 +200,26 @@ pub struct Renderer {
     pub wireframe: bool,
     /// Swap the eyes (for a projector pair wired the other way round).
     pub swap_eyes: bool,
-    /// Background colour.
+    /// Background colour (sRGB-encoded display values).
     pub background: [f64; 3],
+    /// Cavity shading and silhouette outlines (on by default).
+    pub effects: bool,
+    /// How targets are told apart.
+    pub classes: SurfaceClasses,
+    material: Material,
+    samples: u32,
+    output_srgb: bool,
     mesh_pipeline: wgpu::RenderPipeline,
     wire_pipeline: wgpu::RenderPipeline,
     line_pipeline: wgpu::RenderPipeline,
+    line_hidden_pipeline: wgpu::RenderPipeline,
     compose_pipeline: wgpu::RenderPipeline,
     hud_pipeline: wgpu::RenderPipeline,
     compose_bgl: wgpu::BindGroupLayout,
     camera_ubufs: [wgpu::Buffer; 2],
     camera_bgs: [wgpu::BindGroup; 2],
-    target_material: wgpu::BindGroup,
-    stroke_material: wgpu::BindGroup,
+    material_ubufs: Vec<wgpu::Buffer>,
+    material_bgs: Vec<wgpu::BindGroup>,
     line_vbuf: Option<(wgpu::Buffer, u64)>,
     eyes: Option<EyeTargets>,
     slots: Vec<OutputSlot>,
@@ -198,6 +252,19 @@ fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
+/// How a pipeline uses the depth buffer.
+#[derive(Clone, Copy, PartialEq)]
+enum DepthUse {
+    /// No depth attachment (composition, HUD).
+    None,
+    /// Test `LessEqual` and write (surfaces).
+    Write,
+    /// Test `LessEqual`, no write (overlays in front).
+    Front,
+    /// Test `Greater`, no write (overlays behind a surface).
+    Behind,
+}
+
 struct PipelineSpec<'a> {
     label: &'a str,
     layout: &'a wgpu::PipelineLayout,
@@ -205,15 +272,26 @@ struct PipelineSpec<'a> {
     fs: &'a str,
     buffers: &'a [Option<wgpu::VertexBufferLayout<'a>>],
     topology: wgpu::PrimitiveTopology,
-    format: wgpu::TextureFormat,
-    depth: bool,
+    /// `None`: an eye pass (colour and geometry images, multisampled).
+    format: Option<wgpu::TextureFormat>,
+    depth: DepthUse,
     blend: bool,
+    /// In an eye pass: write all of the geometry image (surfaces), or only its class
+    /// channel (overlays).
+    geometry: bool,
 }
 
 impl Renderer {
     /// A renderer on `gpu` whose outputs have `output_format` (the window surface's
-    /// format, or `Rgba8Unorm` offscreen).
+    /// format, or `Rgba8Unorm` offscreen), multisampled as far as the adapter allows,
+    /// in the default material.
     pub fn new(gpu: &Gpu, output_format: wgpu::TextureFormat) -> Self {
+        Self::with_samples(gpu, output_format, WANTED_SAMPLES)
+    }
+
+    /// The same with at most `samples` samples per pixel (1 turns multisampling off).
+    pub fn with_samples(gpu: &Gpu, output_format: wgpu::TextureFormat, samples: u32) -> Self {
+        let samples = supported_samples(&gpu.adapter, samples);
         let device = gpu.device.clone();
         let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("wandsculpt shaders"),
@@ -234,11 +312,13 @@ impl Renderer {
                 texture_entry(0),
                 texture_entry(1),
                 uniform_entry(2, wgpu::ShaderStages::FRAGMENT),
+                texture_entry(3),
+                texture_entry(4),
             ],
         });
         let hud_bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("hud"),
-            entries: &[uniform_entry(0, wgpu::ShaderStages::VERTEX)],
+            entries: &[uniform_entry(0, vf)],
         });
         let layout = |label: &str, bgls: &[Option<&wgpu::BindGroupLayout>]| {
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -262,6 +342,34 @@ impl Renderer {
             attributes: &wgpu::vertex_attr_array![0 => Float32x2, 1 => Float32x4],
         })];
         let make = |s: PipelineSpec<'_>| {
+            let blend = s.blend.then_some(wgpu::BlendState::ALPHA_BLENDING);
+            let targets: Vec<Option<wgpu::ColorTargetState>> = match s.format {
+                Some(format) => vec![Some(wgpu::ColorTargetState {
+                    format,
+                    blend,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+                None => vec![
+                    Some(wgpu::ColorTargetState {
+                        format: EYE_FORMAT,
+                        blend,
+                        write_mask: wgpu::ColorWrites::ALL,
+                    }),
+                    Some(wgpu::ColorTargetState {
+                        format: GEOM_FORMAT,
+                        blend: None,
+                        write_mask: if s.geometry {
+                            wgpu::ColorWrites::ALL
+                        } else if s.blend {
+                            // Faded overlays behind a surface leave it alone.
+                            wgpu::ColorWrites::empty()
+                        } else {
+                            wgpu::ColorWrites::ALPHA
+                        },
+                    }),
+                ],
+            };
+            let eye_pass = s.format.is_none();
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(s.label),
                 layout: Some(s.layout),
@@ -276,23 +384,26 @@ impl Renderer {
                     cull_mode: None,
                     ..Default::default()
                 },
-                depth_stencil: s.depth.then(|| wgpu::DepthStencilState {
+                depth_stencil: (s.depth != DepthUse::None).then(|| wgpu::DepthStencilState {
                     format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::LessEqual),
+                    depth_write_enabled: Some(s.depth == DepthUse::Write),
+                    depth_compare: Some(if s.depth == DepthUse::Behind {
+                        wgpu::CompareFunction::Greater
+                    } else {
+                        wgpu::CompareFunction::LessEqual
+                    }),
                     stencil: Default::default(),
                     bias: Default::default(),
                 }),
-                multisample: Default::default(),
+                multisample: wgpu::MultisampleState {
+                    count: if eye_pass { samples } else { 1 },
+                    ..Default::default()
+                },
                 fragment: Some(wgpu::FragmentState {
                     module: &shader,
                     entry_point: Some(s.fs),
                     compilation_options: Default::default(),
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format: s.format,
-                        blend: s.blend.then_some(wgpu::BlendState::ALPHA_BLENDING),
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
+                    targets: &targets,
                 }),
                 multiview_mask: None,
                 cache: None,
@@ -307,9 +418,10 @@ impl Renderer {
             fs: "fs_mesh",
             buffers: &[Some(GpuVertex::LAYOUT)],
             topology: tri,
-            format: EYE_FORMAT,
-            depth: true,
+            format: None,
+            depth: DepthUse::Write,
             blend: false,
+            geometry: true,
         });
         let wire_pipeline = make(PipelineSpec {
             label: "wireframe",
@@ -318,9 +430,10 @@ impl Renderer {
             fs: "fs_wire",
             buffers: &[Some(GpuVertex::LAYOUT)],
             topology: lines,
-            format: EYE_FORMAT,
-            depth: true,
+            format: None,
+            depth: DepthUse::Write,
             blend: false,
+            geometry: false,
         });
         let line_pipeline = make(PipelineSpec {
             label: "overlay lines",
@@ -329,9 +442,22 @@ impl Renderer {
             fs: "fs_line",
             buffers: &line_buffers,
             topology: lines,
-            format: EYE_FORMAT,
-            depth: true,
+            format: None,
+            depth: DepthUse::Front,
             blend: false,
+            geometry: false,
+        });
+        let line_hidden_pipeline = make(PipelineSpec {
+            label: "overlay lines behind surfaces",
+            layout: &line_layout,
+            vs: "vs_line",
+            fs: "fs_line_hidden",
+            buffers: &line_buffers,
+            topology: lines,
+            format: None,
+            depth: DepthUse::Behind,
+            blend: true,
+            geometry: false,
         });
         let compose_pipeline = make(PipelineSpec {
             label: "compose",
@@ -340,9 +466,10 @@ impl Renderer {
             fs: "fs_compose",
             buffers: &[],
             topology: tri,
-            format: output_format,
-            depth: false,
+            format: Some(output_format),
+            depth: DepthUse::None,
             blend: false,
+            geometry: false,
         });
         let hud_pipeline = make(PipelineSpec {
             label: "hud",
@@ -351,9 +478,10 @@ impl Renderer {
             fs: "fs_hud",
             buffers: &hud_buffers,
             topology: tri,
-            format: output_format,
-            depth: false,
+            format: Some(output_format),
+            depth: DepthUse::None,
             blend: true,
+            geometry: false,
         });
         let ubuf = |label: &str, size: usize| {
             device.create_buffer(&wgpu::BufferDescriptor {
@@ -381,20 +509,14 @@ impl Renderer {
             bind("camera 0", &camera_bgl, &camera_ubufs[0]),
             bind("camera 1", &camera_bgl, &camera_ubufs[1]),
         ];
-        let material = |label: &str, color: [f32; 4]| {
-            let buf = ubuf(label, std::mem::size_of::<MaterialUniform>());
-            gpu.queue.write_buffer(
-                &buf,
-                0,
-                bytemuck::bytes_of(&MaterialUniform {
-                    color,
-                    wire_color: [0.05, 0.08, 0.12, 1.0],
-                }),
-            );
-            bind(label, &material_bgl, &buf)
-        };
-        let target_material = material("target material", [0.78, 0.74, 0.66, 1.0]);
-        let stroke_material = material("stroke material", [0.55, 0.68, 0.82, 1.0]);
+        let material_ubufs: Vec<wgpu::Buffer> = SurfaceClass::ALL
+            .iter()
+            .map(|_| ubuf("material", std::mem::size_of::<MaterialUniform>()))
+            .collect();
+        let material_bgs = material_ubufs
+            .iter()
+            .map(|b| bind("material", &material_bgl, b))
+            .collect();
         let slots = (0..MAX_OUTPUTS)
             .map(|_| {
                 let hud_ubuf = ubuf("hud", 16);
@@ -406,30 +528,57 @@ impl Renderer {
                 }
             })
             .collect();
-        Self {
+        let mut renderer = Self {
             targets: GpuMeshStore::new(&device),
             interactive: GpuMeshStore::new(&device),
             shown: Detail::Final,
             preview: GpuMeshStore::new(&device),
             wireframe: false,
             swap_eyes: false,
-            background: [0.06, 0.07, 0.09],
+            background: [0.2, 0.22, 0.26],
+            effects: true,
+            classes: SurfaceClasses::default(),
+            material: Material::default(),
+            samples,
+            output_srgb: output_format.is_srgb(),
             device,
             queue: gpu.queue.clone(),
             mesh_pipeline,
             wire_pipeline,
             line_pipeline,
+            line_hidden_pipeline,
             compose_pipeline,
             hud_pipeline,
             compose_bgl,
             camera_ubufs,
             camera_bgs,
-            target_material,
-            stroke_material,
+            material_ubufs,
+            material_bgs,
             line_vbuf: None,
             eyes: None,
             slots,
             last: FrameStats::default(),
+        };
+        renderer.set_material(Material::default());
+        renderer
+    }
+
+    /// Samples per pixel of the eye images (4 where the adapter allows, else 1).
+    pub fn sample_count(&self) -> u32 {
+        self.samples
+    }
+
+    /// The surface material.
+    pub fn material(&self) -> Material {
+        self.material
+    }
+
+    /// Sets the surface material.
+    pub fn set_material(&mut self, material: Material) {
+        self.material = material;
+        for (class, buf) in SurfaceClass::ALL.iter().zip(&self.material_ubufs) {
+            self.queue
+                .write_buffer(buf, 0, bytemuck::bytes_of(&material.uniform(*class)));
         }
     }
 
@@ -482,7 +631,7 @@ impl Renderer {
         if self.eyes.as_ref().is_some_and(|e| e.size == size) {
             return;
         }
-        let tex = |label: &str, format, usage| {
+        let tex = |label: &str, format, usage, sample_count| {
             self.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
                 size: wgpu::Extent3d {
@@ -491,61 +640,76 @@ impl Renderer {
                     depth_or_array_layers: 1,
                 },
                 mip_level_count: 1,
-                sample_count: 1,
+                sample_count,
                 dimension: wgpu::TextureDimension::D2,
                 format,
                 usage,
                 view_formats: &[],
             })
         };
-        let color_usage = wgpu::TextureUsages::RENDER_ATTACHMENT
-            | wgpu::TextureUsages::TEXTURE_BINDING
-            | wgpu::TextureUsages::COPY_SRC;
-        let color = [
-            tex("eye 0", EYE_FORMAT, color_usage),
-            tex("eye 1", EYE_FORMAT, color_usage),
-        ];
-        let depth = [
-            tex(
-                "depth 0",
-                DEPTH_FORMAT,
-                wgpu::TextureUsages::RENDER_ATTACHMENT,
-            ),
-            tex(
-                "depth 1",
-                DEPTH_FORMAT,
-                wgpu::TextureUsages::RENDER_ATTACHMENT,
-            ),
-        ];
-        let color_views = [0, 1].map(|i| color[i].create_view(&Default::default()));
-        let depth_views = [0, 1].map(|i| depth[i].create_view(&Default::default()));
-        let compose_bg = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("compose"),
-            layout: &self.compose_bgl,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(&color_views[0]),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&color_views[1]),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: self.slots[0].compose_ubuf.as_entire_binding(),
-                },
-            ],
-        });
+        let view = |t: &wgpu::Texture| t.create_view(&Default::default());
+        let attach = wgpu::TextureUsages::RENDER_ATTACHMENT;
+        let resolved = attach | wgpu::TextureUsages::TEXTURE_BINDING;
+        let n = self.samples;
+        let color = [0, 1].map(|_| tex("eye", EYE_FORMAT, resolved, 1));
+        let geom = [0, 1].map(|_| tex("eye geometry", GEOM_FORMAT, resolved, 1));
+        let depth = [0, 1].map(|_| tex("eye depth", DEPTH_FORMAT, attach, n));
+        let (msaa_color_views, msaa_geom_views) = if n > 1 {
+            (
+                Some([0, 1].map(|_| view(&tex("eye msaa", EYE_FORMAT, attach, n)))),
+                Some([0, 1].map(|_| view(&tex("eye geometry msaa", GEOM_FORMAT, attach, n)))),
+            )
+        } else {
+            (None, None)
+        };
+        let color_views = [0, 1].map(|i| view(&color[i]));
+        let geom_views = [0, 1].map(|i| view(&geom[i]));
+        let depth_views = [0, 1].map(|i| view(&depth[i]));
+        let compose_bg = Self::compose_bind_group(
+            &self.device,
+            &self.compose_bgl,
+            [&color_views[0], &color_views[1]],
+            [&geom_views[0], &geom_views[1]],
+            &self.slots[0].compose_ubuf,
+        );
         // Other output slots have their own compose uniforms; their bind groups are cheap
         // and are built per frame in `compose_group`.
         self.eyes = Some(EyeTargets {
             size,
-            color,
             color_views,
+            msaa_color_views,
+            msaa_geom_views,
+            geom_views,
             depth_views,
             compose_bg,
         });
+    }
+
+    fn compose_bind_group(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        color: [&wgpu::TextureView; 2],
+        geom: [&wgpu::TextureView; 2],
+        ubuf: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        let tv = |binding, v| wgpu::BindGroupEntry {
+            binding,
+            resource: wgpu::BindingResource::TextureView(v),
+        };
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("compose"),
+            layout,
+            entries: &[
+                tv(0, color[0]),
+                tv(1, color[1]),
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: ubuf.as_entire_binding(),
+                },
+                tv(3, geom[0]),
+                tv(4, geom[1]),
+            ],
+        })
     }
 
     /// The compose bind group of output `slot`; `second_first` puts eye 1 in the
@@ -553,24 +717,13 @@ impl Renderer {
     fn compose_group(&self, slot: usize, second_first: bool) -> Option<wgpu::BindGroup> {
         let eyes = self.eyes.as_ref()?;
         let (a, b) = if second_first { (1, 0) } else { (0, 1) };
-        Some(self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("compose"),
-            layout: &self.compose_bgl,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(&eyes.color_views[a]),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&eyes.color_views[b]),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: self.slots[slot].compose_ubuf.as_entire_binding(),
-                },
-            ],
-        }))
+        Some(Self::compose_bind_group(
+            &self.device,
+            &self.compose_bgl,
+            [&eyes.color_views[a], &eyes.color_views[b]],
+            [&eyes.geom_views[a], &eyes.geom_views[b]],
+            &self.slots[slot].compose_ubuf,
+        ))
     }
 
     /// An offscreen output texture (`Rgba8Unorm`) that can be rendered to and copied.
@@ -585,7 +738,7 @@ impl Renderer {
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
-            format: EYE_FORMAT,
+            format: OFFSCREEN_FORMAT,
             usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
             view_formats: &[],
         })
@@ -618,9 +771,19 @@ impl Renderer {
         }
     }
 
-    /// Renders one frame into `outputs` (at most two) and submits it. The eye images
+    /// Renders one frame into `outputs` (at most four) and submits it. The eye images
     /// are sized for the first output (half its width for side by side).
     pub fn render(&mut self, input: &FrameInput<'_>, outputs: &[OutputTarget<'_>]) -> FrameStats {
+        self.render_outputs(input, outputs, outputs.len())
+    }
+
+    /// [`Self::render`] with the HUD on the first `hud_outputs` outputs only.
+    fn render_outputs(
+        &mut self,
+        input: &FrameInput<'_>,
+        outputs: &[OutputTarget<'_>],
+        hud_outputs: usize,
+    ) -> FrameStats {
         let start = Instant::now();
         for store in [&mut self.targets, &mut self.interactive, &mut self.preview] {
             store.flush();
@@ -648,6 +811,7 @@ impl Renderer {
         for (i, cam) in cams.iter().enumerate() {
             let u = CameraUniform {
                 clip_from_display: cam.clip_from_display().as_mat4().to_cols_array_2d(),
+                view_from_display: cam.view_from_display.as_mat4().to_cols_array_2d(),
                 eye: cam.eye.as_vec3().extend(1.0).to_array(),
             };
             self.queue
@@ -668,24 +832,51 @@ impl Renderer {
             });
         let eye_count = if mono { 1 } else { 2 };
         let eyes = self.eyes.as_ref().expect("eye targets were just created");
-        let bg = self.background;
+        let bg = self.background.map(srgb_to_linear);
+        // Pixels per metre at one metre of view depth, for the cavity radius.
+        let focal_px = (cams[0].clip_from_view.y_axis.y * f64::from(eye_size.1) * 0.5) as f32;
         for eye in 0..eye_count {
+            // Multisampled images resolve into the single-sample ones.
+            let (color_view, color_resolve) = match &eyes.msaa_color_views {
+                Some(m) => (&m[eye], Some(&eyes.color_views[eye])),
+                None => (&eyes.color_views[eye], None),
+            };
+            let (geom_view, geom_resolve) = match &eyes.msaa_geom_views {
+                Some(m) => (&m[eye], Some(&eyes.geom_views[eye])),
+                None => (&eyes.geom_views[eye], None),
+            };
+            let store = if color_resolve.is_some() {
+                wgpu::StoreOp::Discard
+            } else {
+                wgpu::StoreOp::Store
+            };
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("eye"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &eyes.color_views[eye],
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color {
-                            r: bg[0],
-                            g: bg[1],
-                            b: bg[2],
-                            a: 1.0,
-                        }),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
+                color_attachments: &[
+                    Some(wgpu::RenderPassColorAttachment {
+                        view: color_view,
+                        depth_slice: None,
+                        resolve_target: color_resolve,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(wgpu::Color {
+                                r: bg[0],
+                                g: bg[1],
+                                b: bg[2],
+                                a: 1.0,
+                            }),
+                            store,
+                        },
+                    }),
+                    Some(wgpu::RenderPassColorAttachment {
+                        view: geom_view,
+                        depth_slice: None,
+                        resolve_target: geom_resolve,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                            store,
+                        },
+                    }),
+                ],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                     view: &eyes.depth_views[eye],
                     depth_ops: Some(wgpu::Operations {
@@ -699,19 +890,28 @@ impl Renderer {
                 multiview_mask: None,
             });
             pass.set_bind_group(0, &self.camera_bgs[eye], &[]);
-            for (store, material) in [
-                (self.document_store(), &self.target_material),
-                (&self.preview, &self.stroke_material),
-            ] {
+            let preview_class = |_: u64| SurfaceClass::Preview;
+            let document_class = |b: u64| self.classes.of_batch(b);
+            let stores: [(&GpuMeshStore, &dyn Fn(u64) -> SurfaceClass); 2] = [
+                (self.document_store(), &document_class),
+                (&self.preview, &preview_class),
+            ];
+            for (store, class_of) in stores {
                 pass.set_pipeline(&self.mesh_pipeline);
-                pass.set_bind_group(1, material, &[]);
-                for p in store.batches() {
+                let mut bound = None;
+                for (batch, p) in store.keyed_batches() {
+                    let class = class_of(batch);
+                    if bound != Some(class) {
+                        pass.set_bind_group(1, &self.material_bgs[class.index()], &[]);
+                        bound = Some(class);
+                    }
                     pass.set_vertex_buffer(0, p.vertices.slice(..));
                     pass.set_index_buffer(p.triangles.slice(..), wgpu::IndexFormat::Uint32);
                     pass.draw_indexed(0..p.triangle_index_count, 0, 0..1);
                 }
                 if self.wireframe {
                     pass.set_pipeline(&self.wire_pipeline);
+                    pass.set_bind_group(1, &self.material_bgs[0], &[]);
                     for p in store.batches() {
                         pass.set_vertex_buffer(0, p.vertices.slice(..));
                         pass.set_index_buffer(p.edges.slice(..), wgpu::IndexFormat::Uint32);
@@ -720,8 +920,11 @@ impl Renderer {
                 }
             }
             if let (Some((buf, _)), true) = (&self.line_vbuf, line_count > 0) {
-                pass.set_pipeline(&self.line_pipeline);
+                // The cursor behind a surface, faded, then in front as it is.
                 pass.set_vertex_buffer(0, buf.slice(..));
+                pass.set_pipeline(&self.line_hidden_pipeline);
+                pass.draw(0..line_count, 0..1);
+                pass.set_pipeline(&self.line_pipeline);
                 pass.draw(0..line_count, 0..1);
             }
         }
@@ -739,11 +942,17 @@ impl Renderer {
                 half_width: eye_size.0,
                 width: w,
                 height: h,
+                encode_srgb: u32::from(!self.output_srgb),
+                effects: u32::from(self.effects),
+                focal_px,
+                pad: 0.0,
             };
             let mut hud_vertices = Vec::new();
-            hud::hud_panel(input.hud, 0.0, h, &mut hud_vertices);
-            if out.content == OutputContent::SideBySide {
-                hud::hud_panel(input.hud, eye_size.0 as f32, h, &mut hud_vertices);
+            if slot_index < hud_outputs {
+                hud::hud_panel(input.hud, 0.0, h, &mut hud_vertices);
+                if out.content == OutputContent::SideBySide {
+                    hud::hud_panel(input.hud, eye_size.0 as f32, h, &mut hud_vertices);
+                }
             }
             let slot = &mut self.slots[slot_index];
             self.queue
@@ -751,7 +960,12 @@ impl Renderer {
             self.queue.write_buffer(
                 &slot.hud_ubuf,
                 0,
-                bytemuck::cast_slice(&[w as f32, h as f32, 0.0, 0.0]),
+                bytemuck::cast_slice(&[
+                    w as f32,
+                    h as f32,
+                    if self.output_srgb { 0.0 } else { 1.0 },
+                    0.0,
+                ]),
             );
             Self::write_buffer_growing(
                 &self.device,
@@ -832,9 +1046,23 @@ impl Renderer {
             OutputMode::Anaglyph => &[OutputContent::Anaglyph],
             OutputMode::Mono => &[OutputContent::Mono],
         };
-        let textures: Vec<wgpu::Texture> = contents
+        // Both eyes alone (no HUD) besides the mode's outputs, except in mono.
+        let eye_size = match mode {
+            OutputMode::SideBySide => ((width / 2).max(1), height),
+            _ => (width, height),
+        };
+        let eyes: &[OutputContent] = match mode {
+            OutputMode::Mono => &[],
+            _ => &[OutputContent::LeftEye, OutputContent::RightEye],
+        };
+        let sized: Vec<(OutputContent, (u32, u32))> = contents
             .iter()
-            .map(|_| self.output_texture(width, height))
+            .map(|&c| (c, (width, height)))
+            .chain(eyes.iter().map(|&c| (c, eye_size)))
+            .collect();
+        let textures: Vec<wgpu::Texture> = sized
+            .iter()
+            .map(|&(_, (w, h))| self.output_texture(w, h))
             .collect();
         let views: Vec<wgpu::TextureView> = textures
             .iter()
@@ -842,29 +1070,19 @@ impl Renderer {
             .collect();
         let targets: Vec<OutputTarget<'_>> = views
             .iter()
-            .zip(contents)
-            .map(|(view, &content)| OutputTarget {
+            .zip(&sized)
+            .map(|(view, &(content, size))| OutputTarget {
                 view,
-                size: (width, height),
+                size,
                 content,
             })
             .collect();
-        self.render(input, &targets);
+        self.render_outputs(input, &targets, contents.len());
         let mut outs = Vec::new();
         for t in &textures {
             outs.push(self.read_texture(t)?);
         }
-        let eyes = self.eyes.as_ref().expect("render created the eye targets");
-        let (left, right) = match mode {
-            OutputMode::Mono => {
-                let c = self.read_texture(&eyes.color[0])?;
-                (c.clone(), c)
-            }
-            _ => (
-                self.read_texture(&eyes.color[0])?,
-                self.read_texture(&eyes.color[1])?,
-            ),
-        };
+        let mut eye_images = outs.split_off(contents.len());
         let composite = if outs.len() == 2 {
             let mut wide = image::RgbaImage::new(width * 2, height);
             image::imageops::replace(&mut wide, &outs[0], 0, 0);
@@ -872,6 +1090,10 @@ impl Renderer {
             wide
         } else {
             outs.swap_remove(0)
+        };
+        let (left, right) = match (eye_images.pop(), eye_images.pop()) {
+            (Some(right), Some(left)) => (left, right),
+            _ => (composite.clone(), composite.clone()),
         };
         Ok(OffscreenFrame {
             left,

@@ -1,13 +1,23 @@
 // Wandsculpt scene and composition shaders.
+//
+// The eye passes write two images: the lit colour (an sRGB target: the shaders work
+// in linear light and the hardware encodes) and a geometry image for the composition
+// (view depth split into a half-float pair, coverage, surface class). Both are
+// multisampled and resolved. The composition pass adds the cavity term and the
+// silhouette outlines from the geometry image and encodes sRGB by hand when the
+// output is not an sRGB format.
 
 struct Camera {
     clip_from_display: mat4x4<f32>,
+    view_from_display: mat4x4<f32>,
     eye: vec4<f32>,
 };
 
 struct Material {
-    color: vec4<f32>,
+    albedo: vec4<f32>,
     wire_color: vec4<f32>,
+    // x specular strength, y exponent, z pattern (0 none, 1 speckle, 2 rings), w class.
+    params: vec4<f32>,
 };
 
 @group(0) @binding(0) var<uniform> cam: Camera;
@@ -25,6 +35,11 @@ struct MeshOut {
     @location(1) normal: vec3<f32>,
 };
 
+struct SceneOut {
+    @location(0) color: vec4<f32>,
+    @location(1) geom: vec4<f32>,
+};
+
 @vertex
 fn vs_mesh(v: MeshIn) -> MeshOut {
     var o: MeshOut;
@@ -34,8 +49,50 @@ fn vs_mesh(v: MeshIn) -> MeshOut {
     return o;
 }
 
+fn hash3(p: vec3<f32>) -> f32 {
+    let q = fract(p * vec3<f32>(0.1031, 0.1030, 0.0973));
+    let r = q + dot(q, q.yzx + 33.33);
+    return fract((r.x + r.y) * r.z);
+}
+
+// Value noise on the integer lattice, smoothly interpolated.
+fn noise3(p: vec3<f32>) -> f32 {
+    let i = floor(p);
+    let f = fract(p);
+    let u = f * f * (3.0 - 2.0 * f);
+    let a = mix(hash3(i), hash3(i + vec3<f32>(1.0, 0.0, 0.0)), u.x);
+    let b = mix(hash3(i + vec3<f32>(0.0, 1.0, 0.0)), hash3(i + vec3<f32>(1.0, 1.0, 0.0)), u.x);
+    let c = mix(hash3(i + vec3<f32>(0.0, 0.0, 1.0)), hash3(i + vec3<f32>(1.0, 0.0, 1.0)), u.x);
+    let d = mix(hash3(i + vec3<f32>(0.0, 1.0, 1.0)), hash3(i + vec3<f32>(1.0, 1.0, 1.0)), u.x);
+    return mix(mix(a, b, u.y), mix(c, d, u.y), u.z);
+}
+
+fn albedo_at(p: vec3<f32>) -> vec3<f32> {
+    let base = mat.albedo.rgb;
+    if (mat.params.z > 1.5) {
+        // Wood: growth rings around a vertical axis, disturbed by noise.
+        let r = length(p.xz - vec2<f32>(0.13, -0.4)) * 90.0 + noise3(p * 40.0) * 2.5;
+        let ring = smoothstep(0.0, 0.35, fract(r)) * (1.0 - smoothstep(0.55, 1.0, fract(r)));
+        return base * (0.72 + 0.28 * ring);
+    }
+    if (mat.params.z > 0.5) {
+        // Stone: a fine speckle over a slow mottle.
+        let s = noise3(p * 900.0) * 0.6 + noise3(p * 60.0) * 0.4;
+        return base * (0.82 + 0.3 * s);
+    }
+    return base;
+}
+
+// The view depth (metres along the view direction) as a pair of half floats whose sum
+// is exact to float precision; resolve averages both.
+fn geometry(p_in_display: vec3<f32>, class_id: f32) -> vec4<f32> {
+    let d = -(cam.view_from_display * vec4<f32>(p_in_display, 1.0)).z;
+    let hi = unpack2x16float(pack2x16float(vec2<f32>(d, 0.0))).x;
+    return vec4<f32>(hi, d - hi, 1.0, class_id);
+}
+
 @fragment
-fn fs_mesh(f: MeshOut) -> @location(0) vec4<f32> {
+fn fs_mesh(f: MeshOut) -> SceneOut {
     let to_eye = normalize(cam.eye.xyz - f.p_in_display);
     var n = f.normal;
     if (dot(n, n) < 1e-12) {
@@ -46,16 +103,24 @@ fn fs_mesh(f: MeshOut) -> @location(0) vec4<f32> {
     if (dot(n, to_eye) < 0.0) {
         n = -n;
     }
-    let key = normalize(vec3<f32>(0.35, 0.8, 0.5));
-    let fill = normalize(vec3<f32>(-0.6, 0.2, 0.7));
-    let diffuse = max(dot(n, key), 0.0) * 0.7 + max(dot(n, fill), 0.0) * 0.2;
-    let h = normalize(key + to_eye);
-    let spec = pow(max(dot(n, h), 0.0), 40.0) * 0.25;
-    let sky = vec3<f32>(0.30, 0.33, 0.38);
-    let ground = vec3<f32>(0.12, 0.10, 0.09);
-    let ambient = mix(ground, sky, n.y * 0.5 + 0.5);
-    let rgb = mat.color.rgb * (ambient + vec3<f32>(diffuse)) + vec3<f32>(spec);
-    return vec4<f32>(clamp(rgb, vec3<f32>(0.0), vec3<f32>(1.0)), 1.0);
+    // Lights are fixed to the viewer: a key from the upper left, a weak rim from the
+    // lower right, and a sky/ground hemisphere.
+    let n_view = normalize((cam.view_from_display * vec4<f32>(n, 0.0)).xyz);
+    let v_view = normalize((cam.view_from_display * vec4<f32>(to_eye, 0.0)).xyz);
+    let key = normalize(vec3<f32>(-0.45, 0.65, 0.62));
+    let rim = normalize(vec3<f32>(0.7, -0.3, 0.25));
+    let diffuse = max(dot(n_view, key), 0.0) * 1.1 + max(dot(n_view, rim), 0.0) * 0.12;
+    let sky = vec3<f32>(0.34, 0.37, 0.43);
+    let ground = vec3<f32>(0.10, 0.09, 0.08);
+    let hemi = mix(ground, sky, n_view.y * 0.5 + 0.5);
+    let h = normalize(key + v_view);
+    let spec = pow(max(dot(n_view, h), 0.0), mat.params.y) * mat.params.x
+        * step(0.0, dot(n_view, key));
+    let rgb = albedo_at(f.p_in_display) * (hemi + vec3<f32>(diffuse)) + vec3<f32>(spec);
+    var o: SceneOut;
+    o.color = vec4<f32>(clamp(rgb, vec3<f32>(0.0), vec3<f32>(1.0)), 1.0);
+    o.geom = geometry(f.p_in_display, mat.params.w);
+    return o;
 }
 
 @vertex
@@ -66,9 +131,14 @@ fn vs_wire(v: MeshIn) -> @builtin(position) vec4<f32> {
     return c;
 }
 
+// Overlays (wireframe, lines) write class 0 into the geometry image's alpha only
+// (their pipelines mask the other channels): no cavity or outline on them.
 @fragment
-fn fs_wire() -> @location(0) vec4<f32> {
-    return mat.wire_color;
+fn fs_wire() -> SceneOut {
+    var o: SceneOut;
+    o.color = mat.wire_color;
+    o.geom = vec4<f32>(0.0);
+    return o;
 }
 
 struct LineIn {
@@ -91,8 +161,20 @@ fn vs_line(v: LineIn) -> LineOut {
 }
 
 @fragment
-fn fs_line(f: LineOut) -> @location(0) vec4<f32> {
-    return f.color;
+fn fs_line(f: LineOut) -> SceneOut {
+    var o: SceneOut;
+    o.color = f.color;
+    o.geom = vec4<f32>(0.0);
+    return o;
+}
+
+// The parts of the cursor behind a surface: drawn through it, fainter.
+@fragment
+fn fs_line_hidden(f: LineOut) -> SceneOut {
+    var o: SceneOut;
+    o.color = vec4<f32>(f.color.rgb, f.color.a * 0.45);
+    o.geom = vec4<f32>(0.0);
+    return o;
 }
 
 // ---- composition of the eye images into an output ----
@@ -102,11 +184,20 @@ struct Compose {
     half_width: u32,
     width: u32,
     height: u32,
+    // 1: encode sRGB here (the output is not an sRGB format).
+    encode_srgb: u32,
+    // 1: cavity shading and outlines on.
+    effects: u32,
+    // Pixels per metre at one metre of view depth (the projection's focal length).
+    focal_px: f32,
+    pad: f32,
 };
 
 @group(0) @binding(0) var left_eye: texture_2d<f32>;
 @group(0) @binding(1) var right_eye: texture_2d<f32>;
 @group(0) @binding(2) var<uniform> cmp: Compose;
+@group(0) @binding(3) var left_geom: texture_2d<f32>;
+@group(0) @binding(4) var right_geom: texture_2d<f32>;
 
 @vertex
 fn vs_full(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
@@ -115,26 +206,125 @@ fn vs_full(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
     return vec4<f32>(x, y, 0.0, 1.0);
 }
 
+// Radius (metres) of the cavity neighbourhood, the depth (metres) at which a
+// neighbour counts as fully occluding, and the depth beyond which it is ignored (a
+// separate object in front, not the wall of a groove).
+const CAVITY_RADIUS_M: f32 = 0.006;
+const CAVITY_FULL_M: f32 = 0.003;
+const CAVITY_RANGE_M: f32 = 0.02;
+const CAVITY_STRENGTH: f32 = 1.0;
+// A neighbour this much farther (fraction of the depth) is across a silhouette.
+const SILHOUETTE_JUMP: f32 = 0.04;
+
+struct Geo {
+    depth: f32,
+    coverage: f32,
+    class_id: f32,
+};
+
+fn geo_at(t: texture_2d<f32>, xy: vec2<i32>) -> Geo {
+    let size = vec2<i32>(textureDimensions(t));
+    let g = textureLoad(t, clamp(xy, vec2<i32>(0), size - 1), 0);
+    var o: Geo;
+    o.coverage = g.b;
+    if (g.b > 0.01) {
+        o.depth = (g.r + g.g) / g.b;
+        o.class_id = g.a / g.b;
+    } else {
+        o.depth = 1e9;
+        o.class_id = 0.0;
+    }
+    return o;
+}
+
+// Cavity shading by unsharp masking the depth buffer (Luft, Colditz and Deussen,
+// "Image enhancement by unsharp masking the depth buffer", SIGGRAPH 2006): where the
+// neighbourhood within CAVITY_RADIUS_M lies nearer the eye than the pixel (the bottom
+// and walls of a groove), the pixel darkens. A flat or convex surface has no nearer
+// neighbourhood and is untouched. Then a dark outline where the pixel's surface is in
+// front of a much deeper one or of the background, and an amber one around the
+// selected target.
+fn shade(color: vec4<f32>, geom: texture_2d<f32>, xy: vec2<i32>) -> vec4<f32> {
+    if (cmp.effects == 0u) {
+        return color;
+    }
+    let c = geo_at(geom, xy);
+    if (c.coverage < 0.5 || c.class_id < 0.5) {
+        return color;
+    }
+    let r = clamp(CAVITY_RADIUS_M * cmp.focal_px / max(c.depth, 1e-3), 1.5, 24.0);
+    var occlusion = 0.0;
+    var taps = 0.0;
+    for (var k = 0; k < 12; k = k + 1) {
+        let a = f32(k) * 0.5235988 + 0.2;
+        let rk = select(r, r * 0.5, (k & 1) == 1);
+        let off = vec2<i32>(round(vec2<f32>(cos(a), sin(a)) * rk));
+        let nb = geo_at(geom, xy + off);
+        if (nb.coverage < 0.5 || nb.class_id < 0.5) {
+            continue;
+        }
+        let nearer = c.depth - nb.depth;
+        let w = 1.0 - smoothstep(CAVITY_RANGE_M * 0.5, CAVITY_RANGE_M, abs(nearer));
+        occlusion = occlusion + clamp(nearer / CAVITY_FULL_M, 0.0, 1.0) * w;
+        taps = taps + 1.0;
+    }
+    var rgb = color.rgb;
+    if (taps > 0.0) {
+        rgb = rgb * (1.0 - CAVITY_STRENGTH * occlusion / taps);
+    }
+    var edge = 0.0;
+    var selected_edge = 0.0;
+    let is_selected = abs(c.class_id - 3.0) < 0.5;
+    var dirs = array<vec2<i32>, 4>(vec2<i32>(1, 0), vec2<i32>(-1, 0), vec2<i32>(0, 1), vec2<i32>(0, -1));
+    for (var k = 0; k < 4; k = k + 1) {
+        let nb = geo_at(geom, xy + dirs[k]);
+        if (nb.coverage < 0.5 || nb.depth - c.depth > SILHOUETTE_JUMP * c.depth) {
+            edge = 1.0;
+        }
+        if (is_selected && abs(nb.class_id - 3.0) >= 0.5) {
+            selected_edge = 1.0;
+        }
+    }
+    rgb = mix(rgb, vec3<f32>(0.01, 0.012, 0.015), edge * 0.7);
+    rgb = mix(rgb, vec3<f32>(1.0, 0.45, 0.02), selected_edge);
+    return vec4<f32>(rgb, color.a);
+}
+
+fn srgb_encode(c: vec3<f32>) -> vec3<f32> {
+    let x = clamp(c, vec3<f32>(0.0), vec3<f32>(1.0));
+    let lo = x * 12.92;
+    let hi = 1.055 * pow(x, vec3<f32>(1.0 / 2.4)) - 0.055;
+    return select(hi, lo, x <= vec3<f32>(0.0031308));
+}
+
+fn finish(c: vec4<f32>) -> vec4<f32> {
+    if (cmp.encode_srgb == 1u) {
+        return vec4<f32>(srgb_encode(c.rgb), c.a);
+    }
+    return c;
+}
+
 @fragment
 fn fs_compose(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
     let xy = vec2<i32>(p.xy);
     switch cmp.mode {
         // 0: the first image alone (mono, or one projector of a dual setup).
         case 0u: {
-            return textureLoad(left_eye, xy, 0);
+            return finish(shade(textureLoad(left_eye, xy, 0), left_geom, xy));
         }
         // 1: side by side, first image on the left half.
         case 1u: {
             let h = i32(cmp.half_width);
             if (xy.x < h) {
-                return textureLoad(left_eye, xy, 0);
+                return finish(shade(textureLoad(left_eye, xy, 0), left_geom, xy));
             }
-            return textureLoad(right_eye, vec2<i32>(xy.x - h, xy.y), 0);
+            let q = vec2<i32>(xy.x - h, xy.y);
+            return finish(shade(textureLoad(right_eye, q, 0), right_geom, q));
         }
         // 2: red-cyan half-colour anaglyph.
         default: {
-            let l = textureLoad(left_eye, xy, 0).rgb;
-            let r = textureLoad(right_eye, xy, 0).rgb;
+            let l = finish(shade(textureLoad(left_eye, xy, 0), left_geom, xy)).rgb;
+            let r = finish(shade(textureLoad(right_eye, xy, 0), right_geom, xy)).rgb;
             let luma = dot(l, vec3<f32>(0.299, 0.587, 0.114));
             return vec4<f32>(luma, r.g, r.b, 1.0);
         }
@@ -144,6 +334,7 @@ fn fs_compose(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
 // ---- HUD text, in output pixels ----
 
 struct Hud {
+    // width, height, encode sRGB (1) or not (0), unused.
     size: vec4<f32>,
 };
 
@@ -165,5 +356,8 @@ fn vs_hud(v: HudIn) -> LineOut {
 
 @fragment
 fn fs_hud(f: LineOut) -> @location(0) vec4<f32> {
+    if (hud.size.z > 0.5) {
+        return vec4<f32>(srgb_encode(f.color.rgb), f.color.a);
+    }
     return f.color;
 }
