@@ -74,13 +74,7 @@ use serde::{Deserialize, Serialize};
 
 /// Turns sharper than this (degrees, measured over one tool width) are corners.
 pub const CORNER_ANGLE_DEG: f64 = 50.0;
-/// How far short of the rim (fraction of the half-width) a U profile's slope is taken
-/// for normals: at the rim itself the wall is vertical and the slope infinite.
-pub const PROFILE_EDGE: f64 = 1e-6;
-/// Below this distance from the centreline (fraction of the half-width) a point counts
-/// as on it: the depth's gradient there is taken on the side of the shaded triangle
-/// (a V groove's bottom is a crease).
-pub const CREASE_FRACTION: f64 = 1e-3;
+pub use crate::tolerance::{CREASE_FRACTION, PROFILE_EDGE};
 /// At most this many resampled samples per stroke (longer strokes get a wider spacing).
 pub const MAX_SAMPLES: usize = 2000;
 /// Chords of the surface path between two feet that [`basin_jump`] measures.

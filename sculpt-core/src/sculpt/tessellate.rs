@@ -34,6 +34,10 @@ use super::stroke::{Mode, Stroke};
 use super::surface::{ParamSurface, SurfaceExtent, extent, normal_from, wrap_uv};
 use super::uvmap::UvMap;
 use crate::mesh::{MeshSink, MeshVertex, PatchKey};
+use crate::tolerance::{
+    FINAL_CHORD_FRACTION, INTERACTIVE_CHORD_FRACTION, MESH_MERGE_EPS, MESH_SNAP_EPS,
+    MESH_ZERO_COORD, NORMAL_MERGE, POLE_RING_PARAM, POLE_SIDE_REL, UV_PAD,
+};
 use glam::{DVec2, DVec3};
 use spade::handles::FixedVertexHandle;
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
@@ -63,8 +67,8 @@ impl Detail {
     /// box diagonal): 0.2 % while sculpting, 0.1 % for the final render and export.
     pub fn chord_fraction(self) -> f64 {
         match self {
-            Detail::Interactive => 2e-3,
-            Detail::Final => 1e-3,
+            Detail::Interactive => INTERACTIVE_CHORD_FRACTION,
+            Detail::Final => FINAL_CHORD_FRACTION,
         }
     }
 
@@ -525,7 +529,7 @@ impl TargetTessellation {
         let n = self.map.n();
         let mut mask = vec![false; (n * n) as usize];
         for r in s.piece_bounds() {
-            let r = Rect::new(r.min - DVec2::splat(1e-9), r.max + DVec2::splat(1e-9));
+            let r = Rect::new(r.min - DVec2::splat(UV_PAD), r.max + DVec2::splat(UV_PAD));
             for root in self.roots_near(&r) {
                 if self.map.node(root).rect.touches(&r) {
                     mask[root as usize] = true;
@@ -939,11 +943,6 @@ impl TargetTessellation {
     }
 }
 
-/// Corner normals of one vertex closer than this (unit vectors) are one normal, written
-/// once: the same smooth sheet seen from two triangles differs only by rounding (a
-/// crease of under 1e-6 radians would not show).
-const NORMAL_MERGE: f64 = 1e-6;
-
 /// A vertex of a patch before it is written.
 struct PatchVertex {
     /// `S(uv)`.
@@ -1078,9 +1077,9 @@ pub fn height(strokes: &[StrokeRef<'_>], uv: DVec2, p: DVec3) -> f64 {
 }
 
 /// The sides of the square (0 u-min, 1 u-max, 2 v-min, 3 v-max) whose points all
-/// coincide (within 1e-9 of the target's size): the poles of a sphere.
+/// coincide (within [`POLE_SIDE_REL`] of the target's size): the poles of a sphere.
 fn pole_sides(surface: &dyn ParamSurface, extent: &SurfaceExtent) -> [bool; 4] {
-    let tol = 1e-9 * extent.diagonal();
+    let tol = POLE_SIDE_REL * extent.diagonal();
     let side = |k: usize| {
         let at = |t: f64| {
             surface
@@ -1139,7 +1138,7 @@ fn unfold_pole_fins(
         let (q, x, y) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
         let Some(side) = on_pole(q) else { continue };
         let meridian = |i: u32| if side >= 2 { uv(i).x } else { uv(i).y };
-        let same_meridian = |a: u32, b: u32| (meridian(a) - meridian(b)).abs() <= SNAP_EPS;
+        let same_meridian = |a: u32, b: u32| (meridian(a) - meridian(b)).abs() <= MESH_SNAP_EPS;
         if on_pole(x).is_some() || on_pole(y).is_some() || !same_meridian(x, y) {
             continue;
         }
@@ -1171,10 +1170,10 @@ fn unfold_pole_fins(
     }
 }
 
-/// The pole side `uv` lies on, if any (within [`SNAP_EPS`]: a cell side summed from
+/// The pole side `uv` lies on, if any (within [`MESH_SNAP_EPS`]: a cell side summed from
 /// the grid may stop one rounding short of the square's side).
 fn pole_of(poles: [bool; 4], uv: DVec2) -> Option<usize> {
-    let near = |a: f64, b: f64| (a - b).abs() <= SNAP_EPS;
+    let near = |a: f64, b: f64| (a - b).abs() <= MESH_SNAP_EPS;
     let on = [
         near(uv.x, 0.0),
         near(uv.x, 1.0),
@@ -1200,7 +1199,7 @@ fn pole_point(
     let ring: DVec3 = (0..8)
         .map(|k| {
             let t = f64::from(k) / 8.0;
-            let (a, b) = (1e-4, 1.0 - 1e-4);
+            let (a, b) = (POLE_RING_PARAM, 1.0 - POLE_RING_PARAM);
             let q = match side {
                 0 => DVec2::new(a, t),
                 1 => DVec2::new(b, t),
@@ -1262,21 +1261,11 @@ struct PatchInput {
     rect: Rect,
     points: Vec<(DVec2, Kind)>,
     index: FxMap<(u64, u64), usize>,
-    /// The points by [`MERGE_EPS`] grid cell, to find near-duplicates.
+    /// The points by [`MESH_MERGE_EPS`] grid cell, to find near-duplicates.
     near: FxMap<(i64, i64), Vec<usize>>,
     constraints: Vec<([usize; 2], Kind)>,
     interior_hidden: bool,
 }
-
-/// Distance (normalised parameter units) below which a vertex counts as lying on a
-/// constraint segment, and a crossing as lying on a segment's end.
-const SNAP_EPS: f64 = 1e-12;
-
-/// Distance (normalised parameter units) below which two points of a cell are one
-/// vertex. Crossings of nearly parallel outline segments beside a shared outline vertex
-/// come out a few 1e-12 apart; kept apart, they make sliver triangles whose welded
-/// edges are shared by four triangles (a round-ended U stroke on the sphere).
-const MERGE_EPS: f64 = 1e-10;
 
 /// Orientation of `c` against the line `a -> b` (twice the signed triangle area).
 fn orient(a: DVec2, b: DVec2, c: DVec2) -> f64 {
@@ -1284,7 +1273,7 @@ fn orient(a: DVec2, b: DVec2, c: DVec2) -> f64 {
 }
 
 /// Parameter of the foot of `p` on the segment `a-b` when `p` lies within
-/// [`SNAP_EPS`] of its interior.
+/// [`MESH_SNAP_EPS`] of its interior.
 fn on_segment(p: DVec2, a: DVec2, b: DVec2) -> Option<f64> {
     let d = b - a;
     let l2 = d.length_squared();
@@ -1292,7 +1281,7 @@ fn on_segment(p: DVec2, a: DVec2, b: DVec2) -> Option<f64> {
         return None;
     }
     let t = (p - a).dot(d) / l2;
-    (t > 0.0 && t < 1.0 && p.distance(a + d * t) <= SNAP_EPS).then_some(t)
+    (t > 0.0 && t < 1.0 && p.distance(a + d * t) <= MESH_SNAP_EPS).then_some(t)
 }
 
 impl PatchInput {
@@ -1319,11 +1308,11 @@ impl PatchInput {
     fn point(&mut self, p: DVec2, kind: Kind) -> usize {
         // spade merges -0.0 with 0.0 and rejects subnormal-scale coordinates: the
         // index must agree, so such values become 0.0.
-        let p = DVec2::new(p.x, p.y).map(|x| if x.abs() < 1e-30 { 0.0 } else { x });
+        let p = DVec2::new(p.x, p.y).map(|x| if x.abs() < MESH_ZERO_COORD { 0.0 } else { x });
         let key = (p.x.to_bits(), p.y.to_bits());
         let cell = (
-            (p.x / MERGE_EPS).floor() as i64,
-            (p.y / MERGE_EPS).floor() as i64,
+            (p.x / MESH_MERGE_EPS).floor() as i64,
+            (p.y / MESH_MERGE_EPS).floor() as i64,
         );
         let existing = self.index.get(&key).copied().or_else(|| {
             (-1..=1)
@@ -1331,7 +1320,7 @@ impl PatchInput {
                 .filter_map(|c| self.near.get(&c))
                 .flatten()
                 .copied()
-                .find(|&i| self.points[i].0.distance(p) <= MERGE_EPS)
+                .find(|&i| self.points[i].0.distance(p) <= MESH_MERGE_EPS)
         });
         if let Some(i) = existing {
             if kind == Kind::Rim {
@@ -1445,7 +1434,7 @@ impl PatchInput {
         // A crossing at an end is that end.
         let end = [(a0, a), (a1, b), (b0, c), (b1, d)]
             .into_iter()
-            .find(|&(_, q)| q.distance(p) <= SNAP_EPS);
+            .find(|&(_, q)| q.distance(p) <= MESH_SNAP_EPS);
         let v = match end {
             Some((v, _)) => v,
             None => self.point(p, kind),
@@ -1578,6 +1567,9 @@ mod tests {
     use crate::sculpt::stroke::{Profile, StrokeInput, Tool};
     use crate::sculpt::surface::TargetSurface;
     use crate::sculpt::surface::test_surfaces::{plane, sphere, wavy};
+    use crate::tolerance::{
+        EXPORT_WELD_EPS, F32_EPS, GROOVE_TOL, MESH_DEPTH_TOL, MESH_HIT_EPS, TEST_WELD_EPS,
+    };
 
     fn tool(mode: Mode, profile: Profile) -> Tool {
         Tool {
@@ -1621,12 +1613,12 @@ mod tests {
             let mut mesh = PatchMesh::new();
             tess.update(&s, &[(1, &a)], None, &mut mesh);
             // Groove bottom at the tool depth, half depth half-way to the rim, flat outside.
-            assert_near!(depth_at(&mesh, 0.5, 0.5), 0.02, 1e-6);
-            assert_near!(depth_at(&mesh, 0.43, 0.5 + 0.025), 0.01, 1e-4);
-            assert_near!(depth_at(&mesh, 0.5, 0.6), 0.0, 1e-6);
-            assert_near!(depth_at(&mesh, 0.1, 0.1), 0.0, 1e-6);
+            assert_near!(depth_at(&mesh, 0.5, 0.5), 0.02, F32_EPS);
+            assert_near!(depth_at(&mesh, 0.43, 0.5 + 0.025), 0.01, MESH_DEPTH_TOL);
+            assert_near!(depth_at(&mesh, 0.5, 0.6), 0.0, F32_EPS);
+            assert_near!(depth_at(&mesh, 0.1, 0.1), 0.0, F32_EPS);
             // Crack-free: the only open edges are the outer border of the square.
-            let w = mesh.welded(1e-6);
+            let w = mesh.welded(EXPORT_WELD_EPS);
             let r = w.edge_report();
             assert_eq!(r.non_manifold, 0);
             assert_eq!(r.misoriented, 0);
@@ -1639,7 +1631,8 @@ mod tests {
                         w.vertices[a as usize].position,
                         w.vertices[b as usize].position,
                     );
-                    let on = |x: f32| x.abs() < 1e-6 || (x - 1.0).abs() < 1e-6;
+                    let on =
+                        |x: f32| x.abs() < EXPORT_WELD_EPS || (x - 1.0).abs() < EXPORT_WELD_EPS;
                     (on(p[0]) && p[0] == q[0]) || (on(p[1]) && p[1] == q[1])
                 })
                 .count();
@@ -1676,13 +1669,13 @@ mod tests {
         let mut tess = TargetTessellation::new(&s, 0, Detail::Final);
         let mut mesh = PatchMesh::new();
         tess.update(&s, &[(1, &a), (2, &b), (3, &c)], None, &mut mesh);
-        assert_near!(depth_at(&mesh, 0.5, 0.5), 0.03, 1e-6);
+        assert_near!(depth_at(&mesh, 0.5, 0.5), 0.03, F32_EPS);
         // On a's axis, 0.03 from b's axis: b (U, r/w = 0.6) is 0.03 * 0.8 = 0.024 deep,
         // a's V bottom is 0.02: the deeper wins. (The U profile is sampled at a few
         // fractions of its half-width: its chord error is a few percent of the depth.)
-        assert_near!(depth_at(&mesh, 0.53, 0.5), 0.024, 1e-3);
-        assert_near!(depth_at(&mesh, 0.3, 0.25), -0.02, 5e-4);
-        assert_eq!(mesh.welded(1e-6).edge_report().non_manifold, 0);
+        assert_near!(depth_at(&mesh, 0.53, 0.5), 0.024, MESH_HIT_EPS);
+        assert_near!(depth_at(&mesh, 0.3, 0.25), -0.02, GROOVE_TOL);
+        assert_eq!(mesh.welded(EXPORT_WELD_EPS).edge_report().non_manifold, 0);
     }
 
     #[test]
@@ -1762,7 +1755,7 @@ mod tests {
         let mut tess = TargetTessellation::new(&s, 0, Detail::Final);
         let mut mesh = PatchMesh::new();
         tess.update(&s, &[(1, &a), (2, &b), (3, &c)], None, &mut mesh);
-        let r = mesh.welded(1e-6).edge_report();
+        let r = mesh.welded(EXPORT_WELD_EPS).edge_report();
         assert!(r.is_watertight(), "{r:?}");
         let (v, _) = mesh.merged();
         assert!(
@@ -1781,7 +1774,7 @@ mod tests {
 
     /// Triangles of a welded mesh as uv triangles (on `plane(1.0)` the position is the uv).
     fn uv_triangles(mesh: &PatchMesh) -> (Vec<[DVec2; 3]>, Vec<[u32; 3]>) {
-        let w = mesh.welded(1e-6);
+        let w = mesh.welded(EXPORT_WELD_EPS);
         let uv = |i: u32| {
             let p = w.vertices[i as usize].position;
             DVec2::new(f64::from(p[0]), f64::from(p[1]))
@@ -1855,7 +1848,7 @@ mod tests {
                 // A fan to the root grid would fail the test.
                 assert!(1.0 / n > RIM_REACH * h, "{detail:?}: the test cannot fail");
                 let (tris, _) = uv_triangles(&mesh);
-                let on_rim = |p: DVec2| outline_distance(&outline, p) <= 1e-6;
+                let on_rim = |p: DVec2| outline_distance(&outline, p) <= F32_EPS;
                 for t in &tris {
                     if t.iter().any(|&p| on_rim(p)) {
                         checked += 1;
@@ -1913,23 +1906,23 @@ mod tests {
                     let p = v.map(|v| DVec3::from_array(v.position.map(f64::from)));
                     let face = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
                     let middle = p.iter().all(|q| q.x > 0.3 && q.x < 0.7);
-                    let sunk = p.iter().any(|q| q.z < -1e-7);
+                    let sunk = p.iter().any(|q| q.z < -f64::from(TEST_WELD_EPS));
                     for c in &v {
                         let n = DVec3::from_array(c.normal.map(f64::from));
                         if !sunk && p.iter().all(|q| (q.y - 0.5).abs() > 0.06) {
-                            assert!(n.distance(DVec3::Z) < 1e-6, "{detail:?}: flat {n}");
+                            assert!(n.distance(DVec3::Z) < F32_EPS, "{detail:?}: flat {n}");
                             flat += 1;
                         }
                         if sunk && middle {
                             assert!(
-                                n.distance(face) < 1e-4,
+                                n.distance(face) < MESH_DEPTH_TOL,
                                 "{detail:?}: {n} on face {face} at {p:?}"
                             );
                             // The wall's slope: depth over half-width.
-                            assert_near!(n.y.abs() / n.z, 0.02 / 0.05, 1e-4);
+                            assert_near!(n.y.abs() / n.z, 0.02 / 0.05, MESH_DEPTH_TOL);
                             walls += 1;
                         }
-                        if middle && (f64::from(c.position[2]) + 0.02).abs() < 1e-6 {
+                        if middle && (f64::from(c.position[2]) + 0.02).abs() < F32_EPS {
                             bottom.push(c.position.map(f32::to_bits));
                         }
                     }
