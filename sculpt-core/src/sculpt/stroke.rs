@@ -673,14 +673,26 @@ impl Stroke {
     /// closed target the stroke is found from both sides of the seam (the depth is
     /// measured in 3D, so it is continuous across the seam).
     pub fn depth_at(&self, uv: DVec2, p: DVec3) -> f64 {
+        self.deepest_segment(uv, p).0
+    }
+
+    /// [`Self::depth_at`] and the centreline segment that gives it (the first of the
+    /// deepest; `None` where the depth is zero).
+    pub fn deepest_segment(&self, uv: DVec2, p: DVec3) -> (f64, Option<usize>) {
         let mut best: f64 = 0.0;
-        let [(u0, u1), (v0, v1)] = self.buckets.shifts(uv);
-        let shifts =
-            (v0..=v1).flat_map(|kv| (u0..=u1).map(move |ku| DVec2::new(ku as f64, kv as f64)));
-        for &i in shifts.flat_map(|k| self.buckets.candidates(uv + k)) {
-            best = best.max(self.segment_depth(i as usize, p));
+        let mut segment = None;
+        for &i in self.gradient_candidates(uv) {
+            let d = self.segment_depth(i as usize, p);
+            if d > best {
+                best = d;
+                segment = Some(i as usize);
+            }
         }
-        if best.is_finite() { best } else { 0.0 }
+        if best.is_finite() {
+            (best, segment)
+        } else {
+            (0.0, None)
+        }
     }
 
     /// [`Self::depth_at`] found from the 3D point alone, over every centreline segment
@@ -701,15 +713,40 @@ impl Stroke {
     /// on `toward`'s side, as the limit from inside that triangle. Zero where neither
     /// point is in the footprint.
     pub fn depth_gradient(&self, uv: DVec2, p: DVec3, toward: DVec3) -> DVec3 {
-        let [(u0, u1), (v0, v1)] = self.buckets.shifts(uv);
-        let candidates = || {
-            (v0..=v1)
-                .flat_map(move |kv| (u0..=u1).map(move |ku| DVec2::new(ku as f64, kv as f64)))
-                .flat_map(move |k| self.buckets.candidates(uv + k))
-        };
+        self.depth_gradient_from(self.gradient_segment(uv, p), uv, p, toward)
+    }
+
+    /// The part of [`Self::depth_gradient`] that depends on the vertex alone (a mesher
+    /// computes it once per vertex, not once per triangle): the centreline segment that
+    /// gives `p = S(uv)` its largest depth or, on the rim, the nearest one in units of
+    /// its half-width. `None` where `p` lies outside the footprint.
+    pub fn gradient_segment(&self, uv: DVec2, p: DVec3) -> Option<usize> {
+        if let (_, Some(i)) = self.deepest_segment(uv, p) {
+            return Some(i);
+        }
+        // On the rim (depth 0), the segment nearest in units of its half-width.
+        let mut best: Option<(f64, usize)> = None;
+        for &i in self.gradient_candidates(uv) {
+            let x = self.segment_reach(i as usize, p);
+            if x.is_finite() && best.is_none_or(|b| x < b.0) {
+                best = Some((x, i as usize));
+            }
+        }
+        best.filter(|b| b.0 <= 1.0 + CREASE_FRACTION).map(|b| b.1)
+    }
+
+    /// [`Self::depth_gradient`] given `segment`, the [`Self::gradient_segment`] of
+    /// `(uv, p)`: where that is `None`, the segment giving `toward` its largest depth.
+    pub fn depth_gradient_from(
+        &self,
+        segment: Option<usize>,
+        uv: DVec2,
+        p: DVec3,
+        toward: DVec3,
+    ) -> DVec3 {
         let pick = |q: DVec3| {
             let mut best: Option<(f64, usize)> = None;
-            for &i in candidates() {
+            for &i in self.gradient_candidates(uv) {
                 let d = self.segment_depth(i as usize, q);
                 if d > 0.0 && best.is_none_or(|b| d > b.0) {
                     best = Some((d, i as usize));
@@ -717,21 +754,18 @@ impl Stroke {
             }
             best.map(|b| b.1)
         };
-        // On the rim (depth 0), the segment nearest in units of its half-width.
-        let nearest = || {
-            let mut best: Option<(f64, usize)> = None;
-            for &i in candidates() {
-                let x = self.segment_reach(i as usize, p);
-                if x.is_finite() && best.is_none_or(|b| x < b.0) {
-                    best = Some((x, i as usize));
-                }
-            }
-            best.filter(|b| b.0 <= 1.0 + CREASE_FRACTION).map(|b| b.1)
-        };
-        match pick(p).or_else(nearest).or_else(|| pick(toward)) {
+        match segment.or_else(|| pick(toward)) {
             Some(i) => self.segment_gradient(i, p, toward),
             None => DVec3::ZERO,
         }
+    }
+
+    /// The centreline segments whose buckets hold `uv` (and its shifted copies).
+    fn gradient_candidates(&self, uv: DVec2) -> impl Iterator<Item = &u32> + '_ {
+        let [(u0, u1), (v0, v1)] = self.buckets.shifts(uv);
+        (v0..=v1)
+            .flat_map(move |kv| (u0..=u1).map(move |ku| DVec2::new(ku as f64, kv as f64)))
+            .flat_map(move |k| self.buckets.candidates(uv + k))
     }
 
     /// The distance from `p` to segment `i` in units of its half-width there.

@@ -460,12 +460,17 @@ impl TargetTessellation {
         }
         // The poles: one displacement each, from every stroke, whichever cell reaches
         // it; a change rewrites the whole row of cells around the pole.
-        let mut cache = EvalCache::default();
+        // Sized for the vertices of a whole pass (about half the triangles) so that it
+        // seldom grows.
+        let mut cache = EvalCache::with_capacity_and_hasher(
+            (self.triangles.iter().sum::<usize>() / 2).max(4 * roots),
+            Default::default(),
+        );
         let mut pole_rows = Vec::new();
         for side in (0..4).filter(|&k| self.poles[k]) {
             let uv = pole_uv(side);
             let (p, nrm, h) = pole_point(surface, strokes, side);
-            cache.insert((uv.x.to_bits(), uv.y.to_bits()), (p, nrm, h));
+            cache.insert((uv.x.to_bits(), uv.y.to_bits()), (p, nrm, h, None));
             if h.to_bits() != self.pole_heights[side] {
                 self.pole_heights[side] = h.to_bits();
                 pole_rows.push(side);
@@ -826,17 +831,18 @@ impl TargetTessellation {
         for v in cdt.vertices() {
             let p = v.position();
             let uv = super::surface::clamp_uv(DVec2::new(p.x, p.y));
-            let (s, n, h) = evaluate(cache, surface, strokes, self.poles, uv);
+            let (s, n, h, deepest) = evaluate(cache, surface, strokes, self.poles, uv);
             // A pole takes its one displacement even where an outline reaches it.
             let on_rim =
                 rims.contains(&(p.x.to_bits(), p.y.to_bits())) && pole_of(self.poles, uv).is_none();
-            let h = if on_rim { 0.0 } else { h };
+            let (h, deepest) = if on_rim { (0.0, None) } else { (h, deepest) };
             verts.push(PatchVertex {
                 surface_point: s,
                 normal: n,
                 uv,
                 height: h,
                 sculpted: h != 0.0 || on_rim,
+                deepest,
             });
         }
         let mut tris = Vec::with_capacity(cdt.num_inner_faces());
@@ -874,8 +880,10 @@ impl TargetTessellation {
         sink.begin_patch(self.patch_key(root));
         // Per input vertex, the normals written for it and their output indices.
         let mut written: Vec<Vec<(DVec3, u32)>> = vec![Vec::new(); verts.len()];
+        // Per input vertex, the gradient segment of each stroke asked so far.
+        let mut segments: Vec<Vec<(usize, Option<usize>)>> = vec![Vec::new(); verts.len()];
         for t in tris {
-            let normals = corner_normals(strokes, self.poles, verts, *t);
+            let normals = corner_normals(strokes, self.poles, verts, *t, &mut segments);
             let mut out = [0u32; 3];
             for k in 0..3 {
                 let v = &verts[t[k] as usize];
@@ -922,13 +930,14 @@ impl TargetTessellation {
             .iter()
             .map(|(p, _)| {
                 let uv = *p;
-                let (s, n, h) = evaluate(cache, surface, strokes, self.poles, uv);
+                let (s, n, h, deepest) = evaluate(cache, surface, strokes, self.poles, uv);
                 PatchVertex {
                     surface_point: s,
                     normal: n,
                     uv,
                     height: h,
                     sculpted: h != 0.0,
+                    deepest,
                 }
             })
             .collect();
@@ -954,6 +963,9 @@ struct PatchVertex {
     height: f64,
     /// Displaced, or on a rim: its triangles may see different normals.
     sculpted: bool,
+    /// Where displaced (off the rims), the stroke that sets `height` (its id) and the
+    /// centreline segment giving it its depth ([`Stroke::gradient_segment`]).
+    deepest: Option<(u64, usize)>,
 }
 
 /// The normals at the three corners of triangle `t`, each the exact normal of the
@@ -961,17 +973,21 @@ struct PatchVertex {
 ///
 /// A triangle with no sculpted vertex takes the target normals. Otherwise the stroke
 /// that shapes the triangle is the one that wins the carve/emboss combination of
-/// [`height`] at its centroid (none: the bare target, as outside a rim). The normal of
+/// [`height`] at its displaced corners, where they agree, or else at its centroid (none:
+/// the bare target, as outside a rim). The normal of
 /// `P = S + h N` with `h = -depth` (carve) or `+depth` (emboss) is `N - grad h`, with
 /// the gradient of the stroke's depth taken along the target ([`Stroke::depth_gradient`],
 /// on the centroid's side of the centreline where the vertex lies on it) and the term
 /// `h dN` of the target's curvature left out (the tool depth is small against the radius
-/// of curvature). Pole vertices keep the pole's normal.
+/// of curvature). Pole vertices keep the pole's normal. `segments` holds, per vertex, the
+/// [`Stroke::gradient_segment`] of each stroke asked so far (shared by the patch's
+/// triangles).
 fn corner_normals(
     strokes: &[StrokeRef<'_>],
     poles: [bool; 4],
     verts: &[PatchVertex],
     t: [u32; 3],
+    segments: &mut [Vec<(usize, Option<usize>)>],
 ) -> [DVec3; 3] {
     let vs = t.map(|i| &verts[i as usize]);
     let plain = vs.map(|v| v.normal);
@@ -982,19 +998,39 @@ fn corner_normals(
     // The centroid of the corners' surface points stands for S(centroid): it is only
     // used to pick the stroke and the side of its centreline.
     let inside = (vs[0].surface_point + vs[1].surface_point + vs[2].surface_point) / 3.0;
-    let Some(k) = winner(strokes, centroid, inside) else {
-        return plain;
+    // The stroke that wins at the displaced corners where they agree (the triangle lies
+    // in its groove: rims are constraints of the triangulation), else at the centroid.
+    let mut ids = vs.iter().filter_map(|v| v.deepest.map(|d| d.0));
+    let agreed = ids.next().filter(|&id| ids.all(|other| other == id));
+    let k = match agreed.and_then(|id| strokes.iter().position(|s| s.0 == id)) {
+        Some(k) => k,
+        None => match winner(strokes, centroid, inside) {
+            Some(k) => k,
+            None => return plain,
+        },
     };
     let stroke = strokes[k].1;
     let sign = match stroke.tool.mode {
         Mode::Carve => 1.0,
         Mode::Emboss => -1.0,
     };
-    vs.map(|v| {
+    std::array::from_fn(|c| {
+        let v = vs[c];
+        let seen = &mut segments[t[c] as usize];
         if !v.sculpted || pole_of(poles, v.uv).is_some() {
             return v.normal;
         }
-        let g = stroke.depth_gradient(v.uv, v.surface_point, inside);
+        let own = v.deepest.filter(|d| d.0 == strokes[k].0).map(|d| d.1);
+        let cached = || seen.iter().find(|(s, _)| *s == k).map(|s| s.1);
+        let segment = match own.map(Some).or_else(cached) {
+            Some(seg) => seg,
+            None => {
+                let seg = stroke.gradient_segment(v.uv, v.surface_point);
+                seen.push((k, seg));
+                seg
+            }
+        };
+        let g = stroke.depth_gradient_from(segment, v.uv, v.surface_point, inside);
         let along = g - v.normal * g.dot(v.normal);
         (v.normal + along * sign)
             .try_normalize()
@@ -1036,22 +1072,22 @@ fn evaluate(
     strokes: &[StrokeRef<'_>],
     poles: [bool; 4],
     uv: DVec2,
-) -> (DVec3, DVec3, f64) {
+) -> Evaluated {
     if let Some(side) = pole_of(poles, uv) {
         let uv = pole_uv(side);
         return *cache
             .entry((uv.x.to_bits(), uv.y.to_bits()))
-            .or_insert_with(|| pole_point(surface, strokes, side));
+            .or_insert_with(|| {
+                let (p, n, h) = pole_point(surface, strokes, side);
+                (p, n, h, None)
+            });
     }
     *cache
         .entry((uv.x.to_bits(), uv.y.to_bits()))
         .or_insert_with(|| {
             let sp = surface.eval(uv);
-            (
-                sp.p,
-                normal_from(surface, uv, &sp),
-                height(strokes, uv, sp.p),
-            )
+            let (h, deepest) = height_and_deepest(strokes, uv, sp.p);
+            (sp.p, normal_from(surface, uv, &sp), h, deepest)
         })
 }
 
@@ -1060,20 +1096,35 @@ fn evaluate(
 /// inside its footprint (outline included), so the sculpted part ends exactly at the
 /// hidden region's outline.
 pub fn height(strokes: &[StrokeRef<'_>], uv: DVec2, p: DVec3) -> f64 {
+    height_and_deepest(strokes, uv, p).0
+}
+
+/// [`height`], and the stroke that sets it (its id) with the centreline segment that
+/// gives it its depth there.
+fn height_and_deepest(
+    strokes: &[StrokeRef<'_>],
+    uv: DVec2,
+    p: DVec3,
+) -> (f64, Option<(u64, usize)>) {
     let mut h: f64 = 0.0;
-    for (_, s) in strokes {
+    let mut deepest = None;
+    for &(id, s) in strokes {
         if !s.bounds.contains(uv) || s.footprint.locate(uv) == Location::Outside {
             continue;
         }
-        let d = s.depth_at(uv, p);
+        let (d, segment) = s.deepest_segment(uv, p);
         if d > 0.0 {
-            h = match s.tool.mode {
+            let next = match s.tool.mode {
                 Mode::Carve => h.min(-d),
                 Mode::Emboss => h.max(d),
             };
+            if next != h {
+                deepest = segment.map(|k| (id, k));
+            }
+            h = next;
         }
     }
-    h
+    (h, deepest)
 }
 
 /// The sides of the square (0 u-min, 1 u-max, 2 v-min, 3 v-max) whose points all
@@ -1231,7 +1282,11 @@ fn pole_height(strokes: &[StrokeRef<'_>], p: DVec3) -> f64 {
 
 /// Surface point, normal and displacement per parameter (bit pattern), shared by the
 /// patches of one pass so that side and corner vertices are evaluated once.
-type EvalCache = HashMap<(u64, u64), (DVec3, DVec3, f64), BuildHasherDefault<FxHasher>>;
+type EvalCache = HashMap<(u64, u64), Evaluated, BuildHasherDefault<FxHasher>>;
+
+/// `S(uv)`, the target's normal, the combined displacement and the stroke setting it
+/// (see [`PatchVertex::deepest`]).
+type Evaluated = (DVec3, DVec3, f64, Option<(u64, usize)>);
 
 /// A hash map with the [`FxHasher`].
 type FxMap<K, V> = HashMap<K, V, BuildHasherDefault<FxHasher>>;

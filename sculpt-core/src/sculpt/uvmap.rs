@@ -87,6 +87,8 @@ pub struct UvMap {
     /// Per root, the level every leaf reaches whatever its class (where the surface
     /// curves too much for a flat root cell).
     min_levels: Vec<u8>,
+    /// The largest of `min_levels` (0: the grading need not look for them).
+    deepest_min_level: u8,
     /// Whether the square wraps in u and in v (a closed surface): the grading looks
     /// across the seam.
     wrap: [bool; 2],
@@ -133,6 +135,7 @@ impl UvMap {
             nodes,
             free: Vec::new(),
             min_levels: vec![0; (n * n) as usize],
+            deepest_min_level: 0,
             wrap: [false; 2],
         }
     }
@@ -150,6 +153,7 @@ impl UvMap {
         for (k, m) in self.min_levels.iter_mut().enumerate() {
             *m = levels.get(k).copied().unwrap_or(0);
         }
+        self.deepest_min_level = self.min_levels.iter().copied().max().unwrap_or(0);
     }
 
     /// The level every leaf of `root` reaches (see [`Self::set_min_levels`]).
@@ -287,30 +291,29 @@ impl UvMap {
         let near = Rect::new(node.rect.min - reach, node.rect.max + reach);
         let outline = l + 1 < cap
             && !region.is_empty()
-            && self
-                .wrapped(near)
-                .any(|r| region.classify(r) == NodeClass::Boundary);
-        outline || l + 1 < self.deepest_min_level_near(near)
+            && self.wrapped(near).any(|r| region.meets_outline(r));
+        outline || (l + 1 < self.deepest_min_level && l + 1 < self.deepest_min_level_near(near))
     }
 
     /// The rectangle and, on a closed surface, its copies shifted by one period where
     /// it reaches past the square.
     fn wrapped(&self, r: Rect) -> impl Iterator<Item = Rect> + use<> {
+        // The shifts by one period (at most two per direction) that bring it back.
         let shifts = |wrap: bool, lo: f64, hi: f64| {
-            let mut out = vec![0.0];
-            if wrap && lo < 0.0 {
-                out.push(1.0);
-            }
-            if wrap && hi > 1.0 {
-                out.push(-1.0);
+            let mut out = ([0.0; 3], 1);
+            for (reaches, d) in [(lo < 0.0, 1.0), (hi > 1.0, -1.0)] {
+                if wrap && reaches {
+                    out.0[out.1] = d;
+                    out.1 += 1;
+                }
             }
             out
         };
-        let su = shifts(self.wrap[0], r.min.x, r.max.x);
-        let sv = shifts(self.wrap[1], r.min.y, r.max.y);
-        sv.into_iter().flat_map(move |dv| {
-            su.clone().into_iter().map(move |du| {
-                let d = DVec2::new(du, dv);
+        let (su, nu) = shifts(self.wrap[0], r.min.x, r.max.x);
+        let (sv, nv) = shifts(self.wrap[1], r.min.y, r.max.y);
+        (0..nv).flat_map(move |j| {
+            (0..nu).map(move |i| {
+                let d = DVec2::new(su[i], sv[j]);
                 Rect::new(r.min + d, r.max + d)
             })
         })
@@ -319,9 +322,6 @@ impl UvMap {
     /// The deepest minimum level among the roots that the rectangle touches (across
     /// the seams of a closed surface).
     fn deepest_min_level_near(&self, r: Rect) -> u8 {
-        if self.min_levels.iter().all(|&m| m == 0) {
-            return 0;
-        }
         let n = self.n as i64;
         let cells = |lo: f64, hi: f64, wrap: bool| -> Vec<u32> {
             let (a, b) = (
@@ -360,27 +360,41 @@ impl UvMap {
     /// halving from the root's rectangle as the leaves, so two roots sharing a side
     /// (whose rows or columns have the same bounds) give the same bits.
     pub fn side_params(&self, root: u32, side: u8) -> Vec<f64> {
-        let r = self.nodes[root as usize].rect;
-        let mut out: Vec<f64> = self
-            .leaves_of(root)
-            .into_iter()
-            .filter(|(_, n)| match side {
-                0 => n.rect.min.x == r.min.x,
-                1 => n.rect.max.x == r.max.x,
-                2 => n.rect.min.y == r.min.y,
-                _ => n.rect.max.y == r.max.y,
-            })
-            .flat_map(|(_, n)| {
-                if side < 2 {
-                    [n.rect.min.y, n.rect.max.y]
-                } else {
-                    [n.rect.min.x, n.rect.max.x]
+        let mut out = Vec::new();
+        self.side_params_into(root, side, &mut out);
+        out
+    }
+
+    /// [`Self::side_params`] into `out` (cleared first). Walks only the children that
+    /// touch the side (SW, SE, NW, NE: u-min holds 0 and 2, u-max 1 and 3, v-min 0 and
+    /// 1, v-max 2 and 3), in order along it.
+    pub fn side_params_into(&self, root: u32, side: u8, out: &mut Vec<f64>) {
+        out.clear();
+        let kids: [u32; 2] = match side {
+            0 => [0, 2],
+            1 => [1, 3],
+            2 => [0, 1],
+            _ => [2, 3],
+        };
+        let mut stack = vec![root];
+        while let Some(id) = stack.pop() {
+            let node = &self.nodes[id as usize];
+            match node.children {
+                Some(c) => stack.extend(kids.iter().rev().map(|&k| c + k)),
+                None => {
+                    let r = node.rect;
+                    let (lo, hi) = if side < 2 {
+                        (r.min.y, r.max.y)
+                    } else {
+                        (r.min.x, r.max.x)
+                    };
+                    out.push(lo);
+                    out.push(hi);
                 }
-            })
-            .collect();
+            }
+        }
         out.sort_by(f64::total_cmp);
         out.dedup();
-        out
     }
 
     /// Undoes an [`Edit`], restoring every node touched to its state before the update.
