@@ -710,10 +710,11 @@ impl Stroke {
     /// the one that gives the largest depth at `p` or, where `p` lies on the rim or just
     /// outside, at `toward`, a point inside the triangle being shaded. On the
     /// centreline (within [`CREASE_FRACTION`] of the half-width) the gradient is taken
-    /// on `toward`'s side, as the limit from inside that triangle. Zero where neither
+    /// on `toward`'s side, as the limit from inside that triangle: across the segment
+    /// in the plane of `normal`, the target's unit normal at `p`. Zero where neither
     /// point is in the footprint.
-    pub fn depth_gradient(&self, uv: DVec2, p: DVec3, toward: DVec3) -> DVec3 {
-        self.depth_gradient_from(self.gradient_segment(uv, p), uv, p, toward)
+    pub fn depth_gradient(&self, uv: DVec2, p: DVec3, toward: DVec3, normal: DVec3) -> DVec3 {
+        self.depth_gradient_from(self.gradient_segment(uv, p), uv, p, toward, normal)
     }
 
     /// The part of [`Self::depth_gradient`] that depends on the vertex alone (a mesher
@@ -743,6 +744,7 @@ impl Stroke {
         uv: DVec2,
         p: DVec3,
         toward: DVec3,
+        normal: DVec3,
     ) -> DVec3 {
         let pick = |q: DVec3| {
             let mut best: Option<(f64, usize)> = None;
@@ -755,7 +757,7 @@ impl Stroke {
             best.map(|b| b.1)
         };
         match segment.or_else(|| pick(toward)) {
-            Some(i) => self.segment_gradient(i, p, toward),
+            Some(i) => self.segment_gradient(i, p, toward, normal),
             None => DVec3::ZERO,
         }
     }
@@ -784,7 +786,7 @@ impl Stroke {
 
     /// The gradient of segment `i`'s depth (see [`Self::segment_depth`]) at `p`, on
     /// `toward`'s side of the centreline where `p` lies on it.
-    fn segment_gradient(&self, i: usize, p: DVec3, toward: DVec3) -> DVec3 {
+    fn segment_gradient(&self, i: usize, p: DVec3, toward: DVec3, normal: DVec3) -> DVec3 {
         let (a, b) = (self.centre[i], self.centre[i + 1]);
         let d = b - a;
         let l2 = d.length_squared();
@@ -800,16 +802,22 @@ impl Stroke {
         }
         let dep = dep0 + (dep1 - dep0) * t;
         let r = p.distance(c);
+        // Across the segment in the target's tangent plane: one direction per side of
+        // the centreline, the same bits for every triangle on that side.
+        let across = d.cross(normal).normalize_or_zero();
         let dir = if r > CREASE_FRACTION * hw {
             (p - c) / r
         } else {
-            let mut w = toward - c;
+            let w = toward - c;
             // Across the segment, unless `p` is beyond the stroke's tip (a cone there).
             let tip = (i == 0 && raw < 0.0) || (i + 2 == self.centre.len() && raw > 1.0);
-            if !tip && l2 > 0.0 {
-                w -= d * (w.dot(d) / l2);
+            if tip || across == DVec3::ZERO {
+                w.normalize_or_zero()
+            } else if w.dot(across) >= 0.0 {
+                across
+            } else {
+                -across
             }
-            w.normalize_or_zero()
         };
         let x = (r / hw).min(1.0);
         let profile = &self.tool.profile;

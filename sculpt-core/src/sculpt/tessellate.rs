@@ -1030,7 +1030,7 @@ fn corner_normals(
                 seg
             }
         };
-        let g = stroke.depth_gradient_from(segment, v.uv, v.surface_point, inside);
+        let g = stroke.depth_gradient_from(segment, v.uv, v.surface_point, inside, v.normal);
         let along = g - v.normal * g.dot(v.normal);
         (v.normal + along * sign)
             .try_normalize()
@@ -1511,6 +1511,27 @@ impl PatchInput {
     /// near-coincident crossings) are left out, as are points spade cannot take.
     fn triangulate(&mut self) -> ConstrainedDelaunayTriangulation<Point2<f64>> {
         self.resolve_crossings();
+        // Bulk loading keeps the vertex order (the points are distinct: `point` merges
+        // repeats) and is several times faster than inserting one by one; it refuses
+        // only invalid coordinates, for which the one-by-one insertion below skips the
+        // offending points.
+        let vertices: Vec<Point2<f64>> = self
+            .points
+            .iter()
+            .map(|(p, _)| Point2::new(p.x, p.y))
+            .collect();
+        let edges: Vec<[usize; 2]> = self
+            .constraints
+            .iter()
+            .map(|&(e, _)| e)
+            .filter(|e| e[0] != e[1])
+            .collect();
+        if let Ok(cdt) =
+            ConstrainedDelaunayTriangulation::try_bulk_load_cdt(vertices, edges, |_| {})
+            && cdt.num_vertices() == self.points.len()
+        {
+            return cdt;
+        }
         let mut cdt = ConstrainedDelaunayTriangulation::<Point2<f64>>::new();
         let handles: Vec<_> = self
             .points
