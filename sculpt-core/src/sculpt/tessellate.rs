@@ -878,21 +878,31 @@ impl TargetTessellation {
         sink: &mut dyn MeshSink,
     ) {
         sink.begin_patch(self.patch_key(root));
-        // Per input vertex, the normals written for it and their output indices.
-        let mut written: Vec<Vec<(DVec3, u32)>> = vec![Vec::new(); verts.len()];
+        // The normals written for each input vertex, with their output indices: the
+        // first in `written`, any others (creases, rims) in `more_written`.
+        let mut written: Vec<Option<(DVec3, u32)>> = vec![None; verts.len()];
+        let mut more_written: Vec<(u32, DVec3, u32)> = Vec::new();
         // Per input vertex, the gradient segment of each stroke asked so far.
-        let mut segments: Vec<Vec<(usize, Option<usize>)>> = vec![Vec::new(); verts.len()];
+        let mut segments = GradientSegments {
+            first: vec![None; verts.len()],
+            more: Vec::new(),
+        };
         for t in tris {
             let normals = corner_normals(strokes, self.poles, verts, *t, &mut segments);
             let mut out = [0u32; 3];
             for k in 0..3 {
                 let v = &verts[t[k] as usize];
-                let copies = &mut written[t[k] as usize];
-                let same = copies
-                    .iter()
-                    .find(|(n, _)| n.distance(normals[k]) <= NORMAL_MERGE);
+                let close = |n: &DVec3| n.distance(normals[k]) <= NORMAL_MERGE;
+                let same = match written[t[k] as usize] {
+                    Some((n, i)) if close(&n) => Some(i),
+                    Some(_) => more_written
+                        .iter()
+                        .find(|(w, n, _)| *w == t[k] && close(n))
+                        .map(|m| m.2),
+                    None => None,
+                };
                 out[k] = match same {
-                    Some(&(_, i)) => i,
+                    Some(i) => i,
                     None => {
                         let pos = v.surface_point + v.normal * v.height;
                         let pos = if pos.is_finite() { pos } else { DVec3::ZERO };
@@ -901,7 +911,10 @@ impl TargetTessellation {
                             normal: normals[k].as_vec3().to_array(),
                             uv: v.uv.as_vec2().to_array(),
                         });
-                        copies.push((normals[k], i));
+                        match written[t[k] as usize] {
+                            None => written[t[k] as usize] = Some((normals[k], i)),
+                            Some(_) => more_written.push((t[k], normals[k], i)),
+                        }
                         i
                     }
                 };
@@ -987,7 +1000,7 @@ fn corner_normals(
     poles: [bool; 4],
     verts: &[PatchVertex],
     t: [u32; 3],
-    segments: &mut [Vec<(usize, Option<usize>)>],
+    segments: &mut GradientSegments,
 ) -> [DVec3; 3] {
     let vs = t.map(|i| &verts[i as usize]);
     let plain = vs.map(|v| v.normal);
@@ -1016,17 +1029,15 @@ fn corner_normals(
     };
     std::array::from_fn(|c| {
         let v = vs[c];
-        let seen = &mut segments[t[c] as usize];
         if !v.sculpted || pole_of(poles, v.uv).is_some() {
             return v.normal;
         }
         let own = v.deepest.filter(|d| d.0 == strokes[k].0).map(|d| d.1);
-        let cached = || seen.iter().find(|(s, _)| *s == k).map(|s| s.1);
-        let segment = match own.map(Some).or_else(cached) {
+        let segment = match own.map(Some).or_else(|| segments.get(t[c], k)) {
             Some(seg) => seg,
             None => {
                 let seg = stroke.gradient_segment(v.uv, v.surface_point);
-                seen.push((k, seg));
+                segments.put(t[c], k, seg);
                 seg
             }
         };
@@ -1037,6 +1048,34 @@ fn corner_normals(
             .filter(|n| n.is_finite())
             .unwrap_or(v.normal)
     })
+}
+
+/// Per vertex of a patch, the [`Stroke::gradient_segment`] of each stroke asked so far:
+/// the first stroke's in `first`, others (where grooves meet) in `more`.
+struct GradientSegments {
+    first: Vec<Option<(usize, Option<usize>)>>,
+    more: Vec<(u32, usize, Option<usize>)>,
+}
+
+impl GradientSegments {
+    fn get(&self, vertex: u32, stroke: usize) -> Option<Option<usize>> {
+        match self.first[vertex as usize] {
+            Some((k, seg)) if k == stroke => Some(seg),
+            Some(_) => self
+                .more
+                .iter()
+                .find(|m| m.0 == vertex && m.1 == stroke)
+                .map(|m| m.2),
+            None => None,
+        }
+    }
+
+    fn put(&mut self, vertex: u32, stroke: usize, segment: Option<usize>) {
+        match self.first[vertex as usize] {
+            None => self.first[vertex as usize] = Some((stroke, segment)),
+            Some(_) => self.more.push((vertex, stroke, segment)),
+        }
+    }
 }
 
 /// The index of the stroke that sets [`height`] at `uv` (`p` on the target near
@@ -1109,11 +1148,11 @@ fn height_and_deepest(
     let mut h: f64 = 0.0;
     let mut deepest = None;
     for &(id, s) in strokes {
-        if !s.bounds.contains(uv) || s.footprint.locate(uv) == Location::Outside {
+        if !s.bounds.contains(uv) {
             continue;
         }
         let (d, segment) = s.deepest_segment(uv, p);
-        if d > 0.0 {
+        if d > 0.0 && s.footprint.locate(uv) != Location::Outside {
             let next = match s.tool.mode {
                 Mode::Carve => h.min(-d),
                 Mode::Emboss => h.max(d),
@@ -1316,8 +1355,11 @@ struct PatchInput {
     rect: Rect,
     points: Vec<(DVec2, Kind)>,
     index: FxMap<(u64, u64), usize>,
-    /// The points by [`MESH_MERGE_EPS`] grid cell, to find near-duplicates.
-    near: FxMap<(i64, i64), Vec<usize>>,
+    /// The first and last point of each [`MESH_MERGE_EPS`] grid cell (chained through
+    /// `next_near` in order of insertion), to find near-duplicates.
+    near: FxMap<(i64, i64), (usize, usize)>,
+    /// Per point, the next point of its merge cell (`usize::MAX`: none).
+    next_near: Vec<usize>,
     constraints: Vec<([usize; 2], Kind)>,
     interior_hidden: bool,
 }
@@ -1346,6 +1388,7 @@ impl PatchInput {
             points: Vec::new(),
             index: FxMap::default(),
             near: FxMap::default(),
+            next_near: Vec::new(),
             constraints: Vec::new(),
             interior_hidden: false,
         };
@@ -1373,8 +1416,11 @@ impl PatchInput {
             (-1..=1)
                 .flat_map(|dx| (-1..=1).map(move |dy| (cell.0 + dx, cell.1 + dy)))
                 .filter_map(|c| self.near.get(&c))
-                .flatten()
-                .copied()
+                .flat_map(|&(first, _)| {
+                    std::iter::successors(Some(first), |&i| {
+                        Some(self.next_near[i]).filter(|&n| n != usize::MAX)
+                    })
+                })
                 .find(|&i| self.points[i].0.distance(p) <= MESH_MERGE_EPS)
         });
         if let Some(i) = existing {
@@ -1386,7 +1432,16 @@ impl PatchInput {
         let i = self.points.len();
         self.points.push((p, kind));
         self.index.insert(key, i);
-        self.near.entry(cell).or_default().push(i);
+        self.next_near.push(usize::MAX);
+        match self.near.get_mut(&cell) {
+            Some((_, last)) => {
+                self.next_near[*last] = i;
+                *last = i;
+            }
+            None => {
+                self.near.insert(cell, (i, i));
+            }
+        }
         i
     }
 
