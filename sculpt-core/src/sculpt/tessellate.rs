@@ -984,7 +984,8 @@ struct PatchVertex {
 /// The normals at the three corners of triangle `t`, each the exact normal of the
 /// sculpted surface at that vertex as seen from inside the triangle.
 ///
-/// A triangle with no sculpted vertex takes the target normals. Otherwise the stroke
+/// A triangle with no sculpted vertex, or with a corner outside the hidden region, takes
+/// the target normals. Otherwise the stroke
 /// that shapes the triangle is the one that wins the carve/emboss combination of
 /// [`height`] at its displaced corners, where they agree, or else at its centroid (none:
 /// the bare target, as outside a rim). The normal of
@@ -1004,7 +1005,11 @@ fn corner_normals(
 ) -> [DVec3; 3] {
     let vs = t.map(|i| &verts[i as usize]);
     let plain = vs.map(|v| v.normal);
-    if !vs.iter().any(|v| v.sculpted) {
+    // A corner off every footprint and off the rims puts the triangle outside the
+    // hidden region (the rims are constraints of the triangulation): the bare target,
+    // even where a stroke's exact depth reaches past its footprint polygon (a tapered
+    // end), which would tilt the rim's normals over the flat target.
+    if vs.iter().any(|v| !v.sculpted) {
         return plain;
     }
     let centroid = (vs[0].uv + vs[1].uv + vs[2].uv) / 3.0;
