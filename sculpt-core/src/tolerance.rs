@@ -332,6 +332,49 @@ pub const OCCT_AREA_ABS: f64 = 1e-12;
 pub const OCCT_POINT_REL: f64 = 1e-9;
 
 // ---------------------------------------------------------------------------------
+// Tessellation of sculpted targets.
+// ---------------------------------------------------------------------------------
+
+/// Chord tolerance of a target tessellated while sculpting, as a fraction of its size
+/// (bounding-box diagonal): 0.2 %.
+pub const INTERACTIVE_CHORD_FRACTION: f64 = 2e-3;
+/// Chord tolerance of a target tessellated for the final render and export, as a
+/// fraction of its size: 0.1 %.
+pub const FINAL_CHORD_FRACTION: f64 = 1e-3;
+/// Corner normals of one vertex closer than this (unit vectors) are one normal, written
+/// once: the same smooth sheet seen from two triangles differs only by rounding (a
+/// crease of under a micro-radian would not show).
+pub const NORMAL_MERGE: f64 = 1e-6;
+/// Distance (normalised parameter units) below which a mesher vertex counts as lying on
+/// a constraint segment, and a crossing as lying on a segment's end.
+pub const MESH_SNAP_EPS: f64 = 1e-12;
+/// Distance (normalised parameter units) below which two points of a mesher cell are
+/// one vertex. Crossings of nearly parallel outline segments beside a shared outline
+/// vertex come out a few [`MESH_SNAP_EPS`] apart; kept apart, they make sliver
+/// triangles whose welded edges are shared by four triangles (a round-ended U stroke
+/// on the sphere).
+pub const MESH_MERGE_EPS: f64 = 1e-10;
+/// Parameter coordinates smaller than this are written as 0.0 before triangulation:
+/// the triangulator merges -0.0 with 0.0 and rejects subnormal-scale coordinates.
+pub const MESH_ZERO_COORD: f64 = 1e-30;
+/// The points of a side of the parameter square that coincide within this fraction of
+/// the target's size make a pole (a sphere's).
+pub const POLE_SIDE_REL: f64 = 1e-9;
+/// Distance (normalised parameter units) from a pole of the ring whose normals average
+/// to the pole's normal (at the pole a derivative vanishes).
+pub const POLE_RING_PARAM: f64 = 1e-4;
+/// How far short of the rim (fraction of the half-width) a U profile's slope is taken
+/// for normals: at the rim itself the wall is vertical and the slope infinite.
+pub const PROFILE_EDGE: f64 = 1e-6;
+/// Below this distance from the centreline (fraction of the half-width) a point counts
+/// as on it: the depth's gradient there is taken on the side of the shaded triangle
+/// (a V groove's bottom is a crease).
+pub const CREASE_FRACTION: f64 = 1e-3;
+/// A carved depth read from a mesh between its samples reproduces the tool's profile
+/// to this (metres) in tests: a tenth of a millimetre.
+pub const MESH_DEPTH_TOL: f64 = 1e-4;
+
+// ---------------------------------------------------------------------------------
 // Stroke splitting.
 // ---------------------------------------------------------------------------------
 

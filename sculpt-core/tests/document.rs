@@ -225,6 +225,74 @@ fn a_preview_carves_only_the_interactive_mesh_and_leaves_no_trace() {
     assert!(doc.set_preview(t + 100, &input).is_err());
 }
 
+/// Issue 20 ("shards while carving"): the live preview is meshed by the same graded
+/// mesher as the result, and no triangle it shapes reaches past the stroke's
+/// footprint by more than the stated interactive tolerance. On a plane every
+/// triangle that is carved (a corner below the plane) or shaded as a wall (a corner
+/// normal off +z) must have its corners and edge midpoints inside the footprint or
+/// within `Detail::Interactive.tolerance(size)` of its outline (parameters are metres
+/// on this unit plane). A fan from the rim to the root grid, or a rim normal carried
+/// over the flat target, fails it.
+#[test]
+fn no_preview_triangle_lies_outside_the_footprint_plus_the_tolerance() {
+    use glam::DVec2;
+    use sculpt_core::sculpt::jordan::{Location, point_segment_distance};
+    let mut doc = Document::new();
+    let t = doc.add_target("plane", plane());
+    let mut live = PatchMesh::new();
+    doc.tessellate(Detail::Interactive, &mut live);
+    let tol = Detail::Interactive.tolerance(2f64.sqrt());
+    // A bent stroke across several root cells, previewed as it grows.
+    let samples: Vec<(f64, DVec3)> = (0..80)
+        .map(|i| {
+            let s = i as f64 / 79.0;
+            let (x, y) = (0.2 + 0.6 * s, 0.5 + 0.15 * (3.0 * s).sin());
+            (s, DVec3::new(x, y, 0.0))
+        })
+        .collect();
+    let mut checked = 0;
+    for n in [12, 40, 80] {
+        let partial = StrokeInput {
+            samples: samples[..n].to_vec(),
+            tool: tool(Mode::Carve),
+        };
+        doc.set_preview(t, &partial).unwrap();
+        doc.tessellate(Detail::Interactive, &mut live);
+        let (_, stroke) = doc.preview().unwrap();
+        let outline = stroke.footprint.segments();
+        let within = |p: DVec2| {
+            stroke.footprint.locate(p) != Location::Outside
+                || outline
+                    .iter()
+                    .any(|s| point_segment_distance(p, s[0], s[1]) <= tol)
+        };
+        for (_, patch) in live.patches() {
+            for tri in &patch.triangles {
+                let v = tri.map(|i| patch.vertices[i as usize]);
+                let shaped = v.iter().any(|c| {
+                    -c.position[2] > TEST_WELD_EPS
+                        || DVec3::from_array(c.normal.map(f64::from)).distance(DVec3::Z)
+                            > f64::from(TEST_WELD_EPS)
+                });
+                if !shaped {
+                    continue;
+                }
+                checked += 1;
+                let uv = v.map(|c| DVec2::from_array(c.uv.map(f64::from)));
+                for k in 0..3 {
+                    let mid = (uv[k] + uv[(k + 1) % 3]) * 0.5;
+                    assert!(
+                        within(uv[k]) && within(mid),
+                        "{n} samples: a preview triangle reaches outside the footprint \
+                         + {tol} m: {uv:?}"
+                    );
+                }
+            }
+        }
+    }
+    assert!(checked > 300, "only {checked} shaped triangles checked");
+}
+
 #[test]
 fn json_round_trip_and_bad_files() {
     let mut doc = Document::new();

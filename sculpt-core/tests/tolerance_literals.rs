@@ -14,10 +14,7 @@ use std::path::{Path, PathBuf};
 const MARKER: &str = "not a tolerance:";
 
 /// Files allowed to keep such literals for now, each with the reason.
-const ALLOWED_FILES: &[(&str, &str)] = &[(
-    "sculpt-core/src/sculpt/tessellate.rs",
-    "being rewritten on the `mesh` branch at the same time; converted after that merge",
-)];
+const ALLOWED_FILES: &[(&str, &str)] = &[];
 
 /// Byte ranges of `line` that are code: the line up to its `//` comment, if any
 /// (a `//` inside a string literal does not start a comment).

@@ -220,20 +220,29 @@ impl Region {
         }
     }
 
+    /// True when an outline segment meets `rect` (edges included): the part of
+    /// [`Self::classify`] that finds boundary rectangles, without locating the centre.
+    pub fn meets_outline(&self, rect: Rect) -> bool {
+        if !self.bounds.is_some_and(|b| b.touches(&rect)) {
+            return false;
+        }
+        let (lo, hi) = (band_of(rect.min.y), band_of(rect.max.y));
+        self.bands[lo..=hi].iter().any(|band| {
+            band.iter().any(|&k| {
+                let [a, b] = self.segments[k as usize];
+                rect.meets_segment(a, b)
+            })
+        })
+    }
+
     /// Classifies a node rectangle: boundary when an edge meets it, otherwise interior
     /// or exterior by the location of its centre.
     pub fn classify(&self, rect: Rect) -> NodeClass {
+        if self.meets_outline(rect) {
+            return NodeClass::Boundary;
+        }
         if !self.bounds.is_some_and(|b| b.touches(&rect)) {
             return NodeClass::Exterior;
-        }
-        let (lo, hi) = (band_of(rect.min.y), band_of(rect.max.y));
-        for band in &self.bands[lo..=hi] {
-            for &k in band {
-                let [a, b] = self.segments[k as usize];
-                if rect.meets_segment(a, b) {
-                    return NodeClass::Boundary;
-                }
-            }
         }
         match self.locate(rect.centre()) {
             Location::Inside => NodeClass::Interior,

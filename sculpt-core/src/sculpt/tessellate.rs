@@ -34,6 +34,10 @@ use super::stroke::{Mode, Stroke};
 use super::surface::{ParamSurface, SurfaceExtent, extent, normal_from, wrap_uv};
 use super::uvmap::UvMap;
 use crate::mesh::{MeshSink, MeshVertex, PatchKey};
+use crate::tolerance::{
+    FINAL_CHORD_FRACTION, INTERACTIVE_CHORD_FRACTION, MESH_MERGE_EPS, MESH_SNAP_EPS,
+    MESH_ZERO_COORD, NORMAL_MERGE, POLE_RING_PARAM, POLE_SIDE_REL, UV_PAD,
+};
 use glam::{DVec2, DVec3};
 use spade::handles::FixedVertexHandle;
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
@@ -63,8 +67,8 @@ impl Detail {
     /// box diagonal): 0.2 % while sculpting, 0.1 % for the final render and export.
     pub fn chord_fraction(self) -> f64 {
         match self {
-            Detail::Interactive => 2e-3,
-            Detail::Final => 1e-3,
+            Detail::Interactive => INTERACTIVE_CHORD_FRACTION,
+            Detail::Final => FINAL_CHORD_FRACTION,
         }
     }
 
@@ -290,6 +294,7 @@ impl TargetTessellation {
         let extent = extent(surface);
         let mut map = UvMap::new(plan.n.clamp(1, MAX_GRID));
         map.set_min_levels(&plan.min_levels);
+        map.set_wrap(extent.closed_u, extent.closed_v);
         let n = map.n();
         Self {
             key,
@@ -455,12 +460,17 @@ impl TargetTessellation {
         }
         // The poles: one displacement each, from every stroke, whichever cell reaches
         // it; a change rewrites the whole row of cells around the pole.
-        let mut cache = EvalCache::default();
+        // Sized for the vertices of a whole pass (about half the triangles) so that it
+        // seldom grows.
+        let mut cache = EvalCache::with_capacity_and_hasher(
+            (self.triangles.iter().sum::<usize>() / 2).max(4 * roots),
+            Default::default(),
+        );
         let mut pole_rows = Vec::new();
         for side in (0..4).filter(|&k| self.poles[k]) {
             let uv = pole_uv(side);
             let (p, nrm, h) = pole_point(surface, strokes, side);
-            cache.insert((uv.x.to_bits(), uv.y.to_bits()), (p, nrm, h));
+            cache.insert((uv.x.to_bits(), uv.y.to_bits()), (p, nrm, h, None));
             if h.to_bits() != self.pole_heights[side] {
                 self.pole_heights[side] = h.to_bits();
                 pole_rows.push(side);
@@ -472,9 +482,16 @@ impl TargetTessellation {
             }
         }
         let hidden = self.unions.last().map_or(&self.empty, |u| &u.1);
-        let dirty_roots: Vec<u32> = (0..n * n).filter(|&r| dirty[r as usize]).collect();
-        self.map
-            .update_roots(hidden, dirty_roots.iter().copied(), self.detail.cap());
+        // The grading looks up to `GRADING_REACH` root cells beyond a node (see
+        // `uvmap::GRADING_REACH`): the two rings of roots around a dirty one are
+        // reclassified too, and those whose leaves changed are re-checked.
+        let reclassify = self.grow_with_corners(&self.grow_with_corners(&dirty));
+        for r in (0..n * n).filter(|&r| reclassify[r as usize]) {
+            let edit = self.map.update_roots(hidden, [r], self.detail.cap());
+            if !edit.is_empty() {
+                dirty[r as usize] = true;
+            }
+        }
         // Re-check the dirty roots and their neighbours; index segments one ring wider.
         let recheck = self.grow(&dirty);
         let indexed = self.grow(&recheck);
@@ -517,7 +534,7 @@ impl TargetTessellation {
         let n = self.map.n();
         let mut mask = vec![false; (n * n) as usize];
         for r in s.piece_bounds() {
-            let r = Rect::new(r.min - DVec2::splat(1e-9), r.max + DVec2::splat(1e-9));
+            let r = Rect::new(r.min - DVec2::splat(UV_PAD), r.max + DVec2::splat(UV_PAD));
             for root in self.roots_near(&r) {
                 if self.map.node(root).rect.touches(&r) {
                     mask[root as usize] = true;
@@ -559,6 +576,29 @@ impl TargetTessellation {
             for side in 0..4 {
                 if let Some((nb, _)) = self.neighbour(r as u32, side) {
                     out[nb as usize] = true;
+                }
+            }
+        }
+        out
+    }
+
+    /// The mask grown by the eight surrounding roots (across the seams of closed
+    /// surfaces).
+    fn grow_with_corners(&self, mask: &[bool]) -> Vec<bool> {
+        let mut out = mask.to_vec();
+        for (r, _) in mask.iter().enumerate().filter(|(_, m)| **m) {
+            let r = r as u32;
+            let row = [
+                Some(r),
+                self.neighbour(r, 0).map(|x| x.0),
+                self.neighbour(r, 1).map(|x| x.0),
+            ];
+            for c in row.into_iter().flatten() {
+                out[c as usize] = true;
+                for side in [2, 3] {
+                    if let Some((nb, _)) = self.neighbour(c, side) {
+                        out[nb as usize] = true;
+                    }
                 }
             }
         }
@@ -668,12 +708,15 @@ impl TargetTessellation {
     fn patch_input(&self, root: u32, strokes: &[StrokeRef<'_>], segments: &Segments) -> PatchInput {
         let rect = self.map.node(root).rect;
         let mut input = PatchInput::new(rect);
-        // Sides: uniform at the finer neighbour's level, plus segment crossings.
+        // Sides: the leaf corners that both cells have along the side (the tree is
+        // graded, so the finer cell loses at most one corner per coarse leaf, and a
+        // cell whose neighbour is subdivided keeps its side), plus segment crossings.
         for side in 0u8..4 {
-            let mut level = self.map.side_level(root, side);
+            let mut corners = self.map.side_params(root, side);
             let mut others: Vec<&[u32]> = vec![&segments.by_root[root as usize]];
             if let Some((nb, nb_side)) = self.neighbour(root, side) {
-                level = level.max(self.map.side_level(nb, nb_side));
+                let theirs = self.map.side_params(nb, nb_side);
+                corners.retain(|p| theirs.binary_search_by(|q| q.total_cmp(p)).is_ok());
                 others.push(&segments.by_root[nb as usize]);
             }
             let (fixed, lo, hi, along_u) = match side {
@@ -682,14 +725,11 @@ impl TargetTessellation {
                 2 => (rect.min.y, rect.min.x, rect.max.x, true),
                 _ => (rect.max.y, rect.min.x, rect.max.x, true),
             };
-            let mut params = Vec::new();
-            let steps = 1u32 << level;
-            for k in 0..=steps {
-                params.push((
-                    lo + (hi - lo) * f64::from(k) / f64::from(steps),
-                    Kind::Plain,
-                ));
-            }
+            let mut params: Vec<(f64, Kind)> = corners
+                .into_iter()
+                .filter(|&p| p >= lo && p <= hi)
+                .map(|p| (p, Kind::Plain))
+                .collect();
             // The seam: the side of a closed surface takes the crossings of both copies.
             let closed = if side < 2 {
                 self.extent.closed_u
@@ -787,18 +827,23 @@ impl TargetTessellation {
             .map(|(p, _)| (p.x.to_bits(), p.y.to_bits()))
             .collect();
         // Evaluate every vertex: S(uv) + h N(uv).
-        let mut verts: Vec<(DVec3, DVec3, DVec2, bool)> = Vec::with_capacity(cdt.num_vertices());
+        let mut verts: Vec<PatchVertex> = Vec::with_capacity(cdt.num_vertices());
         for v in cdt.vertices() {
             let p = v.position();
             let uv = super::surface::clamp_uv(DVec2::new(p.x, p.y));
-            let (s, n, h) = evaluate(cache, surface, strokes, self.poles, uv);
+            let (s, n, h, deepest) = evaluate(cache, surface, strokes, self.poles, uv);
             // A pole takes its one displacement even where an outline reaches it.
             let on_rim =
                 rims.contains(&(p.x.to_bits(), p.y.to_bits())) && pole_of(self.poles, uv).is_none();
-            let h = if on_rim { 0.0 } else { h };
-            let pos = s + n * h;
-            let pos = if pos.is_finite() { pos } else { DVec3::ZERO };
-            verts.push((pos, n, uv, h != 0.0 || on_rim));
+            let (h, deepest) = if on_rim { (0.0, None) } else { (h, deepest) };
+            verts.push(PatchVertex {
+                surface_point: s,
+                normal: n,
+                uv,
+                height: h,
+                sculpted: h != 0.0 || on_rim,
+                deepest,
+            });
         }
         let mut tris = Vec::with_capacity(cdt.num_inner_faces());
         for f in cdt.inner_faces() {
@@ -806,7 +851,7 @@ impl TargetTessellation {
             tris.push([a, b, c]);
         }
         if self.poles.contains(&true) {
-            let uvs: Vec<DVec2> = verts.iter().map(|v| v.2).collect();
+            let uvs: Vec<DVec2> = verts.iter().map(|v| v.uv).collect();
             let is_constraint = |a: u32, b: u32| {
                 cdt.exists_constraint(
                     FixedVertexHandle::from_index(a as usize),
@@ -815,33 +860,68 @@ impl TargetTessellation {
             };
             unfold_pole_fins(&uvs, self.poles, is_constraint, &mut tris);
         }
-        // Normals of the sculpted part come from the mesh (area-weighted).
-        let mut acc = vec![DVec3::ZERO; verts.len()];
-        for t in &tris {
-            let [a, b, c] = t.map(|i| verts[i as usize].0);
-            let nrm = (b - a).cross(c - a);
-            for &i in t {
-                acc[i as usize] += nrm;
-            }
-        }
+        self.emit_patch(root, &verts, &tris, strokes, sink);
+        tris.len()
+    }
+
+    /// Writes a patch, with each triangle corner's normal taken from the exact geometry
+    /// on that triangle's side ([`corner_normals`]): a vertex whose triangles see
+    /// different normals (a V groove's crease, a rim, where two grooves meet) is written
+    /// once per normal, at the same position, so the edge shades sharp. Only vertices
+    /// used by a triangle are written, in order of first use.
+    fn emit_patch(
+        &self,
+        root: u32,
+        verts: &[PatchVertex],
+        tris: &[[u32; 3]],
+        strokes: &[StrokeRef<'_>],
+        sink: &mut dyn MeshSink,
+    ) {
         sink.begin_patch(self.patch_key(root));
-        for (i, (pos, n, uv, sculpted)) in verts.iter().enumerate() {
-            let normal = if *sculpted {
-                acc[i].try_normalize().unwrap_or(*n)
-            } else {
-                *n
-            };
-            sink.push_vertex(MeshVertex {
-                position: pos.as_vec3().to_array(),
-                normal: normal.as_vec3().to_array(),
-                uv: uv.as_vec2().to_array(),
-            });
-        }
-        for [a, b, c] in &tris {
-            sink.push_triangle(*a, *b, *c);
+        // The normals written for each input vertex, with their output indices: the
+        // first in `written`, any others (creases, rims) in `more_written`.
+        let mut written: Vec<Option<(DVec3, u32)>> = vec![None; verts.len()];
+        let mut more_written: Vec<(u32, DVec3, u32)> = Vec::new();
+        // Per input vertex, the gradient segment of each stroke asked so far.
+        let mut segments = GradientSegments {
+            first: vec![None; verts.len()],
+            more: Vec::new(),
+        };
+        for t in tris {
+            let normals = corner_normals(strokes, self.poles, verts, *t, &mut segments);
+            let mut out = [0u32; 3];
+            for k in 0..3 {
+                let v = &verts[t[k] as usize];
+                let close = |n: &DVec3| n.distance(normals[k]) <= NORMAL_MERGE;
+                let same = match written[t[k] as usize] {
+                    Some((n, i)) if close(&n) => Some(i),
+                    Some(_) => more_written
+                        .iter()
+                        .find(|(w, n, _)| *w == t[k] && close(n))
+                        .map(|m| m.2),
+                    None => None,
+                };
+                out[k] = match same {
+                    Some(i) => i,
+                    None => {
+                        let pos = v.surface_point + v.normal * v.height;
+                        let pos = if pos.is_finite() { pos } else { DVec3::ZERO };
+                        let i = sink.push_vertex(MeshVertex {
+                            position: pos.as_vec3().to_array(),
+                            normal: normals[k].as_vec3().to_array(),
+                            uv: v.uv.as_vec2().to_array(),
+                        });
+                        match written[t[k] as usize] {
+                            None => written[t[k] as usize] = Some((normals[k], i)),
+                            Some(_) => more_written.push((t[k], normals[k], i)),
+                        }
+                        i
+                    }
+                };
+            }
+            sink.push_triangle(out[0], out[1], out[2]);
         }
         sink.end_patch();
-        tris.len()
     }
 }
 
@@ -858,34 +938,173 @@ impl TargetTessellation {
         sink: &mut dyn MeshSink,
     ) -> usize {
         // Corner order of PatchInput::new: (min), (max.x, min.y), (min.x, max.y), (max).
-        let v: Vec<(DVec3, DVec3, DVec2)> = input
+        let v: Vec<PatchVertex> = input
             .points
             .iter()
             .map(|(p, _)| {
                 let uv = *p;
-                let (s, n, h) = evaluate(cache, surface, strokes, self.poles, uv);
-                (s + n * h, n, uv)
+                let (s, n, h, deepest) = evaluate(cache, surface, strokes, self.poles, uv);
+                PatchVertex {
+                    surface_point: s,
+                    normal: n,
+                    uv,
+                    height: h,
+                    sculpted: h != 0.0,
+                    deepest,
+                }
             })
             .collect();
-        sink.begin_patch(self.patch_key(root));
-        for (pos, n, uv) in &v {
-            let pos = if pos.is_finite() { *pos } else { DVec3::ZERO };
-            sink.push_vertex(MeshVertex {
-                position: pos.as_vec3().to_array(),
-                normal: n.as_vec3().to_array(),
-                uv: uv.as_vec2().to_array(),
-            });
-        }
-        if v[0].0.distance_squared(v[3].0) <= v[1].0.distance_squared(v[2].0) {
-            sink.push_triangle(0, 1, 3);
-            sink.push_triangle(0, 3, 2);
+        let pos = |i: usize| v[i].surface_point + v[i].normal * v[i].height;
+        let tris = if pos(0).distance_squared(pos(3)) <= pos(1).distance_squared(pos(2)) {
+            [[0, 1, 3], [0, 3, 2]]
         } else {
-            sink.push_triangle(0, 1, 2);
-            sink.push_triangle(1, 3, 2);
-        }
-        sink.end_patch();
+            [[0, 1, 2], [1, 3, 2]]
+        };
+        self.emit_patch(root, &v, &tris, strokes, sink);
         2
     }
+}
+
+/// A vertex of a patch before it is written.
+struct PatchVertex {
+    /// `S(uv)`.
+    surface_point: DVec3,
+    /// The target's unit normal at `uv`.
+    normal: DVec3,
+    uv: DVec2,
+    /// The combined displacement along the normal.
+    height: f64,
+    /// Displaced, or on a rim: its triangles may see different normals.
+    sculpted: bool,
+    /// Where displaced (off the rims), the stroke that sets `height` (its id) and the
+    /// centreline segment giving it its depth ([`Stroke::gradient_segment`]).
+    deepest: Option<(u64, usize)>,
+}
+
+/// The normals at the three corners of triangle `t`, each the exact normal of the
+/// sculpted surface at that vertex as seen from inside the triangle.
+///
+/// A triangle with no sculpted vertex, or with a corner outside the hidden region, takes
+/// the target normals. Otherwise the stroke
+/// that shapes the triangle is the one that wins the carve/emboss combination of
+/// [`height`] at its displaced corners, where they agree, or else at its centroid (none:
+/// the bare target, as outside a rim). The normal of
+/// `P = S + h N` with `h = -depth` (carve) or `+depth` (emboss) is `N - grad h`, with
+/// the gradient of the stroke's depth taken along the target ([`Stroke::depth_gradient`],
+/// on the centroid's side of the centreline where the vertex lies on it) and the term
+/// `h dN` of the target's curvature left out (the tool depth is small against the radius
+/// of curvature). Pole vertices keep the pole's normal. `segments` holds, per vertex, the
+/// [`Stroke::gradient_segment`] of each stroke asked so far (shared by the patch's
+/// triangles).
+fn corner_normals(
+    strokes: &[StrokeRef<'_>],
+    poles: [bool; 4],
+    verts: &[PatchVertex],
+    t: [u32; 3],
+    segments: &mut GradientSegments,
+) -> [DVec3; 3] {
+    let vs = t.map(|i| &verts[i as usize]);
+    let plain = vs.map(|v| v.normal);
+    // A corner off every footprint and off the rims puts the triangle outside the
+    // hidden region (the rims are constraints of the triangulation): the bare target,
+    // even where a stroke's exact depth reaches past its footprint polygon (a tapered
+    // end), which would tilt the rim's normals over the flat target.
+    if vs.iter().any(|v| !v.sculpted) {
+        return plain;
+    }
+    let centroid = (vs[0].uv + vs[1].uv + vs[2].uv) / 3.0;
+    // The centroid of the corners' surface points stands for S(centroid): it is only
+    // used to pick the stroke and the side of its centreline.
+    let inside = (vs[0].surface_point + vs[1].surface_point + vs[2].surface_point) / 3.0;
+    // The stroke that wins at the displaced corners where they agree (the triangle lies
+    // in its groove: rims are constraints of the triangulation), else at the centroid.
+    let mut ids = vs.iter().filter_map(|v| v.deepest.map(|d| d.0));
+    let agreed = ids.next().filter(|&id| ids.all(|other| other == id));
+    let k = match agreed.and_then(|id| strokes.iter().position(|s| s.0 == id)) {
+        Some(k) => k,
+        None => match winner(strokes, centroid, inside) {
+            Some(k) => k,
+            None => return plain,
+        },
+    };
+    let stroke = strokes[k].1;
+    let sign = match stroke.tool.mode {
+        Mode::Carve => 1.0,
+        Mode::Emboss => -1.0,
+    };
+    std::array::from_fn(|c| {
+        let v = vs[c];
+        if !v.sculpted || pole_of(poles, v.uv).is_some() {
+            return v.normal;
+        }
+        let own = v.deepest.filter(|d| d.0 == strokes[k].0).map(|d| d.1);
+        let segment = match own.map(Some).or_else(|| segments.get(t[c], k)) {
+            Some(seg) => seg,
+            None => {
+                let seg = stroke.gradient_segment(v.uv, v.surface_point);
+                segments.put(t[c], k, seg);
+                seg
+            }
+        };
+        let g = stroke.depth_gradient_from(segment, v.uv, v.surface_point, inside, v.normal);
+        let along = g - v.normal * g.dot(v.normal);
+        (v.normal + along * sign)
+            .try_normalize()
+            .filter(|n| n.is_finite())
+            .unwrap_or(v.normal)
+    })
+}
+
+/// Per vertex of a patch, the [`Stroke::gradient_segment`] of each stroke asked so far:
+/// the first stroke's in `first`, others (where grooves meet) in `more`.
+struct GradientSegments {
+    first: Vec<Option<(usize, Option<usize>)>>,
+    more: Vec<(u32, usize, Option<usize>)>,
+}
+
+impl GradientSegments {
+    fn get(&self, vertex: u32, stroke: usize) -> Option<Option<usize>> {
+        match self.first[vertex as usize] {
+            Some((k, seg)) if k == stroke => Some(seg),
+            Some(_) => self
+                .more
+                .iter()
+                .find(|m| m.0 == vertex && m.1 == stroke)
+                .map(|m| m.2),
+            None => None,
+        }
+    }
+
+    fn put(&mut self, vertex: u32, stroke: usize, segment: Option<usize>) {
+        match self.first[vertex as usize] {
+            None => self.first[vertex as usize] = Some((stroke, segment)),
+            Some(_) => self.more.push((vertex, stroke, segment)),
+        }
+    }
+}
+
+/// The index of the stroke that sets [`height`] at `uv` (`p` on the target near
+/// `S(uv)`), if any; a stroke counts where its depth is positive.
+fn winner(strokes: &[StrokeRef<'_>], uv: DVec2, p: DVec3) -> Option<usize> {
+    let mut h: f64 = 0.0;
+    let mut win = None;
+    for (k, (_, s)) in strokes.iter().enumerate() {
+        if !s.bounds.contains(uv) {
+            continue;
+        }
+        let d = s.depth_at(uv, p);
+        if d > 0.0 {
+            let next = match s.tool.mode {
+                Mode::Carve => h.min(-d),
+                Mode::Emboss => h.max(d),
+            };
+            if next != h {
+                h = next;
+                win = Some(k);
+            }
+        }
+    }
+    win
 }
 
 /// `S(uv)`, the normal and the combined displacement, through the pass's cache. A
@@ -897,22 +1116,22 @@ fn evaluate(
     strokes: &[StrokeRef<'_>],
     poles: [bool; 4],
     uv: DVec2,
-) -> (DVec3, DVec3, f64) {
+) -> Evaluated {
     if let Some(side) = pole_of(poles, uv) {
         let uv = pole_uv(side);
         return *cache
             .entry((uv.x.to_bits(), uv.y.to_bits()))
-            .or_insert_with(|| pole_point(surface, strokes, side));
+            .or_insert_with(|| {
+                let (p, n, h) = pole_point(surface, strokes, side);
+                (p, n, h, None)
+            });
     }
     *cache
         .entry((uv.x.to_bits(), uv.y.to_bits()))
         .or_insert_with(|| {
             let sp = surface.eval(uv);
-            (
-                sp.p,
-                normal_from(surface, uv, &sp),
-                height(strokes, uv, sp.p),
-            )
+            let (h, deepest) = height_and_deepest(strokes, uv, sp.p);
+            (sp.p, normal_from(surface, uv, &sp), h, deepest)
         })
 }
 
@@ -921,26 +1140,41 @@ fn evaluate(
 /// inside its footprint (outline included), so the sculpted part ends exactly at the
 /// hidden region's outline.
 pub fn height(strokes: &[StrokeRef<'_>], uv: DVec2, p: DVec3) -> f64 {
+    height_and_deepest(strokes, uv, p).0
+}
+
+/// [`height`], and the stroke that sets it (its id) with the centreline segment that
+/// gives it its depth there.
+fn height_and_deepest(
+    strokes: &[StrokeRef<'_>],
+    uv: DVec2,
+    p: DVec3,
+) -> (f64, Option<(u64, usize)>) {
     let mut h: f64 = 0.0;
-    for (_, s) in strokes {
-        if !s.bounds.contains(uv) || s.footprint.locate(uv) == Location::Outside {
+    let mut deepest = None;
+    for &(id, s) in strokes {
+        if !s.bounds.contains(uv) {
             continue;
         }
-        let d = s.depth_at(uv, p);
-        if d > 0.0 {
-            h = match s.tool.mode {
+        let (d, segment) = s.deepest_segment(uv, p);
+        if d > 0.0 && s.footprint.locate(uv) != Location::Outside {
+            let next = match s.tool.mode {
                 Mode::Carve => h.min(-d),
                 Mode::Emboss => h.max(d),
             };
+            if next != h {
+                deepest = segment.map(|k| (id, k));
+            }
+            h = next;
         }
     }
-    h
+    (h, deepest)
 }
 
 /// The sides of the square (0 u-min, 1 u-max, 2 v-min, 3 v-max) whose points all
-/// coincide (within 1e-9 of the target's size): the poles of a sphere.
+/// coincide (within [`POLE_SIDE_REL`] of the target's size): the poles of a sphere.
 fn pole_sides(surface: &dyn ParamSurface, extent: &SurfaceExtent) -> [bool; 4] {
-    let tol = 1e-9 * extent.diagonal();
+    let tol = POLE_SIDE_REL * extent.diagonal();
     let side = |k: usize| {
         let at = |t: f64| {
             surface
@@ -999,7 +1233,7 @@ fn unfold_pole_fins(
         let (q, x, y) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
         let Some(side) = on_pole(q) else { continue };
         let meridian = |i: u32| if side >= 2 { uv(i).x } else { uv(i).y };
-        let same_meridian = |a: u32, b: u32| (meridian(a) - meridian(b)).abs() <= SNAP_EPS;
+        let same_meridian = |a: u32, b: u32| (meridian(a) - meridian(b)).abs() <= MESH_SNAP_EPS;
         if on_pole(x).is_some() || on_pole(y).is_some() || !same_meridian(x, y) {
             continue;
         }
@@ -1031,10 +1265,10 @@ fn unfold_pole_fins(
     }
 }
 
-/// The pole side `uv` lies on, if any (within [`SNAP_EPS`]: a cell side summed from
+/// The pole side `uv` lies on, if any (within [`MESH_SNAP_EPS`]: a cell side summed from
 /// the grid may stop one rounding short of the square's side).
 fn pole_of(poles: [bool; 4], uv: DVec2) -> Option<usize> {
-    let near = |a: f64, b: f64| (a - b).abs() <= SNAP_EPS;
+    let near = |a: f64, b: f64| (a - b).abs() <= MESH_SNAP_EPS;
     let on = [
         near(uv.x, 0.0),
         near(uv.x, 1.0),
@@ -1060,7 +1294,7 @@ fn pole_point(
     let ring: DVec3 = (0..8)
         .map(|k| {
             let t = f64::from(k) / 8.0;
-            let (a, b) = (1e-4, 1.0 - 1e-4);
+            let (a, b) = (POLE_RING_PARAM, 1.0 - POLE_RING_PARAM);
             let q = match side {
                 0 => DVec2::new(a, t),
                 1 => DVec2::new(b, t),
@@ -1092,7 +1326,11 @@ fn pole_height(strokes: &[StrokeRef<'_>], p: DVec3) -> f64 {
 
 /// Surface point, normal and displacement per parameter (bit pattern), shared by the
 /// patches of one pass so that side and corner vertices are evaluated once.
-type EvalCache = HashMap<(u64, u64), (DVec3, DVec3, f64), BuildHasherDefault<FxHasher>>;
+type EvalCache = HashMap<(u64, u64), Evaluated, BuildHasherDefault<FxHasher>>;
+
+/// `S(uv)`, the target's normal, the combined displacement and the stroke setting it
+/// (see [`PatchVertex::deepest`]).
+type Evaluated = (DVec3, DVec3, f64, Option<(u64, usize)>);
 
 /// A hash map with the [`FxHasher`].
 type FxMap<K, V> = HashMap<K, V, BuildHasherDefault<FxHasher>>;
@@ -1122,21 +1360,14 @@ struct PatchInput {
     rect: Rect,
     points: Vec<(DVec2, Kind)>,
     index: FxMap<(u64, u64), usize>,
-    /// The points by [`MERGE_EPS`] grid cell, to find near-duplicates.
-    near: FxMap<(i64, i64), Vec<usize>>,
+    /// The first and last point of each [`MESH_MERGE_EPS`] grid cell (chained through
+    /// `next_near` in order of insertion), to find near-duplicates.
+    near: FxMap<(i64, i64), (usize, usize)>,
+    /// Per point, the next point of its merge cell (`usize::MAX`: none).
+    next_near: Vec<usize>,
     constraints: Vec<([usize; 2], Kind)>,
     interior_hidden: bool,
 }
-
-/// Distance (normalised parameter units) below which a vertex counts as lying on a
-/// constraint segment, and a crossing as lying on a segment's end.
-const SNAP_EPS: f64 = 1e-12;
-
-/// Distance (normalised parameter units) below which two points of a cell are one
-/// vertex. Crossings of nearly parallel outline segments beside a shared outline vertex
-/// come out a few 1e-12 apart; kept apart, they make sliver triangles whose welded
-/// edges are shared by four triangles (a round-ended U stroke on the sphere).
-const MERGE_EPS: f64 = 1e-10;
 
 /// Orientation of `c` against the line `a -> b` (twice the signed triangle area).
 fn orient(a: DVec2, b: DVec2, c: DVec2) -> f64 {
@@ -1144,7 +1375,7 @@ fn orient(a: DVec2, b: DVec2, c: DVec2) -> f64 {
 }
 
 /// Parameter of the foot of `p` on the segment `a-b` when `p` lies within
-/// [`SNAP_EPS`] of its interior.
+/// [`MESH_SNAP_EPS`] of its interior.
 fn on_segment(p: DVec2, a: DVec2, b: DVec2) -> Option<f64> {
     let d = b - a;
     let l2 = d.length_squared();
@@ -1152,7 +1383,7 @@ fn on_segment(p: DVec2, a: DVec2, b: DVec2) -> Option<f64> {
         return None;
     }
     let t = (p - a).dot(d) / l2;
-    (t > 0.0 && t < 1.0 && p.distance(a + d * t) <= SNAP_EPS).then_some(t)
+    (t > 0.0 && t < 1.0 && p.distance(a + d * t) <= MESH_SNAP_EPS).then_some(t)
 }
 
 impl PatchInput {
@@ -1162,6 +1393,7 @@ impl PatchInput {
             points: Vec::new(),
             index: FxMap::default(),
             near: FxMap::default(),
+            next_near: Vec::new(),
             constraints: Vec::new(),
             interior_hidden: false,
         };
@@ -1179,19 +1411,22 @@ impl PatchInput {
     fn point(&mut self, p: DVec2, kind: Kind) -> usize {
         // spade merges -0.0 with 0.0 and rejects subnormal-scale coordinates: the
         // index must agree, so such values become 0.0.
-        let p = DVec2::new(p.x, p.y).map(|x| if x.abs() < 1e-30 { 0.0 } else { x });
+        let p = DVec2::new(p.x, p.y).map(|x| if x.abs() < MESH_ZERO_COORD { 0.0 } else { x });
         let key = (p.x.to_bits(), p.y.to_bits());
         let cell = (
-            (p.x / MERGE_EPS).floor() as i64,
-            (p.y / MERGE_EPS).floor() as i64,
+            (p.x / MESH_MERGE_EPS).floor() as i64,
+            (p.y / MESH_MERGE_EPS).floor() as i64,
         );
         let existing = self.index.get(&key).copied().or_else(|| {
             (-1..=1)
                 .flat_map(|dx| (-1..=1).map(move |dy| (cell.0 + dx, cell.1 + dy)))
                 .filter_map(|c| self.near.get(&c))
-                .flatten()
-                .copied()
-                .find(|&i| self.points[i].0.distance(p) <= MERGE_EPS)
+                .flat_map(|&(first, _)| {
+                    std::iter::successors(Some(first), |&i| {
+                        Some(self.next_near[i]).filter(|&n| n != usize::MAX)
+                    })
+                })
+                .find(|&i| self.points[i].0.distance(p) <= MESH_MERGE_EPS)
         });
         if let Some(i) = existing {
             if kind == Kind::Rim {
@@ -1202,7 +1437,16 @@ impl PatchInput {
         let i = self.points.len();
         self.points.push((p, kind));
         self.index.insert(key, i);
-        self.near.entry(cell).or_default().push(i);
+        self.next_near.push(usize::MAX);
+        match self.near.get_mut(&cell) {
+            Some((_, last)) => {
+                self.next_near[*last] = i;
+                *last = i;
+            }
+            None => {
+                self.near.insert(cell, (i, i));
+            }
+        }
         i
     }
 
@@ -1305,7 +1549,7 @@ impl PatchInput {
         // A crossing at an end is that end.
         let end = [(a0, a), (a1, b), (b0, c), (b1, d)]
             .into_iter()
-            .find(|&(_, q)| q.distance(p) <= SNAP_EPS);
+            .find(|&(_, q)| q.distance(p) <= MESH_SNAP_EPS);
         let v = match end {
             Some((v, _)) => v,
             None => self.point(p, kind),
@@ -1327,6 +1571,27 @@ impl PatchInput {
     /// near-coincident crossings) are left out, as are points spade cannot take.
     fn triangulate(&mut self) -> ConstrainedDelaunayTriangulation<Point2<f64>> {
         self.resolve_crossings();
+        // Bulk loading keeps the vertex order (the points are distinct: `point` merges
+        // repeats) and is several times faster than inserting one by one; it refuses
+        // only invalid coordinates, for which the one-by-one insertion below skips the
+        // offending points.
+        let vertices: Vec<Point2<f64>> = self
+            .points
+            .iter()
+            .map(|(p, _)| Point2::new(p.x, p.y))
+            .collect();
+        let edges: Vec<[usize; 2]> = self
+            .constraints
+            .iter()
+            .map(|&(e, _)| e)
+            .filter(|e| e[0] != e[1])
+            .collect();
+        if let Ok(cdt) =
+            ConstrainedDelaunayTriangulation::try_bulk_load_cdt(vertices, edges, |_| {})
+            && cdt.num_vertices() == self.points.len()
+        {
+            return cdt;
+        }
         let mut cdt = ConstrainedDelaunayTriangulation::<Point2<f64>>::new();
         let handles: Vec<_> = self
             .points
@@ -1438,6 +1703,9 @@ mod tests {
     use crate::sculpt::stroke::{Profile, StrokeInput, Tool};
     use crate::sculpt::surface::TargetSurface;
     use crate::sculpt::surface::test_surfaces::{plane, sphere, wavy};
+    use crate::tolerance::{
+        EXPORT_WELD_EPS, F32_EPS, GROOVE_TOL, MESH_DEPTH_TOL, MESH_HIT_EPS, TEST_WELD_EPS,
+    };
 
     fn tool(mode: Mode, profile: Profile) -> Tool {
         Tool {
@@ -1481,12 +1749,12 @@ mod tests {
             let mut mesh = PatchMesh::new();
             tess.update(&s, &[(1, &a)], None, &mut mesh);
             // Groove bottom at the tool depth, half depth half-way to the rim, flat outside.
-            assert_near!(depth_at(&mesh, 0.5, 0.5), 0.02, 1e-6);
-            assert_near!(depth_at(&mesh, 0.43, 0.5 + 0.025), 0.01, 1e-4);
-            assert_near!(depth_at(&mesh, 0.5, 0.6), 0.0, 1e-6);
-            assert_near!(depth_at(&mesh, 0.1, 0.1), 0.0, 1e-6);
+            assert_near!(depth_at(&mesh, 0.5, 0.5), 0.02, F32_EPS);
+            assert_near!(depth_at(&mesh, 0.43, 0.5 + 0.025), 0.01, MESH_DEPTH_TOL);
+            assert_near!(depth_at(&mesh, 0.5, 0.6), 0.0, F32_EPS);
+            assert_near!(depth_at(&mesh, 0.1, 0.1), 0.0, F32_EPS);
             // Crack-free: the only open edges are the outer border of the square.
-            let w = mesh.welded(1e-6);
+            let w = mesh.welded(EXPORT_WELD_EPS);
             let r = w.edge_report();
             assert_eq!(r.non_manifold, 0);
             assert_eq!(r.misoriented, 0);
@@ -1499,7 +1767,8 @@ mod tests {
                         w.vertices[a as usize].position,
                         w.vertices[b as usize].position,
                     );
-                    let on = |x: f32| x.abs() < 1e-6 || (x - 1.0).abs() < 1e-6;
+                    let on =
+                        |x: f32| x.abs() < EXPORT_WELD_EPS || (x - 1.0).abs() < EXPORT_WELD_EPS;
                     (on(p[0]) && p[0] == q[0]) || (on(p[1]) && p[1] == q[1])
                 })
                 .count();
@@ -1536,13 +1805,13 @@ mod tests {
         let mut tess = TargetTessellation::new(&s, 0, Detail::Final);
         let mut mesh = PatchMesh::new();
         tess.update(&s, &[(1, &a), (2, &b), (3, &c)], None, &mut mesh);
-        assert_near!(depth_at(&mesh, 0.5, 0.5), 0.03, 1e-6);
+        assert_near!(depth_at(&mesh, 0.5, 0.5), 0.03, F32_EPS);
         // On a's axis, 0.03 from b's axis: b (U, r/w = 0.6) is 0.03 * 0.8 = 0.024 deep,
         // a's V bottom is 0.02: the deeper wins. (The U profile is sampled at a few
         // fractions of its half-width: its chord error is a few percent of the depth.)
-        assert_near!(depth_at(&mesh, 0.53, 0.5), 0.024, 1e-3);
-        assert_near!(depth_at(&mesh, 0.3, 0.25), -0.02, 5e-4);
-        assert_eq!(mesh.welded(1e-6).edge_report().non_manifold, 0);
+        assert_near!(depth_at(&mesh, 0.53, 0.5), 0.024, MESH_HIT_EPS);
+        assert_near!(depth_at(&mesh, 0.3, 0.25), -0.02, GROOVE_TOL);
+        assert_eq!(mesh.welded(EXPORT_WELD_EPS).edge_report().non_manifold, 0);
     }
 
     #[test]
@@ -1577,6 +1846,10 @@ mod tests {
             None,
             &mut fresh,
         );
+        for ((ka, pa), (kb, pb)) in mesh.patches().zip(fresh.patches()) {
+            assert_eq!(ka, kb);
+            assert!(pa == pb, "patch {ka}: {pa:?}\n{pb:?}");
+        }
         assert_eq!(mesh, fresh);
     }
 
@@ -1618,12 +1891,199 @@ mod tests {
         let mut tess = TargetTessellation::new(&s, 0, Detail::Final);
         let mut mesh = PatchMesh::new();
         tess.update(&s, &[(1, &a), (2, &b), (3, &c)], None, &mut mesh);
-        let r = mesh.welded(1e-6).edge_report();
+        let r = mesh.welded(EXPORT_WELD_EPS).edge_report();
         assert!(r.is_watertight(), "{r:?}");
         let (v, _) = mesh.merged();
         assert!(
             v.iter()
                 .all(|v| v.position.iter().chain(&v.normal).all(|x| x.is_finite()))
         );
+    }
+
+    /// The uv distance from `uv` to the nearest segment of `outline`.
+    fn outline_distance(outline: &[[DVec2; 2]], uv: DVec2) -> f64 {
+        outline
+            .iter()
+            .map(|s| super::super::jordan::point_segment_distance(uv, s[0], s[1]))
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Triangles of a welded mesh as uv triangles (on `plane(1.0)` the position is the uv).
+    fn uv_triangles(mesh: &PatchMesh) -> (Vec<[DVec2; 3]>, Vec<[u32; 3]>) {
+        let w = mesh.welded(EXPORT_WELD_EPS);
+        let uv = |i: u32| {
+            let p = w.vertices[i as usize].position;
+            DVec2::new(f64::from(p[0]), f64::from(p[1]))
+        };
+        (
+            w.triangles.iter().map(|t| t.map(uv)).collect(),
+            w.triangles.clone(),
+        )
+    }
+
+    fn longest_edge(t: &[DVec2; 3]) -> f64 {
+        (0..3)
+            .map(|k| t[k].distance(t[(k + 1) % 3]))
+            .fold(0.0, f64::max)
+    }
+
+    /// Regression for issue 20 (sawtooth rims: long thin fans ran from a groove's fine
+    /// rim to the coarse root grid). The criterion, at both details, for a V and a U
+    /// groove and a curved stroke on a plane:
+    /// - every triangle with a vertex on the rim (the footprint outline) has all its
+    ///   edges at most `RIM_REACH` times the rim spacing `h` (the larger of the longest
+    ///   outline segment and the side of a leaf at the depth cap), shorter than a root
+    ///   cell's side;
+    /// - every triangle's size (longest edge) is at most `GRADE (h + d)`, `d` its
+    ///   distance from the rim: sizes grow with the distance from the rim, one quadtree
+    ///   level at a time (the balanced tree), not in a jump from the rim to a root cell
+    ///   (a fan with a vertex on the rim and a root cell's side fails both checks).
+    #[test]
+    fn mesh_is_graded_from_the_rim_to_the_root_grid() {
+        const RIM_REACH: f64 = 2.0;
+        const GRADE: f64 = 2.5;
+        let s = plane(1.0);
+        let curved = {
+            let samples = (0..60)
+                .map(|i| {
+                    let f = i as f64 / 59.0;
+                    let a = f * 2.5;
+                    (f, DVec3::new(0.5 + 0.3 * a.cos(), 0.5 + 0.3 * a.sin(), 0.0))
+                })
+                .collect();
+            Stroke::build(
+                &s,
+                &StrokeInput {
+                    samples,
+                    tool: tool(Mode::Carve, Profile::V),
+                },
+                0.2,
+            )
+            .unwrap()
+        };
+        let straight_u = stroke(
+            &s,
+            DVec3::new(0.15, 0.3, 0.0),
+            DVec3::new(0.85, 0.45, 0.0),
+            tool(Mode::Carve, Profile::U),
+        );
+        let mut checked = 0;
+        for st in [&curved, &straight_u] {
+            for detail in [Detail::Interactive, Detail::Final] {
+                let mut tess = TargetTessellation::new(&s, 0, detail);
+                let mut mesh = PatchMesh::new();
+                tess.update(&s, &[(1, st)], None, &mut mesh);
+                let outline = tess.hidden().segments().to_vec();
+                let n = f64::from(tess.map().n());
+                let leaf = 1.0 / (n * f64::from(1u32 << detail.cap()));
+                let rim_spacing = outline
+                    .iter()
+                    .map(|s| s[0].distance(s[1]))
+                    .fold(0.0, f64::max);
+                let h = rim_spacing.max(leaf);
+                // A fan to the root grid would fail the test.
+                assert!(1.0 / n > RIM_REACH * h, "{detail:?}: the test cannot fail");
+                let (tris, _) = uv_triangles(&mesh);
+                let on_rim = |p: DVec2| outline_distance(&outline, p) <= F32_EPS;
+                for t in &tris {
+                    if t.iter().any(|&p| on_rim(p)) {
+                        checked += 1;
+                        assert!(
+                            longest_edge(t) <= RIM_REACH * h,
+                            "{detail:?}: a triangle at the rim spans {} (rim spacing {h}): {t:?}",
+                            longest_edge(t)
+                        );
+                    }
+                }
+                // Sizes grow with the distance from the rim, not in jumps.
+                let mut worst: f64 = 0.0;
+                for t in &tris {
+                    let d = t
+                        .iter()
+                        .map(|&p| outline_distance(&outline, p))
+                        .fold(f64::INFINITY, f64::min);
+                    worst = worst.max(longest_edge(t) / (h + d));
+                }
+                assert!(
+                    worst <= GRADE,
+                    "{detail:?}: a triangle {worst} x (h + its distance)"
+                );
+                assert!(
+                    worst <= GRADE,
+                    "{detail:?}: neighbouring triangles differ {worst}x"
+                );
+            }
+        }
+        assert!(checked > 100, "only {checked} rim triangles");
+    }
+
+    /// Issue 20: normals come from the exact geometry, split at sharp edges. On a plane,
+    /// a straight V groove's walls are planes: away from the tapered ends every corner
+    /// of a wall triangle carries exactly its face's normal (no averaging across the
+    /// crease or the rim), the flat target carries +z, and each bottom vertex is written
+    /// twice, once per wall.
+    #[test]
+    fn v_groove_normals_are_exact_and_split_at_the_crease_and_rims() {
+        let s = plane(1.0);
+        let a = stroke(
+            &s,
+            DVec3::new(0.2, 0.5, 0.0),
+            DVec3::new(0.8, 0.5, 0.0),
+            tool(Mode::Carve, Profile::V),
+        );
+        for detail in [Detail::Interactive, Detail::Final] {
+            let mut tess = TargetTessellation::new(&s, 0, detail);
+            let mut mesh = PatchMesh::new();
+            tess.update(&s, &[(1, &a)], None, &mut mesh);
+            let (mut walls, mut flat, mut bottom) = (0, 0, Vec::new());
+            for (_, patch) in mesh.patches() {
+                for t in &patch.triangles {
+                    let v = t.map(|i| patch.vertices[i as usize]);
+                    let p = v.map(|v| DVec3::from_array(v.position.map(f64::from)));
+                    let face = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
+                    let middle = p.iter().all(|q| q.x > 0.3 && q.x < 0.7);
+                    let sunk = p.iter().any(|q| q.z < -f64::from(TEST_WELD_EPS));
+                    for c in &v {
+                        let n = DVec3::from_array(c.normal.map(f64::from));
+                        if !sunk && p.iter().all(|q| (q.y - 0.5).abs() > 0.06) {
+                            assert!(n.distance(DVec3::Z) < F32_EPS, "{detail:?}: flat {n}");
+                            flat += 1;
+                        }
+                        if sunk && middle {
+                            assert!(
+                                n.distance(face) < MESH_DEPTH_TOL,
+                                "{detail:?}: {n} on face {face} at {p:?}"
+                            );
+                            // The wall's slope: depth over half-width.
+                            assert_near!(n.y.abs() / n.z, 0.02 / 0.05, MESH_DEPTH_TOL);
+                            walls += 1;
+                        }
+                        if middle && (f64::from(c.position[2]) + 0.02).abs() < F32_EPS {
+                            bottom.push(c.position.map(f32::to_bits));
+                        }
+                    }
+                }
+            }
+            assert!(walls > 50 && flat > 50, "{detail:?}: {walls} {flat}");
+            // Each bottom vertex appears with two normals (as two written vertices).
+            let mut verts: Vec<([u32; 3], [u32; 3])> = Vec::new();
+            for (_, patch) in mesh.patches() {
+                for v in &patch.vertices {
+                    if bottom.contains(&v.position.map(f32::to_bits)) {
+                        verts.push((v.position.map(f32::to_bits), v.normal.map(f32::to_bits)));
+                    }
+                }
+            }
+            verts.sort_unstable();
+            verts.dedup();
+            let mut positions: Vec<[u32; 3]> = verts.iter().map(|v| v.0).collect();
+            positions.dedup();
+            assert!(positions.len() > 4, "{detail:?}: {}", positions.len());
+            assert_eq!(
+                verts.len(),
+                2 * positions.len(),
+                "{detail:?}: crease not split {verts:?}"
+            );
+        }
     }
 }

@@ -6,7 +6,10 @@
 //! node is classified against the region hidden by
 //! strokes ([`Region`]): exterior nodes are drawn, interior nodes are hidden, boundary
 //! nodes are subdivided down to a depth cap (coarse while a stroke is live, fine for the
-//! final render). New children start with their parent's classification, so merging a
+//! final render), and the tree is **graded**: neighbouring leaves differ by at most one
+//! level (2:1), also across root cells and across the seams of a closed surface (see
+//! [`GRADING_REACH`]), so that the mesh steps from the fine rim down to the root grid
+//! one level at a time. New children start with their parent's classification, so merging a
 //! node's children restores the node as it was; [`UvMap::update`] returns an [`Edit`]
 //! that [`UvMap::restore`] undoes exactly.
 //!
@@ -26,6 +29,18 @@
 use super::jordan::{NodeClass, Rect, Region};
 use super::surface::SurfaceExtent;
 use glam::DVec2;
+
+/// How far (in multiples of a node's own side) the grading looks for finer neighbours.
+///
+/// A node at level `l` below the cap is subdivided when the hidden region's outline
+/// comes within `GRADING_REACH` of its sides (L-infinity distance in the parameter
+/// square) and `l + 1 < cap`, or when a root demanding a deeper minimum level does
+/// (`l + 1 <` that level). Balance follows for any reach of at least 1: a neighbour two
+/// levels finer has a subdivided ancestor `A` of side `s <= side / 2` touching the node,
+/// whose reason lies within `(1 + reach) s <= (1 + reach) side / 2 <= reach * side` of the
+/// node, so the node would have been subdivided too. 1.25 keeps a margin against
+/// rounding in the rectangle tests.
+pub const GRADING_REACH: f64 = 1.25;
 
 /// Index of a node in the map's arena.
 pub type NodeId = u32;
@@ -72,6 +87,11 @@ pub struct UvMap {
     /// Per root, the level every leaf reaches whatever its class (where the surface
     /// curves too much for a flat root cell).
     min_levels: Vec<u8>,
+    /// The largest of `min_levels` (0: the grading need not look for them).
+    deepest_min_level: u8,
+    /// Whether the square wraps in u and in v (a closed surface): the grading looks
+    /// across the seam.
+    wrap: [bool; 2],
 }
 
 /// Chooses the base grid size `n` so that a flat quad of parameter size `1/n` deviates
@@ -115,7 +135,16 @@ impl UvMap {
             nodes,
             free: Vec::new(),
             min_levels: vec![0; (n * n) as usize],
+            deepest_min_level: 0,
+            wrap: [false; 2],
         }
+    }
+
+    /// Sets whether the square wraps in u and in v (the seams of a closed surface), so
+    /// that leaves on both sides of a seam are graded against each other; takes effect
+    /// at the next [`Self::update`] of each root.
+    pub fn set_wrap(&mut self, closed_u: bool, closed_v: bool) {
+        self.wrap = [closed_u, closed_v];
     }
 
     /// Sets, per root (row-major), the level that every leaf reaches whatever its class;
@@ -124,6 +153,7 @@ impl UvMap {
         for (k, m) in self.min_levels.iter_mut().enumerate() {
             *m = levels.get(k).copied().unwrap_or(0);
         }
+        self.deepest_min_level = self.min_levels.iter().copied().max().unwrap_or(0);
     }
 
     /// The level every leaf of `root` reaches (see [`Self::set_min_levels`]).
@@ -229,7 +259,8 @@ impl UvMap {
             self.nodes[id as usize].class = class;
         }
         let wants_children = (class == NodeClass::Boundary && node.level < cap)
-            || node.level < self.min_level(node.root);
+            || node.level < self.min_level(node.root)
+            || self.grading_wants_children(&node, region, cap);
         match (wants_children, node.children) {
             (true, None) => {
                 let first = self.subdivide(id);
@@ -250,6 +281,120 @@ impl UvMap {
             }
             (false, None) => {}
         }
+    }
+
+    /// The grading rule of [`GRADING_REACH`]: true when the outline, or a root with a
+    /// deeper minimum level, lies within reach of the node.
+    fn grading_wants_children(&self, node: &Node, region: &Region, cap: u8) -> bool {
+        let l = node.level;
+        let reach = (node.rect.max - node.rect.min) * GRADING_REACH;
+        let near = Rect::new(node.rect.min - reach, node.rect.max + reach);
+        let outline = l + 1 < cap
+            && !region.is_empty()
+            && self.wrapped(near).any(|r| region.meets_outline(r));
+        outline || (l + 1 < self.deepest_min_level && l + 1 < self.deepest_min_level_near(near))
+    }
+
+    /// The rectangle and, on a closed surface, its copies shifted by one period where
+    /// it reaches past the square.
+    fn wrapped(&self, r: Rect) -> impl Iterator<Item = Rect> + use<> {
+        // The shifts by one period (at most two per direction) that bring it back.
+        let shifts = |wrap: bool, lo: f64, hi: f64| {
+            let mut out = ([0.0; 3], 1);
+            for (reaches, d) in [(lo < 0.0, 1.0), (hi > 1.0, -1.0)] {
+                if wrap && reaches {
+                    out.0[out.1] = d;
+                    out.1 += 1;
+                }
+            }
+            out
+        };
+        let (su, nu) = shifts(self.wrap[0], r.min.x, r.max.x);
+        let (sv, nv) = shifts(self.wrap[1], r.min.y, r.max.y);
+        (0..nv).flat_map(move |j| {
+            (0..nu).map(move |i| {
+                let d = DVec2::new(su[i], sv[j]);
+                Rect::new(r.min + d, r.max + d)
+            })
+        })
+    }
+
+    /// The deepest minimum level among the roots that the rectangle touches (across
+    /// the seams of a closed surface).
+    fn deepest_min_level_near(&self, r: Rect) -> u8 {
+        let n = self.n as i64;
+        let cells = |lo: f64, hi: f64, wrap: bool| -> Vec<u32> {
+            let (a, b) = (
+                (lo * n as f64).floor() as i64,
+                (hi * n as f64).floor() as i64,
+            );
+            let mut out: Vec<u32> = (a..=b)
+                .filter_map(|i| {
+                    if (0..n).contains(&i) {
+                        Some(i as u32)
+                    } else if wrap {
+                        Some(i.rem_euclid(n) as u32)
+                    } else {
+                        None
+                    }
+                })
+                .collect();
+            out.sort_unstable();
+            out.dedup();
+            out
+        };
+        let is = cells(r.min.x, r.max.x, self.wrap[0]);
+        let js = cells(r.min.y, r.max.y, self.wrap[1]);
+        let mut deepest = 0;
+        for &j in &js {
+            for &i in &is {
+                deepest = deepest.max(self.min_level(self.root(i, j)));
+            }
+        }
+        deepest
+    }
+
+    /// The parameters along side `side` (0 = u-min, 1 = u-max, 2 = v-min, 3 = v-max) of
+    /// root `root` where the corners of its leaves touching that side lie (`v` for the
+    /// u sides, `u` for the v sides), sorted, without repeats. Computed by the same
+    /// halving from the root's rectangle as the leaves, so two roots sharing a side
+    /// (whose rows or columns have the same bounds) give the same bits.
+    pub fn side_params(&self, root: u32, side: u8) -> Vec<f64> {
+        let mut out = Vec::new();
+        self.side_params_into(root, side, &mut out);
+        out
+    }
+
+    /// [`Self::side_params`] into `out` (cleared first). Walks only the children that
+    /// touch the side (SW, SE, NW, NE: u-min holds 0 and 2, u-max 1 and 3, v-min 0 and
+    /// 1, v-max 2 and 3), in order along it.
+    pub fn side_params_into(&self, root: u32, side: u8, out: &mut Vec<f64>) {
+        out.clear();
+        let kids: [u32; 2] = match side {
+            0 => [0, 2],
+            1 => [1, 3],
+            2 => [0, 1],
+            _ => [2, 3],
+        };
+        let mut stack = vec![root];
+        while let Some(id) = stack.pop() {
+            let node = &self.nodes[id as usize];
+            match node.children {
+                Some(c) => stack.extend(kids.iter().rev().map(|&k| c + k)),
+                None => {
+                    let r = node.rect;
+                    let (lo, hi) = if side < 2 {
+                        (r.min.y, r.max.y)
+                    } else {
+                        (r.min.x, r.max.x)
+                    };
+                    out.push(lo);
+                    out.push(hi);
+                }
+            }
+        }
+        out.sort_by(f64::total_cmp);
+        out.dedup();
     }
 
     /// Undoes an [`Edit`], restoring every node touched to its state before the update.
@@ -362,5 +507,76 @@ mod tests {
         let interior_root = map.node(map.root(4, 4));
         assert_eq!(interior_root.class, NodeClass::Interior);
         assert!(interior_root.children.is_none());
+    }
+
+    /// The largest level difference between two leaves sharing a stretch of side (not
+    /// only a corner), across roots and, where the map wraps, across the seam.
+    fn worst_step(map: &UvMap) -> u8 {
+        let leaves: Vec<Node> = map.leaves().map(|(_, n)| *n).collect();
+        let overlap = |a0: f64, a1: f64, b0: f64, b1: f64| a0.max(b0) < a1.min(b1);
+        let mut worst = 0;
+        for a in &leaves {
+            for b in &leaves {
+                let shares = |du: f64, dv: f64| {
+                    let (bmin, bmax) = (
+                        b.rect.min + DVec2::new(du, dv),
+                        b.rect.max + DVec2::new(du, dv),
+                    );
+                    ((a.rect.max.x == bmin.x || a.rect.min.x == bmax.x)
+                        && overlap(a.rect.min.y, a.rect.max.y, bmin.y, bmax.y))
+                        || ((a.rect.max.y == bmin.y || a.rect.min.y == bmax.y)
+                            && overlap(a.rect.min.x, a.rect.max.x, bmin.x, bmax.x))
+                };
+                let wrap_u = if map.wrap[0] {
+                    vec![0.0, 1.0, -1.0]
+                } else {
+                    vec![0.0]
+                };
+                if wrap_u.iter().any(|&du| shares(du, 0.0)) {
+                    worst = worst.max(a.level.abs_diff(b.level));
+                }
+            }
+        }
+        worst
+    }
+
+    /// Issue 20: the tree is balanced (2:1) from the outline's cap level down to the
+    /// root grid, across root cells, across the u seam of a closed surface, and around
+    /// a root with a deeper minimum level; without grading the same outline leaves
+    /// steps of several levels.
+    #[test]
+    fn leaves_are_graded_two_to_one_across_roots_and_the_seam() {
+        // A disc across the u seam (both halves), and a small one in the middle.
+        let region = Region::new(vec![
+            disc(DVec2::new(0.02, 0.5), 0.1),
+            disc(DVec2::new(1.02, 0.5), 0.1),
+            disc(DVec2::new(0.5, 0.3), 0.05),
+        ]);
+        let mut plain = UvMap::new(8);
+        plain.set_wrap(true, false);
+        let mut levels = vec![0; 64];
+        levels[plain.root(5, 6) as usize] = 4;
+        plain.set_min_levels(&levels);
+        plain.update(&region, None, 5);
+        assert_eq!(worst_step(&plain), 1);
+        assert!(plain.leaves().any(|(_, n)| n.level == 5));
+        assert!(plain.leaves().any(|(_, n)| n.level == 0));
+        // The seam's two sides reach the cap together.
+        let deepest_at = |u: f64| {
+            plain
+                .leaves()
+                .filter(|(_, n)| n.rect.min.x == u || n.rect.max.x == u)
+                .map(|(_, n)| n.level)
+                .max()
+        };
+        assert_eq!(deepest_at(0.0), deepest_at(1.0));
+        // Restore is still exact after graded updates.
+        let before = plain.clone();
+        let edit = plain.update(&Region::new(vec![disc(DVec2::splat(0.7), 0.2)]), None, 5);
+        plain.restore(edit);
+        assert_eq!(
+            plain.leaves().map(|(_, n)| *n).collect::<Vec<_>>(),
+            before.leaves().map(|(_, n)| *n).collect::<Vec<_>>()
+        );
     }
 }
