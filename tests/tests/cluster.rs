@@ -195,10 +195,10 @@ struct NodeSpec {
 
 /// The default 27" front screen.
 const FRONT: [[f64; 3]; 3] = [[-0.3, 1.0, 0.0], [0.3, 1.0, 0.0], [-0.3, 1.34, 0.0]];
-/// A CAVE's left wall (x = -1.2, facing +x).
-const LEFT: [[f64; 3]; 3] = [[-1.2, 0.6, 1.0], [-1.2, 0.6, -1.0], [-1.2, 2.0, 1.0]];
-/// A CAVE's right wall (x = 1.2, facing -x).
-const RIGHT: [[f64; 3]; 3] = [[1.2, 0.6, -1.0], [1.2, 0.6, 1.0], [1.2, 2.0, -1.0]];
+/// A larger screen around the front one (the surface is drawn smaller).
+const LEFT: [[f64; 3]; 3] = [[-0.6, 0.8, 0.0], [0.6, 0.8, 0.0], [-0.6, 1.6, 0.0]];
+/// A screen shifted 0.2 m right of the front one.
+const RIGHT: [[f64; 3]; 3] = [[-0.1, 1.0, 0.0], [0.5, 1.0, 0.0], [-0.1, 1.34, 0.0]];
 
 fn node(name: &'static str, owner: bool, screen: [[f64; 3]; 3]) -> NodeSpec {
     NodeSpec {

@@ -125,7 +125,7 @@ pub fn node_config(mut config: Config, name: &str, out: Option<PathBuf>) -> VrRe
         .ok_or_else(|| ClusterError::Config("--cluster needs a [cluster] section".into()))?;
     let node = cluster.node(name)?;
     if let Some(s) = &node.screen {
-        config.screen = s.clone();
+        config.screen = *s;
     }
     if let Some(dir) = out.or_else(|| node.out.clone()) {
         config.files.dir = dir;
