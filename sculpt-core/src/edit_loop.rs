@@ -310,6 +310,57 @@ impl EditLoop {
         step
     }
 
+    /// Feeds one wand event like [`EditLoop::handle`], but applies nothing: operator
+    /// events go to the hooks as they happen and the edits are handed back in order.
+    /// A replicated document (the cluster's operation stream) applies them later, in
+    /// the stream's order, through [`EditLoop::apply`]; applied before the next input,
+    /// they give exactly the steps of [`EditLoop::handle`].
+    pub fn propose<H: EditHooks>(
+        &mut self,
+        ev: &WandEvent,
+        hooks: &mut H,
+    ) -> Result<Vec<Edit>, LoopError<H::Error>> {
+        let mut outputs = std::mem::take(&mut self.outputs);
+        outputs.clear();
+        let handled = self.interaction.handle(ev, &mut outputs);
+        let edits = match handled {
+            Ok(()) => Self::split_outputs(&mut outputs, hooks).map_err(LoopError::Hook),
+            Err(e) => Err(LoopError::Refused(e)),
+        };
+        self.outputs = outputs;
+        edits
+    }
+
+    /// Advances time like [`EditLoop::tick`], but applies nothing (see
+    /// [`EditLoop::propose`]).
+    pub fn propose_tick<H: EditHooks>(
+        &mut self,
+        t: f64,
+        hooks: &mut H,
+    ) -> Result<Vec<Edit>, H::Error> {
+        let mut outputs = std::mem::take(&mut self.outputs);
+        outputs.clear();
+        self.interaction.tick(t, &mut outputs);
+        let edits = Self::split_outputs(&mut outputs, hooks);
+        self.outputs = outputs;
+        edits
+    }
+
+    /// Operator events to the hooks, edits handed back.
+    fn split_outputs<H: EditHooks>(
+        outputs: &mut Vec<Output>,
+        hooks: &mut H,
+    ) -> Result<Vec<Edit>, H::Error> {
+        let mut edits = Vec::new();
+        for output in outputs.drain(..) {
+            match output {
+                Output::Op { t, event } => hooks.operator_event(t, &event)?,
+                Output::Edit(edit) => edits.push(edit),
+            }
+        }
+        Ok(edits)
+    }
+
     /// Takes the interaction's outputs in order: operator events to the hooks, edits
     /// through the hooks and [`editor::apply`].
     fn consume<H: EditHooks>(

@@ -57,6 +57,8 @@ pub struct Config {
     pub interaction: InteractionConfig,
     /// Journal, autosave and output files.
     pub files: FilesConfig,
+    /// The CAVE cluster / shared sculpting over NATS (`wandsculpt --cluster`).
+    pub cluster: Option<crate::cluster::ClusterSection>,
 }
 
 /// Output settings.
@@ -430,6 +432,14 @@ impl Config {
             let (_, _, vn) = screen.basis();
             if !p.is_finite() || (p - screen.lower_left).dot(vn) <= 0.0 {
                 return Err(VrError::Config(ConfigError::HeadPosition));
+            }
+        }
+        if let Some(c) = &self.cluster {
+            c.validate()?;
+            for n in &c.nodes {
+                if let Some(s) = &n.screen {
+                    s.screen()?;
+                }
             }
         }
         if let Some(t) = &self.tracking {

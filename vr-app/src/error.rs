@@ -91,6 +91,9 @@ pub enum VrError {
     /// An error from the geometry core.
     #[error(transparent)]
     Core(#[from] sculpt_core::Error),
+    /// A cluster problem (NATS connection, JetStream stream, barrier).
+    #[error("cluster: {0}")]
+    Cluster(#[from] crate::cluster::ClusterError),
 }
 
 /// Why no GPU adapter could be used.

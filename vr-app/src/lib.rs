@@ -23,6 +23,8 @@
 //! * [`app`] ([`AppState`](app::AppState)) -> config, session, scene, input,
 //!   [`desktop_view`] (the desktop camera), [`desktop_wand`];
 //! * [`live`] (tracking hub on tokio) -> config, input;
+//! * [`cluster`] (NATS JetStream roles: ingest, node, frame barrier) -> config, live,
+//!   app, headless, session;
 //! * [`headless`] -> app, render, session, journal, input, output; `window` -> app,
 //!   render, output, input, [`desktop_wand`].
 //!
@@ -38,6 +40,7 @@
 #![warn(missing_docs)]
 
 pub mod app;
+pub mod cluster;
 pub mod config;
 pub mod demo;
 pub mod desktop_view;

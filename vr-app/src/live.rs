@@ -190,6 +190,9 @@ pub struct LiveTracking {
     idle_lost_at: Option<f64>,
     state: Option<TrackingState>,
     events: Vec<StageEvent>,
+    /// Sources fed from outside (the cluster's tracking feed), registered after the
+    /// configured ones and the playback source.
+    feeds: Vec<tracking::hub::SourceId>,
     // Declared last so the transports are aborted before the runtime shuts down.
     runtime: tokio::runtime::Runtime,
 }
@@ -251,6 +254,7 @@ impl LiveTracking {
             idle_lost_at: None,
             state: None,
             events: Vec::new(),
+            feeds: Vec::new(),
             runtime,
         })
     }
@@ -285,6 +289,7 @@ impl LiveTracking {
             // The playback source is registered after the configured ones.
             ids.push(tracking::hub::SourceId(ids.len()));
         }
+        ids.extend(&self.feeds);
         self.last_receive.is_some()
             && ids.iter().all(|&s| {
                 self.served.contains(&s)
@@ -293,6 +298,15 @@ impl LiveTracking {
                         .source_stats(s)
                         .is_some_and(|st| st.connections > 0 && !st.connected)
             })
+    }
+
+    /// Registers a source fed from outside (frames applied to the returned hub by the
+    /// caller, as the cluster's tracking feed does): it goes through the same stage,
+    /// and counts for [`LiveTracking::sources_done`] like a configured source.
+    pub fn add_feed(&mut self, name: &str) -> (Hub, tracking::hub::SourceId) {
+        let id = self.hub.add_source(name);
+        self.feeds.push(id);
+        (self.hub.clone(), id)
     }
 
     /// Everything new since the last poll, in order.

@@ -85,6 +85,25 @@ struct Cli {
     /// Window mode: render this many frames, then exit cleanly (smoke tests).
     #[arg(long, value_name = "N")]
     frames: Option<u64>,
+    /// Cluster role (`[cluster]` in --config): `ingest` (publish the tracker's frames)
+    /// or `node` (a headless render node, with --node). See docs/cluster.md.
+    #[arg(long, value_name = "ROLE")]
+    cluster: Option<ClusterRole>,
+    /// Cluster: this node's name (a `[[cluster.node]]`).
+    #[arg(long, value_name = "NAME")]
+    node: Option<String>,
+    /// Cluster ingest: the feed to publish (`<session>.tracking.<feed>`).
+    #[arg(long, value_name = "NAME", default_value = "main")]
+    feed: String,
+}
+
+/// `--cluster` roles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum ClusterRole {
+    /// Read the tracker and publish its frames.
+    Ingest,
+    /// A render node.
+    Node,
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -175,6 +194,9 @@ fn run(cli: Cli) -> Result<()> {
     config.display.quadtree |= cli.quadtree;
     config.display.swap_eyes ^= cli.swap_eyes;
     config.validate()?;
+    if let Some(role) = cli.cluster {
+        return run_cluster(&cli, role, config);
+    }
     let mut app = AppState::new(config).context("opening the session")?;
     let bounds = app.document_bounds();
     if let (Some((yaw, pitch)), Some(view)) = (cli.view, &mut app.view) {
@@ -236,6 +258,54 @@ fn run(cli: Cli) -> Result<()> {
         WindowInput::Desktop
     };
     run_windowed(app, input, cli.frames)?;
+    Ok(())
+}
+
+/// `--cluster ingest|node`.
+fn run_cluster(cli: &Cli, role: ClusterRole, config: Config) -> Result<()> {
+    use vr_app::cluster::{ingest, node};
+    let Some(cluster) = config.cluster.clone() else {
+        bail!("--cluster needs a [cluster] section in --config");
+    };
+    match role {
+        ClusterRole::Ingest => {
+            let Some(section) = &config.tracking else {
+                bail!("--cluster ingest needs a [tracking] section (the tracker)");
+            };
+            let opts = ingest::IngestOptions {
+                feed: cli.feed.clone(),
+                idle_exit: cli.idle_exit,
+                duration: cli.duration,
+                addr_file: cli.addr_file.clone(),
+            };
+            let report = ingest::run_ingest(&cluster, section, &opts)?;
+            println!("{}", serde_json::to_string_pretty(&report)?);
+        }
+        ClusterRole::Node => {
+            let Some(name) = &cli.node else {
+                bail!("--cluster node needs --node NAME");
+            };
+            if !cli.headless {
+                bail!("--cluster node runs headless (add --headless)");
+            }
+            let config = node::node_config(config, name, cli.out.clone())?;
+            let opts = node::NodeOptions {
+                name: name.clone(),
+                idle_exit: cli.idle_exit,
+                duration: cli.duration,
+                headless: HeadlessOptions {
+                    width: config.display.width,
+                    height: config.display.height,
+                    mode: config.display.mode,
+                    render_every: 0,
+                    realtime: false,
+                },
+            };
+            let gpu = Gpu::headless()?;
+            let report = node::run_node(config, &opts, &gpu)?;
+            println!("{}", serde_json::to_string_pretty(&report)?);
+        }
+    }
     Ok(())
 }
 

@@ -383,6 +383,45 @@ impl Session {
         Ok(self.applied(&step))
     }
 
+    /// Feeds one wand event to the interaction without applying its edits: they are
+    /// handed back for the cluster's operation stream, and come back through
+    /// [`Session::apply_committed`] in the stream's order. Operator events are logged
+    /// as they happen; an invalid event is logged and dropped.
+    pub fn propose(&mut self, ev: &WandEvent) -> VrResult<Vec<Edit>> {
+        let edits = match self.edit_loop.propose(ev, &mut self.files) {
+            Ok(edits) => edits,
+            Err(LoopError::Refused(e)) => {
+                tracing::warn!("dropped an input: {}", Chain(&e));
+                Vec::new()
+            }
+            Err(LoopError::Hook(e)) => return Err(e),
+        };
+        self.time = self.time.max(ev.t);
+        Ok(edits)
+    }
+
+    /// Advances time without applying the edits (see [`Session::propose`]).
+    pub fn propose_tick(&mut self, t: f64) -> VrResult<Vec<Edit>> {
+        if t.is_finite() {
+            self.time = self.time.max(t);
+        }
+        self.edit_loop.propose_tick(t, &mut self.files)
+    }
+
+    /// Applies one operation committed to the cluster's operation stream: journalled
+    /// (the local cache of the stream), applied, saved or autosaved as a local edit
+    /// would be. A refused edit is counted in [`Session::rejected`].
+    pub fn apply_committed(&mut self, t: f64, edit: &Edit) -> VrResult<Applied> {
+        self.files.before_apply(t, edit)?;
+        let applied = self.edit_loop.apply(edit);
+        if matches!(applied, Applied::Rejected(_)) {
+            self.rejected += 1;
+        }
+        self.files
+            .after_apply(t, edit, &applied, &self.edit_loop.doc)?;
+        Ok(applied)
+    }
+
     /// The step's edits, counting the refused ones.
     fn applied(&mut self, step: &Step) -> Vec<Edit> {
         self.rejected += step.rejections().count();

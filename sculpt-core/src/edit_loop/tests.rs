@@ -336,3 +336,44 @@ fn recovered_edits_keep_the_target_count() {
     assert_eq!(edits.apply(&Edit::Redo), Applied::Redone);
     assert_eq!(edits.target_count(), 2);
 }
+
+/// Proposing and applying each edit before the next input builds the document that
+/// handling builds, and proposing alone changes nothing.
+#[test]
+fn proposed_edits_applied_in_order_build_the_handled_document() {
+    let mut handled = carve_loop();
+    carve(&mut handled, &mut NoHooks, 0.0, 1.15).unwrap();
+    carve(&mut handled, &mut NoHooks, 1.0, 1.2).unwrap();
+    let mut proposed = carve_loop();
+    let mut recorder = Recorder::default();
+    let mut all = Vec::new();
+    for (t0, y) in [(0.0, 1.15), (1.0, 1.2)] {
+        for i in 0..=10 {
+            let tip = default_surface_point(-0.1 + 0.02 * f64::from(i), y);
+            let ev = tracked(t0 + 0.01 * f64::from(i), tip, u32::from(i < 10));
+            let edits = proposed.propose(&ev, &mut recorder).unwrap();
+            assert_eq!(
+                proposed.doc.strokes().len(),
+                all.len(),
+                "proposing applies nothing"
+            );
+            for edit in edits {
+                proposed.apply(&edit);
+                all.push(edit);
+            }
+        }
+    }
+    assert!(
+        proposed
+            .propose_tick(5.0, &mut recorder)
+            .unwrap()
+            .is_empty()
+    );
+    assert_eq!(all.len(), 2, "{all:?}");
+    assert!(
+        recorder.calls.iter().any(|c| c == "op GestureStart"),
+        "{:?}",
+        recorder.calls
+    );
+    assert_eq!(proposed.doc.to_json(), handled.doc.to_json());
+}

@@ -1,0 +1,764 @@
+//! The CAVE cluster over NATS JetStream, end to end with real processes: a real
+//! `nats-server` (JetStream, file store in a temporary directory, user/password) on a
+//! free loopback port, `replay SESSION --serve` as the tracker, `wandsculpt --cluster
+//! ingest` publishing its frames and headless `wandsculpt --cluster node` render nodes.
+//!
+//! The tests fail (never skip) when `nats-server` is missing and `CI` is set.
+
+use std::io::{BufRead, BufReader};
+use std::net::TcpListener;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use sculpt_core::editor;
+use sculpt_core::interaction::Edit;
+use sculpt_core::sculpt::document::Document;
+use sculpt_core::sculpt::stroke::StrokeInput;
+use tests::{ChildGuard, sessions_dir, workspace_bin};
+use vr_app::cluster::node::READY_FILE;
+use vr_app::journal::Journal;
+use vr_app::session::{DOCUMENT_FILE, JOURNAL_FILE};
+
+/// Plenty for a few seconds of session on a loaded 2-core CI machine.
+const TIMEOUT: Duration = Duration::from_secs(240);
+const USER: &str = "cave";
+const PASSWORD: &str = "s3cret";
+
+struct Bins {
+    replay: PathBuf,
+    wandsculpt: PathBuf,
+}
+
+fn bins() -> &'static Bins {
+    static BINS: std::sync::OnceLock<Bins> = std::sync::OnceLock::new();
+    BINS.get_or_init(|| Bins {
+        replay: workspace_bin("replay", "replay"),
+        wandsculpt: workspace_bin("vr-app", "wandsculpt"),
+    })
+}
+
+/// `nats-server`, or `None` (after saying why) when it is not installed outside CI.
+fn nats_server_bin() -> Option<PathBuf> {
+    let found = std::env::var_os("PATH").and_then(|paths| {
+        std::env::split_paths(&paths)
+            .chain([PathBuf::from("/usr/sbin"), PathBuf::from("/usr/bin")])
+            .map(|d| d.join("nats-server"))
+            .find(|p| p.is_file())
+    });
+    if found.is_none() {
+        let ci = std::env::var("CI").is_ok_and(|v| !v.is_empty());
+        assert!(
+            !ci,
+            "nats-server is not installed (apt-get install nats-server); CI must run the cluster tests"
+        );
+        eprintln!("SKIPPED: nats-server is not installed (apt-get install nats-server)");
+    }
+    found
+}
+
+/// A nats-server with JetStream and a file store, on a loopback port.
+struct Nats {
+    bin: PathBuf,
+    dir: PathBuf,
+    port: u16,
+    child: Option<ChildGuard>,
+}
+
+impl Nats {
+    fn start(bin: PathBuf, dir: &Path) -> Self {
+        let port = TcpListener::bind("127.0.0.1:0")
+            .unwrap()
+            .local_addr()
+            .unwrap()
+            .port();
+        let mut nats = Self {
+            bin,
+            dir: dir.to_path_buf(),
+            port,
+            child: None,
+        };
+        nats.run();
+        nats
+    }
+
+    fn url(&self) -> String {
+        format!("nats://127.0.0.1:{}", self.port)
+    }
+
+    /// Starts (or restarts) the server on the same port and store.
+    fn run(&mut self) {
+        let conf = self.dir.join("nats.conf");
+        let log = self.dir.join("nats.log");
+        let _ = std::fs::remove_file(&log);
+        std::fs::write(
+            &conf,
+            format!(
+                r#"listen: 127.0.0.1:{port}
+jetstream {{ store_dir: "{store}" }}
+log_file: "{log}"
+authorization {{ users = [ {{ user: "{USER}", password: "{PASSWORD}" }} ] }}
+"#,
+                port = self.port,
+                store = self.dir.join("store").display(),
+                log = log.display(),
+            ),
+        )
+        .unwrap();
+        let mut child = ChildGuard::spawn(
+            Command::new(&self.bin)
+                .arg("-c")
+                .arg(&conf)
+                .stdout(Stdio::null())
+                .stderr(Stdio::null()),
+        );
+        let deadline = Instant::now() + Duration::from_secs(60);
+        loop {
+            let text = std::fs::read_to_string(&log).unwrap_or_default();
+            if text.contains("Server is ready") {
+                break;
+            }
+            assert!(
+                matches!(child.0.try_wait(), Ok(None)),
+                "nats-server exited:\n{text}"
+            );
+            assert!(Instant::now() < deadline, "nats-server not ready:\n{text}");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        self.child = Some(child);
+    }
+
+    /// Stops the server gracefully (SIGTERM: the file store is flushed) and waits.
+    fn stop(&mut self) {
+        if let Some(mut c) = self.child.take() {
+            signal(&c, "TERM");
+            c.wait_for("nats-server stop", Duration::from_secs(30));
+        }
+    }
+}
+
+fn signal(child: &ChildGuard, sig: &str) {
+    let status = Command::new("kill")
+        .arg(format!("-{sig}"))
+        .arg(child.0.id().to_string())
+        .status()
+        .unwrap();
+    assert!(status.success(), "kill -{sig}");
+}
+
+fn session(name: &str) -> PathBuf {
+    sessions_dir().join(format!("{name}.poselog"))
+}
+
+/// `replay SESSION --out DIR`: the offline document.
+fn offline(name: &str, dir: &Path) -> Vec<u8> {
+    let status = Command::new(&bins().replay)
+        .arg(session(name))
+        .arg("--out")
+        .arg(dir)
+        .arg("-q")
+        .stdout(Stdio::null())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    std::fs::read(dir.join("scene.json")).unwrap()
+}
+
+/// `replay SESSION --serve tcp://127.0.0.1:0`, and the address it listens on.
+fn serve_tcp(name: &str, speed: f64) -> (ChildGuard, String) {
+    let mut child = ChildGuard::spawn(
+        Command::new(&bins().replay)
+            .arg(session(name))
+            .args(["--serve", "tcp://127.0.0.1:0", "--wait", "240", "-q"])
+            .args(["--speed", &speed.to_string()])
+            .stdout(Stdio::piped()),
+    );
+    let mut stdout = BufReader::new(child.0.stdout.take().unwrap());
+    let mut line = String::new();
+    stdout.read_line(&mut line).unwrap();
+    std::thread::spawn(move || std::io::copy(&mut stdout, &mut std::io::sink()));
+    let addr = line
+        .trim()
+        .strip_prefix("listening on tcp://")
+        .unwrap_or_else(|| panic!("replay said {line:?}"))
+        .to_string();
+    (child, addr)
+}
+
+/// A render node: name, owner, feed, screen corners.
+struct NodeSpec {
+    name: &'static str,
+    owner: bool,
+    feed: &'static str,
+    screen: [[f64; 3]; 3],
+}
+
+/// The default 27" front screen.
+const FRONT: [[f64; 3]; 3] = [[-0.3, 1.0, 0.0], [0.3, 1.0, 0.0], [-0.3, 1.34, 0.0]];
+/// A larger screen around the front one (the surface is drawn smaller).
+const LEFT: [[f64; 3]; 3] = [[-0.6, 0.8, 0.0], [0.6, 0.8, 0.0], [-0.6, 1.6, 0.0]];
+/// A screen shifted 0.2 m right of the front one.
+const RIGHT: [[f64; 3]; 3] = [[-0.1, 1.0, 0.0], [0.5, 1.0, 0.0], [-0.1, 1.34, 0.0]];
+
+fn node(name: &'static str, owner: bool, screen: [[f64; 3]; 3]) -> NodeSpec {
+    NodeSpec {
+        name,
+        owner,
+        feed: "main",
+        screen,
+    }
+}
+
+/// The one cluster config: the tracker `addr` (for the ingest), the server, the
+/// session and a section per node.
+fn cluster_config(
+    path: &Path,
+    addr: &str,
+    url: &str,
+    password: &str,
+    extra: &str,
+    nodes: &[NodeSpec],
+) -> PathBuf {
+    let mut text = format!(
+        r#"
+[display]
+mode = "mono"
+width = 160
+height = 90
+
+[tracking]
+wand = "wand0"
+head = "body0"
+
+[[tracking.input.source]]
+kind = "tcp-connect"
+addr = "{addr}"
+
+[cluster]
+url = "{url}"
+user = "{USER}"
+password = "{password}"
+session = "s{}"
+{timeout}
+{extra}
+"#,
+        std::process::id(),
+        // Generous for a loaded CI machine, unless the test sets its own.
+        timeout = if extra.contains("barrier_timeout") {
+            ""
+        } else {
+            "barrier_timeout = 2.0"
+        },
+    );
+    for n in nodes {
+        let [ll, lr, ul] = n.screen;
+        text.push_str(&format!(
+            "\n[[cluster.node]]\nname = \"{}\"\nowner = {}\nfeed = \"{}\"\n[cluster.node.screen]\nlower_left = {ll:?}\nlower_right = {lr:?}\nupper_left = {ul:?}\n",
+            n.name, n.owner, n.feed
+        ));
+    }
+    std::fs::write(path, text).unwrap();
+    path.to_path_buf()
+}
+
+fn start_node(config: &Path, name: &str, out: &Path) -> ChildGuard {
+    ChildGuard::spawn(
+        Command::new(&bins().wandsculpt)
+            .arg("--headless")
+            .arg("--config")
+            .arg(config)
+            .args(["--cluster", "node", "--node", name])
+            .arg("--out")
+            .arg(out)
+            .args(["--idle-exit", "2.0", "--duration", "200"])
+            .env("WANDSCULPT_ADAPTER", "llvmpipe")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped()),
+    )
+}
+
+fn start_ingest(config: &Path, feed: &str) -> ChildGuard {
+    ChildGuard::spawn(
+        Command::new(&bins().wandsculpt)
+            .arg("--config")
+            .arg(config)
+            .args(["--cluster", "ingest", "--feed", feed])
+            .args(["--idle-exit", "5.0", "--duration", "200"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped()),
+    )
+}
+
+/// Waits until the node has written its ready file.
+fn wait_ready(child: &mut ChildGuard, out: &Path) {
+    let deadline = Instant::now() + TIMEOUT;
+    while !out.join(READY_FILE).exists() {
+        assert!(
+            matches!(child.0.try_wait(), Ok(None)),
+            "node exited before it was ready:\n{}",
+            stderr_of(child)
+        );
+        assert!(Instant::now() < deadline, "node never ready");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+fn stderr_of(child: &mut ChildGuard) -> String {
+    let mut s = String::new();
+    if let Some(mut e) = child.0.stderr.take() {
+        let _ = std::io::Read::read_to_string(&mut e, &mut s);
+    }
+    s
+}
+
+/// Waits for a node and returns its JSON report.
+fn finish(child: &mut ChildGuard, what: &str) -> serde_json::Value {
+    let mut stdout = child.0.stdout.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = std::io::Read::read_to_string(&mut stdout, &mut s);
+        s
+    });
+    let mut err = child.0.stderr.take().unwrap();
+    let err_reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = std::io::Read::read_to_string(&mut err, &mut s);
+        s
+    });
+    let status = child.wait_for(what, TIMEOUT);
+    let out = reader.join().unwrap();
+    let log = err_reader.join().unwrap();
+    assert!(status.success(), "{what} failed:\n{log}");
+    serde_json::from_str(&out).unwrap_or_else(|e| panic!("{what}: {e}: {out}\n{log}"))
+}
+
+fn scene(out: &Path) -> Vec<u8> {
+    std::fs::read(out.join(DOCUMENT_FILE)).unwrap()
+}
+
+/// Waits until the journal in `dir` holds at least `n` operations.
+fn wait_for_journal(dir: &Path, n: usize, child: &mut ChildGuard) {
+    let deadline = Instant::now() + TIMEOUT;
+    loop {
+        if Journal::read(dir.join(JOURNAL_FILE)).is_ok_and(|e| e.len() >= n) {
+            return;
+        }
+        assert!(
+            matches!(child.0.try_wait(), Ok(None)),
+            "node exited early:\n{}",
+            stderr_of(child)
+        );
+        assert!(Instant::now() < deadline, "no {n} operations");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+fn edits(out: &Path) -> Vec<Edit> {
+    Journal::read(out.join(JOURNAL_FILE))
+        .unwrap()
+        .into_iter()
+        .map(|e| e.edit)
+        .collect()
+}
+
+#[test]
+fn three_screens_build_the_offline_document_and_each_draws_its_own_view() {
+    let Some(bin) = nats_server_bin() else {
+        return;
+    };
+    let _ = bins();
+    let dir = tempfile::tempdir().unwrap();
+    let name = "patch-overlaps";
+    let expected = offline(name, &dir.path().join("offline"));
+    let nats = Nats::start(bin, dir.path());
+    let (mut server, addr) = serve_tcp(name, 3.0);
+    // Three screens of a CAVE, and a twin of the front screen on a fourth node.
+    let specs = [
+        node("front", true, FRONT),
+        node("left", false, LEFT),
+        node("right", false, RIGHT),
+        node("twin", false, FRONT),
+    ];
+    let config = cluster_config(
+        &dir.path().join("cave.toml"),
+        &addr,
+        &nats.url(),
+        PASSWORD,
+        "",
+        &specs,
+    );
+    let outs: Vec<PathBuf> = specs.iter().map(|s| dir.path().join(s.name)).collect();
+    let mut nodes: Vec<ChildGuard> = specs
+        .iter()
+        .zip(&outs)
+        .map(|(s, out)| start_node(&config, s.name, out))
+        .collect();
+    for (n, out) in nodes.iter_mut().zip(&outs) {
+        wait_ready(n, out);
+    }
+    let mut ingest = start_ingest(&config, "main");
+    assert!(server.wait_for("replay --serve", TIMEOUT).success());
+    let reports: Vec<serde_json::Value> = nodes
+        .iter_mut()
+        .zip(&specs)
+        .map(|(n, s)| finish(n, s.name))
+        .collect();
+    assert!(
+        ingest.wait_for("ingest", TIMEOUT).success(),
+        "{}",
+        stderr_of(&mut ingest)
+    );
+    for ((out, s), r) in outs.iter().zip(&specs).zip(&reports) {
+        assert!(
+            scene(out) == expected,
+            "node {}: the document differs from the offline scene.json\n{r}",
+            s.name
+        );
+        assert_eq!(r["garbage_ops"], 0, "{r}");
+        assert_eq!(r["applied"], reports[0]["committed"], "{r}");
+    }
+    assert!(reports[0]["committed"].as_u64().unwrap() > 0);
+    // Each node draws its own screen: the twin of the front screen draws the front's
+    // picture, every other screen a different one.
+    let png = |out: &PathBuf| std::fs::read(out.join("frame.png")).unwrap();
+    let pictures: Vec<Vec<u8>> = outs.iter().map(png).collect();
+    assert_eq!(
+        pictures[0], pictures[3],
+        "same screen, same document: same picture"
+    );
+    assert_ne!(pictures[0], pictures[1]);
+    assert_ne!(pictures[0], pictures[2]);
+    assert_ne!(pictures[1], pictures[2]);
+}
+
+#[test]
+fn a_node_killed_mid_session_replays_the_stream_and_converges() {
+    let Some(bin) = nats_server_bin() else {
+        return;
+    };
+    let _ = bins();
+    let dir = tempfile::tempdir().unwrap();
+    // Five strokes over 11 s, served at twice real time.
+    let name = "patch-mask";
+    let expected = offline(name, &dir.path().join("offline"));
+    let nats = Nats::start(bin, dir.path());
+    let (mut server, addr) = serve_tcp(name, 2.0);
+    let specs = [node("front", true, FRONT), node("left", false, LEFT)];
+    let config = cluster_config(
+        &dir.path().join("cave.toml"),
+        &addr,
+        &nats.url(),
+        PASSWORD,
+        "",
+        &specs,
+    );
+    let (front, left) = (dir.path().join("front"), dir.path().join("left"));
+    let mut a = start_node(&config, "front", &front);
+    let mut b = start_node(&config, "left", &left);
+    wait_ready(&mut a, &front);
+    wait_ready(&mut b, &left);
+    let mut ingest = start_ingest(&config, "main");
+    wait_for_journal(&left, 2, &mut b);
+    b.0.kill().unwrap(); // SIGKILL
+    b.0.wait().unwrap();
+    let mut b = start_node(&config, "left", &left);
+    let report_b = finish(&mut b, "restarted node");
+    let report_a = finish(&mut a, "owner");
+    assert!(server.wait_for("replay --serve", TIMEOUT).success());
+    assert!(ingest.wait_for("ingest", TIMEOUT).success());
+    assert!(
+        scene(&front) == expected,
+        "owner differs from offline\n{report_a}"
+    );
+    assert!(
+        scene(&left) == expected,
+        "restarted node differs from offline\n{report_b}"
+    );
+    assert!(report_b["backlog"].as_u64().unwrap() >= 2, "{report_b}");
+    assert_eq!(edits(&left), edits(&front));
+    assert!(left.join("rejoin.1.journal").exists());
+}
+
+#[test]
+fn a_nats_server_restart_mid_session_loses_and_duplicates_no_operation() {
+    let Some(bin) = nats_server_bin() else {
+        return;
+    };
+    let _ = bins();
+    let dir = tempfile::tempdir().unwrap();
+    let name = "patch-mask";
+    let mut nats = Nats::start(bin, dir.path());
+    let (mut server, addr) = serve_tcp(name, 2.0);
+    let specs = [node("front", true, FRONT), node("left", false, LEFT)];
+    let config = cluster_config(
+        &dir.path().join("cave.toml"),
+        &addr,
+        &nats.url(),
+        PASSWORD,
+        "",
+        &specs,
+    );
+    let (front, left) = (dir.path().join("front"), dir.path().join("left"));
+    let mut a = start_node(&config, "front", &front);
+    let mut b = start_node(&config, "left", &left);
+    wait_ready(&mut a, &front);
+    wait_ready(&mut b, &left);
+    let mut ingest = start_ingest(&config, "main");
+    wait_for_journal(&front, 2, &mut a);
+    nats.stop();
+    std::thread::sleep(Duration::from_millis(500));
+    nats.run();
+    let report_a = finish(&mut a, "owner");
+    let report_b = finish(&mut b, "node");
+    assert!(server.wait_for("replay --serve", TIMEOUT).success());
+    let _ = ingest.wait_for("ingest", TIMEOUT);
+    // Every operation the owner got acknowledged is applied once on every node.
+    let committed = report_a["committed"].as_u64().unwrap();
+    assert!(committed >= 3, "{report_a}");
+    assert_eq!(report_a["applied"].as_u64(), Some(committed), "{report_a}");
+    assert_eq!(report_b["applied"].as_u64(), Some(committed), "{report_b}");
+    assert_eq!(edits(&front).len() as u64, committed);
+    assert_eq!(edits(&left), edits(&front));
+    assert!(scene(&left) == scene(&front), "{report_a}\n{report_b}");
+    let doc = Document::from_json(&scene(&front)).unwrap();
+    let strokes: Vec<StrokeInput> = edits(&front)
+        .iter()
+        .filter_map(|e| match e {
+            Edit::Stroke(s) => Some(editor::stroke_input(s)),
+            _ => None,
+        })
+        .collect();
+    for s in &strokes {
+        let copies = doc.strokes().iter().filter(|d| d.input == *s).count();
+        assert_eq!(
+            copies, 1,
+            "a committed stroke is in the document {copies} times"
+        );
+    }
+}
+
+#[test]
+fn a_stopped_node_is_dropped_from_the_barrier_readmitted_and_catches_up() {
+    let Some(bin) = nats_server_bin() else {
+        return;
+    };
+    let _ = bins();
+    let dir = tempfile::tempdir().unwrap();
+    let name = "patch-mask";
+    let expected = offline(name, &dir.path().join("offline"));
+    let nats = Nats::start(bin, dir.path());
+    let (mut server, addr) = serve_tcp(name, 2.0);
+    let specs = [
+        node("front", true, FRONT),
+        node("left", false, LEFT),
+        node("right", false, RIGHT),
+    ];
+    let config = cluster_config(
+        &dir.path().join("cave.toml"),
+        &addr,
+        &nats.url(),
+        PASSWORD,
+        "barrier_timeout = 0.3",
+        &specs,
+    );
+    let outs: Vec<PathBuf> = specs.iter().map(|s| dir.path().join(s.name)).collect();
+    let mut nodes: Vec<ChildGuard> = specs
+        .iter()
+        .zip(&outs)
+        .map(|(s, out)| start_node(&config, s.name, out))
+        .collect();
+    for (n, out) in nodes.iter_mut().zip(&outs) {
+        wait_ready(n, out);
+    }
+    let mut ingest = start_ingest(&config, "main");
+    wait_for_journal(&outs[2], 1, &mut nodes[2]);
+    signal(&nodes[2], "STOP");
+    std::thread::sleep(Duration::from_secs(3));
+    signal(&nodes[2], "CONT");
+    let reports: Vec<serde_json::Value> = nodes
+        .iter_mut()
+        .zip(&specs)
+        .map(|(n, s)| finish(n, s.name))
+        .collect();
+    assert!(server.wait_for("replay --serve", TIMEOUT).success());
+    assert!(ingest.wait_for("ingest", TIMEOUT).success());
+    for (out, r) in outs.iter().zip(&reports) {
+        assert!(scene(out) == expected, "{r}");
+    }
+    for r in &reports[..2] {
+        let b = &r["barrier"];
+        assert!(b["dropped"].as_u64().unwrap() >= 1, "{r}");
+        assert!(b["readmitted"].as_u64().unwrap() >= 1, "{r}");
+    }
+}
+
+/// The strokes of a document as inputs.
+fn stroke_inputs(doc: &[u8]) -> Vec<StrokeInput> {
+    let doc = Document::from_json(doc).unwrap();
+    doc.strokes().iter().map(|s| s.input.clone()).collect()
+}
+
+#[test]
+fn two_sculptors_on_two_feeds_each_stroke_is_once_in_every_document() {
+    let Some(bin) = nats_server_bin() else {
+        return;
+    };
+    let _ = bins();
+    let dir = tempfile::tempdir().unwrap();
+    let (name_a, name_b) = ("patch-carve", "patch-emboss");
+    let want_a = stroke_inputs(&offline(name_a, &dir.path().join("offline-a")));
+    let want_b = stroke_inputs(&offline(name_b, &dir.path().join("offline-b")));
+    assert!(!want_a.is_empty() && !want_b.is_empty());
+    let nats = Nats::start(bin, dir.path());
+    let (mut server_a, addr_a) = serve_tcp(name_a, 2.0);
+    let (mut server_b, addr_b) = serve_tcp(name_b, 2.0);
+    let specs = [
+        NodeSpec {
+            name: "wall",
+            owner: true,
+            feed: "a",
+            screen: FRONT,
+        },
+        NodeSpec {
+            name: "desk",
+            owner: true,
+            feed: "b",
+            screen: LEFT,
+        },
+        NodeSpec {
+            name: "viewer",
+            owner: false,
+            feed: "a",
+            screen: RIGHT,
+        },
+    ];
+    // One config per ingest (each reads its own tracker); the same cluster.
+    let config_a = cluster_config(
+        &dir.path().join("a.toml"),
+        &addr_a,
+        &nats.url(),
+        PASSWORD,
+        "",
+        &specs,
+    );
+    let config_b = cluster_config(
+        &dir.path().join("b.toml"),
+        &addr_b,
+        &nats.url(),
+        PASSWORD,
+        "",
+        &specs,
+    );
+    let outs: Vec<PathBuf> = specs.iter().map(|s| dir.path().join(s.name)).collect();
+    let mut nodes: Vec<ChildGuard> = specs
+        .iter()
+        .zip(&outs)
+        .map(|(s, out)| start_node(&config_a, s.name, out))
+        .collect();
+    for (n, out) in nodes.iter_mut().zip(&outs) {
+        wait_ready(n, out);
+    }
+    let mut ingest_a = start_ingest(&config_a, "a");
+    let mut ingest_b = start_ingest(&config_b, "b");
+    let reports: Vec<serde_json::Value> = nodes
+        .iter_mut()
+        .zip(&specs)
+        .map(|(n, s)| finish(n, s.name))
+        .collect();
+    assert!(server_a.wait_for("replay a", TIMEOUT).success());
+    assert!(server_b.wait_for("replay b", TIMEOUT).success());
+    assert!(ingest_a.wait_for("ingest a", TIMEOUT).success());
+    assert!(ingest_b.wait_for("ingest b", TIMEOUT).success());
+    let first = scene(&outs[0]);
+    for (out, r) in outs.iter().zip(&reports) {
+        assert!(scene(out) == first, "documents differ\n{r}");
+    }
+    let got = stroke_inputs(&first);
+    assert_eq!(got.len(), want_a.len() + want_b.len(), "{reports:?}");
+    for want in want_a.iter().chain(&want_b) {
+        assert_eq!(got.iter().filter(|g| *g == want).count(), 1);
+    }
+}
+
+#[test]
+fn bad_peers_are_refused_and_garbage_is_counted_and_ignored() {
+    let Some(bin) = nats_server_bin() else {
+        return;
+    };
+    let _ = bins();
+    let dir = tempfile::tempdir().unwrap();
+    let name = "patch-carve";
+    let expected = offline(name, &dir.path().join("offline"));
+    let nats = Nats::start(bin, dir.path());
+    let (mut server, addr) = serve_tcp(name, 3.0);
+    let specs = [node("front", true, FRONT), node("left", false, LEFT)];
+    // A peer with the wrong password is refused at once.
+    let intruder = cluster_config(
+        &dir.path().join("intruder.toml"),
+        &addr,
+        &nats.url(),
+        "guess",
+        "",
+        &specs,
+    );
+    let refused = Command::new(&bins().wandsculpt)
+        .arg("--config")
+        .arg(&intruder)
+        .args(["--cluster", "ingest", "--duration", "5"])
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success(), "{said}");
+    assert!(said.to_lowercase().contains("authorization"), "{said}");
+
+    let config = cluster_config(
+        &dir.path().join("cave.toml"),
+        &addr,
+        &nats.url(),
+        PASSWORD,
+        "",
+        &specs,
+    );
+    let (front, left) = (dir.path().join("front"), dir.path().join("left"));
+    let mut a = start_node(&config, "front", &front);
+    let mut b = start_node(&config, "left", &left);
+    wait_ready(&mut a, &front);
+    wait_ready(&mut b, &left);
+    // Garbage on every subject of the session, from a peer with the credentials.
+    let session = format!("s{}", std::process::id());
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    rt.block_on(async {
+        let client =
+            async_nats::ConnectOptions::with_user_and_password(USER.into(), PASSWORD.into())
+                .connect(nats.url())
+                .await
+                .unwrap();
+        for subject in ["tracking.main", "ops", "barrier"] {
+            client
+                .publish(format!("{session}.{subject}"), "\u{0}garbage {]".into())
+                .await
+                .unwrap();
+        }
+        let js = async_nats::jetstream::new(client.clone());
+        js.publish(format!("{session}.ops"), "{\"t\":1}".into())
+            .await
+            .unwrap()
+            .await
+            .unwrap();
+        client.flush().await.unwrap();
+    });
+    let mut ingest = start_ingest(&config, "main");
+    let report_a = finish(&mut a, "owner");
+    let report_b = finish(&mut b, "node");
+    assert!(server.wait_for("replay --serve", TIMEOUT).success());
+    assert!(ingest.wait_for("ingest", TIMEOUT).success());
+    for (out, r) in [(&front, &report_a), (&left, &report_b)] {
+        assert!(scene(out) == expected, "{r}");
+        assert_eq!(r["garbage_ops"], 2, "{r}");
+        assert_eq!(r["garbage_frames"], 1, "{r}");
+        assert!(r["barrier"]["garbage"].as_u64().unwrap() >= 1, "{r}");
+    }
+}

@@ -1,0 +1,630 @@
+//! The node role: a render node of the cluster (headless here: it writes the document
+//! and its own screen's pictures when the session ends).
+//!
+//! The node follows its tracking feed through its own hub and
+//! [`tracking::stage::FrameStage`] (the [`LiveTracking`] of a display server, fed from
+//! NATS instead of a socket) and its own interaction. An owner node publishes the edits
+//! its interaction proposes to the JetStream stream and waits until the stream has
+//! stored them and they have come back; every node applies the stream in order, from
+//! its first operation (so a node that starts late or restarts after a crash replays
+//! it and converges). The session ends for a node once every owner's end marker is in
+//! the stream.
+
+use std::collections::BTreeSet;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, mpsc};
+use std::time::{Duration, Instant};
+
+use async_nats::HeaderMap;
+use async_nats::jetstream::{self, consumer, stream};
+use futures_util::StreamExt;
+use sculpt_core::interaction::Edit;
+use serde::{Deserialize, Serialize};
+
+use super::barrier::{Barrier, BarrierStats};
+use super::{
+    ClusterError, ClusterSection, HDR_KIND, HDR_OWNER, HDR_POSE, HDR_SENT, KIND_EDIT, KIND_END,
+    Percentiles, Subjects, header, unix_ns,
+};
+use crate::app::AppState;
+use crate::config::Config;
+use crate::error::{VrError, VrResult};
+use crate::headless::{HeadlessOptions, HeadlessReport, run_headless};
+use crate::input::Input;
+use crate::live::LiveTracking;
+use crate::render::Gpu;
+use crate::session::JOURNAL_FILE;
+
+/// The file a node writes into its session directory once it is subscribed to its
+/// feed and the stream (tests and scripts wait for it before starting the tracker).
+pub const READY_FILE: &str = "cluster.ready";
+
+/// One operation in the stream: the body of a `<session>.ops` message.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OpRecord {
+    /// Session time of the operation (seconds).
+    pub t: f64,
+    /// The operation.
+    pub edit: Edit,
+}
+
+/// Options of a node run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NodeOptions {
+    /// The node's name (a `[[cluster.node]]`).
+    pub name: String,
+    /// An owner ends its session this many seconds after its feed's last frame.
+    pub idle_exit: f64,
+    /// Stop after this many seconds in any case.
+    pub duration: f64,
+    /// The final pictures.
+    pub headless: HeadlessOptions,
+}
+
+/// What a node run did (printed as JSON by `wandsculpt --cluster node`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NodeReport {
+    /// The node.
+    pub node: String,
+    /// Whether it proposed edits.
+    pub owner: bool,
+    /// The headless run's report (document, pictures).
+    pub headless: HeadlessReport,
+    /// Operations applied from the stream.
+    pub applied: u64,
+    /// Operations this node proposed and the stream acknowledged.
+    pub committed: u64,
+    /// Operations already in the stream when the node started (a late join's backlog).
+    pub backlog: u64,
+    /// Seconds from connecting to having applied the backlog.
+    pub catch_up_s: f64,
+    /// Stream messages that were not operations (counted and ignored).
+    pub garbage_ops: u64,
+    /// Tracking messages that were not DTrack2 frames (counted and ignored).
+    pub garbage_frames: u64,
+    /// Tracking frames received.
+    pub frames: u64,
+    /// Ingest publish to this node's hub (stage input), milliseconds.
+    pub propagation_ms: Percentiles,
+    /// Owner: propose to applied here (acknowledged by JetStream and back through the
+    /// stream), milliseconds.
+    pub commit_ms: Percentiles,
+    /// Proposer's publish to applied on this node, milliseconds.
+    pub apply_ms: Percentiles,
+    /// The frame barrier, when on.
+    pub barrier: Option<BarrierStats>,
+}
+
+/// One stream message as the ops task hands it over.
+#[derive(Debug)]
+struct OpMsg {
+    seq: u64,
+    kind: Option<String>,
+    owner: Option<String>,
+    sent_ns: Option<u64>,
+    payload: Vec<u8>,
+}
+
+/// Counters the tracking task shares with the node loop.
+#[derive(Debug, Default)]
+struct FeedStats {
+    frames: AtomicU64,
+    garbage: AtomicU64,
+    propagation_ms: Mutex<Vec<f64>>,
+}
+
+/// Prepares a node's configuration: its screen and session directory from its
+/// `[[cluster.node]]` (`out` wins over both), and moves an earlier run's journal
+/// aside (as `rejoin.N.journal`): the stream is the record, replayed from its start.
+pub fn node_config(mut config: Config, name: &str, out: Option<PathBuf>) -> VrResult<Config> {
+    let cluster = config
+        .cluster
+        .clone()
+        .ok_or_else(|| ClusterError::Config("--cluster needs a [cluster] section".into()))?;
+    let node = cluster.node(name)?;
+    if let Some(s) = &node.screen {
+        config.screen = *s;
+    }
+    if let Some(dir) = out.or_else(|| node.out.clone()) {
+        config.files.dir = dir;
+    }
+    if config.tracking.is_none() {
+        return Err(ClusterError::Config(
+            "a node needs [tracking] (the wand and head names of its feed)".into(),
+        )
+        .into());
+    }
+    let journal = config.files.dir.join(JOURNAL_FILE);
+    if journal.exists() {
+        let kept = (1..)
+            .map(|n| config.files.dir.join(format!("rejoin.{n}.journal")))
+            .find(|p| !p.exists())
+            .unwrap_or_else(|| config.files.dir.join("rejoin.journal"));
+        std::fs::rename(&journal, &kept).map_err(|source| VrError::Io {
+            path: journal.display().to_string(),
+            source,
+        })?;
+        tracing::info!(
+            "node {name}: earlier journal kept as {}; replaying the stream",
+            kept.display()
+        );
+    }
+    let _ = std::fs::remove_file(config.files.dir.join(READY_FILE));
+    config.validate()?;
+    Ok(config)
+}
+
+/// The running node.
+struct Node {
+    rt: tokio::runtime::Runtime,
+    js: jetstream::Context,
+    subjects: Subjects,
+    name: String,
+    owner: bool,
+    owners: BTreeSet<String>,
+    commit_timeout: Duration,
+    run_id: u64,
+    proposed: u64,
+    ops: mpsc::Receiver<OpMsg>,
+    applied_seq: u64,
+    applied: u64,
+    committed: u64,
+    garbage_ops: u64,
+    ends: BTreeSet<String>,
+    commit_ms: Vec<f64>,
+    apply_ms: Vec<f64>,
+    app: AppState,
+}
+
+impl Node {
+    /// Applies one stream message (once: a message seen again after the consumer was
+    /// recreated is skipped).
+    fn take(&mut self, m: OpMsg) -> VrResult<()> {
+        if m.seq <= self.applied_seq {
+            return Ok(());
+        }
+        self.applied_seq = m.seq;
+        match m.kind.as_deref() {
+            Some(KIND_END) => {
+                if let Some(o) = m.owner {
+                    tracing::info!(owner = %o, seq = m.seq, "end of an owner's session");
+                    self.ends.insert(o);
+                } else {
+                    self.garbage_ops += 1;
+                }
+            }
+            Some(KIND_EDIT) => match serde_json::from_slice::<OpRecord>(&m.payload) {
+                Ok(rec) => {
+                    self.app.session.apply_committed(rec.t, &rec.edit)?;
+                    self.applied += 1;
+                    if let Some(sent) = m.sent_ns {
+                        self.apply_ms
+                            .push(unix_ns().saturating_sub(sent) as f64 / 1e6);
+                    }
+                }
+                Err(e) => {
+                    tracing::warn!(
+                        seq = m.seq,
+                        "ignoring an operation that does not decode: {e}"
+                    );
+                    self.garbage_ops += 1;
+                }
+            },
+            _ => {
+                tracing::warn!(
+                    seq = m.seq,
+                    "ignoring a stream message that is not an operation"
+                );
+                self.garbage_ops += 1;
+            }
+        }
+        Ok(())
+    }
+
+    /// Applies what the stream has delivered so far.
+    fn drain(&mut self) -> VrResult<()> {
+        while let Ok(m) = self.ops.try_recv() {
+            self.take(m)?;
+        }
+        Ok(())
+    }
+
+    /// Waits until the stream position `seq` is applied (or `deadline` passes).
+    fn wait_applied(&mut self, seq: u64, deadline: Instant) -> VrResult<()> {
+        while self.applied_seq < seq {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return Err(ClusterError::CommitTimeout(self.commit_timeout).into());
+            }
+            match self.ops.recv_timeout(left) {
+                Ok(m) => self.take(m)?,
+                Err(mpsc::RecvTimeoutError::Timeout) => {}
+                Err(mpsc::RecvTimeoutError::Disconnected) => {
+                    return Err(ClusterError::JetStream {
+                        what: "operation stream".into(),
+                        reason: "the consumer task ended".into(),
+                    }
+                    .into());
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Publishes one message to the stream and waits for JetStream's acknowledgement,
+    /// retrying (with the same message id, so a retry is never stored twice) through a
+    /// server restart. Returns the stream position.
+    fn publish(&mut self, kind: &str, payload: Vec<u8>, deadline: Instant) -> VrResult<u64> {
+        self.proposed += 1;
+        let msg_id = format!("{}-{:x}-{}", self.name, self.run_id, self.proposed);
+        loop {
+            let mut headers = HeaderMap::new();
+            headers.insert(async_nats::header::NATS_MESSAGE_ID, msg_id.as_str());
+            headers.insert(HDR_KIND, kind);
+            headers.insert(HDR_OWNER, self.name.as_str());
+            headers.insert(HDR_SENT, unix_ns().to_string().as_str());
+            let js = self.js.clone();
+            let subject = self.subjects.ops.clone();
+            let body = payload.clone();
+            let acked = self.rt.block_on(async move {
+                let ack = js
+                    .publish_with_headers(subject, headers, body.into())
+                    .await
+                    .map_err(|e| e.to_string())?;
+                tokio::time::timeout(Duration::from_secs(2), ack)
+                    .await
+                    .map_err(|_| "no acknowledgement within 2 s".to_string())?
+                    .map_err(|e| e.to_string())
+            });
+            match acked {
+                Ok(ack) => return Ok(ack.sequence),
+                Err(reason) => {
+                    if Instant::now() >= deadline {
+                        return Err(ClusterError::Publish {
+                            subject: self.subjects.ops.clone(),
+                            reason,
+                        }
+                        .into());
+                    }
+                    tracing::warn!("operation not acknowledged ({reason}); retrying");
+                    std::thread::sleep(Duration::from_millis(200));
+                }
+            }
+        }
+    }
+
+    /// Commits edits proposed by this (owner) node, one at a time: each is stored and
+    /// applied (through the stream) before the next input, as a local edit would be.
+    fn commit(&mut self, t: f64, edits: Vec<Edit>) -> VrResult<()> {
+        for edit in edits {
+            let started = Instant::now();
+            let deadline = started + self.commit_timeout;
+            let body = serde_json::to_vec(&OpRecord { t, edit })
+                .map_err(|e| ClusterError::Config(format!("encoding an operation: {e}")))?;
+            let seq = self.publish(KIND_EDIT, body, deadline)?;
+            self.committed += 1;
+            self.wait_applied(seq, deadline)?;
+            self.commit_ms.push(started.elapsed().as_secs_f64() * 1e3);
+        }
+        Ok(())
+    }
+
+    /// Feeds one input: edits are committed by an owner and dropped by other nodes
+    /// (whose documents follow the stream only).
+    fn input(&mut self, input: Input, last_t: &mut f64) -> VrResult<()> {
+        match input {
+            Input::Wand(ev) => {
+                let edits = self.app.session.propose(&ev)?;
+                if ev.t.is_finite() {
+                    *last_t = last_t.max(ev.t);
+                }
+                if self.owner {
+                    self.commit(ev.t, edits)?;
+                }
+            }
+            Input::Head(h) => self.app.set_head(h),
+            Input::Tracking(t) => self.app.tracking = t,
+            Input::Tick(t) => {
+                let edits = self.app.session.propose_tick(t)?;
+                if self.owner {
+                    self.commit(t, edits)?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Runs a headless node until every owner's session has ended (or `duration`
+/// passes), then writes its document and its screen's pictures.
+pub fn run_node(config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeReport> {
+    let cluster: ClusterSection = config
+        .cluster
+        .clone()
+        .ok_or_else(|| ClusterError::Config("--cluster needs a [cluster] section".into()))?;
+    cluster.validate()?;
+    let me = cluster.node(&opts.name)?.clone();
+    let subjects = cluster.subjects();
+    let mut section = config
+        .tracking
+        .clone()
+        .ok_or_else(|| ClusterError::Config("a node needs [tracking]".into()))?;
+    // The feed is the node's only source; the configured ones are the ingest's.
+    section.input.sources.clear();
+    section.playback = None;
+    let mut live = LiveTracking::start(&section, config.interaction.pause_timeout)?;
+    let (hub, feed_src) = live.add_feed(&format!("nats:{}", me.feed));
+    let app = AppState::new(config.clone())?;
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .thread_name("wandsculpt-cluster")
+        .build()
+        .map_err(ClusterError::Runtime)?;
+    let started = Instant::now();
+    let client = rt.block_on(cluster.connect(&format!("wandsculpt-{}", me.name)))?;
+    let js = jetstream::new(client.clone());
+    let jserr = |what: &str| {
+        let what = what.to_string();
+        move |e: &dyn std::fmt::Display| ClusterError::JetStream {
+            what: what.clone(),
+            reason: e.to_string(),
+        }
+    };
+    let mut ops_stream = rt
+        .block_on(js.get_or_create_stream(stream::Config {
+            name: subjects.stream.clone(),
+            subjects: vec![subjects.ops.clone()],
+            storage: stream::StorageType::File,
+            ..Default::default()
+        }))
+        .map_err(|e| jserr("stream")(&e))?;
+    let backlog = rt
+        .block_on(ops_stream.info())
+        .map_err(|e| jserr("stream info")(&e))?
+        .state
+        .last_sequence;
+
+    // The operation stream, in order, from its first message.
+    let (ops_tx, ops_rx) = mpsc::channel();
+    rt.spawn(follow_stream(ops_stream, subjects.ops.clone(), ops_tx));
+
+    // The tracking feed into this node's hub.
+    let feed = Arc::new(FeedStats::default());
+    let mut tracking_sub = rt
+        .block_on(client.subscribe(subjects.tracking(&me.feed)))
+        .map_err(|e| jserr("tracking subscription")(&e))?;
+    let feed_stats = feed.clone();
+    rt.spawn(async move {
+        let mut opened = false;
+        while let Some(msg) = tracking_sub.next().await {
+            if header(&msg, HDR_KIND) == Some(KIND_END) {
+                if opened {
+                    hub.connection_closed(feed_src, hub.now());
+                }
+                continue;
+            }
+            match tracking::dtrack::parse_frame(&msg.payload) {
+                Ok(mut frame) => {
+                    if !opened {
+                        hub.connection_opened(feed_src);
+                        opened = true;
+                    }
+                    frame.receive_time = hub.now();
+                    let pose = header(&msg, HDR_POSE) != Some("0");
+                    hub.apply(feed_src, &frame, pose);
+                    feed_stats.frames.fetch_add(1, Ordering::Relaxed);
+                    if let Some(sent) = header(&msg, HDR_SENT).and_then(|s| s.parse::<u64>().ok())
+                        && let Ok(mut v) = feed_stats.propagation_ms.lock()
+                    {
+                        v.push(unix_ns().saturating_sub(sent) as f64 / 1e6);
+                    }
+                }
+                Err(e) => {
+                    feed_stats.garbage.fetch_add(1, Ordering::Relaxed);
+                    tracing::debug!("ignoring a tracking message that is not a frame: {e}");
+                }
+            }
+        }
+    });
+
+    // The frame barrier.
+    let mut barrier = if cluster.barrier {
+        let (tx, rx) = mpsc::channel();
+        let mut sub = rt
+            .block_on(client.subscribe(subjects.barrier.clone()))
+            .map_err(|e| jserr("barrier subscription")(&e))?;
+        rt.spawn(async move {
+            while let Some(msg) = sub.next().await {
+                if tx.send(msg.payload.to_vec()).is_err() {
+                    break;
+                }
+            }
+        });
+        let names: Vec<String> = cluster.nodes.iter().map(|n| n.name.clone()).collect();
+        Some(Barrier::new(
+            &me.name,
+            &names,
+            Duration::from_secs_f64(cluster.barrier_timeout),
+            rx,
+        ))
+    } else {
+        None
+    };
+    rt.block_on(client.flush())
+        .map_err(|e| jserr("flush")(&e))?;
+
+    let mut node = Node {
+        rt,
+        js,
+        subjects: subjects.clone(),
+        name: me.name.clone(),
+        owner: me.owner,
+        owners: cluster.owners().into_iter().collect(),
+        commit_timeout: Duration::from_secs_f64(cluster.commit_timeout),
+        run_id: unix_ns(),
+        proposed: 0,
+        ops: ops_rx,
+        applied_seq: 0,
+        applied: 0,
+        committed: 0,
+        garbage_ops: 0,
+        ends: BTreeSet::new(),
+        commit_ms: Vec::new(),
+        apply_ms: Vec::new(),
+        app,
+    };
+    // Catch up with the stream before following the feed.
+    node.wait_applied(backlog, started + Duration::from_secs_f64(opts.duration))?;
+    let catch_up_s = started.elapsed().as_secs_f64();
+    tracing::info!(node = %me.name, backlog, catch_up_s, "caught up with the operation stream");
+    crate::session::write_atomic(
+        &node.app.session.dir().join(READY_FILE),
+        format!("{}\n", me.name).as_bytes(),
+    )?;
+
+    let frame_dt = Duration::from_secs_f64(1.0 / cluster.frame_rate);
+    let mut next_frame = Instant::now();
+    let mut frame_no = 0u64;
+    let mut last_t = 0.0f64;
+    let mut ended = false;
+    loop {
+        for input in live.poll() {
+            node.input(input, &mut last_t)?;
+        }
+        node.drain()?;
+        let idle = live
+            .last_report()
+            .is_some_and(|l| live.now().saturating_sub(l).as_secs_f64() > opts.idle_exit);
+        let timed_out = started.elapsed().as_secs_f64() > opts.duration;
+        if node.owner && !ended && (live.sources_done() || idle || timed_out) {
+            // Past the last input: a stroke paused by tracking loss ends now.
+            let edits = node.app.session.propose_tick(last_t + 10.0)?;
+            node.commit(last_t + 10.0, edits)?;
+            let deadline = Instant::now() + node.commit_timeout;
+            let seq = node.publish(KIND_END, Vec::new(), deadline)?;
+            node.wait_applied(seq, deadline)?;
+            ended = true;
+        }
+        if !node.owners.is_empty() && node.owners.is_subset(&node.ends) {
+            break;
+        }
+        if timed_out {
+            tracing::warn!(node = %me.name, "duration passed before every owner ended");
+            break;
+        }
+        match barrier.as_mut() {
+            Some(b) => {
+                let now = Instant::now();
+                if now < next_frame {
+                    std::thread::sleep((next_frame - now).min(Duration::from_millis(2)));
+                    continue;
+                }
+                let report = b.report(frame_no)?;
+                node.rt
+                    .block_on(client.publish(subjects.barrier.clone(), report.into()))
+                    .map_err(|e| ClusterError::Publish {
+                        subject: subjects.barrier.clone(),
+                        reason: e.to_string(),
+                    })?;
+                frame_no = b.wait(frame_no);
+                next_frame = (next_frame + frame_dt).max(Instant::now());
+            }
+            None => std::thread::sleep(Duration::from_millis(2)),
+        }
+    }
+    // Not an owner: the interaction, too, ends a paused gesture (its edits are the
+    // owner's to commit, and are already in the stream).
+    if !node.owner {
+        node.app.session.propose_tick(last_t + 10.0)?;
+    }
+    drop(live);
+    let headless = run_headless(&mut node.app, gpu, std::iter::empty(), &opts.headless)?;
+    let propagation = feed
+        .propagation_ms
+        .lock()
+        .map(|mut v| Percentiles::of(&mut v))
+        .unwrap_or_default();
+    Ok(NodeReport {
+        node: me.name.clone(),
+        owner: me.owner,
+        headless,
+        applied: node.applied,
+        committed: node.committed,
+        backlog,
+        catch_up_s,
+        garbage_ops: node.garbage_ops,
+        garbage_frames: feed.garbage.load(Ordering::Relaxed),
+        frames: feed.frames.load(Ordering::Relaxed),
+        propagation_ms: propagation,
+        commit_ms: Percentiles::of(&mut node.commit_ms),
+        apply_ms: Percentiles::of(&mut node.apply_ms),
+        barrier: barrier.as_mut().map(Barrier::stats),
+    })
+}
+
+/// Follows the operation stream with an ordered consumer from `next` on, recreating
+/// it after an error (a server restart), and hands every message over in order.
+async fn follow_stream(stream: stream::Stream, subject: String, tx: mpsc::Sender<OpMsg>) {
+    let mut next = 1u64;
+    loop {
+        let deliver_policy = if next <= 1 {
+            consumer::DeliverPolicy::All
+        } else {
+            consumer::DeliverPolicy::ByStartSequence {
+                start_sequence: next,
+            }
+        };
+        let created = stream
+            .create_consumer(consumer::pull::OrderedConfig {
+                filter_subject: subject.clone(),
+                deliver_policy,
+                ..Default::default()
+            })
+            .await;
+        let messages = match created {
+            Ok(c) => c.messages().await,
+            Err(e) => {
+                tracing::warn!("operation stream consumer: {e}; retrying");
+                tokio::time::sleep(Duration::from_millis(250)).await;
+                continue;
+            }
+        };
+        let mut messages = match messages {
+            Ok(m) => m,
+            Err(e) => {
+                tracing::warn!("operation stream: {e}; retrying");
+                tokio::time::sleep(Duration::from_millis(250)).await;
+                continue;
+            }
+        };
+        while let Some(m) = messages.next().await {
+            let m = match m {
+                Ok(m) => m,
+                Err(e) => {
+                    tracing::warn!("operation stream: {e}; resuming at {next}");
+                    break;
+                }
+            };
+            let Ok(info) = m.info() else {
+                continue;
+            };
+            let seq = info.stream_sequence;
+            next = seq + 1;
+            let get = |name: &str| header(&m.message, name).map(str::to_string);
+            let msg = OpMsg {
+                seq,
+                kind: get(HDR_KIND),
+                owner: get(HDR_OWNER),
+                sent_ns: get(HDR_SENT).and_then(|s| s.parse().ok()),
+                payload: m.message.payload.to_vec(),
+            };
+            if tx.send(msg).is_err() {
+                return;
+            }
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
