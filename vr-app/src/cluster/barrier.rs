@@ -98,7 +98,10 @@ impl Barrier {
             node: self.me.clone(),
             frame,
         })
-        .map_err(|e| ClusterError::Config(format!("barrier report: {e}")))
+        .map_err(|cause| ClusterError::Encode {
+            what: "a barrier report",
+            cause,
+        })
     }
 
     fn take(&mut self, payload: &[u8]) {

@@ -53,7 +53,15 @@ pub const KIND_END: &str = "end";
 pub enum ClusterError {
     /// The `[cluster]` section is missing or invalid.
     #[error("config: {0}")]
-    Config(String),
+    Config(ClusterConfigError),
+    /// An operation or barrier report could not be encoded.
+    #[error("encoding {what}: {cause}")]
+    Encode {
+        /// `an operation` or `a barrier report`.
+        what: &'static str,
+        /// The JSON error.
+        cause: serde_json::Error,
+    },
     /// The NATS server could not be reached or refused the credentials.
     #[error("connecting to {url}: {source}")]
     Connect {
@@ -85,6 +93,51 @@ pub enum ClusterError {
     /// The async runtime could not start.
     #[error("runtime: {0}")]
     Runtime(#[source] std::io::Error),
+}
+
+/// What is wrong with the `[cluster]` section or a node's part of the config.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum ClusterConfigError {
+    /// `--cluster` without a `[cluster]` section.
+    #[error("--cluster needs a [cluster] section")]
+    NoSection,
+    /// A node without `[tracking]` (the wand and head names of its feed).
+    #[error("a node needs [tracking] (the wand and head names of its feed)")]
+    NoTracking,
+    /// The session name is not a subject token.
+    #[error("session {0:?} must be 1..=64 of A-Z a-z 0-9 - _")]
+    Session(String),
+    /// Only one of user and password is given.
+    #[error("user and password go together")]
+    Credentials,
+    /// A time or rate is not positive.
+    #[error("{name} must be positive, got {value}")]
+    NotPositive {
+        /// The key.
+        name: &'static str,
+        /// The value given.
+        value: f64,
+    },
+    /// A node or feed name is not a subject token.
+    #[error("node {node:?} feed {feed:?}: names must be 1..=64 of A-Z a-z 0-9 - _")]
+    Name {
+        /// The node's name.
+        node: String,
+        /// Its feed's name.
+        feed: String,
+    },
+    /// Two nodes share a name.
+    #[error("node {0:?} is named twice")]
+    Duplicate(String),
+    /// `--node NAME` names no `[[cluster.node]]`.
+    #[error("no [[cluster.node]] named {name:?} (have {have:?})")]
+    UnknownNode {
+        /// The name asked for.
+        name: String,
+        /// The names configured.
+        have: Vec<String>,
+    },
 }
 
 /// `[cluster]`: the NATS server, the session namespace and the nodes.
@@ -215,15 +268,12 @@ impl ClusterSection {
 
     /// Checks names and times.
     pub fn validate(&self) -> Result<(), ClusterError> {
-        let bad = |m: String| Err(ClusterError::Config(m));
+        let bad = |e: ClusterConfigError| Err(ClusterError::Config(e));
         if !valid_token(&self.session) {
-            return bad(format!(
-                "session {:?} must be 1..=64 of A-Z a-z 0-9 - _",
-                self.session
-            ));
+            return bad(ClusterConfigError::Session(self.session.clone()));
         }
         if self.user.is_some() != self.password.is_some() {
-            return bad("user and password go together".into());
+            return bad(ClusterConfigError::Credentials);
         }
         for (name, v) in [
             ("barrier_timeout", self.barrier_timeout),
@@ -231,19 +281,19 @@ impl ClusterSection {
             ("commit_timeout", self.commit_timeout),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                return bad(format!("{name} must be positive, got {v}"));
+                return bad(ClusterConfigError::NotPositive { name, value: v });
             }
         }
         let mut names = std::collections::BTreeSet::new();
         for n in &self.nodes {
             if !valid_token(&n.name) || !valid_token(&n.feed) {
-                return bad(format!(
-                    "node {:?} feed {:?}: names must be 1..=64 of A-Z a-z 0-9 - _",
-                    n.name, n.feed
-                ));
+                return bad(ClusterConfigError::Name {
+                    node: n.name.clone(),
+                    feed: n.feed.clone(),
+                });
             }
             if !names.insert(&n.name) {
-                return bad(format!("node {:?} is named twice", n.name));
+                return bad(ClusterConfigError::Duplicate(n.name.clone()));
             }
         }
         Ok(())
@@ -252,10 +302,10 @@ impl ClusterSection {
     /// The node called `name`.
     pub fn node(&self, name: &str) -> Result<&NodeSection, ClusterError> {
         self.nodes.iter().find(|n| n.name == name).ok_or_else(|| {
-            ClusterError::Config(format!(
-                "no [[cluster.node]] named {name:?} (have {:?})",
-                self.nodes.iter().map(|n| &n.name).collect::<Vec<_>>()
-            ))
+            ClusterError::Config(ClusterConfigError::UnknownNode {
+                name: name.to_string(),
+                have: self.nodes.iter().map(|n| n.name.clone()).collect(),
+            })
         })
     }
 

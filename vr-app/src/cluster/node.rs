@@ -24,8 +24,8 @@ use serde::{Deserialize, Serialize};
 
 use super::barrier::{Barrier, BarrierStats};
 use super::{
-    ClusterError, ClusterSection, HDR_KIND, HDR_OWNER, HDR_POSE, HDR_SENT, KIND_EDIT, KIND_END,
-    Percentiles, Subjects, header, unix_ns,
+    ClusterConfigError, ClusterError, ClusterSection, HDR_KIND, HDR_OWNER, HDR_POSE, HDR_SENT,
+    KIND_EDIT, KIND_END, Percentiles, Subjects, header, unix_ns,
 };
 use crate::app::AppState;
 use crate::config::Config;
@@ -122,7 +122,7 @@ pub fn node_config(mut config: Config, name: &str, out: Option<PathBuf>) -> VrRe
     let cluster = config
         .cluster
         .clone()
-        .ok_or_else(|| ClusterError::Config("--cluster needs a [cluster] section".into()))?;
+        .ok_or(ClusterError::Config(ClusterConfigError::NoSection))?;
     let node = cluster.node(name)?;
     if let Some(s) = &node.screen {
         config.screen = *s;
@@ -131,10 +131,7 @@ pub fn node_config(mut config: Config, name: &str, out: Option<PathBuf>) -> VrRe
         config.files.dir = dir;
     }
     if config.tracking.is_none() {
-        return Err(ClusterError::Config(
-            "a node needs [tracking] (the wand and head names of its feed)".into(),
-        )
-        .into());
+        return Err(ClusterError::Config(ClusterConfigError::NoTracking).into());
     }
     let journal = config.files.dir.join(JOURNAL_FILE);
     if journal.exists() {
@@ -301,8 +298,12 @@ impl Node {
         for edit in edits {
             let started = Instant::now();
             let deadline = started + self.commit_timeout;
-            let body = serde_json::to_vec(&OpRecord { t, edit })
-                .map_err(|e| ClusterError::Config(format!("encoding an operation: {e}")))?;
+            let body = serde_json::to_vec(&OpRecord { t, edit }).map_err(|cause| {
+                ClusterError::Encode {
+                    what: "an operation",
+                    cause,
+                }
+            })?;
             let seq = self.publish(KIND_EDIT, body, deadline)?;
             self.committed += 1;
             self.wait_applied(seq, deadline)?;
@@ -343,14 +344,14 @@ pub fn run_node(config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeR
     let cluster: ClusterSection = config
         .cluster
         .clone()
-        .ok_or_else(|| ClusterError::Config("--cluster needs a [cluster] section".into()))?;
+        .ok_or(ClusterError::Config(ClusterConfigError::NoSection))?;
     cluster.validate()?;
     let me = cluster.node(&opts.name)?.clone();
     let subjects = cluster.subjects();
     let mut section = config
         .tracking
         .clone()
-        .ok_or_else(|| ClusterError::Config("a node needs [tracking]".into()))?;
+        .ok_or(ClusterError::Config(ClusterConfigError::NoTracking))?;
     // The feed is the node's only source; the configured ones are the ingest's.
     section.input.sources.clear();
     section.playback = None;
