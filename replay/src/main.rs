@@ -144,23 +144,10 @@ fn progress_bar(quiet: bool, what: &str) -> Option<indicatif::ProgressBar> {
     Some(bar)
 }
 
-fn run(cli: Cli) -> Result<ExitCode> {
-    let bytes = std::fs::read(&cli.session)
-        .with_context(|| format!("reading {}", cli.session.display()))?;
-    if let Some(target) = cli
-        .serve
-        .as_deref()
-        .map(|s| (s, true))
-        .or(cli.connect.as_deref().map(|s| (s, false)))
-    {
-        return serve(&cli, &bytes, target.0, target.1);
-    }
-    if let (Some(manifest), Some(participant)) = (&cli.study, &cli.participant) {
-        return study_trial(&cli, &bytes, manifest, participant);
-    }
-    let Some(out) = cli.out.as_ref() else {
-        bail!("--out DIR is required");
-    };
+/// What every replay reads besides the session: the config (`--config`, else the
+/// defaults), the base document (`--scene`, else the default sheet) and the session's
+/// name (its file stem).
+fn replay_inputs(cli: &Cli) -> Result<(ReplayConfig, Document, String)> {
     let cfg = match &cli.config {
         Some(p) => ReplayConfig::from_toml_str(
             &std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?,
@@ -179,6 +166,27 @@ fn run(cli: Cli) -> Result<ExitCode> {
         || "session".to_string(),
         |s| s.to_string_lossy().into_owned(),
     );
+    Ok((cfg, base, name))
+}
+
+fn run(cli: Cli) -> Result<ExitCode> {
+    let bytes = std::fs::read(&cli.session)
+        .with_context(|| format!("reading {}", cli.session.display()))?;
+    if let Some(target) = cli
+        .serve
+        .as_deref()
+        .map(|s| (s, true))
+        .or(cli.connect.as_deref().map(|s| (s, false)))
+    {
+        return serve(&cli, &bytes, target.0, target.1);
+    }
+    if let (Some(manifest), Some(participant)) = (&cli.study, &cli.participant) {
+        return study_trial(&cli, &bytes, manifest, participant);
+    }
+    let Some(out) = cli.out.as_ref() else {
+        bail!("--out DIR is required");
+    };
+    let (cfg, base, name) = replay_inputs(&cli)?;
     let bar = progress_bar(cli.quiet, &name);
     let mut tick = |at: u64, total: u64| {
         if let Some(b) = &bar {
@@ -265,24 +273,7 @@ fn study_trial(
     let m = Manifest::parse(&text).with_context(|| format!("in {}", manifest.display()))?;
     let dir = manifest.parent().unwrap_or(std::path::Path::new("."));
     let next = m.next_trial(participant, |log| std::fs::read(dir.join(log)).ok())?;
-    let cfg = match &cli.config {
-        Some(p) => ReplayConfig::from_toml_str(
-            &std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?,
-        )
-        .with_context(|| format!("in {}", p.display()))?,
-        None => ReplayConfig::default(),
-    };
-    let base = match &cli.scene {
-        Some(p) => Document::from_json(
-            &std::fs::read(p).with_context(|| format!("reading {}", p.display()))?,
-        )
-        .with_context(|| format!("loading the scene {}", p.display()))?,
-        None => replay::pipeline::default_document(),
-    };
-    let name = cli.session.file_stem().map_or_else(
-        || "session".to_string(),
-        |s| s.to_string_lossy().into_owned(),
-    );
+    let (cfg, base, name) = replay_inputs(cli)?;
     let outcome = replay::pipeline::replay_log(bytes, &cfg, base, &name, cli.realtime, None)?;
     let log = dir.join(&next.session.log);
     let existing = if log.exists() {
