@@ -4,7 +4,7 @@
 //!
 //! - **Goldens** (`tests/golden/doc-*.png`): the picture a headless run writes
 //!   (`wandsculpt --headless --scene FILE`, or `--demo`), at 320 x 180 in mono, must
-//!   match its golden within [`GOLDEN_TOL`] in every channel of every pixel.
+//!   match its golden within [`golden_image::GOLDEN_TOL`] in every channel of every pixel.
 //! - **Exact depth**: the GPU's depth of each document (read back from the renderer)
 //!   against a CPU ray caster of the document's exact geometry (`support/raycast.rs`:
 //!   the target NURBS displaced by the strokes' height, the evaluation
@@ -21,8 +21,12 @@
 //! These tests need Mesa's lavapipe (`apt-get install mesa-vulkan-drivers libvulkan1`):
 //! a missing adapter is a failure, never a skip.
 
+#[path = "support/golden_image.rs"]
+mod golden_image;
 #[path = "support/raycast.rs"]
 mod raycast;
+
+use golden_image::compare_or_bless;
 
 use std::path::{Path, PathBuf};
 
@@ -36,8 +40,6 @@ use vr_app::headless::{HeadlessOptions, Input, render_still, run_headless};
 use vr_app::output::OutputMode;
 use vr_app::render::{FrameInput, Gpu, Renderer};
 
-/// Per-channel tolerance of the goldens (8-bit values), as in `golden.rs`.
-const GOLDEN_TOL: u8 = 2;
 /// Size of the golden pictures.
 const GOLDEN_SIZE: (u32, u32) = (320, 180);
 /// Size of the depth comparison.
@@ -90,44 +92,6 @@ fn play_demo(app: &mut AppState) {
         app.session.handle(ev).unwrap();
     }
     app.session.tick(end + 10.0).unwrap();
-}
-
-fn compare_or_bless(name: &str, img: &image::RgbaImage) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/golden")
-        .join(name);
-    if std::env::var_os("WANDSCULPT_BLESS").is_some() {
-        img.save(&path).unwrap();
-        eprintln!("blessed {}", path.display());
-        return;
-    }
-    let golden = image::open(&path)
-        .unwrap_or_else(|e| {
-            panic!(
-                "golden {}: {e} (regenerate with scripts/bless-goldens)",
-                path.display()
-            )
-        })
-        .to_rgba8();
-    assert_eq!(golden.dimensions(), img.dimensions(), "{name}: size");
-    let mut worst = 0u8;
-    let mut bad = 0usize;
-    for (a, b) in golden.as_raw().iter().zip(img.as_raw()) {
-        let d = a.abs_diff(*b);
-        worst = worst.max(d);
-        if d > GOLDEN_TOL {
-            bad += 1;
-        }
-    }
-    if bad > 0 {
-        let out = std::env::temp_dir().join(format!("wandsculpt-actual-{name}"));
-        img.save(&out).unwrap();
-        panic!(
-            "{name}: {bad} bytes differ by more than {GOLDEN_TOL} (worst {worst}); actual \
-             image at {} (bless with scripts/bless-goldens if the change is deliberate)",
-            out.display()
-        );
-    }
 }
 
 /// `frame.png` of a headless run of `inputs` on `scene`.

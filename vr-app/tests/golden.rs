@@ -13,7 +13,10 @@ use sculpt_core::mesh::{MeshSink, MeshVertex};
 use vr_app::projection::{HeadPose, Screen, StereoRig};
 use vr_app::render::{FrameInput, Gpu, LineVertex, OutputMode, Renderer, Views, cursor_lines};
 
-const TOL: u8 = 2;
+#[path = "support/golden_image.rs"]
+mod golden_image;
+
+use golden_image::compare_or_bless;
 
 fn lavapipe() -> Gpu {
     match Gpu::headless_named(Some("llvmpipe")) {
@@ -112,42 +115,6 @@ fn scene(renderer: &mut Renderer) {
         3,
     );
     ribbon(&mut renderer.preview, 100);
-}
-
-fn compare_or_bless(name: &str, img: &image::RgbaImage) {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/golden")
-        .join(name);
-    if std::env::var_os("WANDSCULPT_BLESS").is_some() {
-        img.save(&path).unwrap();
-        return;
-    }
-    let golden = image::open(&path)
-        .unwrap_or_else(|e| {
-            panic!(
-                "golden {}: {e} (regenerate with WANDSCULPT_BLESS=1)",
-                path.display()
-            )
-        })
-        .to_rgba8();
-    assert_eq!(golden.dimensions(), img.dimensions(), "{name}: size");
-    let mut worst = 0u8;
-    let mut bad = 0usize;
-    for (a, b) in golden.as_raw().iter().zip(img.as_raw()) {
-        let d = a.abs_diff(*b);
-        worst = worst.max(d);
-        if d > TOL {
-            bad += 1;
-        }
-    }
-    if bad > 0 {
-        let out = std::env::temp_dir().join(format!("wandsculpt-actual-{name}"));
-        img.save(&out).unwrap();
-        panic!(
-            "{name}: {bad} bytes differ by more than {TOL} (worst {worst}); actual image at {}",
-            out.display()
-        );
-    }
 }
 
 #[test]
