@@ -62,7 +62,7 @@ pub use tracking::calibration::Calibration;
 pub use tracking::filter::FilterConfig;
 use tracking::stage::StageConfig;
 
-use crate::error::{ConfigError, Error, Result};
+use crate::error::{Error, Result};
 
 /// Which tracker devices are the wand and the head, and when the wand counts as lost.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -161,42 +161,19 @@ impl ReplayConfig {
         }
     }
 
-    /// Checks every number; the error names the bad setting.
+    /// Checks every number with the same checks the display server runs: the frame
+    /// stage's (timeout, calibration, filter), the tool's ([`Tool::validate`]) and the
+    /// interaction's. Each setting has one rule, kept by the layer that owns it.
+    ///
+    /// [`Tool::validate`]: sculpt_core::sculpt::stroke::Tool::validate
     pub fn validate(&self) -> Result<()> {
-        let bad = |m: ConfigError| Err(Error::Config(m));
-        self.calibration
+        self.stage()
             .validate()
             .map_err(|source| Error::ConfigTracking {
-                section: "calibration",
+                section: "tracking",
                 source,
             })?;
-        self.filter
-            .validate()
-            .map_err(|source| Error::ConfigTracking {
-                section: "filter",
-                source,
-            })?;
-        let positive = [
-            ("tracking.timeout", self.tracking.timeout),
-            ("tool.width", self.tool.width),
-            ("tool.depth", self.tool.depth),
-        ];
-        for (name, v) in positive {
-            if !(v.is_finite() && v > 0.0) {
-                return bad(ConfigError::NotPositive {
-                    setting: name,
-                    value: v,
-                });
-            }
-        }
-        if !(self.tool.taper.is_finite() && self.tool.taper >= 0.0) {
-            return bad(ConfigError::Negative {
-                setting: "tool.taper",
-                value: self.tool.taper,
-            });
-        }
         self.tool.tool().validate().map_err(Error::ConfigTool)?;
-        // The same check as wandsculpt's (sculpt-core's, one for both).
         self.interaction
             .validate()
             .map_err(Error::ConfigInteraction)?;
@@ -207,6 +184,7 @@ impl ReplayConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::error::ConfigError;
     use glam::DVec3;
 
     #[test]
@@ -237,7 +215,7 @@ mod tests {
     #[test]
     fn bad_settings_are_named() {
         let e = ReplayConfig::from_toml_str("[tool]\nwidth = -1.0\n").unwrap_err();
-        assert!(chain(&e).contains("tool.width"), "{e}");
+        assert!(chain(&e).contains("tool width"), "{e}");
         let e = ReplayConfig::from_toml_str("[calibration]\nunits = 2\n").unwrap_err();
         assert!(chain(&e).contains("units"), "{e}");
         let e = ReplayConfig::from_toml_str("[tool]\nmode = \"paint\"\n").unwrap_err();

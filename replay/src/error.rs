@@ -138,22 +138,6 @@ pub enum EndpointError {
 #[derive(Debug, Error, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum ConfigError {
-    /// A setting must be positive.
-    #[error("{setting} must be a positive number, got {value}")]
-    NotPositive {
-        /// The setting.
-        setting: &'static str,
-        /// Its value.
-        value: f64,
-    },
-    /// A setting must be non-negative.
-    #[error("{setting} must be >= 0, got {value}")]
-    Negative {
-        /// The setting.
-        setting: &'static str,
-        /// Its value.
-        value: f64,
-    },
     /// A `--render` time is not a number.
     #[error("--render: `{text}` is not a number of seconds")]
     RenderTimeNotANumber {
