@@ -93,7 +93,7 @@ async fn ingest(
     let mut body = Vec::new();
     let publish_err = |e: async_nats::PublishError| ClusterError::Publish {
         subject: subject.clone(),
-        reason: e.to_string(),
+        source: e.into(),
     };
     loop {
         match tokio::time::timeout(Duration::from_millis(20), frames.recv()).await {
@@ -171,7 +171,7 @@ async fn ingest(
         .map_err(publish_err)?;
     client.flush().await.map_err(|e| ClusterError::Publish {
         subject: subject.clone(),
-        reason: e.to_string(),
+        source: e.into(),
     })?;
     Ok(IngestReport {
         frames: count,

@@ -71,21 +71,23 @@ pub enum ClusterError {
         #[source]
         source: async_nats::ConnectError,
     },
-    /// A JetStream request failed (stream or consumer creation).
-    #[error("JetStream {what}: {reason}")]
+    /// A JetStream or NATS request failed (stream, subscription, flush).
+    #[error("JetStream {what}")]
     JetStream {
-        /// What was asked.
-        what: String,
-        /// The server's or client's answer.
-        reason: String,
+        /// What was asked: `stream`, `stream info`, `tracking subscription`, ...
+        what: &'static str,
+        /// The client's error.
+        #[source]
+        source: NatsFailure,
     },
     /// Publishing failed.
-    #[error("publishing on {subject}: {reason}")]
+    #[error("publishing on {subject}")]
     Publish {
         /// The subject.
         subject: String,
-        /// Why.
-        reason: String,
+        /// The client's error.
+        #[source]
+        source: NatsFailure,
     },
     /// An operation was not acknowledged by JetStream in time.
     #[error("operation not committed within {0:?} (is the NATS server up?)")]
@@ -93,6 +95,36 @@ pub enum ClusterError {
     /// The async runtime could not start.
     #[error("runtime: {0}")]
     Runtime(#[source] std::io::Error),
+}
+
+/// Why a NATS or JetStream request failed: the client's own error, kept as the source.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum NatsFailure {
+    /// Creating (or finding) the operation stream.
+    #[error(transparent)]
+    CreateStream(#[from] async_nats::jetstream::context::CreateStreamError),
+    /// A JetStream request (stream info).
+    #[error(transparent)]
+    Request(#[from] async_nats::jetstream::context::RequestError),
+    /// Subscribing to a subject.
+    #[error(transparent)]
+    Subscribe(#[from] async_nats::SubscribeError),
+    /// Flushing the connection.
+    #[error(transparent)]
+    Flush(#[from] async_nats::client::FlushError),
+    /// A core NATS publish.
+    #[error(transparent)]
+    Publish(#[from] async_nats::PublishError),
+    /// A JetStream publish, or its acknowledgement.
+    #[error(transparent)]
+    JetStreamPublish(#[from] async_nats::jetstream::context::PublishError),
+    /// JetStream did not acknowledge a publish in time.
+    #[error("no acknowledgement within {0:?}")]
+    NoAck(Duration),
+    /// The task that follows the operation stream ended (its connection closed).
+    #[error("the stream's consumer task ended")]
+    ConsumerEnded,
 }
 
 /// What is wrong with the `[cluster]` section or a node's part of the config.
@@ -421,5 +453,25 @@ mod tests {
         let p = Percentiles::of(&mut v);
         assert_eq!((p.n, p.median, p.p99, p.max), (100, 51.0, 99.0, 100.0));
         assert_eq!(Percentiles::of(&mut []).n, 0);
+    }
+
+    /// Regression (issue 14 §4): `Publish` and `JetStream` carried the client's error
+    /// as a formatted string, so callers could not match on it and the chain was lost.
+    #[test]
+    fn publish_errors_keep_the_clients_error_as_their_source() {
+        use std::error::Error as _;
+        let e = ClusterError::Publish {
+            subject: "s.ops".into(),
+            source: NatsFailure::NoAck(Duration::from_secs(2)),
+        };
+        let source = e.source().expect("a source");
+        assert!(matches!(
+            source.downcast_ref::<NatsFailure>(),
+            Some(NatsFailure::NoAck(d)) if *d == Duration::from_secs(2)
+        ));
+        assert_eq!(
+            sculpt_core::error::Chain(&e).to_string(),
+            "publishing on s.ops: no acknowledgement within 2s"
+        );
     }
 }

@@ -25,7 +25,7 @@ use serde::{Deserialize, Serialize};
 use super::barrier::{Barrier, BarrierStats};
 use super::{
     ClusterConfigError, ClusterError, ClusterSection, HDR_KIND, HDR_OWNER, HDR_POSE, HDR_SENT,
-    KIND_EDIT, KIND_END, Percentiles, Subjects, header, unix_ns,
+    KIND_EDIT, KIND_END, NatsFailure, Percentiles, Subjects, header, unix_ns,
 };
 use crate::app::AppState;
 use crate::config::Config;
@@ -39,6 +39,9 @@ use crate::session::JOURNAL_FILE;
 /// The file a node writes into its session directory once it is subscribed to its
 /// feed and the stream (tests and scripts wait for it before starting the tracker).
 pub const READY_FILE: &str = "cluster.ready";
+
+/// How long an owner waits for JetStream to acknowledge one publish before retrying.
+const ACK_WAIT: Duration = Duration::from_secs(2);
 
 /// One operation in the stream: the body of a `<session>.ops` message.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -240,8 +243,8 @@ impl Node {
                 Err(mpsc::RecvTimeoutError::Timeout) => {}
                 Err(mpsc::RecvTimeoutError::Disconnected) => {
                     return Err(ClusterError::JetStream {
-                        what: "operation stream".into(),
-                        reason: "the consumer task ended".into(),
+                        what: "operation stream",
+                        source: NatsFailure::ConsumerEnded,
                     }
                     .into());
                 }
@@ -268,24 +271,23 @@ impl Node {
             let acked = self.rt.block_on(async move {
                 let ack = js
                     .publish_with_headers(subject, headers, body.into())
+                    .await?;
+                tokio::time::timeout(ACK_WAIT, ack)
                     .await
-                    .map_err(|e| e.to_string())?;
-                tokio::time::timeout(Duration::from_secs(2), ack)
-                    .await
-                    .map_err(|_| "no acknowledgement within 2 s".to_string())?
-                    .map_err(|e| e.to_string())
+                    .map_err(|_| NatsFailure::NoAck(ACK_WAIT))?
+                    .map_err(NatsFailure::from)
             });
             match acked {
                 Ok(ack) => return Ok(ack.sequence),
-                Err(reason) => {
+                Err(source) => {
                     if Instant::now() >= deadline {
                         return Err(ClusterError::Publish {
                             subject: self.subjects.ops.clone(),
-                            reason,
+                            source,
                         }
                         .into());
                     }
-                    tracing::warn!("operation not acknowledged ({reason}); retrying");
+                    tracing::warn!("operation not acknowledged ({source}); retrying");
                     std::thread::sleep(Duration::from_millis(200));
                 }
             }
@@ -367,13 +369,8 @@ pub fn run_node(config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeR
     let started = Instant::now();
     let client = rt.block_on(cluster.connect(&format!("wandsculpt-{}", me.name)))?;
     let js = jetstream::new(client.clone());
-    let jserr = |what: &str| {
-        let what = what.to_string();
-        move |e: &dyn std::fmt::Display| ClusterError::JetStream {
-            what: what.clone(),
-            reason: e.to_string(),
-        }
-    };
+    let jserr =
+        |what: &'static str| move |e: NatsFailure| ClusterError::JetStream { what, source: e };
     let mut ops_stream = rt
         .block_on(js.get_or_create_stream(stream::Config {
             name: subjects.stream.clone(),
@@ -381,10 +378,10 @@ pub fn run_node(config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeR
             storage: stream::StorageType::File,
             ..Default::default()
         }))
-        .map_err(|e| jserr("stream")(&e))?;
+        .map_err(|e| jserr("stream")(e.into()))?;
     let backlog = rt
         .block_on(ops_stream.info())
-        .map_err(|e| jserr("stream info")(&e))?
+        .map_err(|e| jserr("stream info")(e.into()))?
         .state
         .last_sequence;
 
@@ -396,7 +393,7 @@ pub fn run_node(config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeR
     let feed = Arc::new(FeedStats::default());
     let mut tracking_sub = rt
         .block_on(client.subscribe(subjects.tracking(&me.feed)))
-        .map_err(|e| jserr("tracking subscription")(&e))?;
+        .map_err(|e| jserr("tracking subscription")(e.into()))?;
     let feed_stats = feed.clone();
     rt.spawn(async move {
         let mut opened = false;
@@ -436,7 +433,7 @@ pub fn run_node(config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeR
         let (tx, rx) = mpsc::channel();
         let mut sub = rt
             .block_on(client.subscribe(subjects.barrier.clone()))
-            .map_err(|e| jserr("barrier subscription")(&e))?;
+            .map_err(|e| jserr("barrier subscription")(e.into()))?;
         rt.spawn(async move {
             while let Some(msg) = sub.next().await {
                 if tx.send(msg.payload.to_vec()).is_err() {
@@ -455,7 +452,7 @@ pub fn run_node(config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeR
         None
     };
     rt.block_on(client.flush())
-        .map_err(|e| jserr("flush")(&e))?;
+        .map_err(|e| jserr("flush")(e.into()))?;
 
     let mut node = Node {
         rt,
@@ -528,7 +525,7 @@ pub fn run_node(config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeR
                     .block_on(client.publish(subjects.barrier.clone(), report.into()))
                     .map_err(|e| ClusterError::Publish {
                         subject: subjects.barrier.clone(),
-                        reason: e.to_string(),
+                        source: e.into(),
                     })?;
                 frame_no = b.wait(frame_no);
                 next_frame = (next_frame + frame_dt).max(Instant::now());
