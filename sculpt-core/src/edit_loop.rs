@@ -18,8 +18,8 @@
 //!    command value) changes nothing and is [`LoopError::Refused`];
 //! 2. its outputs are taken in order: an operator event goes to
 //!    [`EditHooks::operator_event`]; an edit goes to [`EditHooks::before_apply`], is
-//!    applied with [`editor::apply`], the interaction is told the document's target
-//!    count (a sketch adds a target, an undo may remove one), and the edit and its
+//!    applied with [`editor::apply`], the interaction is told the document's targets
+//!    (a sketch adds a target, an undo may remove one), and the edit and its
 //!    [`Applied`] go to [`EditHooks::after_apply`];
 //! 3. the [`Step`] lists all of it, with whether the live gesture's [`Preview`]
 //!    changed, whether a paused gesture resumed and whether a tracked sample was
@@ -77,7 +77,7 @@ pub trait EditHooks {
         Ok(())
     }
 
-    /// `edit` was applied to `doc` (the interaction already knows the new target count).
+    /// `edit` was applied to `doc` (the interaction already knows the new targets).
     fn after_apply(
         &mut self,
         t: f64,
@@ -221,22 +221,21 @@ pub struct EditLoop {
     /// [`EditLoop::tick`]; reading it (mode, tool, live gesture, wand) is free.
     pub interaction: Interaction,
     /// The sculpted document. Change it through the loop; a caller that replaces or
-    /// edits it directly calls [`EditLoop::sync_target_count`] afterwards.
+    /// edits it directly calls [`EditLoop::sync_targets`] afterwards.
     pub doc: Document,
     /// Scratch for the interaction's outputs, reused across steps.
     outputs: Vec<Output>,
 }
 
 impl EditLoop {
-    /// A loop editing `doc` with `interaction`, which is told the document's target
-    /// count.
+    /// A loop editing `doc` with `interaction`, which is told the document's targets.
     pub fn new(interaction: Interaction, doc: Document) -> Self {
         let mut edit_loop = Self {
             interaction,
             doc,
             outputs: Vec::new(),
         };
-        edit_loop.sync_target_count();
+        edit_loop.sync_targets();
         edit_loop
     }
 
@@ -245,16 +244,16 @@ impl EditLoop {
         u32::try_from(self.doc.targets().len()).unwrap_or(u32::MAX)
     }
 
-    /// Tells the interaction the document's target count (selection wraps around them).
-    pub fn sync_target_count(&mut self) {
-        self.interaction.set_target_count(self.target_count());
+    /// Tells the interaction the document's targets (selection wraps around them).
+    pub fn sync_targets(&mut self) {
+        self.interaction.set_targets(&self.doc.target_ids());
     }
 
     /// Applies one edit that did not come from the interaction (a journalled one,
-    /// recovered) and keeps the target count in step.
+    /// recovered) and keeps the interaction's targets in step.
     pub fn apply(&mut self, edit: &Edit) -> Applied {
         let applied = editor::apply(&mut self.doc, edit);
-        self.sync_target_count();
+        self.sync_targets();
         applied
     }
 

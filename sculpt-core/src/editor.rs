@@ -9,7 +9,7 @@
 //! ```
 //! use glam::DVec3;
 //! use sculpt_core::editor::{self, Applied};
-//! use sculpt_core::interaction::{Edit, StrokeEdit, StrokeSample, TargetIndex, Tool};
+//! use sculpt_core::interaction::{Edit, StrokeEdit, StrokeSample, Tool, DEFAULT_TARGET};
 //!
 //! let mut doc = editor::default_document();
 //! let samples = (0..=20)
@@ -18,7 +18,7 @@
 //!         StrokeSample { t: 0.01 * i as f64, position: editor::default_surface_point(x, 1.17) }
 //!     })
 //!     .collect();
-//! let edit = Edit::Stroke(StrokeEdit::new(TargetIndex(0), Tool::default(), samples));
+//! let edit = Edit::Stroke(StrokeEdit::new(DEFAULT_TARGET, Tool::default(), samples));
 //! assert!(matches!(editor::apply(&mut doc, &edit), Applied::Stroke { .. }));
 //! assert_eq!(doc.strokes().len(), 1);
 //! assert_eq!(editor::apply(&mut doc, &Edit::Undo), Applied::Undone);
@@ -188,17 +188,17 @@ impl Applied {
 
 /// Applies one interaction edit to `doc`.
 ///
-/// Strokes go to the target at the edit's position ([`Document::target_at`]) through
+/// Strokes go to the target the edit names ([`Document::target`]) through
 /// [`Document::apply_stroke`]; sketches are fitted ([`fit_sketch`]) and added
 /// as targets named `sketch N`; undo and redo step the document's history. A refused
 /// stroke or sketch leaves the document unchanged and says why.
 pub fn apply(doc: &mut Document, edit: &Edit) -> Applied {
     match edit {
         Edit::Stroke(s) => {
-            let Some(target) = doc.target_at(s.target).map(|t| t.id) else {
+            let Some(target) = doc.target(s.target).map(|t| t.id) else {
                 return Applied::Rejected(Error::NotFound {
                     kind: "target",
-                    id: u64::from(s.target.0),
+                    id: s.target,
                 });
             };
             match doc.apply_stroke(target, stroke_input(s)) {
@@ -265,8 +265,8 @@ pub fn oplog_event(event: &OperatorEvent) -> EventKind {
             Edit::Undo => EventKind::Undo,
             Edit::Redo => EventKind::Redo,
             Edit::Save => EventKind::Save,
-            Edit::SelectTarget { index } => EventKind::Marker {
-                label: format!("select-target {index}"),
+            Edit::SelectTarget { target } => EventKind::Marker {
+                label: format!("select-target {target}"),
             },
             Edit::Sketch { .. } | Edit::Stroke(_) => EventKind::Marker {
                 label: "edit".into(),
@@ -286,12 +286,13 @@ pub fn oplog_event(event: &OperatorEvent) -> EventKind {
 mod tests {
     use super::*;
     use crate::assert_near;
-    use crate::interaction::{StrokeSample, TargetIndex};
+    use crate::interaction::{DEFAULT_TARGET, StrokeSample};
+    use crate::sculpt::document::TargetId;
     use crate::tolerance::{EXACT_EPS, POINT_EPS};
 
-    fn carve(target: u32, y: f64) -> Edit {
+    fn carve(target: TargetId, y: f64) -> Edit {
         Edit::Stroke(StrokeEdit::new(
-            TargetIndex(target),
+            target,
             Tool::default(),
             (0..=30)
                 .map(|i| StrokeSample {
@@ -349,7 +350,7 @@ mod tests {
     fn edits_apply_undo_and_redo_in_order() {
         let mut doc = default_document();
         assert!(matches!(
-            apply(&mut doc, &carve(0, 1.1)),
+            apply(&mut doc, &carve(DEFAULT_TARGET, 1.1)),
             Applied::Stroke { .. }
         ));
         let sketch = Edit::Sketch {
@@ -373,6 +374,36 @@ mod tests {
         assert!(!apply(&mut doc, &Edit::Save).changed());
     }
 
+    /// A version 1 journal named targets by position: read back, each position
+    /// becomes the id of the target there.
+    #[test]
+    fn version_1_positions_become_the_targets_ids() {
+        let mut doc = default_document();
+        let sketch_id = doc.add_target("sketch 1", default_surface());
+        let ids = doc.target_ids();
+        assert_eq!(ids, vec![DEFAULT_TARGET, sketch_id]);
+        let resolved = carve(1, 1.1).with_positions_resolved(&doc);
+        let Edit::Stroke(s) = &resolved else {
+            unreachable!()
+        };
+        assert_eq!(s.target, sketch_id);
+        assert_eq!(
+            Edit::SelectTarget { target: 0 }.with_positions_resolved(&doc),
+            Edit::SelectTarget {
+                target: DEFAULT_TARGET
+            }
+        );
+        let Edit::Stroke(past) = carve(7, 1.1).with_positions_resolved(&doc) else {
+            unreachable!()
+        };
+        assert_eq!(past.target, TargetId::MAX, "no target there: still refused");
+        assert!(matches!(
+            apply(&mut doc, &Edit::Stroke(past)),
+            Applied::Rejected(_)
+        ));
+        assert!(matches!(apply(&mut doc, &resolved), Applied::Stroke { .. }));
+    }
+
     #[test]
     fn refused_edits_leave_the_document_alone() {
         let mut doc = default_document();
@@ -381,7 +412,7 @@ mod tests {
         };
         assert!(e.to_string().contains("target 5"), "{e}");
         // Far above the surface: off the target.
-        let Edit::Stroke(mut off) = carve(0, 1.1) else {
+        let Edit::Stroke(mut off) = carve(DEFAULT_TARGET, 1.1) else {
             unreachable!()
         };
         for s in &mut off.samples {
@@ -404,7 +435,7 @@ mod tests {
         let mut doc = default_document();
         assert!(!doc.can_undo());
         assert!(matches!(
-            apply(&mut doc, &carve(0, 1.1)),
+            apply(&mut doc, &carve(DEFAULT_TARGET, 1.1)),
             Applied::Stroke { .. }
         ));
         assert!(doc.can_undo());
@@ -424,7 +455,7 @@ mod tests {
         assert_eq!(loaded.targets().len(), 1);
         // Edits after loading undo as usual, down to the loaded base.
         assert!(matches!(
-            apply(&mut loaded, &carve(0, 1.2)),
+            apply(&mut loaded, &carve(DEFAULT_TARGET, 1.2)),
             Applied::Stroke { .. }
         ));
         assert_eq!(apply(&mut loaded, &Edit::Undo), Applied::Undone);

@@ -107,7 +107,7 @@ impl AppState {
     pub fn surface_classes(&self) -> crate::scene::SurfaceClasses {
         let targets = self.session.doc.targets();
         crate::scene::SurfaceClasses {
-            selected: (targets.len() > 1).then(|| self.session.interaction.target().0),
+            selected: (targets.len() > 1).then(|| self.session.interaction.target_position().0),
             sketched: targets
                 .iter()
                 .enumerate()
@@ -217,7 +217,7 @@ impl AppState {
                 "{mode} {profile} {:.1}x{:.1}mm  target {}/{}{live}",
                 t.width * 1000.0,
                 t.depth * 1000.0,
-                i.target().0 + 1,
+                i.target_position().0 + 1,
                 self.session.doc.targets().len()
             ),
             format!(

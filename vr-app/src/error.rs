@@ -324,6 +324,13 @@ pub enum JournalError {
         /// 1-based line.
         line: usize,
     },
+    /// A version 1 journal (targets named by position) was appended to before it was
+    /// upgraded.
+    #[error("a version {version} journal must be upgraded before it is appended to")]
+    NotUpgraded {
+        /// The file's version.
+        version: u32,
+    },
     /// The first line is not the journal header.
     #[error("not a wandsculpt journal (line 1 is {found:?})")]
     NotAJournal {

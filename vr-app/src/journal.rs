@@ -3,9 +3,16 @@
 //! reported done.
 //!
 //! Format (`*.journal`, UTF-8 JSON lines):
-//! - line 1, the header: `{"wandsculpt_journal":1}`;
+//! - line 1, the header: `{"wandsculpt_journal":2}`;
 //! - then one [`JournalEntry`] per line: `{"seq":0,"t":1.25,"edit":{"edit":"stroke",...}}`,
-//!   `seq` counting up from 0 with no gaps.
+//!   `seq` counting up from 0 with no gaps. Edits name their target by its id
+//!   ([`TargetId`](sculpt_core::interaction::TargetId)).
+//!
+//! Version 1 (header `{"wandsculpt_journal":1}`) named targets by their position in
+//! the document instead. It is still read: [`Journal::version`] says which was opened,
+//! the session resolves the positions as it re-applies the entries
+//! ([`Edit::with_positions_resolved`]) and rewrites the file as version 2
+//! ([`Journal::upgrade`]) before appending to it.
 //!
 //! On open, a final line without its newline (a write torn by a crash) is cut off;
 //! any other bad line is an error naming its line number, never silently skipped.
@@ -33,8 +40,12 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{JournalError, VrError, VrResult};
 
+/// The journal version this build writes.
+pub const VERSION: u32 = 2;
 /// The header line.
-pub const HEADER: &str = "{\"wandsculpt_journal\":1}";
+pub const HEADER: &str = "{\"wandsculpt_journal\":2}";
+/// A version 1 journal's header line (targets named by position).
+pub const HEADER_V1: &str = "{\"wandsculpt_journal\":1}";
 /// Longest journal line accepted (bytes); a longer one is corruption.
 pub const MAX_LINE: usize = 64 << 20;
 
@@ -56,6 +67,8 @@ pub struct Journal {
     path: PathBuf,
     file: File,
     next_seq: u64,
+    /// The file's version: [`VERSION`], or 1 until [`Journal::upgrade`].
+    version: u32,
 }
 
 fn jerr(path: &Path, reason: JournalError) -> VrError {
@@ -84,15 +97,19 @@ impl Journal {
             .open(&path)
             .map_err(|e| io(&path, e))?;
         let len = file.metadata().map_err(|e| io(&path, e))?.len();
-        let (entries, good_len) = if len == 0 {
+        let (entries, good_len, mut version) = if len == 0 {
             file.write_all(format!("{HEADER}\n").as_bytes())
                 .map_err(|e| io(&path, e))?;
             file.sync_all().map_err(|e| io(&path, e))?;
             sync_parent(&path);
-            (Vec::new(), None)
+            (Vec::new(), None, VERSION)
         } else {
-            let (entries, good) = read_entries(&path, &mut file)?;
-            (entries, (good < len).then_some(good))
+            let read = read_entries(&path, &mut file)?;
+            (
+                read.entries,
+                (read.good < len).then_some(read.good),
+                read.version,
+            )
         };
         if let Some(good) = good_len {
             tracing::warn!(path = %path.display(), cut = len - good, "journal: cutting off a torn final line");
@@ -101,6 +118,7 @@ impl Journal {
                 // Even the header was torn: start the file afresh.
                 file.write_all(format!("{HEADER}\n").as_bytes())
                     .map_err(|e| io(&path, e))?;
+                version = VERSION;
             }
             file.sync_all().map_err(|e| io(&path, e))?;
         }
@@ -110,21 +128,68 @@ impl Journal {
                 path,
                 file,
                 next_seq,
+                version,
             },
             entries,
         ))
     }
 
-    /// Reads a journal without opening it for writing (a torn tail is ignored).
+    /// Reads a journal without opening it for writing (a torn tail is ignored). The
+    /// entries are as stored: in a version 1 journal their targets are positions.
     pub fn read(path: impl AsRef<Path>) -> VrResult<Vec<JournalEntry>> {
         let path = path.as_ref();
         let mut file = File::open(path).map_err(|e| io(path, e))?;
-        Ok(read_entries(path, &mut file)?.0)
+        Ok(read_entries(path, &mut file)?.entries)
+    }
+
+    /// The version of the file as opened: [`VERSION`], or 1 for a journal written
+    /// before targets were named by id (see the module docs).
+    pub fn version(&self) -> u32 {
+        self.version
+    }
+
+    /// Rewrites the journal as a [`VERSION`] journal holding `entries` (the opened
+    /// entries with their targets resolved to ids), atomically: the new file is
+    /// written and fsync'd beside the old one and renamed over it, so a crash leaves
+    /// either journal whole. Appending continues after `entries`.
+    pub fn upgrade(&mut self, entries: &[JournalEntry]) -> VrResult<()> {
+        let tmp = self.path.with_extension("journal.upgrade");
+        let mut text = format!("{HEADER}\n");
+        for entry in entries {
+            let line = serde_json::to_string(entry)
+                .map_err(|e| jerr(&self.path, JournalError::Encode(e.into())))?;
+            text.push_str(&line);
+            text.push('\n');
+        }
+        let write = || -> std::io::Result<File> {
+            let mut f = File::create(&tmp)?;
+            f.write_all(text.as_bytes())?;
+            f.sync_all()?;
+            std::fs::rename(&tmp, &self.path)?;
+            OpenOptions::new().read(true).append(true).open(&self.path)
+        };
+        self.file = write().map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            io(&self.path, e)
+        })?;
+        sync_parent(&self.path);
+        self.next_seq = entries.last().map_or(0, |e| e.seq + 1);
+        self.version = VERSION;
+        Ok(())
     }
 
     /// Appends an operation and fsyncs; when this returns `Ok` the operation is
-    /// durable. Returns its sequence number.
+    /// durable. Returns its sequence number. A version 1 journal must be upgraded
+    /// first ([`Journal::upgrade`]): its edits name targets differently.
     pub fn append(&mut self, t: f64, edit: &Edit) -> VrResult<u64> {
+        if self.version != VERSION {
+            return Err(jerr(
+                &self.path,
+                JournalError::NotUpgraded {
+                    version: self.version,
+                },
+            ));
+        }
         let entry = JournalEntry {
             seq: self.next_seq,
             t: if t.is_finite() { t } else { 0.0 },
@@ -167,14 +232,24 @@ fn sync_parent(path: &Path) {
     }
 }
 
-/// Parses the journal; returns the entries and the byte length of the intact prefix.
-fn read_entries(path: &Path, file: &mut File) -> VrResult<(Vec<JournalEntry>, u64)> {
+/// A parsed journal.
+struct Entries {
+    entries: Vec<JournalEntry>,
+    /// The byte length of the intact prefix.
+    good: u64,
+    /// The header's version.
+    version: u32,
+}
+
+/// Parses the journal.
+fn read_entries(path: &Path, file: &mut File) -> VrResult<Entries> {
     file.seek(SeekFrom::Start(0)).map_err(|e| io(path, e))?;
     let mut reader = BufReader::new(file.take(u64::MAX));
     let mut entries = Vec::new();
     let mut good: u64 = 0;
     let mut buf = Vec::new();
     let mut line_no = 0usize;
+    let mut version = VERSION;
     loop {
         buf.clear();
         let n = (&mut reader)
@@ -201,14 +276,18 @@ fn read_entries(path: &Path, file: &mut File) -> VrResult<(Vec<JournalEntry>, u6
         let text = std::str::from_utf8(&buf[..n - 1])
             .map_err(|_| jerr(path, JournalError::NotUtf8 { line: line_no }))?;
         if line_no == 1 {
-            if text.trim() != HEADER {
-                return Err(jerr(
-                    path,
-                    JournalError::NotAJournal {
-                        found: truncate(text),
-                    },
-                ));
-            }
+            version = match text.trim() {
+                HEADER => VERSION,
+                HEADER_V1 => 1,
+                _ => {
+                    return Err(jerr(
+                        path,
+                        JournalError::NotAJournal {
+                            found: truncate(text),
+                        },
+                    ));
+                }
+            };
         } else {
             let entry: JournalEntry = serde_json::from_str(text).map_err(|e| {
                 jerr(
@@ -234,7 +313,11 @@ fn read_entries(path: &Path, file: &mut File) -> VrResult<(Vec<JournalEntry>, u6
         }
         good += n as u64;
     }
-    Ok((entries, good))
+    Ok(Entries {
+        entries,
+        good,
+        version,
+    })
 }
 
 fn truncate(s: &str) -> String {
@@ -244,11 +327,11 @@ fn truncate(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sculpt_core::interaction::{StrokeEdit, StrokeSample, TargetIndex, Tool};
+    use sculpt_core::interaction::{DEFAULT_TARGET, StrokeEdit, StrokeSample, Tool};
 
     fn stroke() -> Edit {
         Edit::Stroke(StrokeEdit::new(
-            TargetIndex(0),
+            DEFAULT_TARGET,
             Tool::default(),
             vec![
                 StrokeSample {

@@ -8,12 +8,12 @@
 //!
 //! ```
 //! use glam::DVec3;
-//! use sculpt_core::interaction::{StrokeEdit, StrokeSample, TargetIndex, Tool};
+//! use sculpt_core::interaction::{StrokeEdit, StrokeSample, Tool, DEFAULT_TARGET};
 //! use sculpt_core::mesh::PatchMesh;
 //! let samples = (0..4)
 //!     .map(|i| StrokeSample { t: i as f64, position: DVec3::new(0.01 * i as f64, 1.2, 0.0) })
 //!     .collect();
-//! let stroke = StrokeEdit::new(TargetIndex(0), Tool::default(), samples);
+//! let stroke = StrokeEdit::new(DEFAULT_TARGET, Tool::default(), samples);
 //! let mut mesh = PatchMesh::new();
 //! vr_app::preview::write_stroke_ribbon(&stroke, DVec3::Z, 7, &mut mesh);
 //! assert_eq!(mesh.triangle_count(), 6);
@@ -84,13 +84,13 @@ pub fn write_stroke_ribbon(
 mod tests {
     use super::*;
     use sculpt_core::assert_near;
-    use sculpt_core::interaction::{StrokeSample, TargetIndex, Tool};
+    use sculpt_core::interaction::{DEFAULT_TARGET, StrokeSample, Tool};
     use sculpt_core::mesh::PatchMesh;
     use sculpt_core::tolerance::F32_EPS;
 
     fn stroke(points: &[DVec3], mode: StrokeMode) -> StrokeEdit {
         StrokeEdit::new(
-            TargetIndex(0),
+            DEFAULT_TARGET,
             Tool {
                 mode,
                 ..Tool::default()

@@ -222,7 +222,7 @@ impl SceneState {
         match &live_stroke {
             Some(stroke) if stroke.samples.len() != self.previewed_samples => {
                 self.previewed_samples = stroke.samples.len();
-                let target = doc.target_at(stroke.target).map(|t| t.id);
+                let target = doc.target(stroke.target).map(|t| t.id);
                 self.preview_carved = target.is_some_and(|id| {
                     doc.set_preview(id, &sculpt_core::editor::stroke_input(stroke))
                         .is_ok()
@@ -275,7 +275,7 @@ impl SceneState {
         interaction: &Interaction,
         p: DVec3,
     ) -> Option<(DVec3, DVec3)> {
-        let target = doc.target_at(interaction.target())?;
+        let target = doc.target(interaction.target())?;
         let hit = target.target_surface().inverter().closest_point(p);
         let n = target.surface.normal(hit.uv.x, hit.uv.y);
         (hit.distance <= FOOTPRINT_REACH && hit.point.is_finite() && n.is_finite())

@@ -40,7 +40,7 @@ use std::path::{Path, PathBuf};
 use sculpt_core::edit_loop::{EditHooks, EditLoop, LoopError, NoHooks, Step};
 use sculpt_core::editor::{self, Applied};
 use sculpt_core::error::Chain;
-use sculpt_core::interaction::{Command, Edit, Interaction, OperatorEvent, WandEvent};
+use sculpt_core::interaction::{Command, Edit, Interaction, OperatorEvent, TargetIndex, WandEvent};
 use sculpt_core::oplog::{OpLogHeader, OpLogWriter};
 use sculpt_core::sculpt::document::Document;
 
@@ -292,11 +292,18 @@ impl Session {
         let interaction =
             Interaction::new(config.interaction, config.tool.mode, config.tool.tool());
         let mut edit_loop = EditLoop::new(interaction, doc);
-        let (journal, entries) = Journal::open(dir.join(JOURNAL_FILE))?;
+        let (mut journal, stored) = Journal::open(dir.join(JOURNAL_FILE))?;
+        // A version 1 journal names targets by position: each becomes the id of the
+        // target there when the entry is re-applied, and the file is rewritten so.
+        let positions = journal.version() == 1;
+        let mut entries = Vec::with_capacity(stored.len());
         let mut selected = None;
-        for e in &entries {
+        for mut e in stored {
+            if positions {
+                e.edit = e.edit.with_positions_resolved(&edit_loop.doc);
+            }
             match &e.edit {
-                Edit::SelectTarget { index } => selected = Some(*index),
+                Edit::SelectTarget { target } => selected = Some(*target),
                 edit => {
                     if let Applied::Rejected(err) = edit_loop.apply(edit) {
                         tracing::debug!(
@@ -307,9 +314,19 @@ impl Session {
                     }
                 }
             }
+            entries.push(e);
+        }
+        if positions {
+            journal.upgrade(&entries)?;
+            tracing::info!("journal upgraded to version {}", crate::journal::VERSION);
         }
         let oplog = OperatorLog::create(dir.join(OPLOG_FILE), editor::mode_name(config.tool.mode))?;
-        if let Some(index) = selected.filter(|&i| i.0 < edit_loop.target_count()) {
+        let position =
+            selected.and_then(|id| edit_loop.doc.targets().iter().position(|t| t.id == id));
+        if let Some(index) = position
+            .and_then(|p| u32::try_from(p).ok())
+            .map(TargetIndex)
+        {
             // At t = 0, so that any live event may follow; not journalled again.
             let select = WandEvent::command(0.0, Command::SelectTarget { index });
             match edit_loop.handle(&select, &mut NoHooks) {
@@ -443,7 +460,7 @@ impl Session {
 mod tests {
     use super::*;
     use glam::{DQuat, DVec3};
-    use sculpt_core::interaction::{TargetIndex, WandSample};
+    use sculpt_core::interaction::WandSample;
     use sculpt_core::oplog::{EventKind, decode_bytes};
 
     fn config(dir: &Path) -> Config {
@@ -590,6 +607,63 @@ mod tests {
         assert!(dir.path().join("a/b").is_dir());
     }
 
+    /// A version 1 journal named targets by position (`"target": 1` is the second
+    /// target, whatever its id): recovered, it strokes and selects the same targets,
+    /// and is rewritten as version 2, with ids, before anything is appended.
+    #[test]
+    fn a_version_1_journal_is_recovered_by_position_and_upgraded() {
+        use crate::journal::{HEADER, HEADER_V1};
+        let dir = tempfile::tempdir().unwrap();
+        let mut base = editor::default_document();
+        let second = base.add_target("second", editor::default_surface());
+        assert_ne!(second, 1, "ids and positions differ in this test");
+        let scene = dir.path().join("base.json");
+        std::fs::write(&scene, base.to_json()).unwrap();
+        let run = dir.path().join("run");
+        std::fs::create_dir_all(&run).unwrap();
+        let samples: Vec<String> = (0..=20)
+            .map(|i| {
+                let p = editor::default_surface_point(-0.2 + 0.02 * f64::from(i), 1.1);
+                format!(
+                    r#"{{"t":{},"position":[{},{},{}]}}"#,
+                    f64::from(i) * 0.01,
+                    p.x,
+                    p.y,
+                    p.z
+                )
+            })
+            .collect();
+        let stroke = format!(
+            r#"{{"seq":0,"t":0.2,"edit":{{"edit":"stroke","target":1,"mode":"carve","tool":{{"profile":"v","width":0.02,"depth":0.005}},"samples":[{}]}}}}"#,
+            samples.join(",")
+        );
+        let select = r#"{"seq":1,"t":0.3,"edit":{"edit":"select-target","index":1}}"#;
+        std::fs::write(
+            run.join(JOURNAL_FILE),
+            format!("{HEADER_V1}\n{stroke}\n{select}\n"),
+        )
+        .unwrap();
+        let mut cfg = config(&run);
+        cfg.files.scene = Some(scene);
+        let mut s = Session::open(&cfg).unwrap();
+        assert_eq!(s.recovered, 2);
+        assert_eq!(s.doc.strokes().len(), 1);
+        assert_eq!(s.doc.strokes()[0].target, second, "position 1 is `second`");
+        assert_eq!(s.interaction.target(), second, "and so is the selection");
+        let text = std::fs::read_to_string(run.join(JOURNAL_FILE)).unwrap();
+        assert_eq!(text.lines().next(), Some(HEADER));
+        let entries = Journal::read(run.join(JOURNAL_FILE)).unwrap();
+        assert!(
+            matches!(&entries[0].edit, Edit::Stroke(e) if e.target == second),
+            "{:?}",
+            entries[0].edit
+        );
+        assert_eq!(entries[1].edit, Edit::SelectTarget { target: second });
+        s.handle(&WandEvent::command(0.5, Command::Undo)).unwrap();
+        assert_eq!(Journal::read(run.join(JOURNAL_FILE)).unwrap().len(), 3);
+        assert!(s.doc.strokes().is_empty());
+    }
+
     #[test]
     fn a_base_scene_file_is_the_starting_document_and_bad_ones_are_errors() {
         let dir = tempfile::tempdir().unwrap();
@@ -603,18 +677,15 @@ mod tests {
         assert_eq!(s.doc.targets().len(), 2);
         s.handle(&WandEvent::command(0.0, Command::SelectNextTarget))
             .unwrap();
+        let second = s.doc.targets()[1].id;
         assert_eq!(
             s.interaction.target(),
-            TargetIndex(1),
+            second,
             "both targets can be selected"
         );
         drop(s);
         let s = Session::open(&cfg).unwrap();
-        assert_eq!(
-            s.interaction.target(),
-            TargetIndex(1),
-            "the selection is recovered"
-        );
+        assert_eq!(s.interaction.target(), second, "the selection is recovered");
         std::fs::write(&scene, b"{\"format\":\"nope\"}").unwrap();
         let e = Session::open(&cfg).unwrap_err().to_string();
         assert!(e.contains("base.json"), "{e}");

@@ -163,6 +163,12 @@ fn a_sketch_adds_a_target_the_selection_wraps_over_and_undo_removes() {
         }
     }
     assert_eq!(edits.target_count(), 2);
+    let ids = edits.doc.target_ids();
+    assert_eq!(
+        edits.interaction.target_count(),
+        2,
+        "the sketched surface becomes a selectable target"
+    );
     let select = |edits: &mut EditLoop, t: f64| {
         edits
             .handle(
@@ -172,17 +178,14 @@ fn a_sketch_adds_a_target_the_selection_wraps_over_and_undo_removes() {
             .unwrap();
         edits.interaction.target()
     };
-    assert_eq!(edits.interaction.target(), TargetIndex(0));
+    assert_eq!(edits.interaction.target(), ids[0]);
     assert_eq!(
         select(&mut edits, 1.0),
-        TargetIndex(1),
+        ids[1],
         "the sketched target can be selected"
     );
-    assert_eq!(
-        select(&mut edits, 1.1),
-        TargetIndex(0),
-        "and the selection wraps"
-    );
+    assert_eq!(edits.interaction.target_position(), TargetIndex(1));
+    assert_eq!(select(&mut edits, 1.1), ids[0], "and the selection wraps");
     select(&mut edits, 1.2);
     let undo = edits
         .handle(&WandEvent::command(1.3, Command::Undo), &mut NoHooks)
@@ -191,7 +194,7 @@ fn a_sketch_adds_a_target_the_selection_wraps_over_and_undo_removes() {
     assert_eq!(edits.target_count(), 1);
     assert_eq!(
         edits.interaction.target(),
-        TargetIndex(0),
+        ids[0],
         "the selection follows the removal"
     );
 }

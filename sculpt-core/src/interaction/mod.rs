@@ -36,7 +36,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, InteractionConfigError, InteractionError, Result, StrokeRejection};
 
-pub use crate::sculpt::document::TargetIndex;
+use crate::sculpt::document::Document;
+pub use crate::sculpt::document::{TargetId, TargetIndex};
 /// Carve or emboss: the sculpting layer's [`Mode`](crate::sculpt::stroke::Mode), named
 /// for what it is beside [`InteractionMode`].
 pub use crate::sculpt::stroke::Mode as StrokeMode;
@@ -259,15 +260,15 @@ pub struct StrokeSample {
 /// [`StrokeInput`](crate::sculpt::stroke::StrokeInput), on a target named by its id,
 /// made from this by [`crate::editor::stroke_input`].
 ///
-/// Journalled as `{"target": 0, "mode": "carve", "tool": {"profile": "v", "width":
+/// Journalled as `{"target": 1, "mode": "carve", "tool": {"profile": "v", "width":
 /// 0.02, "depth": 0.005, "taper": 0.01}, "samples": [{"t": 0.0, "position": [x, y,
 /// z]}, ...]}`: the mode beside the tool, not in it; a tool without `taper` gets
 /// [`DEFAULT_TAPER`](crate::sculpt::stroke::DEFAULT_TAPER).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(from = "StrokeEditJson", into = "StrokeEditJson")]
 pub struct StrokeEdit {
-    /// The target's position in the document's targets.
-    pub target: TargetIndex,
+    /// The target's id.
+    pub target: TargetId,
     /// Carve or emboss. [`StrokeEdit::new`] takes it from `tool.mode`, and it is the
     /// one applied ([`crate::editor::stroke_input`]) and journalled.
     pub mode: StrokeMode,
@@ -280,7 +281,7 @@ pub struct StrokeEdit {
 impl StrokeEdit {
     /// A stroke on the target at `target` with `tool` (carving or embossing as
     /// `tool.mode` says).
-    pub fn new(target: TargetIndex, tool: Tool, samples: Vec<StrokeSample>) -> Self {
+    pub fn new(target: TargetId, tool: Tool, samples: Vec<StrokeSample>) -> Self {
         Self {
             target,
             mode: tool.mode,
@@ -293,7 +294,7 @@ impl StrokeEdit {
 /// How a [`StrokeEdit`] is journalled (see there).
 #[derive(Clone, Serialize, Deserialize)]
 struct StrokeEditJson {
-    target: TargetIndex,
+    target: TargetId,
     mode: StrokeMode,
     tool: ToolJson,
     samples: Vec<StrokeSample>,
@@ -366,13 +367,36 @@ pub enum Edit {
     Undo,
     /// Redo.
     Redo,
-    /// Make the target at position `index` the target of later strokes.
+    /// Make a target the target of later strokes.
     SelectTarget {
-        /// Its position in the document's targets.
-        index: TargetIndex,
+        /// Its id. (Version 1 journals wrote the target's position here, as `index`;
+        /// see [`Edit::with_positions_resolved`].)
+        #[serde(alias = "index")]
+        target: TargetId,
     },
     /// Save the document.
     Save,
+}
+
+impl Edit {
+    /// This edit with its target read as a position in `doc`'s targets rather than an
+    /// id, as version 1 journals and operation logs wrote it; the position becomes the
+    /// id of the target there now. A position past the last target becomes
+    /// [`TargetId::MAX`], which names no target, so the edit is refused as it was then.
+    pub fn with_positions_resolved(mut self, doc: &Document) -> Self {
+        let resolve = |position: TargetId| {
+            u32::try_from(position)
+                .ok()
+                .and_then(|p| doc.target_at(TargetIndex(p)))
+                .map_or(TargetId::MAX, |t| t.id)
+        };
+        match &mut self {
+            Edit::Stroke(s) => s.target = resolve(s.target),
+            Edit::SelectTarget { target } => *target = resolve(*target),
+            Edit::Sketch { .. } | Edit::Undo | Edit::Redo | Edit::Save => {}
+        }
+        self
+    }
 }
 
 /// Why a gesture ended.
@@ -605,6 +629,9 @@ enum Gesture {
     Spent,
 }
 
+/// The target a new machine selects: the first target of a new document.
+pub const DEFAULT_TARGET: TargetId = crate::sculpt::document::FIRST_ID;
+
 /// The interaction state machine.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Interaction {
@@ -612,8 +639,10 @@ pub struct Interaction {
     /// Sketching; otherwise stroking in `tool.mode`.
     sketching: bool,
     tool: Tool,
-    target: TargetIndex,
-    target_count: u32,
+    /// The document's target ids, in document order (never empty).
+    targets: Vec<TargetId>,
+    /// The selected one (one of `targets`).
+    target: TargetId,
     last_t: Option<f64>,
     buttons: u32,
     tracked: bool,
@@ -633,7 +662,8 @@ impl Default for Interaction {
 }
 
 impl Interaction {
-    /// A machine in `mode` with `tool`, targeting surface 0 of 1. A stroke mode
+    /// A machine in `mode` with `tool`, targeting [`DEFAULT_TARGET`], the only target
+    /// it knows until [`Interaction::set_targets`] tells it more. A stroke mode
     /// replaces `tool.mode`; in sketch mode `tool.mode` is the stroke mode the mode
     /// button cycles back to.
     pub fn new(config: InteractionConfig, mode: InteractionMode, mut tool: Tool) -> Self {
@@ -644,8 +674,8 @@ impl Interaction {
             config,
             sketching: mode == InteractionMode::Sketch,
             tool,
-            target: TargetIndex(0),
-            target_count: 1,
+            targets: vec![DEFAULT_TARGET],
+            target: DEFAULT_TARGET,
             last_t: None,
             buttons: 0,
             tracked: false,
@@ -669,9 +699,21 @@ impl Interaction {
         &self.tool
     }
 
-    /// Current target surface's position in the document's targets.
-    pub fn target(&self) -> TargetIndex {
+    /// The selected target's id.
+    pub fn target(&self) -> TargetId {
         self.target
+    }
+
+    /// The selected target's position among the document's targets (what the HUD
+    /// shows and [`Command::SelectTarget`] names).
+    pub fn target_position(&self) -> TargetIndex {
+        let position = self.targets.iter().position(|&id| id == self.target);
+        TargetIndex(position.map_or(0, |p| u32::try_from(p).unwrap_or(u32::MAX)))
+    }
+
+    /// How many targets the machine selects among.
+    pub fn target_count(&self) -> u32 {
+        u32::try_from(self.targets.len()).unwrap_or(u32::MAX)
     }
 
     /// Whether the wand is tracked.
@@ -735,12 +777,19 @@ impl Interaction {
         }
     }
 
-    /// Tells the machine how many target surfaces exist (selection wraps around them).
-    pub fn set_target_count(&mut self, n: u32) {
-        self.target_count = n.max(1);
-        if self.target.0 >= self.target_count {
-            self.target = TargetIndex(self.target_count - 1);
+    /// Tells the machine the document's target ids, in document order (selection
+    /// wraps around them). The selected target stays selected while it exists; when
+    /// it is gone (an undone sketch), the target now at its position, or the last
+    /// one, is selected. An empty list leaves the machine as it was.
+    pub fn set_targets(&mut self, ids: &[TargetId]) {
+        if ids.is_empty() || ids == self.targets.as_slice() {
+            return;
         }
+        if !ids.contains(&self.target) {
+            let position = self.target_position().0 as usize;
+            self.target = ids[position.min(ids.len() - 1)];
+        }
+        self.targets = ids.to_vec();
     }
 
     fn bit(&self, b: u8) -> u32 {
@@ -857,9 +906,9 @@ impl Interaction {
             Command::Undo => self.command_edit(t, Edit::Undo, out),
             Command::Redo => self.command_edit(t, Edit::Redo, out),
             Command::SelectTarget { index } => {
-                if index.0 < self.target_count {
-                    self.target = index;
-                    self.command_edit(t, Edit::SelectTarget { index }, out);
+                if let Some(&target) = self.targets.get(index.0 as usize) {
+                    self.target = target;
+                    self.command_edit(t, Edit::SelectTarget { target }, out);
                 }
             }
             Command::SelectNextTarget => self.select_next(t, out),
@@ -871,9 +920,10 @@ impl Interaction {
         if self.gesture_active() {
             return;
         }
-        self.target = TargetIndex((self.target.0 + 1) % self.target_count);
-        let index = self.target;
-        self.command_edit(t, Edit::SelectTarget { index }, out);
+        let next = (self.target_position().0 as usize + 1) % self.targets.len();
+        let target = self.targets[next];
+        self.target = target;
+        self.command_edit(t, Edit::SelectTarget { target }, out);
     }
 
     /// Undo, redo, select and save act only between gestures.
@@ -1142,10 +1192,8 @@ impl Interaction {
             },
         });
         if let Some(edit) = edit {
-            if matches!(edit, Edit::Sketch { .. }) {
-                // The new surface becomes the next target.
-                self.target_count = self.target_count.saturating_add(1);
-            }
+            // A sketch's new surface joins the targets when the document tells the
+            // machine its targets again ([`Interaction::set_targets`]).
             out.push(Output::Edit(edit));
         }
     }

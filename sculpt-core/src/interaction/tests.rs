@@ -216,7 +216,7 @@ fn tool_commands_validate_and_log() {
 #[test]
 fn undo_redo_select_save_from_buttons_and_commands() {
     let mut m = Interaction::default();
-    m.set_target_count(3);
+    m.set_targets(&[1, 5, 9]);
     let out = run(
         &mut m,
         &[
@@ -233,9 +233,7 @@ fn undo_redo_select_save_from_buttons_and_commands() {
         vec![
             &Edit::Undo,
             &Edit::Redo,
-            &Edit::SelectTarget {
-                index: TargetIndex(1)
-            },
+            &Edit::SelectTarget { target: 5 },
             &Edit::Undo
         ]
     );
@@ -257,7 +255,37 @@ fn undo_redo_select_save_from_buttons_and_commands() {
         vec![&Edit::Save],
         "out-of-range selection is ignored"
     );
-    assert_eq!(m.target(), TargetIndex(1));
+    assert_eq!(m.target(), 5);
+    assert_eq!(m.target_position(), TargetIndex(1));
+}
+
+/// The selection is a target id: it stays on its target while that exists, and moves
+/// to the target now at its position when it is gone.
+#[test]
+fn the_selection_follows_its_target_through_new_target_lists() {
+    let mut m = Interaction::default();
+    assert_eq!(m.target(), DEFAULT_TARGET);
+    m.set_targets(&[1, 5, 9]);
+    let mut out = Vec::new();
+    m.handle(
+        &WandEvent::command(
+            0.0,
+            Command::SelectTarget {
+                index: TargetIndex(2),
+            },
+        ),
+        &mut out,
+    )
+    .unwrap();
+    assert_eq!(m.target(), 9);
+    m.set_targets(&[1, 5, 9, 12]);
+    assert_eq!(m.target(), 9, "a new target leaves the selection alone");
+    m.set_targets(&[1, 5, 12]);
+    assert_eq!(m.target(), 12, "the target at the removed one's position");
+    m.set_targets(&[1]);
+    assert_eq!(m.target(), 1, "or the last one");
+    m.set_targets(&[]);
+    assert_eq!(m.target(), 1, "an empty list changes nothing");
 }
 
 #[test]
@@ -441,10 +469,6 @@ fn sketch_sweep_builds_a_point_grid() {
     assert_eq!(rows.len(), 11);
     assert!(rows.iter().all(|r| r.len() == 8));
     assert_near!(rows[3][7].to_array(), [0.3, 1.06, 0.2], EXACT_EPS);
-    assert_eq!(
-        m.target_count, 2,
-        "the sketched surface becomes a selectable target"
-    );
 }
 
 #[test]
@@ -532,7 +556,7 @@ fn one_vocabulary_reads_and_writes_every_former_spelling() {
         serde_json::from_str(r#"{"profile":"v","width":0.05,"depth":0.01,"mode":"carve"}"#)
             .unwrap();
     assert_eq!(blunt.taper, 0.0);
-    // A journalled stroke: the mode beside the tool, the target a position.
+    // A journalled stroke: the mode beside the tool, the target an id.
     let samples = vec![
         StrokeSample {
             t: 0.0,
@@ -544,7 +568,7 @@ fn one_vocabulary_reads_and_writes_every_former_spelling() {
         },
     ];
     let stroke = Edit::Stroke(StrokeEdit::new(
-        TargetIndex(1),
+        1,
         Tool {
             taper: DEFAULT_TAPER,
             ..tool.clone()
@@ -568,10 +592,13 @@ fn one_vocabulary_reads_and_writes_every_former_spelling() {
     let mode_in_tool = line.replace("\"taper\"", "\"mode\":\"carve\",\"taper\"");
     assert!(serde_json::from_str::<Edit>(&mode_in_tool).is_err());
     round_trip(
-        r#"{"edit":"select-target","index":2}"#,
-        &Edit::SelectTarget {
-            index: TargetIndex(2),
-        },
+        r#"{"edit":"select-target","target":2}"#,
+        &Edit::SelectTarget { target: 2 },
+    );
+    // A version 1 journal named the target's position as `index`.
+    assert_eq!(
+        serde_json::from_str::<Edit>(r#"{"edit":"select-target","index":2}"#).unwrap(),
+        Edit::SelectTarget { target: 2 }
     );
     // Pose-log commands.
     round_trip(

@@ -87,12 +87,15 @@ pub const MAX_DOCUMENT_BYTES: usize = 256 << 20;
 /// a target (strokes, the editor's results, the live preview, replay metrics).
 pub type TargetId = u64;
 
+/// The first id a new document hands out: its first target's id.
+pub const FIRST_ID: u64 = 1;
+
 /// A target's position in [`Document::targets`] (0 first), not its id.
 ///
-/// Only the interaction counts targets this way: it does not know the document, so it
-/// selects and cycles targets by position (and the journal, the pose log's commands
-/// and the HUD carry that position, written as a plain number). It becomes a
-/// [`TargetId`] in one place, [`Document::target_at`].
+/// Only people count targets this way: the HUD shows the position and a select
+/// command (a button, a key, a pose log's command) names one. Everything that refers
+/// to a target (edits, the journal, strokes, the editor's results) uses its
+/// [`TargetId`].
 #[derive(
     Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
 )]
@@ -225,7 +228,7 @@ impl Document {
     /// An empty document.
     pub fn new() -> Self {
         Self {
-            next_id: 1,
+            next_id: FIRST_ID,
             ..Self::default()
         }
     }
@@ -235,10 +238,19 @@ impl Document {
         &self.targets
     }
 
-    /// The target at `index` in [`Document::targets`], if there is one: where the
-    /// interaction's target positions become targets (and their ids).
+    /// The target at `index` in [`Document::targets`], if there is one.
     pub fn target_at(&self, index: TargetIndex) -> Option<&TargetRecord> {
         self.targets.get(index.0 as usize)
+    }
+
+    /// The target with id `id`, if there is one.
+    pub fn target(&self, id: TargetId) -> Option<&TargetRecord> {
+        self.targets.iter().find(|t| t.id == id)
+    }
+
+    /// The targets' ids, in order.
+    pub fn target_ids(&self) -> Vec<TargetId> {
+        self.targets.iter().map(|t| t.id).collect()
     }
 
     /// The strokes, in the order they were applied.
