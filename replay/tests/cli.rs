@@ -132,7 +132,7 @@ fn bad_inputs_are_clear_errors() {
         .arg(tmp.path())
         .output()
         .unwrap();
-    assert!(String::from_utf8_lossy(&out.stderr).contains("tool.depth"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("tool depth"));
 }
 
 /// Kills the child when the test ends, pass or fail.
