@@ -71,7 +71,8 @@ pub trait EditHooks {
     }
 
     /// `edit`, caused at time `t`, is about to be applied: a write-ahead journal records
-    /// it here. An error leaves the edit unapplied.
+    /// it here. An error leaves the edit unapplied. An edit over one of the document's
+    /// size caps ([`editor::check_caps`]) is rejected without this call.
     fn before_apply(&mut self, t: f64, edit: &Edit) -> Result<(), Self::Error> {
         let _ = (t, edit);
         Ok(())
@@ -378,8 +379,14 @@ impl EditLoop {
                     events.push(LoopEvent::Operator { t: at, event });
                 }
                 Output::Edit(edit) => {
-                    hooks.before_apply(t, &edit)?;
-                    let applied = self.apply(&edit);
+                    // An edit over a document cap is refused before the journal sees it.
+                    let applied = match editor::check_caps(&self.doc, &edit) {
+                        Err(e) => Applied::Rejected(e),
+                        Ok(()) => {
+                            hooks.before_apply(t, &edit)?;
+                            self.apply(&edit)
+                        }
+                    };
                     hooks.after_apply(t, &edit, &applied, &self.doc)?;
                     events.push(LoopEvent::Edit { edit, applied });
                 }

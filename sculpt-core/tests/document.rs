@@ -363,14 +363,14 @@ fn exports_read_back() {
     .unwrap();
     let welded = doc.mesh(Detail::Final).welded(TEST_WELD_EPS);
     for f in [MeshFormat::Obj, MeshFormat::Stl, MeshFormat::Glb] {
-        let back = f.read(&f.write(&welded)).unwrap();
+        let back = f.read(&f.write(&welded).unwrap()).unwrap();
         assert_eq!(back.triangles.len(), welded.triangles.len(), "{f:?}");
         // Same geometry: welding the read-back mesh gives the same topology.
         let (v, tr) = (back.vertices, back.triangles);
         let rewelded = sculpt_core::mesh::weld(&v, &tr, TEST_WELD_EPS);
         assert_eq!(rewelded.vertices.len(), welded.vertices.len(), "{f:?}");
     }
-    let model = iges::read(&iges::write(&doc.iges_surfaces())).unwrap();
+    let model = iges::read(&iges::write(&doc.iges_surfaces()).unwrap()).unwrap();
     // The target (trimmed by one hole) and one stroke surface.
     assert_eq!(model.surfaces.len(), 2);
     assert_eq!(model.trimmed, vec![(0, 2)]);
@@ -521,7 +521,9 @@ fn a_scene_with_an_absurd_tool_size_is_refused_by_name() {
     at_limit["strokes"][0]["tool"]["taper"] =
         serde_json::json!(sculpt_core::sculpt::stroke::MAX_TOOL_SIZE);
     let doc = Document::from_json(&serde_json::to_vec(&at_limit).unwrap()).unwrap();
-    let obj = MeshFormat::Obj.write(&doc.mesh(Detail::Final).welded(POINT_WELD_EPS));
+    let obj = MeshFormat::Obj
+        .write(&doc.mesh(Detail::Final).welded(POINT_WELD_EPS))
+        .unwrap();
     let obj = String::from_utf8(obj).unwrap();
     assert!(!obj.contains("inf") && !obj.contains("NaN"));
 }
