@@ -587,3 +587,77 @@ fn stroke_rejections_are_typed() {
     ));
     assert!(doc.strokes().is_empty());
 }
+
+/// Regression (issue 15 §2): no writer may emit a non-finite number. The document and
+/// surface JSON writers write only what a [`Document`] holds, and a NaN or infinite
+/// control point, weight, knot, sample or tool size never gets in: each is refused
+/// where it would enter, and the document's JSON stays as it was.
+#[test]
+fn a_nan_never_enters_a_document_so_its_json_writer_never_writes_one() {
+    let mut doc = Document::new();
+    let t = doc.add_target("plane", plane());
+    stroke(
+        &mut doc,
+        t,
+        DVec3::new(0.2, 0.3, 0.0),
+        DVec3::new(0.8, 0.3, 0.0),
+        Mode::Carve,
+    )
+    .unwrap();
+    let before = doc.to_json();
+    let knots = || vec![0.0, 0.0, 1.0, 1.0];
+    let net = |p: DVec3| vec![vec![DVec3::ZERO, DVec3::Y], vec![DVec3::X, p]];
+    assert!(matches!(
+        NurbsSurface::new(1, 1, knots(), knots(), net(DVec3::NAN), None),
+        Err(Error::InvalidControlNet(_))
+    ));
+    let weights = Some(vec![vec![1.0, 1.0], vec![1.0, f64::INFINITY]]);
+    assert!(matches!(
+        NurbsSurface::new(1, 1, knots(), knots(), net(DVec3::ONE), weights),
+        Err(Error::InvalidWeights(_))
+    ));
+    assert!(matches!(
+        NurbsSurface::new(
+            1,
+            1,
+            vec![0.0, 0.0, f64::NAN, 1.0],
+            knots(),
+            net(DVec3::ONE),
+            None
+        ),
+        Err(Error::InvalidKnots { .. })
+    ));
+    let mut samples = line(DVec3::new(0.2, 0.6, 0.0), DVec3::new(0.8, 0.6, 0.0));
+    samples[7].1.y = f64::NAN;
+    let tool = tool(Mode::Carve);
+    assert_eq!(
+        doc.apply_stroke(
+            t,
+            StrokeInput {
+                samples,
+                tool: tool.clone()
+            }
+        ),
+        Err(Error::StrokeRejected(StrokeRejection::SampleNotFinite {
+            index: 7
+        }))
+    );
+    let samples = line(DVec3::new(0.2, 0.6, 0.0), DVec3::new(0.8, 0.6, 0.0));
+    let nan_depth = Tool {
+        depth: f64::NAN,
+        ..tool
+    };
+    assert!(matches!(
+        doc.apply_stroke(
+            t,
+            StrokeInput {
+                samples,
+                tool: nan_depth
+            }
+        ),
+        Err(Error::StrokeRejected(StrokeRejection::Tool(_)))
+    ));
+    assert_eq!(doc.to_json(), before);
+    let text = String::from_utf8(before).unwrap();
+    assert!(!text.contains("null") && !text.contains("NaN") && !text.contains("inf"));
+}
