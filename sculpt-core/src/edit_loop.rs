@@ -17,7 +17,9 @@
 //!    ([`EditLoop::tick`]); an input it refuses (time not finite or going back, a bad
 //!    command value) changes nothing and is [`LoopError::Refused`];
 //! 2. its outputs are taken in order: an operator event goes to
-//!    [`EditHooks::operator_event`]; an edit goes to [`EditHooks::before_apply`], is
+//!    [`EditHooks::operator_event`]; an edit over one of the document's size caps
+//!    ([`editor::check_caps`]) is rejected there and then, unjournalled; any other edit
+//!    goes to [`EditHooks::before_apply`], is
 //!    applied with [`editor::apply`], the interaction is told the document's target
 //!    count (a sketch adds a target, an undo may remove one), and the edit and its
 //!    [`Applied`] go to [`EditHooks::after_apply`];

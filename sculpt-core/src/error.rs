@@ -697,8 +697,8 @@ impl fmt::Display for WrittenValue {
 pub enum GltfPart {
     /// The JSON chunk.
     JsonChunk,
-    /// `POSITION`'s accessor index.
-    PositionAccessor,
+    /// An attribute's accessor index.
+    Accessor,
     /// An accessor's `count`.
     AccessorCount,
     /// An accessor's `bufferView`.
@@ -711,7 +711,7 @@ impl fmt::Display for GltfPart {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
             GltfPart::JsonChunk => "JSON chunk",
-            GltfPart::PositionAccessor => "accessor",
+            GltfPart::Accessor => "accessor index",
             GltfPart::AccessorCount => "accessor count",
             GltfPart::AccessorView => "accessor bufferView",
             GltfPart::Indices => "indices",

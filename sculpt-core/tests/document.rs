@@ -661,3 +661,32 @@ fn a_nan_never_enters_a_document_so_its_json_writer_never_writes_one() {
     let text = String::from_utf8(before).unwrap();
     assert!(!text.contains("null") && !text.contains("NaN") && !text.contains("inf"));
 }
+
+/// Regression (issue 15 §7): errors quoted bad input whole, so a megabyte-long
+/// `"format"` value, or a long string where a number belongs (serde quotes it), gave a
+/// megabyte-long message. Both are cut to a short prefix.
+#[test]
+fn a_huge_string_in_a_document_gives_a_short_error_because_quotes_are_cut() {
+    let huge = "z".repeat(1 << 20);
+    let wrong_format =
+        format!(r#"{{"format": "{huge}", "version": 1, "targets": [], "strokes": []}}"#);
+    let e = Document::from_json(wrong_format.as_bytes()).unwrap_err();
+    match &e {
+        Error::Document(DocumentError::Format {
+            found: Some(found), ..
+        }) => assert!(found.is_cut()),
+        other => panic!("{other:?}"),
+    }
+    let wrong_type = format!(
+        r#"{{"format": "wandsculpt-document", "version": 1, "targets": [{{"id": "{huge}"}}], "strokes": []}}"#
+    );
+    let e2 = Document::from_json(wrong_type.as_bytes()).unwrap_err();
+    assert!(
+        matches!(e2, Error::Document(DocumentError::Schema(_))),
+        "{e2:?}"
+    );
+    for e in [e, e2] {
+        let shown = sculpt_core::error::Chain(&e).to_string();
+        assert!(shown.len() < 300, "{} bytes", shown.len());
+    }
+}

@@ -133,9 +133,7 @@ pub fn read(bytes: &[u8]) -> Result<WeldedMesh> {
     let bin = bin.unwrap_or(&[]);
     let prim = &doc["meshes"][0]["primitives"][0];
     let accessor = |idx: &Value, comps: usize| -> Result<Vec<f32>> {
-        let accessor = idx
-            .as_u64()
-            .ok_or_else(|| missing(GltfPart::PositionAccessor))? as usize;
+        let accessor = idx.as_u64().ok_or_else(|| missing(GltfPart::Accessor))? as usize;
         let a = &doc["accessors"][accessor];
         let count = a["count"]
             .as_u64()

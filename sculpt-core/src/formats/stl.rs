@@ -92,6 +92,20 @@ mod tests {
                 .to_string()
                 .contains("2 triangles")
         );
+        assert_eq!(
+            read(&bytes).unwrap_err(),
+            err(FormatError::TriangleCount {
+                triangles: 2,
+                bytes: 134
+            })
+        );
+        assert_eq!(
+            read(&bytes[..10]).unwrap_err(),
+            err(FormatError::Truncated {
+                bytes: 10,
+                header: HEADER_BYTES
+            })
+        );
     }
 
     /// Regression (issue 15): a mesh with a NaN or infinite vertex was written as STL
