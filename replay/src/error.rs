@@ -92,6 +92,15 @@ pub enum Error {
         /// The scene file already written.
         written: PathBuf,
     },
+    /// A mesh or IGES output could not be encoded (a NaN or infinite number in it).
+    #[error("encoding {file}")]
+    Export {
+        /// The output file's name.
+        file: &'static str,
+        /// Why.
+        #[source]
+        source: sculpt_core::Error,
+    },
     /// An output could not be encoded as JSON.
     #[error("encoding JSON")]
     Encode(#[source] serde_json::Error),

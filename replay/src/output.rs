@@ -63,14 +63,16 @@ pub fn write_outputs(outcome: &Outcome, dir: &Path) -> Result<Vec<PathBuf>> {
         ("scene.stl", MeshFormat::Stl),
         ("scene.glb", MeshFormat::Glb),
     ] {
-        write(dir, name, &format.write(&welded), &mut files)?;
+        let bytes = format
+            .write(&welded)
+            .map_err(|source| Error::Export { file: name, source })?;
+        write(dir, name, &bytes, &mut files)?;
     }
-    write(
-        dir,
-        "scene.igs",
-        &iges::write(&doc.iges_surfaces()),
-        &mut files,
-    )?;
+    let iges = iges::write(&doc.iges_surfaces()).map_err(|source| Error::Export {
+        file: "scene.igs",
+        source,
+    })?;
+    write(dir, "scene.igs", &iges, &mut files)?;
     write(dir, "operator.log", &outcome.oplog, &mut files)?;
     write(
         dir,

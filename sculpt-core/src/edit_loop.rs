@@ -17,9 +17,11 @@
 //!    ([`EditLoop::tick`]); an input it refuses (time not finite or going back, a bad
 //!    command value) changes nothing and is [`LoopError::Refused`];
 //! 2. its outputs are taken in order: an operator event goes to
-//!    [`EditHooks::operator_event`]; an edit goes to [`EditHooks::before_apply`], is
-//!    applied with [`editor::apply`], the interaction is told the document's targets
-//!    (a sketch adds a target, an undo may remove one), and the edit and its
+//!    [`EditHooks::operator_event`]; an edit over one of the document's size caps
+//!    ([`editor::check_caps`]) is rejected there and then, unjournalled; any other edit
+//!    goes to [`EditHooks::before_apply`], is applied with [`editor::apply`], the
+//!    interaction is told the document's targets (a sketch adds a target, an undo may
+//!    remove one), and the edit and its
 //!    [`Applied`] go to [`EditHooks::after_apply`];
 //! 3. the [`Step`] lists all of it, with whether the live gesture's [`Preview`]
 //!    changed, whether a paused gesture resumed and whether a tracked sample was
@@ -71,7 +73,8 @@ pub trait EditHooks {
     }
 
     /// `edit`, caused at time `t`, is about to be applied: a write-ahead journal records
-    /// it here. An error leaves the edit unapplied.
+    /// it here. An error leaves the edit unapplied. An edit over one of the document's
+    /// size caps ([`editor::check_caps`]) is rejected without this call.
     fn before_apply(&mut self, t: f64, edit: &Edit) -> Result<(), Self::Error> {
         let _ = (t, edit);
         Ok(())
@@ -377,8 +380,14 @@ impl EditLoop {
                     events.push(LoopEvent::Operator { t: at, event });
                 }
                 Output::Edit(edit) => {
-                    hooks.before_apply(t, &edit)?;
-                    let applied = self.apply(&edit);
+                    // An edit over a document cap is refused before the journal sees it.
+                    let applied = match editor::check_caps(&self.doc, &edit) {
+                        Err(e) => Applied::Rejected(e),
+                        Ok(()) => {
+                            hooks.before_apply(t, &edit)?;
+                            self.apply(&edit)
+                        }
+                    };
                     hooks.after_apply(t, &edit, &applied, &self.doc)?;
                     events.push(LoopEvent::Edit { edit, applied });
                 }

@@ -42,6 +42,11 @@ pub const DEFAULT_SURFACE_CENTER: DVec3 = DVec3::new(0.0, 1.17, -0.1);
 /// Largest control net (per direction) a sketch is fitted with.
 pub const SKETCH_MAX_CONTROL: usize = 12;
 
+// A sketch's surface is always within the document's cap on control points.
+const _: () = assert!(
+    SKETCH_MAX_CONTROL * SKETCH_MAX_CONTROL <= crate::sculpt::document::MAX_TARGET_CONTROL_POINTS
+);
+
 /// The point of the default surface over display `(x, y)`: the gently curved
 /// 1 m x 0.6 m sheet `z = c.z - 0.25 (2 u^2 + v^2)` with `u = x - c.x` (metres) and
 /// `v = (y - c.y) / 0.6`, centred at [`DEFAULT_SURFACE_CENTER`], facing the viewer
@@ -206,18 +211,35 @@ pub fn apply(doc: &mut Document, edit: &Edit) -> Applied {
                 Err(e) => Applied::Rejected(e),
             }
         }
-        Edit::Sketch { rows } => match fit_sketch(rows) {
-            Ok(surface) => {
+        Edit::Sketch { rows } => {
+            let added = fit_sketch(rows).and_then(|surface| {
                 let name = format!("sketch {}", doc.targets().len());
-                Applied::Sketch {
-                    target: doc.add_target(&name, surface),
-                }
+                doc.try_add_target(&name, surface)
+            });
+            match added {
+                Ok(target) => Applied::Sketch { target },
+                Err(e) => Applied::Rejected(e),
             }
-            Err(e) => Applied::Rejected(e),
-        },
+        }
         Edit::Undo if doc.undo() => Applied::Undone,
         Edit::Redo if doc.redo() => Applied::Redone,
         Edit::Undo | Edit::Redo | Edit::SelectTarget { .. } | Edit::Save => Applied::Unchanged,
+    }
+}
+
+/// Checks an edit against the document's size caps before it is journalled or applied
+/// (see [`crate::sculpt::document::MAX_STROKES`] and the caps beside it): a stroke
+/// needs room for one more stroke and its samples, a sketch room for one more target.
+/// [`apply`] refuses an edit over a cap with the same error.
+pub fn check_caps(doc: &Document, edit: &Edit) -> Result<()> {
+    match edit {
+        Edit::Stroke(s) => doc.check_stroke_caps(s.samples.len()),
+        Edit::Sketch { .. } if doc.targets().len() >= crate::sculpt::document::MAX_TARGETS => Err(
+            Error::Document(crate::error::DocumentError::TooManyTargets {
+                max: crate::sculpt::document::MAX_TARGETS,
+            }),
+        ),
+        _ => Ok(()),
     }
 }
 

@@ -412,7 +412,7 @@ impl LineDecoder {
                 return Err(err(
                     line,
                     OpLogError::Format {
-                        found: header.format,
+                        found: crate::error::Excerpt::new(&header.format),
                         expected: FORMAT,
                     },
                 ));

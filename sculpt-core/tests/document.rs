@@ -363,14 +363,14 @@ fn exports_read_back() {
     .unwrap();
     let welded = doc.mesh(Detail::Final).welded(TEST_WELD_EPS);
     for f in [MeshFormat::Obj, MeshFormat::Stl, MeshFormat::Glb] {
-        let back = f.read(&f.write(&welded)).unwrap();
+        let back = f.read(&f.write(&welded).unwrap()).unwrap();
         assert_eq!(back.triangles.len(), welded.triangles.len(), "{f:?}");
         // Same geometry: welding the read-back mesh gives the same topology.
         let (v, tr) = (back.vertices, back.triangles);
         let rewelded = sculpt_core::mesh::weld(&v, &tr, TEST_WELD_EPS);
         assert_eq!(rewelded.vertices.len(), welded.vertices.len(), "{f:?}");
     }
-    let model = iges::read(&iges::write(&doc.iges_surfaces())).unwrap();
+    let model = iges::read(&iges::write(&doc.iges_surfaces()).unwrap()).unwrap();
     // The target (trimmed by one hole) and one stroke surface.
     assert_eq!(model.surfaces.len(), 2);
     assert_eq!(model.trimmed, vec![(0, 2)]);
@@ -521,7 +521,9 @@ fn a_scene_with_an_absurd_tool_size_is_refused_by_name() {
     at_limit["strokes"][0]["tool"]["taper"] =
         serde_json::json!(sculpt_core::sculpt::stroke::MAX_TOOL_SIZE);
     let doc = Document::from_json(&serde_json::to_vec(&at_limit).unwrap()).unwrap();
-    let obj = MeshFormat::Obj.write(&doc.mesh(Detail::Final).welded(POINT_WELD_EPS));
+    let obj = MeshFormat::Obj
+        .write(&doc.mesh(Detail::Final).welded(POINT_WELD_EPS))
+        .unwrap();
     let obj = String::from_utf8(obj).unwrap();
     assert!(!obj.contains("inf") && !obj.contains("NaN"));
 }
@@ -584,4 +586,107 @@ fn stroke_rejections_are_typed() {
         }))
     ));
     assert!(doc.strokes().is_empty());
+}
+
+/// Regression (issue 15 §2): no writer may emit a non-finite number. The document and
+/// surface JSON writers write only what a [`Document`] holds, and a NaN or infinite
+/// control point, weight, knot, sample or tool size never gets in: each is refused
+/// where it would enter, and the document's JSON stays as it was.
+#[test]
+fn a_nan_never_enters_a_document_so_its_json_writer_never_writes_one() {
+    let mut doc = Document::new();
+    let t = doc.add_target("plane", plane());
+    stroke(
+        &mut doc,
+        t,
+        DVec3::new(0.2, 0.3, 0.0),
+        DVec3::new(0.8, 0.3, 0.0),
+        Mode::Carve,
+    )
+    .unwrap();
+    let before = doc.to_json();
+    let knots = || vec![0.0, 0.0, 1.0, 1.0];
+    let net = |p: DVec3| vec![vec![DVec3::ZERO, DVec3::Y], vec![DVec3::X, p]];
+    assert!(matches!(
+        NurbsSurface::new(1, 1, knots(), knots(), net(DVec3::NAN), None),
+        Err(Error::InvalidControlNet(_))
+    ));
+    let weights = Some(vec![vec![1.0, 1.0], vec![1.0, f64::INFINITY]]);
+    assert!(matches!(
+        NurbsSurface::new(1, 1, knots(), knots(), net(DVec3::ONE), weights),
+        Err(Error::InvalidWeights(_))
+    ));
+    assert!(matches!(
+        NurbsSurface::new(
+            1,
+            1,
+            vec![0.0, 0.0, f64::NAN, 1.0],
+            knots(),
+            net(DVec3::ONE),
+            None
+        ),
+        Err(Error::InvalidKnots { .. })
+    ));
+    let mut samples = line(DVec3::new(0.2, 0.6, 0.0), DVec3::new(0.8, 0.6, 0.0));
+    samples[7].1.y = f64::NAN;
+    let tool = tool(Mode::Carve);
+    assert_eq!(
+        doc.apply_stroke(
+            t,
+            StrokeInput {
+                samples,
+                tool: tool.clone()
+            }
+        ),
+        Err(Error::StrokeRejected(StrokeRejection::SampleNotFinite {
+            index: 7
+        }))
+    );
+    let samples = line(DVec3::new(0.2, 0.6, 0.0), DVec3::new(0.8, 0.6, 0.0));
+    let nan_depth = Tool {
+        depth: f64::NAN,
+        ..tool
+    };
+    assert!(matches!(
+        doc.apply_stroke(
+            t,
+            StrokeInput {
+                samples,
+                tool: nan_depth
+            }
+        ),
+        Err(Error::StrokeRejected(StrokeRejection::Tool(_)))
+    ));
+    assert_eq!(doc.to_json(), before);
+    let text = String::from_utf8(before).unwrap();
+    assert!(!text.contains("null") && !text.contains("NaN") && !text.contains("inf"));
+}
+
+/// Regression (issue 15 §7): errors quoted bad input whole, so a megabyte-long
+/// `"format"` value, or a long string where a number belongs (serde quotes it), gave a
+/// megabyte-long message. Both are cut to a short prefix.
+#[test]
+fn a_huge_string_in_a_document_gives_a_short_error_because_quotes_are_cut() {
+    let huge = "z".repeat(1 << 20);
+    let wrong_format =
+        format!(r#"{{"format": "{huge}", "version": 1, "targets": [], "strokes": []}}"#);
+    let e = Document::from_json(wrong_format.as_bytes()).unwrap_err();
+    match &e {
+        Error::Document(DocumentError::Format {
+            found: Some(found), ..
+        }) => assert!(found.is_cut()),
+        other => panic!("{other:?}"),
+    }
+    let wrong_type = format!(
+        r#"{{"format": "wandsculpt-document", "version": 1, "targets": [{{"id": "{huge}"}}], "strokes": []}}"#
+    );
+    let e2 = Document::from_json(wrong_type.as_bytes()).unwrap_err();
+    assert!(
+        matches!(e2, Error::Document(DocumentError::Schema(_))),
+        "{e2:?}"
+    );
+    for e in [e, e2] {
+        let shown = sculpt_core::error::Chain(&e).to_string();
+        assert!(shown.len() < 300, "{} bytes", shown.len());
+    }
 }

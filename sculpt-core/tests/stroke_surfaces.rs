@@ -411,7 +411,7 @@ fn iges_export_carries_each_stroke_surface_trimmed_by_its_visible_faces() {
     let surfaces = doc.iges_surfaces();
     // The target and one surface per stroke.
     assert_eq!(surfaces.len(), 1 + doc.strokes().len());
-    let model = iges::read(&iges::write(&surfaces)).expect("reads back");
+    let model = iges::read(&iges::write(&surfaces).expect("finite")).expect("reads back");
     assert_eq!(model.surfaces.len(), surfaces.len());
     for (k, s) in surfaces.iter().enumerate() {
         assert_eq!(model.surfaces[k].degree_u, s.patch.degree_u);
@@ -430,7 +430,8 @@ fn iges_export_carries_each_stroke_surface_trimmed_by_its_visible_faces() {
     assert!(trimmed_strokes >= 2, "{:?}", model.trimmed);
     // A lone stroke's surface is a plain entity 128, cubic along the stroke.
     let doc = load("curved-patch-carved.json");
-    let model = iges::read(&iges::write(&doc.iges_surfaces())).expect("reads back");
+    let model =
+        iges::read(&iges::write(&doc.iges_surfaces()).expect("finite")).expect("reads back");
     assert_eq!(model.surfaces.len(), 4);
     assert!(model.trimmed.iter().all(|(base, _)| *base == 0));
     assert!(

@@ -403,7 +403,7 @@ fn check_export(
     surfaces: &[IgesSurface],
     hidden: &[(usize, DVec2)],
 ) -> Seen {
-    let bytes = iges::write(surfaces);
+    let bytes = iges::write(surfaces).expect("finite surfaces");
     // The expected roots, in file order: each face of a trimmed surface is one entity
     // 144, an untrimmed surface one entity 128.
     let mut expected: Vec<(usize, Face)> = Vec::new();
@@ -718,7 +718,7 @@ fn checker_rejects_files_opencascade_cannot_read() {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("occt-iges-check");
     std::fs::create_dir_all(&dir).unwrap();
     let doc = scene("saddle");
-    let bytes = iges::write(&doc.iges_surfaces());
+    let bytes = iges::write(&doc.iges_surfaces()).expect("finite surfaces");
     for (name, content) in [
         ("not-iges", b"this is not an IGES file\n".to_vec()),
         ("truncated", bytes[..400].to_vec()),

@@ -6,8 +6,9 @@
 //! texture coordinates and `u8`/`u16`/`u32` indices, from the GLB's binary chunk. It
 //! bounds-checks every access, so a damaged file gives an error, never a panic.
 
-use super::err;
+use super::{ALL_ATTRIBUTES, check_mesh};
 use crate::Result;
+use crate::error::{Error, FileFormat, FormatError, GltfPart};
 use crate::mesh::{MeshVertex, WeldedMesh};
 use serde_json::{Value, json};
 
@@ -15,8 +16,15 @@ const MAGIC: u32 = 0x4654_6C67; // "glTF"
 const CHUNK_JSON: u32 = 0x4E4F_534A; // "JSON"
 const CHUNK_BIN: u32 = 0x004E_4942; // "BIN\0"
 
-/// Writes a `.glb`.
-pub fn write(mesh: &WeldedMesh) -> Vec<u8> {
+fn err(reason: FormatError) -> Error {
+    super::err(FileFormat::Gltf, reason)
+}
+
+/// Writes a `.glb`; a vertex with a NaN or infinite number is an error
+/// ([`FormatError::NonFinite`]) and nothing is written (glTF's JSON has no
+/// spelling for them, and the accessor bounds would be wrong).
+pub fn write(mesh: &WeldedMesh) -> Result<Vec<u8>> {
+    check_mesh(FileFormat::Gltf, mesh, ALL_ATTRIBUTES)?;
     let nv = mesh.vertices.len();
     let mut bin: Vec<u8> = Vec::with_capacity(nv * 32 + mesh.triangles.len() * 12);
     let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
@@ -82,7 +90,7 @@ pub fn write(mesh: &WeldedMesh) -> Vec<u8> {
     out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
     out.extend_from_slice(&CHUNK_BIN.to_le_bytes());
     out.extend_from_slice(&bin);
-    out
+    Ok(out)
 }
 
 fn u32_at(b: &[u8], o: usize) -> Option<u32> {
@@ -91,24 +99,28 @@ fn u32_at(b: &[u8], o: usize) -> Option<u32> {
 
 /// Reads a `.glb` written by [`write`] or a compatible exporter.
 pub fn read(bytes: &[u8]) -> Result<WeldedMesh> {
-    let e = |r: &str| err("glTF", r.to_string());
+    let missing = |part: GltfPart| err(FormatError::Missing(part));
     if u32_at(bytes, 0) != Some(MAGIC) {
-        return Err(e("not a GLB file (bad magic)"));
+        return Err(err(FormatError::BadMagic));
     }
     if u32_at(bytes, 4) != Some(2) {
-        return Err(e("only glTF 2.0 is supported"));
+        return Err(err(FormatError::GltfVersion {
+            found: u32_at(bytes, 4),
+        }));
     }
     if u32_at(bytes, 8).map(|l| l as usize) != Some(bytes.len()) {
-        return Err(e("header length does not match the file size"));
+        return Err(err(FormatError::Length {
+            header: u32_at(bytes, 8),
+            bytes: bytes.len(),
+        }));
     }
     let (mut json, mut bin): (Option<&[u8]>, Option<&[u8]>) = (None, None);
     let mut at = 12usize;
     while at < bytes.len() {
-        let len = u32_at(bytes, at).ok_or_else(|| e("truncated chunk header"))? as usize;
-        let kind = u32_at(bytes, at + 4).ok_or_else(|| e("truncated chunk header"))?;
-        let body = bytes
-            .get(at + 8..at + 8 + len)
-            .ok_or_else(|| e("chunk runs past the end of the file"))?;
+        let chunk = || err(FormatError::Chunk { at });
+        let len = u32_at(bytes, at).ok_or_else(chunk)? as usize;
+        let kind = u32_at(bytes, at + 4).ok_or_else(chunk)?;
+        let body = bytes.get(at + 8..at + 8 + len).ok_or_else(chunk)?;
         match kind {
             CHUNK_JSON if json.is_none() => json = Some(body),
             CHUNK_BIN if bin.is_none() => bin = Some(body),
@@ -116,44 +128,52 @@ pub fn read(bytes: &[u8]) -> Result<WeldedMesh> {
         }
         at += 8 + len;
     }
-    let doc: Value = serde_json::from_slice(json.ok_or_else(|| e("no JSON chunk"))?)
-        .map_err(|x| err("glTF", format!("bad JSON chunk: {x}")))?;
+    let doc: Value = serde_json::from_slice(json.ok_or_else(|| missing(GltfPart::JsonChunk))?)
+        .map_err(|x| err(FormatError::GltfJson(x.into())))?;
     let bin = bin.unwrap_or(&[]);
     let prim = &doc["meshes"][0]["primitives"][0];
     let accessor = |idx: &Value, comps: usize| -> Result<Vec<f32>> {
-        let a = &doc["accessors"][idx.as_u64().ok_or_else(|| e("missing accessor"))? as usize];
+        let accessor = idx.as_u64().ok_or_else(|| missing(GltfPart::Accessor))? as usize;
+        let a = &doc["accessors"][accessor];
         let count = a["count"]
             .as_u64()
-            .ok_or_else(|| e("accessor without count"))? as usize;
+            .ok_or_else(|| missing(GltfPart::AccessorCount))? as usize;
         let ctype = a["componentType"].as_u64().unwrap_or(0);
         let view = &doc["bufferViews"][a["bufferView"]
             .as_u64()
-            .ok_or_else(|| e("accessor without view"))?
+            .ok_or_else(|| missing(GltfPart::AccessorView))?
             as usize];
+        let past = || {
+            err(FormatError::AccessorRange {
+                accessor,
+                bytes: bin.len(),
+            })
+        };
         let start = view["byteOffset"].as_u64().unwrap_or(0) as usize
             + a["byteOffset"].as_u64().unwrap_or(0) as usize;
         let size = match ctype {
             5126 | 5125 => 4,
             5123 => 2,
             5121 => 1,
-            _ => return Err(e("unsupported component type")),
+            _ => {
+                return Err(err(FormatError::ComponentType {
+                    accessor,
+                    component_type: ctype,
+                }));
+            }
         };
         let stride = view["byteStride"]
             .as_u64()
             .map_or(size * comps, |s| s as usize);
-        let n = count
-            .checked_mul(comps)
-            .ok_or_else(|| e("accessor too large"))?;
+        let n = count.checked_mul(comps).ok_or_else(past)?;
         if n > bin.len() {
-            return Err(e("accessor larger than the binary chunk"));
+            return Err(past());
         }
         let mut out = Vec::with_capacity(n);
         for i in 0..count {
             for c in 0..comps {
                 let o = start + i * stride + c * size;
-                let raw = bin
-                    .get(o..o + size)
-                    .ok_or_else(|| e("accessor runs past the buffer"))?;
+                let raw = bin.get(o..o + size).ok_or_else(past)?;
                 out.push(match ctype {
                     5126 => f32::from_le_bytes(raw.try_into().unwrap_or_default()),
                     5125 => u32::from_le_bytes(raw.try_into().unwrap_or_default()) as f32,
@@ -175,7 +195,11 @@ pub fn read(bytes: &[u8]) -> Result<WeldedMesh> {
         None => vec![0.0; nv * 2],
     };
     if nrm.len() != nv * 3 || uvs.len() != nv * 2 {
-        return Err(e("attribute counts differ"));
+        return Err(err(FormatError::AttributeCounts {
+            positions: nv,
+            normals: nrm.len() / 3,
+            uvs: uvs.len() / 2,
+        }));
     }
     let mut mesh = WeldedMesh::default();
     for i in 0..nv {
@@ -186,7 +210,10 @@ pub fn read(bytes: &[u8]) -> Result<WeldedMesh> {
         });
     }
     // Indices: read as exact integers (f32 above is exact only below 2^24).
-    let ia = &doc["accessors"][prim["indices"].as_u64().ok_or_else(|| e("no indices"))? as usize];
+    let indices = prim["indices"]
+        .as_u64()
+        .ok_or_else(|| missing(GltfPart::Indices))? as usize;
+    let ia = &doc["accessors"][indices];
     let count = ia["count"].as_u64().unwrap_or(0) as usize;
     let view = &doc["bufferViews"][ia["bufferView"].as_u64().unwrap_or(u64::MAX) as usize];
     let start = view["byteOffset"].as_u64().unwrap_or(0) as usize
@@ -195,23 +222,36 @@ pub fn read(bytes: &[u8]) -> Result<WeldedMesh> {
         Some(5125) => 4,
         Some(5123) => 2,
         Some(5121) => 1,
-        _ => return Err(e("unsupported index type")),
+        _ => {
+            return Err(err(FormatError::ComponentType {
+                accessor: indices,
+                component_type: ia["componentType"].as_u64().unwrap_or(0),
+            }));
+        }
     };
     if !count.is_multiple_of(3) || count.saturating_mul(size) > bin.len() {
-        return Err(e("bad index count"));
+        return Err(err(FormatError::IndexCount { count }));
     }
     let mut idx = Vec::with_capacity(count);
     for i in 0..count {
         let raw = bin
             .get(start + i * size..start + (i + 1) * size)
-            .ok_or_else(|| e("indices run past the buffer"))?;
+            .ok_or_else(|| {
+                err(FormatError::AccessorRange {
+                    accessor: indices,
+                    bytes: bin.len(),
+                })
+            })?;
         let v = match size {
             4 => u32::from_le_bytes(raw.try_into().unwrap_or_default()),
             2 => u32::from(u16::from_le_bytes(raw.try_into().unwrap_or_default())),
             _ => u32::from(raw[0]),
         };
         if v as usize >= nv {
-            return Err(e("index out of range"));
+            return Err(err(FormatError::VertexIndex {
+                index: v,
+                vertices: nv,
+            }));
         }
         idx.push(v);
     }
@@ -238,15 +278,52 @@ mod tests {
 
     #[test]
     fn round_trip_and_alignment() {
-        let bytes = write(&tri());
+        let bytes = write(&tri()).unwrap();
         assert_eq!(bytes.len() % 4, 0);
         assert_eq!(read(&bytes).unwrap(), tri());
+    }
+
+    /// Regression (issue 15): a NaN vertex was written into the binary chunk and the
+    /// accessor bounds (`min` / `max`, JSON `null`).
+    #[test]
+    fn nan_vertex_is_refused_not_written() {
+        for (k, what) in [
+            crate::error::WrittenValue::Position,
+            crate::error::WrittenValue::Normal,
+            crate::error::WrittenValue::TexCoord,
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let mut mesh = tri();
+            let v = &mut mesh.vertices[k];
+            match k {
+                0 => v.position[1] = f32::NAN,
+                1 => v.normal[0] = f32::INFINITY,
+                _ => v.uv[1] = f32::NAN,
+            }
+            assert_eq!(
+                write(&mesh).unwrap_err(),
+                err(FormatError::NonFinite { what, index: k })
+            );
+        }
+    }
+
+    #[test]
+    fn errors_are_typed() {
+        let mut bytes = write(&tri()).unwrap();
+        assert_eq!(read(&bytes[..3]).unwrap_err(), err(FormatError::BadMagic));
+        bytes[4] = 1;
+        assert_eq!(
+            read(&bytes).unwrap_err(),
+            err(FormatError::GltfVersion { found: Some(1) })
+        );
     }
 
     proptest! {
         #[test]
         fn damaged_files_never_panic(cut in 0usize..400, flip in 0usize..400, val in any::<u8>()) {
-            let mut bytes = write(&tri());
+            let mut bytes = write(&tri()).unwrap();
             if flip < bytes.len() { bytes[flip] = val; }
             bytes.truncate(cut.max(1));
             let _ = read(&bytes);

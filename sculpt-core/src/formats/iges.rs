@@ -23,13 +23,14 @@
 //!     control_points: vec![vec![DVec3::ZERO, DVec3::Y], vec![DVec3::X, DVec3::ONE]],
 //!     weights: None,
 //! };
-//! let bytes = iges::write(&[IgesSurface { name: "plane".into(), patch: patch.clone(), faces: None }]);
-//! let model = iges::read(&bytes).unwrap();
+//! let bytes = iges::write(&[IgesSurface { name: "plane".into(), patch: patch.clone(), faces: None }])?;
+//! let model = iges::read(&bytes)?;
 //! assert_eq!(model.surfaces[0], patch);
+//! # Ok::<(), sculpt_core::Error>(())
 //! ```
 
-use super::err;
 use crate::Result;
+use crate::error::{Error, Excerpt, FileFormat, FormatError, WrittenValue};
 use glam::{DVec2, DVec3};
 
 /// A NURBS surface in the kernel's JSON layout: `control_points[i][j]` with `i` along u.
@@ -115,6 +116,42 @@ struct Entity {
     status: &'static str,
     label: String,
     params: Vec<String>,
+}
+
+fn err(reason: FormatError) -> Error {
+    super::err(FileFormat::Iges, reason)
+}
+
+/// Checks that every number of a surface the writer writes (knots, weights, control
+/// points) is finite.
+fn check_patch(surface: usize, p: &NurbsPatch) -> Result<()> {
+    let bad = |what, index| {
+        err(FormatError::SurfaceNonFinite {
+            surface,
+            what,
+            index,
+        })
+    };
+    if let Some(k) = p
+        .knots_u
+        .iter()
+        .chain(&p.knots_v)
+        .position(|k| !k.is_finite())
+    {
+        return Err(bad(WrittenValue::Knot, k));
+    }
+    let rows = p.control_points.first().map_or(0, Vec::len);
+    for (i, row) in p.control_points.iter().enumerate() {
+        if let Some(j) = row.iter().position(|c| !c.is_finite()) {
+            return Err(bad(WrittenValue::ControlPoint, i * rows + j));
+        }
+    }
+    for (i, row) in p.weights.iter().flatten().enumerate() {
+        if let Some(j) = row.iter().position(|w| !w.is_finite()) {
+            return Err(bad(WrittenValue::Weight, i * rows + j));
+        }
+    }
+    Ok(())
 }
 
 /// A real in IGES form: shortest round-trip digits, always with a decimal point before
@@ -238,11 +275,17 @@ fn loop_params(points: &[DVec2], out: &mut Vec<String>) {
     out.extend([real(0.0), real(k as f64), real(0.0), real(0.0), real(1.0)]);
 }
 
-/// Writes an IGES 5.3 file with the given surfaces.
-pub fn write(surfaces: &[IgesSurface]) -> Vec<u8> {
+/// Writes an IGES 5.3 file with the given surfaces. A knot, weight or control point
+/// that is NaN or infinite is an error ([`FormatError::SurfaceNonFinite`]) and nothing
+/// is written; trimming loop points that are not finite drop their loop (as a loop
+/// enclosing no area does).
+pub fn write(surfaces: &[IgesSurface]) -> Result<Vec<u8>> {
+    for (k, s) in surfaces.iter().enumerate() {
+        check_patch(k, &s.patch)?;
+    }
     let mut entities: Vec<Entity> = Vec::new();
     let de = |index: usize| (2 * index + 1).to_string();
-    for s in surfaces {
+    for (surface, s) in surfaces.iter().enumerate() {
         let label: String = s
             .name
             .chars()
@@ -276,6 +319,14 @@ pub fn write(surfaces: &[IgesSurface]) -> Vec<u8> {
                     continue;
                 };
                 let in_domain: Vec<DVec2> = lp.iter().map(|q| lo + *q * (hi - lo)).collect();
+                if let Some(index) = in_domain.iter().position(|p| !p.is_finite()) {
+                    // Finite knots whose span overflows.
+                    return Err(err(FormatError::SurfaceNonFinite {
+                        surface,
+                        what: WrittenValue::TrimPoint,
+                        index,
+                    }));
+                }
                 let mut cparams = Vec::new();
                 loop_params(&in_domain, &mut cparams);
                 entities.push(Entity {
@@ -408,7 +459,7 @@ pub fn write(surfaces: &[IgesSurface]) -> Vec<u8> {
     push(&mut lines, &term, 'T', 1);
     let mut out = lines.join("\n");
     out.push('\n');
-    out.into_bytes()
+    Ok(out.into_bytes())
 }
 
 /// The largest absolute coordinate of any control point (global parameter 20); the
@@ -441,8 +492,7 @@ fn pack(text: &str, width: usize) -> Vec<String> {
 
 /// Reads the surfaces and trimming structure back from IGES text.
 pub fn read(bytes: &[u8]) -> Result<IgesModel> {
-    let e = |r: String| err("IGES", r);
-    let text = std::str::from_utf8(bytes).map_err(|x| e(format!("not ASCII text: {x}")))?;
+    let text = std::str::from_utf8(bytes).map_err(|error| err(FormatError::NotText { error }))?;
     let mut dir: Vec<&str> = Vec::new();
     let mut params: std::collections::BTreeMap<usize, String> = Default::default();
     for (ln, line) in text.lines().enumerate() {
@@ -451,65 +501,80 @@ pub fn read(bytes: &[u8]) -> Result<IgesModel> {
             if line.trim().is_empty() {
                 continue;
             }
-            return Err(e(format!("line {}: shorter than 73 columns", ln + 1)));
+            return Err(err(FormatError::ShortLine {
+                line: ln + 1,
+                columns: line.len(),
+            }));
         }
         match &line[72..73] {
             "D" => dir.push(line),
             "P" => {
-                let de: usize = line
-                    .get(64..72)
-                    .and_then(|s| s.trim().parse().ok())
-                    .ok_or_else(|| e(format!("line {}: bad directory pointer", ln + 1)))?;
+                let pointer = line.get(64..72).unwrap_or_default();
+                let de: usize = pointer.trim().parse().map_err(|_| {
+                    err(FormatError::DirectoryPointer {
+                        line: ln + 1,
+                        token: Excerpt::new(pointer),
+                    })
+                })?;
                 params
                     .entry(de)
                     .or_default()
                     .push_str(line[..64].trim_end());
             }
             "S" | "G" | "T" => {}
-            other => return Err(e(format!("line {}: unknown section {other:?}", ln + 1))),
+            other => {
+                return Err(err(FormatError::Section {
+                    line: ln + 1,
+                    section: Excerpt::new(other),
+                }));
+            }
         }
     }
     if !dir.len().is_multiple_of(2) {
-        return Err(e("odd number of directory entry lines".into()));
+        return Err(err(FormatError::OddDirectory { lines: dir.len() }));
     }
     let mut model = IgesModel::default();
     let mut surface_at_de = std::collections::HashMap::new();
     let mut pending_144 = Vec::new();
     for (k, pair) in dir.chunks(2).enumerate() {
         let de = 2 * k + 1;
-        let kind: u32 = pair[0]
-            .get(0..8)
-            .and_then(|s| s.trim().parse().ok())
-            .ok_or_else(|| e(format!("directory entry {de}: bad type")))?;
+        let kind_text = pair[0].get(0..8).unwrap_or(pair[0]);
+        let kind: u32 = kind_text.trim().parse().map_err(|_| {
+            err(FormatError::EntityType {
+                de,
+                token: Excerpt::new(kind_text),
+            })
+        })?;
         let p = params
             .get(&de)
-            .ok_or_else(|| e(format!("directory entry {de}: no parameter data")))?;
+            .ok_or_else(|| err(FormatError::NoParameters { de }))?;
         let toks: Vec<&str> = p
             .trim_end_matches(';')
             .split([',', ';'])
             .map(str::trim)
             .collect();
         if toks.first().and_then(|t| t.parse::<u32>().ok()) != Some(kind) {
-            return Err(e(format!(
-                "directory entry {de}: parameter data is for another entity"
-            )));
+            return Err(err(FormatError::OtherEntity {
+                de,
+                kind,
+                found: Excerpt::new(toks.first().copied().unwrap_or_default()),
+            }));
         }
         let num = |i: usize| -> Result<f64> {
             toks.get(i)
                 .and_then(|t| t.replace('D', "E").parse::<f64>().ok())
                 .filter(|x| x.is_finite())
-                .ok_or_else(|| {
-                    e(format!(
-                        "entity {kind} at {de}: parameter {i} missing or not a number"
-                    ))
-                })
+                .ok_or_else(|| err(FormatError::Parameter { kind, de, index: i }))
         };
         let int = |i: usize| -> Result<usize> {
             let x = num(i)?;
             if !(0.0..=1e7).contains(&x) || x.fract() != 0.0 {
-                return Err(e(format!(
-                    "entity {kind} at {de}: parameter {i} is not a count"
-                )));
+                return Err(err(FormatError::NotACount {
+                    kind,
+                    de,
+                    index: i,
+                    value: x,
+                }));
             }
             Ok(x as usize)
         };
@@ -521,10 +586,12 @@ pub fn read(bytes: &[u8]) -> Result<IgesModel> {
                 let (nku, nkv) = (nu + m1 + 1, nv + m2 + 1);
                 let need = 10 + nku + nkv + 4 * nu * nv + 4;
                 if toks.len() < need {
-                    return Err(e(format!(
-                        "entity 128 at {de}: {} parameters, {need} needed",
-                        toks.len()
-                    )));
+                    return Err(err(FormatError::ParameterCount {
+                        kind,
+                        de,
+                        found: toks.len(),
+                        need,
+                    }));
                 }
                 let mut at = 10;
                 let mut take = |n: usize| -> Result<Vec<f64>> {
@@ -583,11 +650,9 @@ pub fn read(bytes: &[u8]) -> Result<IgesModel> {
         }
     }
     for (de, pts, loops) in pending_144 {
-        let s = surface_at_de.get(&pts).ok_or_else(|| {
-            e(format!(
-                "entity 144 at {de}: base surface {pts} is not an entity 128"
-            ))
-        })?;
+        let s = surface_at_de
+            .get(&pts)
+            .ok_or(err(FormatError::BaseSurface { de, pointer: pts }))?;
         model.trimmed.push((*s, loops));
     }
     Ok(model)
@@ -634,7 +699,8 @@ mod tests {
             name: "target-with-a-long-name".into(),
             patch: patch(),
             faces: Some(vec![face]),
-        }]);
+        }])
+        .unwrap();
         let text = std::str::from_utf8(&bytes).unwrap();
         assert!(text.lines().all(|l| l.len() == 80), "80 columns");
         let m = read(&bytes).unwrap();
@@ -677,7 +743,8 @@ mod tests {
             name: "p".into(),
             patch: patch(),
             faces: None,
-        }]);
+        }])
+        .unwrap();
         let text = std::str::from_utf8(&bytes).unwrap();
         for line in text.lines().filter(|l| &l[72..73] == "P") {
             for token in line[..64].split([',', ';']) {
@@ -700,11 +767,14 @@ mod tests {
             outer,
             holes: vec![vec![DVec2::splat(0.5); 3], square(0.5, 0.1)],
         };
-        let m = read(&write(&[IgesSurface {
-            name: "t".into(),
-            patch: patch(),
-            faces: Some(vec![face]),
-        }]))
+        let m = read(
+            &write(&[IgesSurface {
+                name: "t".into(),
+                patch: patch(),
+                faces: Some(vec![face]),
+            }])
+            .unwrap(),
+        )
         .unwrap();
         // The degenerate hole is dropped; the outer loop has 4 corners plus its close.
         assert_eq!(m.trimmed, vec![(0, 2)]);
@@ -725,11 +795,14 @@ mod tests {
             outer: square(0.5, 0.5).into_iter().rev().collect(),
             holes: vec![square(0.5, 0.1)],
         };
-        let m = read(&write(&[IgesSurface {
-            name: "t".into(),
-            patch: patch(),
-            faces: Some(vec![face]),
-        }]))
+        let m = read(
+            &write(&[IgesSurface {
+                name: "t".into(),
+                patch: patch(),
+                faces: Some(vec![face]),
+            }])
+            .unwrap(),
+        )
         .unwrap();
         assert!(signed_area(&m.curves[0]) > 0.0, "outer counter-clockwise");
         assert!(signed_area(&m.curves[1]) < 0.0, "hole clockwise");
@@ -746,7 +819,8 @@ mod tests {
                 outer: square(0.5, 0.5),
                 holes: vec![],
             }]),
-        }]);
+        }])
+        .unwrap();
         let text = std::str::from_utf8(&bytes).unwrap();
         let status: Vec<(&str, &str)> = text
             .lines()
@@ -775,7 +849,8 @@ mod tests {
             name: "t".into(),
             patch: p,
             faces: None,
-        }]);
+        }])
+        .unwrap();
         let global: String = std::str::from_utf8(&bytes)
             .unwrap()
             .lines()
@@ -786,6 +861,90 @@ mod tests {
         let after_resolution = global.split_once("1.E-9,").map(|(_, rest)| rest); // not a tolerance: the field's text
         let max = after_resolution.and_then(|r| r.split([',', ';']).next());
         assert_eq!(max, Some("1.2345E3"), "global section {global}");
+    }
+
+    fn reason(e: Error) -> FormatError {
+        match e {
+            Error::Format {
+                format: FileFormat::Iges,
+                reason,
+            } => reason,
+            other => panic!("not an IGES format error: {other:?}"),
+        }
+    }
+
+    /// Regression (issue 15): a NaN or infinite knot, weight or control point was
+    /// written as `0.E0` (a silently different surface); the writer refuses it.
+    #[test]
+    fn non_finite_surface_numbers_are_refused_not_written_as_zero() {
+        let surface = |patch| IgesSurface {
+            name: "p".into(),
+            patch,
+            faces: None,
+        };
+        let mut p = patch();
+        p.control_points[1][1].z = f64::NAN;
+        let ok = surface(patch());
+        assert_eq!(
+            reason(write(&[ok.clone(), surface(p)]).unwrap_err()),
+            FormatError::SurfaceNonFinite {
+                surface: 1,
+                what: WrittenValue::ControlPoint,
+                index: 3
+            }
+        );
+        let mut p = patch();
+        p.knots_v[2] = f64::INFINITY;
+        assert_eq!(
+            reason(write(&[surface(p)]).unwrap_err()),
+            FormatError::SurfaceNonFinite {
+                surface: 0,
+                what: WrittenValue::Knot,
+                index: 8
+            }
+        );
+        let mut p = patch();
+        p.weights.as_mut().unwrap()[2][0] = f64::NAN;
+        assert_eq!(
+            reason(write(&[surface(p)]).unwrap_err()),
+            FormatError::SurfaceNonFinite {
+                surface: 0,
+                what: WrittenValue::Weight,
+                index: 4
+            }
+        );
+        assert!(read(&write(&[ok]).unwrap()).is_ok());
+    }
+
+    #[test]
+    fn read_errors_are_typed_and_quote_short() {
+        let bytes = write(&[IgesSurface {
+            name: "p".into(),
+            patch: patch(),
+            faces: None,
+        }])
+        .unwrap();
+        let text = String::from_utf8(bytes).unwrap();
+        // Regression (issue 15): a 50 MB line gives a short error (quotes are cut).
+        let long = text.replacen("128,", &format!("{},", "9".repeat(50 << 20)), 1);
+        let e = read(long.as_bytes()).unwrap_err();
+        assert!(e.to_string().len() < 200, "{e}");
+        let other = text.replacen("128,", "129,", 1);
+        match reason(read(other.as_bytes()).unwrap_err()) {
+            FormatError::OtherEntity {
+                de: 1,
+                kind: 128,
+                found,
+            } => {
+                assert_eq!(found, Excerpt::new("129"))
+            }
+            other => panic!("{other:?}"),
+        }
+        let bad_section = text.replacen("S      1", "X      1", 1);
+        assert!(matches!(
+            reason(read(bad_section.as_bytes()).unwrap_err()),
+            FormatError::Section { line: 1, .. }
+        ));
     }
 
     proptest! {
@@ -808,7 +967,7 @@ mod tests {
                 })
                 .collect();
             let face = Face { outer: loops[0].clone(), holes: loops[1..].to_vec() };
-            let m = read(&write(&[IgesSurface { name: "p".into(), patch: patch(), faces: Some(vec![face]) }])).unwrap();
+            let m = read(&write(&[IgesSurface { name: "p".into(), patch: patch(), faces: Some(vec![face]) }]).unwrap()).unwrap();
             let mut curve = 0;
             for &(_, count) in &m.trimmed {
                 for k in 0..count {
@@ -825,7 +984,7 @@ mod tests {
 
         #[test]
         fn damaged_files_never_panic(cut in 0usize..3000, flip in 0usize..3000, val in 32u8..127) {
-            let mut bytes = write(&[IgesSurface { name: "p".into(), patch: patch(), faces: None }]);
+            let mut bytes = write(&[IgesSurface { name: "p".into(), patch: patch(), faces: None }]).unwrap();
             if flip < bytes.len() { bytes[flip] = val; }
             bytes.truncate(cut);
             let _ = read(&bytes);

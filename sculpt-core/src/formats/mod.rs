@@ -7,24 +7,59 @@
 //! use sculpt_core::mesh::{MeshVertex, WeldedMesh};
 //! let v = |x: f32, y: f32| MeshVertex { position: [x, y, 0.0], normal: [0.0, 0.0, 1.0], uv: [x, y] };
 //! let mesh = WeldedMesh { vertices: vec![v(0.0, 0.0), v(1.0, 0.0), v(0.0, 1.0)], triangles: vec![[0, 1, 2]] };
-//! let back = obj::read(&obj::write(&mesh)).unwrap();
+//! let back = obj::read(&obj::write(&mesh)?)?;
 //! assert_eq!(back.triangles, mesh.triangles);
-//! assert_eq!(stl::read(&stl::write(&mesh)).unwrap().triangles.len(), 1);
+//! assert_eq!(stl::read(&stl::write(&mesh)?)?.triangles.len(), 1);
+//! # Ok::<(), sculpt_core::Error>(())
 //! ```
+//!
+//! Errors are [`Error::Format`] with a typed [`FormatError`]: readers name the line,
+//! entry or byte and quote at most a short prefix of bad input
+//! ([`crate::error::MAX_QUOTED_CHARS`]); writers refuse a mesh or surface holding a
+//! NaN or infinite number ([`FormatError::NonFinite`]) instead of writing it.
 
 pub mod glb;
 pub mod iges;
 pub mod obj;
 pub mod stl;
 
-use crate::error::Error;
+use crate::error::{Error, FileFormat, FormatError, WrittenValue};
+use crate::mesh::WeldedMesh;
 
-fn err(format: &'static str, reason: impl Into<String>) -> Error {
-    Error::Format {
-        format,
-        reason: reason.into(),
-    }
+fn err(format: FileFormat, reason: FormatError) -> Error {
+    Error::Format { format, reason }
 }
+
+/// Checks that every number a mesh writer writes (the vertex attributes in `written`)
+/// is finite, so that no writer emits `NaN` or `inf`; the error names the first bad
+/// vertex.
+fn check_mesh(
+    format: FileFormat,
+    mesh: &WeldedMesh,
+    written: &[WrittenValue],
+) -> crate::Result<()> {
+    for (index, v) in mesh.vertices.iter().enumerate() {
+        for &what in written {
+            let finite = match what {
+                WrittenValue::Position => v.position.iter().all(|x| x.is_finite()),
+                WrittenValue::Normal => v.normal.iter().all(|x| x.is_finite()),
+                WrittenValue::TexCoord => v.uv.iter().all(|x| x.is_finite()),
+                _ => true,
+            };
+            if !finite {
+                return Err(err(format, FormatError::NonFinite { what, index }));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Every vertex attribute: what OBJ and glTF write.
+const ALL_ATTRIBUTES: &[WrittenValue] = &[
+    WrittenValue::Position,
+    WrittenValue::Normal,
+    WrittenValue::TexCoord,
+];
 
 /// The mesh formats, chosen from a file extension.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -49,8 +84,9 @@ impl MeshFormat {
         }
     }
 
-    /// Writes a mesh in this format.
-    pub fn write(self, mesh: &crate::mesh::WeldedMesh) -> Vec<u8> {
+    /// Writes a mesh in this format; a vertex with a NaN or infinite number is an
+    /// error ([`FormatError::NonFinite`]).
+    pub fn write(self, mesh: &WeldedMesh) -> crate::Result<Vec<u8>> {
         match self {
             Self::Obj => obj::write(mesh),
             Self::Stl => stl::write(mesh),
@@ -59,7 +95,7 @@ impl MeshFormat {
     }
 
     /// Reads a mesh in this format.
-    pub fn read(self, bytes: &[u8]) -> crate::Result<crate::mesh::WeldedMesh> {
+    pub fn read(self, bytes: &[u8]) -> crate::Result<WeldedMesh> {
         match self {
             Self::Obj => obj::read(bytes),
             Self::Stl => stl::read(bytes),

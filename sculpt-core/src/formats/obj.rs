@@ -5,13 +5,20 @@
 //! back), polygons fanned into triangles. Other statements are ignored. Errors name the
 //! line.
 
-use super::err;
+use super::{ALL_ATTRIBUTES, check_mesh};
 use crate::Result;
+use crate::error::{Error, Excerpt, FileFormat, FormatError};
 use crate::mesh::{MeshVertex, WeldedMesh};
 use std::fmt::Write;
 
-/// Writes the mesh as OBJ text.
-pub fn write(mesh: &WeldedMesh) -> Vec<u8> {
+fn err(reason: FormatError) -> Error {
+    super::err(FileFormat::Obj, reason)
+}
+
+/// Writes the mesh as OBJ text; a vertex with a NaN or infinite number is an error
+/// ([`FormatError::NonFinite`]) and nothing is written.
+pub fn write(mesh: &WeldedMesh) -> Result<Vec<u8>> {
+    check_mesh(FileFormat::Obj, mesh, ALL_ATTRIBUTES)?;
     let mut s = String::with_capacity(mesh.vertices.len() * 100 + mesh.triangles.len() * 40);
     s.push_str("# Wandsculpt sculpted mesh\no sculpture\n");
     for v in &mesh.vertices {
@@ -30,12 +37,12 @@ pub fn write(mesh: &WeldedMesh) -> Vec<u8> {
         let [a, b, c] = t.map(|i| i + 1);
         let _ = writeln!(s, "f {a}/{a}/{a} {b}/{b}/{b} {c}/{c}/{c}");
     }
-    s.into_bytes()
+    Ok(s.into_bytes())
 }
 
 /// Reads OBJ text. Vertices are de-indexed per distinct `v/vt/vn` triple.
 pub fn read(bytes: &[u8]) -> Result<WeldedMesh> {
-    let text = std::str::from_utf8(bytes).map_err(|e| err("OBJ", format!("not UTF-8: {e}")))?;
+    let text = std::str::from_utf8(bytes).map_err(|error| err(FormatError::NotText { error }))?;
     let (mut pos, mut tex, mut nrm) = (Vec::new(), Vec::new(), Vec::new());
     let mut faces: Vec<(usize, Vec<[Option<usize>; 3]>)> = Vec::new();
     for (ln, line) in text.lines().enumerate() {
@@ -45,14 +52,24 @@ pub fn read(bytes: &[u8]) -> Result<WeldedMesh> {
         let nums = |it: std::str::SplitWhitespace<'_>, n: usize| -> Result<Vec<f32>> {
             let v: Vec<f32> = it
                 .take(n)
-                .map(|t| t.parse::<f32>())
-                .collect::<std::result::Result<_, _>>()
-                .map_err(|e| err("OBJ", format!("line {ln}: {e}")))?;
-            if v.len() < n || v.iter().any(|x| !x.is_finite()) {
-                return Err(err(
-                    "OBJ",
-                    format!("line {ln}: expected {n} finite numbers"),
-                ));
+                .map(|t| {
+                    t.parse::<f32>().map_err(|error| {
+                        err(FormatError::Number {
+                            line: ln,
+                            token: Excerpt::new(t),
+                            error,
+                        })
+                    })
+                })
+                .collect::<Result<_>>()?;
+            let finite = v.iter().filter(|x| x.is_finite()).count();
+            if v.len() < n || finite < n {
+                return Err(err(FormatError::NumberCount {
+                    line: ln,
+                    expected: n,
+                    found: v.len(),
+                    finite,
+                }));
             }
             Ok(v)
         };
@@ -69,22 +86,33 @@ pub fn read(bytes: &[u8]) -> Result<WeldedMesh> {
                         if part.is_empty() {
                             continue;
                         }
-                        let i: i64 = part.parse().map_err(|e| {
-                            err("OBJ", format!("line {ln}: bad index {part:?}: {e}"))
+                        let i: i64 = part.parse().map_err(|error| {
+                            err(FormatError::Index {
+                                line: ln,
+                                token: Excerpt::new(part),
+                                error,
+                            })
                         })?;
                         let idx = if i > 0 { i - 1 } else { counts[k] as i64 + i };
                         if idx < 0 || idx >= counts[k] as i64 {
-                            return Err(err("OBJ", format!("line {ln}: index {i} out of range")));
+                            return Err(err(FormatError::IndexOutOfRange {
+                                line: ln,
+                                index: i,
+                                count: counts[k],
+                            }));
                         }
                         r[k] = Some(idx as usize);
                     }
                     if r[0].is_none() {
-                        return Err(err("OBJ", format!("line {ln}: face without a position")));
+                        return Err(err(FormatError::FaceWithoutPosition { line: ln }));
                     }
                     refs.push(r);
                 }
                 if refs.len() < 3 {
-                    return Err(err("OBJ", format!("line {ln}: a face needs 3 vertices")));
+                    return Err(err(FormatError::FaceTooSmall {
+                        line: ln,
+                        found: refs.len(),
+                    }));
                 }
                 faces.push((ln, refs));
             }
@@ -132,6 +160,105 @@ mod tests {
         assert!(e.contains("line 2"), "{e}");
         let e = read(b"v 0 nan 0\n").unwrap_err().to_string();
         assert!(e.contains("line 1"), "{e}");
+    }
+
+    fn reason(e: Error) -> FormatError {
+        match e {
+            Error::Format {
+                format: FileFormat::Obj,
+                reason,
+            } => reason,
+            other => panic!("not an OBJ format error: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn errors_are_typed_with_line_token_and_cause() {
+        match reason(read(b"v 0 0 0\nv 1 x2 0\n").unwrap_err()) {
+            FormatError::Number { line, token, error } => {
+                assert_eq!(line, 2);
+                assert_eq!(token.prefix, "x2");
+                assert_eq!(error, "x2".parse::<f32>().unwrap_err());
+            }
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(
+            reason(read(b"v 0 0 0\nf 1 2 3\n").unwrap_err()),
+            FormatError::IndexOutOfRange {
+                line: 2,
+                index: 2,
+                count: 1
+            }
+        );
+        assert_eq!(
+            reason(read(b"v 0 inf\n").unwrap_err()),
+            FormatError::NumberCount {
+                line: 1,
+                expected: 3,
+                found: 2,
+                finite: 1
+            }
+        );
+        assert!(matches!(
+            reason(read(b"v 0 0 0\nf 1/q 1 1\n").unwrap_err()),
+            FormatError::Index { line: 2, .. }
+        ));
+        assert!(matches!(
+            reason(read(b"\xff").unwrap_err()),
+            FormatError::NotText { .. }
+        ));
+    }
+
+    /// Regression (issue 15): a 200 MB CSV line gave a 200 MB error message, because
+    /// errors quoted the bad input whole. A 50 MB single-line OBJ now gives a short one.
+    #[test]
+    fn huge_single_line_gives_a_short_error_because_quotes_are_cut() {
+        const MB50: usize = 50 << 20;
+        let mut number = b"v 0 0 ".to_vec();
+        number.resize(MB50, b'x');
+        let mut index = b"v 0 0 0\nf 1/".to_vec();
+        index.resize(MB50, b'7');
+        index.extend_from_slice(b"q 1 1");
+        for bytes in [number, index] {
+            let e = read(&bytes).unwrap_err();
+            let message = crate::error::Chain(&e).to_string();
+            assert!(message.len() < 200, "{} bytes: {message}", message.len());
+            assert!(message.contains("..."), "{message}");
+        }
+    }
+
+    /// Regression (issue 15): a mesh with a NaN vertex (a scene with a huge stroke
+    /// depth) was written as OBJ with `NaN` / `inf` text.
+    #[test]
+    fn nan_vertex_is_refused_not_written_as_nan() {
+        let v = |x: f32| MeshVertex {
+            position: [x, 0.0, 0.0],
+            normal: [0.0, 0.0, 1.0],
+            uv: [0.0; 2],
+        };
+        let mut mesh = WeldedMesh {
+            vertices: vec![v(0.0), v(1.0), v(f32::NAN)],
+            triangles: vec![[0, 1, 2]],
+        };
+        assert_eq!(
+            reason(write(&mesh).unwrap_err()),
+            FormatError::NonFinite {
+                what: crate::error::WrittenValue::Position,
+                index: 2
+            }
+        );
+        mesh.vertices[2].position[0] = 0.5;
+        mesh.vertices[1].normal[2] = f32::INFINITY;
+        assert_eq!(
+            reason(write(&mesh).unwrap_err()),
+            FormatError::NonFinite {
+                what: crate::error::WrittenValue::Normal,
+                index: 1
+            }
+        );
+        mesh.vertices[1].normal[2] = 1.0;
+        let text = String::from_utf8(write(&mesh).unwrap()).unwrap();
+        assert!(!text.contains("NaN") && !text.contains("inf"), "{text}");
     }
 
     proptest! {

@@ -67,7 +67,7 @@ use super::stroke::{Stroke, StrokeInput, Tool};
 use super::stroke_surface::StrokeSurface;
 use super::surface::{TargetSurface, extent};
 use super::tessellate::{Detail, GridPlan, StrokeRef, TargetTessellation, TessStats};
-use crate::error::{DocumentError, Error, Result};
+use crate::error::{ControlNetError, DocumentError, Error, Result, StrokeRejection};
 use crate::formats::iges::{Face, IgesSurface, NurbsPatch};
 use crate::mesh::{MeshSink, PatchMesh};
 use crate::nurbs::NurbsSurface;
@@ -82,6 +82,29 @@ pub const FORMAT: &str = "wandsculpt-document";
 pub const VERSION: u32 = 1;
 /// Largest document accepted by [`Document::from_json`], bytes.
 pub const MAX_DOCUMENT_BYTES: usize = 256 << 20;
+/// Most targets a document holds: the reader refuses more, and an edit that would add
+/// one more (a sketch) is rejected ([`DocumentError::TooManyTargets`]). The paper's
+/// scenes and the demo have one.
+pub const MAX_TARGETS: usize = 256;
+/// Most strokes a document holds: the reader refuses more, and a stroke beyond it is
+/// rejected ([`DocumentError::TooManyStrokes`]). The paper's scenes have at most 7; a
+/// stroke every 5 s for 8 hours is 5,760.
+pub const MAX_STROKES: usize = 10_000;
+/// Most wand samples of one stroke ([`StrokeRejection::TooManySamples`]): the
+/// sculpting layer's [`MAX_INPUT_SAMPLES`](super::stroke::MAX_INPUT_SAMPLES), five
+/// times the interaction's default `max_samples`. The paper's scenes have at most 200.
+pub const MAX_STROKE_SAMPLES: usize = super::stroke::MAX_INPUT_SAMPLES;
+/// Most wand samples of all strokes of a document together
+/// ([`DocumentError::TooManySamples`]); at about 120 bytes a sample in the saved JSON,
+/// strokes this size stay below [`MAX_DOCUMENT_BYTES`]. The paper's scenes have at
+/// most 540.
+pub const MAX_DOCUMENT_SAMPLES: usize = 2_000_000;
+/// Most control points of a target surface: the surface reader's
+/// [`MAX_JSON_CONTROL_POINTS`](crate::nurbs::surface::MAX_JSON_CONTROL_POINTS) (a
+/// 256 x 256 net), checked for documents' targets as for surface files; a sketch fit
+/// has at most [`SKETCH_MAX_CONTROL`](crate::editor::SKETCH_MAX_CONTROL) squared.
+/// The paper's scenes have at most 224.
+pub const MAX_TARGET_CONTROL_POINTS: usize = crate::nurbs::surface::MAX_JSON_CONTROL_POINTS;
 
 /// Identifies a target surface in a document: how every part of the program refers to
 /// a target (strokes, the editor's results, the live preview, replay metrics).
@@ -185,6 +208,8 @@ pub struct Document {
     preview_serial: u64,
     /// Stroke surfaces, built lazily when first asked for (export, stroke meshes).
     surfaces: SurfaceCache,
+    /// Wand samples of all strokes in [`Self::strokes`] (for [`MAX_DOCUMENT_SAMPLES`]).
+    samples_total: usize,
 }
 
 /// A stroke's cached surface: the strokes (ids, document order, itself included) whose
@@ -271,8 +296,60 @@ impl Document {
         id
     }
 
+    /// Adds a target surface (undoable) like [`Self::add_target`], within the caps: a
+    /// document holding [`MAX_TARGETS`] already, or a surface of more than
+    /// [`MAX_TARGET_CONTROL_POINTS`], is refused and the document is unchanged.
+    pub fn try_add_target(&mut self, name: &str, surface: NurbsSurface) -> Result<TargetId> {
+        self.check_target_caps(&surface)?;
+        Ok(self.add_target(name, surface))
+    }
+
+    /// Checks that one more target, `surface`, fits the caps ([`MAX_TARGETS`],
+    /// [`MAX_TARGET_CONTROL_POINTS`]).
+    pub fn check_target_caps(&self, surface: &NurbsSurface) -> Result<()> {
+        if self.targets.len() >= MAX_TARGETS {
+            return Err(Error::Document(DocumentError::TooManyTargets {
+                max: MAX_TARGETS,
+            }));
+        }
+        let count = surface.count_u() * surface.count_v();
+        if count > MAX_TARGET_CONTROL_POINTS {
+            return Err(Error::InvalidControlNet(ControlNetError::TooMany {
+                count,
+                max: MAX_TARGET_CONTROL_POINTS,
+            }));
+        }
+        Ok(())
+    }
+
+    /// Checks that one more stroke of `samples` wand samples fits the caps
+    /// ([`MAX_STROKES`], [`MAX_STROKE_SAMPLES`], [`MAX_DOCUMENT_SAMPLES`]); the edit
+    /// path asks this before it journals a stroke, and every stroke added is checked.
+    pub fn check_stroke_caps(&self, samples: usize) -> Result<()> {
+        if self.strokes.len() >= MAX_STROKES {
+            return Err(Error::Document(DocumentError::TooManyStrokes {
+                max: MAX_STROKES,
+            }));
+        }
+        if samples > MAX_STROKE_SAMPLES {
+            return Err(Error::StrokeRejected(StrokeRejection::TooManySamples {
+                count: samples,
+                max: MAX_STROKE_SAMPLES,
+            }));
+        }
+        let total = self.samples_total.saturating_add(samples);
+        if total > MAX_DOCUMENT_SAMPLES {
+            return Err(Error::Document(DocumentError::TooManySamples {
+                total,
+                max: MAX_DOCUMENT_SAMPLES,
+            }));
+        }
+        Ok(())
+    }
+
     /// Projects and applies a stroke to a target (undoable). A stroke the rules reject
-    /// (see [`Stroke::build`]) leaves the document unchanged and says why.
+    /// (see [`Stroke::build`]) or beyond the caps ([`Self::check_stroke_caps`]) leaves
+    /// the document unchanged and says why.
     pub fn apply_stroke(&mut self, target: TargetId, input: StrokeInput) -> Result<StrokeId> {
         let record = StrokeRecord {
             id: self.next_id.max(1),
@@ -372,6 +449,7 @@ impl Document {
     }
 
     fn push_stroke(&mut self, record: StrokeRecord) -> Result<()> {
+        self.check_stroke_caps(record.input.samples.len())?;
         if self.strokes.iter().any(|s| s.id == record.id) {
             return Err(Error::Document(DocumentError::StrokeId { id: record.id }));
         }
@@ -388,12 +466,14 @@ impl Document {
         self.mark_dirty(record.target, stroke.bounds);
         self.built.insert(record.id, stroke);
         self.next_id = self.next_id.max(record.id + 1);
+        self.samples_total += record.input.samples.len();
         self.strokes.push(record);
         Ok(())
     }
 
     fn pop_stroke(&mut self) -> Option<Step> {
         let s = self.strokes.pop()?;
+        self.samples_total -= s.input.samples.len();
         self.surfaces.lock().remove(&s.id);
         if let Some(stroke) = self.built.remove(&s.id) {
             self.mark_dirty(s.target, stroke.bounds);
@@ -788,7 +868,7 @@ impl Document {
         if header.format.as_deref() != Some(FORMAT) {
             return Err(Error::Document(DocumentError::Format {
                 expected: FORMAT,
-                found: header.format,
+                found: header.format.as_deref().map(crate::error::Excerpt::new),
             }));
         }
         match header.version.as_ref().and_then(serde_json::Value::as_u64) {
@@ -802,11 +882,23 @@ impl Document {
         }
         let json: DocumentJson = serde_json::from_slice(bytes)
             .map_err(|e| Error::Document(DocumentError::Schema(e.into())))?;
+        if json.targets.len() > MAX_TARGETS {
+            return Err(Error::Document(DocumentError::TooManyTargets {
+                max: MAX_TARGETS,
+            }));
+        }
+        if json.strokes.len() > MAX_STROKES {
+            return Err(Error::Document(DocumentError::TooManyStrokes {
+                max: MAX_STROKES,
+            }));
+        }
         let mut doc = Document::new();
         for t in json.targets {
             if t.id == 0 || doc.targets.iter().any(|o| o.id == t.id) {
                 return Err(Error::Document(DocumentError::TargetId { id: t.id }));
             }
+            // Surfaces are read with the surface reader's caps; this is the same cap.
+            doc.check_target_caps(&t.surface)?;
             doc.push_target(TargetRecord::new(t.id, t.name, t.surface));
         }
         for s in json.strokes {

@@ -33,7 +33,7 @@ pub fn run(args: ExportArgs) -> Result<()> {
     bar.set_message("building trimmed surfaces");
     let surfaces = doc.iges_surfaces();
     bar.set_message("writing IGES");
-    let bytes = iges::write(&surfaces);
+    let bytes = iges::write(&surfaces).context("writing IGES")?;
     bar.finish_and_clear();
     std::fs::write(&args.out, &bytes).with_context(|| format!("writing {}", args.out.display()))?;
     let trimmed = surfaces.iter().filter(|s| s.faces.is_some()).count();

@@ -139,7 +139,7 @@ pub fn run(args: MeshArgs) -> Result<()> {
         (size * sculpt_core::tolerance::MESH_WELD_REL).max(sculpt_core::tolerance::MESH_WELD_MIN)
             as f32,
     );
-    let bytes = format.write(&welded);
+    let bytes = format.write(&welded).context("writing the mesh")?;
     std::fs::write(&args.out, &bytes).with_context(|| format!("writing {}", args.out.display()))?;
     let report = welded.edge_report();
     println!(
