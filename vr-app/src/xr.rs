@@ -172,6 +172,29 @@ pub fn xr_views(
     })
 }
 
+/// Vulkan formats (`VkFormat`) the swapchain may use, with their wgpu twins, best
+/// first: sRGB formats let the runtime read linear colour without a conversion.
+pub const SWAPCHAIN_FORMATS: [(i64, wgpu::TextureFormat); 4] = [
+    // VK_FORMAT_R8G8B8A8_SRGB
+    (43, wgpu::TextureFormat::Rgba8UnormSrgb),
+    // VK_FORMAT_B8G8R8A8_SRGB
+    (50, wgpu::TextureFormat::Bgra8UnormSrgb),
+    // VK_FORMAT_R8G8B8A8_UNORM
+    (37, wgpu::TextureFormat::Rgba8Unorm),
+    // VK_FORMAT_B8G8R8A8_UNORM
+    (44, wgpu::TextureFormat::Bgra8Unorm),
+];
+
+/// The swapchain format to use among those the runtime offers (`VkFormat` values,
+/// in the runtime's order of preference): the first of [`SWAPCHAIN_FORMATS`] that is
+/// offered.
+pub fn swapchain_format(offered: &[i64]) -> Option<(i64, wgpu::TextureFormat)> {
+    SWAPCHAIN_FORMATS
+        .iter()
+        .copied()
+        .find(|(vk, _)| offered.contains(vk))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -304,5 +327,19 @@ mod tests {
         // A bad view is an error, not a camera.
         let bad = [(eye(0.0), fov(0.5, 0.4)), views[1]];
         assert!(xr_views(&bad, &stage, 0.05, 50.0).is_err());
+    }
+
+    #[test]
+    fn swapchain_format_prefers_srgb_among_the_offered() {
+        // Offered UNORM first and SRGB later: SRGB wins.
+        assert_eq!(
+            swapchain_format(&[37, 50, 126]),
+            Some((50, wgpu::TextureFormat::Bgra8UnormSrgb))
+        );
+        assert_eq!(
+            swapchain_format(&[44]),
+            Some((44, wgpu::TextureFormat::Bgra8Unorm))
+        );
+        assert_eq!(swapchain_format(&[126, 130]), None, "depth formats only");
     }
 }

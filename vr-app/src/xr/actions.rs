@@ -675,6 +675,62 @@ impl ThumbstickTool {
     }
 }
 
+/// The haptic pulse that answers a stroke.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Feedback {
+    /// A stroke (or sketch) was applied: one short, firm pulse.
+    Applied,
+    /// The sculpting layer refused it: a longer, softer buzz.
+    Rejected,
+}
+
+/// One vibration (`XrHapticVibration`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Vibration {
+    /// Seconds.
+    pub duration_s: f64,
+    /// Hertz; 0 lets the runtime choose.
+    pub frequency_hz: f64,
+    /// In [0, 1].
+    pub amplitude: f64,
+}
+
+impl Feedback {
+    /// The vibration for this feedback.
+    pub fn vibration(self) -> Vibration {
+        match self {
+            Feedback::Applied => Vibration {
+                duration_s: 0.03,
+                frequency_hz: 0.0,
+                amplitude: 0.8,
+            },
+            Feedback::Rejected => Vibration {
+                duration_s: 0.15,
+                frequency_hz: 60.0,
+                amplitude: 0.4,
+            },
+        }
+    }
+}
+
+/// The feedback for one step of the session: `edits` are the edits it applied and
+/// `rejected` how many edits the sculpting layer refused in it
+/// ([`Session::rejected`](crate::session::Session::rejected) before and after). A
+/// refusal wins over an applied stroke; undo, redo, selection and save give none.
+pub fn feedback(edits: &[sculpt_core::interaction::Edit], rejected: usize) -> Option<Feedback> {
+    use sculpt_core::interaction::Edit;
+    if rejected > 0 {
+        Some(Feedback::Rejected)
+    } else if edits
+        .iter()
+        .any(|e| matches!(e, Edit::Stroke(_) | Edit::Sketch { .. }))
+    {
+        Some(Feedback::Applied)
+    } else {
+        None
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -929,5 +985,42 @@ mod tests {
                 EXACT_EPS
             );
         }
+    }
+
+    #[test]
+    fn strokes_and_refusals_give_their_pulses() {
+        use sculpt_core::interaction::Edit;
+        assert_eq!(feedback(&[], 0), None);
+        assert_eq!(feedback(&[Edit::Undo, Edit::Save], 0), None);
+        assert_eq!(feedback(&[Edit::Undo], 1), Some(Feedback::Rejected));
+        // A real stroke from the interaction.
+        let mut edits = sculpt_core::edit_loop::EditLoop::new(
+            Interaction::default(),
+            sculpt_core::editor::default_document(),
+        );
+        let mut applied = Vec::new();
+        for i in 0..=10 {
+            let tip = sculpt_core::editor::default_surface_point(-0.1 + 0.02 * f64::from(i), 1.15);
+            let ev = WandEvent::sample(
+                0.01 * f64::from(i),
+                sculpt_core::interaction::WandSample::tracked(
+                    tip,
+                    DQuat::IDENTITY,
+                    u32::from(i < 10),
+                ),
+            );
+            let step = edits
+                .handle(&ev, &mut sculpt_core::edit_loop::NoHooks)
+                .unwrap();
+            applied.extend(step.edits().map(|(e, _)| e.clone()));
+        }
+        assert_eq!(applied.len(), 1);
+        assert_eq!(feedback(&applied, 0), Some(Feedback::Applied));
+        assert_eq!(feedback(&applied, 1), Some(Feedback::Rejected));
+        let (a, r) = (
+            Feedback::Applied.vibration(),
+            Feedback::Rejected.vibration(),
+        );
+        assert!(a.duration_s < r.duration_s && a.amplitude > r.amplitude);
     }
 }
