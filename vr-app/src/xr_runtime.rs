@@ -42,7 +42,8 @@ use crate::app::AppState;
 use crate::error::{VrError, VrResult, XrError};
 use crate::input::{Input, TrackingState};
 use crate::live::stage_inputs;
-use crate::render::{FrameInput, Gpu, OutputContent, OutputTarget, Renderer};
+use crate::render::{FrameInput, FrameStats, Gpu, OutputContent, OutputTarget, Renderer};
+use crate::scene::Views;
 use crate::xr::actions::{
     self, ControllerState, PoseSource, ReferenceSpace, ThumbstickTool, WandAction, WandMapper,
 };
@@ -214,11 +215,124 @@ fn vk_err(what: &'static str) -> impl Fn(vk::Result) -> VrError {
     move |cause| VrError::Xr(XrError::Vulkan { what, cause })
 }
 
-/// Creates the Vulkan instance and device through the runtime and hands them to wgpu.
-fn create_vulkan(instance: &xr::Instance, system: xr::SystemId) -> VrResult<XrVulkan> {
-    let reqs = instance
-        .graphics_requirements::<xr::Vulkan>(system)
-        .map_err(runtime("Vulkan graphics requirements"))?;
+/// Where the raw Vulkan instance and device come from: the OpenXR runtime
+/// ([`XrVulkanSource`]), or, in tests, plain Vulkan calls.
+trait VulkanSource {
+    /// Checks the instance's API version against the source's limits.
+    fn check_version(&self, api_version: u32) -> VrResult<()>;
+    /// Creates the instance from `info`.
+    fn create_instance(
+        &self,
+        entry: &ash::Entry,
+        info: &vk::InstanceCreateInfo<'_>,
+    ) -> VrResult<vk::Instance>;
+    /// The physical device to use.
+    fn physical_device(&self, instance: &ash::Instance) -> VrResult<vk::PhysicalDevice>;
+    /// Creates the device from `info`.
+    fn create_device(
+        &self,
+        entry: &ash::Entry,
+        instance: &ash::Instance,
+        physical_device: vk::PhysicalDevice,
+        info: &vk::DeviceCreateInfo<'_>,
+    ) -> VrResult<vk::Device>;
+}
+
+/// The runtime creates the Vulkan objects (`XR_KHR_vulkan_enable2`) and chooses the
+/// physical device.
+struct XrVulkanSource<'a> {
+    instance: &'a xr::Instance,
+    system: xr::SystemId,
+    reqs: <xr::Vulkan as xr::Graphics>::Requirements,
+}
+
+/// `vkGetInstanceProcAddr` of `entry` as openxr-sys declares it.
+fn xr_get_instance_proc_addr(entry: &ash::Entry) -> xr::sys::platform::VkGetInstanceProcAddr {
+    // SAFETY: both function pointer types are `vkGetInstanceProcAddr` as the Vulkan
+    // ABI defines it (openxr-sys and ash declare it separately).
+    unsafe {
+        std::mem::transmute::<vk::PFN_vkGetInstanceProcAddr, xr::sys::platform::VkGetInstanceProcAddr>(
+            entry.static_fn().get_instance_proc_addr,
+        )
+    }
+}
+
+impl VulkanSource for XrVulkanSource<'_> {
+    fn check_version(&self, api_version: u32) -> VrResult<()> {
+        let have = xr::Version::new(
+            vk::api_version_major(api_version) as u16,
+            vk::api_version_minor(api_version) as u16,
+            0,
+        );
+        if have < self.reqs.min_api_version_supported
+            || have.major() > self.reqs.max_api_version_supported.major()
+        {
+            return Err(VrError::Xr(XrError::VulkanVersion {
+                min: self.reqs.min_api_version_supported.to_string(),
+                max: self.reqs.max_api_version_supported.to_string(),
+                have: have.to_string(),
+            }));
+        }
+        Ok(())
+    }
+
+    fn create_instance(
+        &self,
+        entry: &ash::Entry,
+        info: &vk::InstanceCreateInfo<'_>,
+    ) -> VrResult<vk::Instance> {
+        // SAFETY: `info` and everything it points to live until the call returns; the
+        // runtime adds the extensions it needs and creates the instance.
+        let raw = unsafe {
+            self.instance.create_vulkan_instance(
+                self.system,
+                xr_get_instance_proc_addr(entry),
+                std::ptr::from_ref(info).cast(),
+            )
+        }
+        .map_err(runtime("xrCreateVulkanInstanceKHR"))?
+        .map_err(|r| vk_err("creating the Vulkan instance")(vk::Result::from_raw(r)))?;
+        Ok(vk::Instance::from_raw(raw as u64))
+    }
+
+    fn physical_device(&self, instance: &ash::Instance) -> VrResult<vk::PhysicalDevice> {
+        // SAFETY: the runtime reads the instance we created through it.
+        let raw = unsafe {
+            self.instance.vulkan_graphics_device(
+                self.system,
+                instance.handle().as_raw() as xr::sys::platform::VkInstance,
+            )
+        }
+        .map_err(runtime("xrGetVulkanGraphicsDevice2KHR"))?;
+        Ok(vk::PhysicalDevice::from_raw(raw as u64))
+    }
+
+    fn create_device(
+        &self,
+        entry: &ash::Entry,
+        _instance: &ash::Instance,
+        physical_device: vk::PhysicalDevice,
+        info: &vk::DeviceCreateInfo<'_>,
+    ) -> VrResult<vk::Device> {
+        // SAFETY: `info` and its chain live until the call returns; the physical
+        // device is the runtime's own choice.
+        let raw = unsafe {
+            self.instance.create_vulkan_device(
+                self.system,
+                xr_get_instance_proc_addr(entry),
+                physical_device.as_raw() as xr::sys::platform::VkPhysicalDevice,
+                std::ptr::from_ref(info).cast(),
+            )
+        }
+        .map_err(runtime("xrCreateVulkanDeviceKHR"))?
+        .map_err(|r| vk_err("creating the Vulkan device")(vk::Result::from_raw(r)))?;
+        Ok(vk::Device::from_raw(raw as u64))
+    }
+}
+
+/// Creates the Vulkan instance and device through `source` and hands them to wgpu
+/// through its Vulkan HAL.
+fn adopt_vulkan(source: &impl VulkanSource) -> VrResult<XrVulkan> {
     // SAFETY: loads the system Vulkan loader (libvulkan.so.1), kept loaded by the entry.
     let vk_entry =
         unsafe { ash::Entry::load() }.map_err(|e| VrError::Xr(XrError::VulkanLoader(e)))?;
@@ -226,24 +340,9 @@ fn create_vulkan(instance: &xr::Instance, system: xr::SystemId) -> VrResult<XrVu
     let have = unsafe { vk_entry.try_enumerate_instance_version() }
         .map_err(vk_err("vkEnumerateInstanceVersion"))?
         .unwrap_or(vk::API_VERSION_1_0);
-    // wgpu-hal uses at most Vulkan 1.3; the runtime gives its own range.
+    // wgpu-hal uses at most Vulkan 1.3.
     let api_version = have.min(vk::API_VERSION_1_3);
-    let as_xr = |v: u32| {
-        xr::Version::new(
-            vk::api_version_major(v) as u16,
-            vk::api_version_minor(v) as u16,
-            0,
-        )
-    };
-    if as_xr(api_version) < reqs.min_api_version_supported
-        || as_xr(api_version).major() > reqs.max_api_version_supported.major()
-    {
-        return Err(VrError::Xr(XrError::VulkanVersion {
-            min: reqs.min_api_version_supported.to_string(),
-            max: reqs.max_api_version_supported.to_string(),
-            have: as_xr(api_version).to_string(),
-        }));
-    }
+    source.check_version(api_version)?;
     let flags = wgpu::InstanceFlags::empty();
     let extensions = hal::vulkan::Instance::desired_extensions(&vk_entry, api_version, flags)
         .map_err(|e| hal_err("Vulkan instance extensions")(Box::new(e)))?;
@@ -256,42 +355,16 @@ fn create_vulkan(instance: &xr::Instance, system: xr::SystemId) -> VrResult<XrVu
     let create_info = vk::InstanceCreateInfo::default()
         .application_info(&vk_app)
         .enabled_extension_names(&extension_ptrs);
-    // SAFETY: both function pointer types are `vkGetInstanceProcAddr` as the Vulkan
-    // ABI defines it (openxr-sys and ash declare it separately).
-    let get_instance_proc_addr: xr::sys::platform::VkGetInstanceProcAddr = unsafe {
-        std::mem::transmute::<vk::PFN_vkGetInstanceProcAddr, xr::sys::platform::VkGetInstanceProcAddr>(
-            vk_entry.static_fn().get_instance_proc_addr,
-        )
-    };
-    // SAFETY: `create_info` and everything it points to live until the call returns;
-    // the runtime adds the extensions it needs and creates the instance.
-    let raw_instance = unsafe {
-        instance.create_vulkan_instance(
-            system,
-            get_instance_proc_addr,
-            std::ptr::from_ref(&create_info).cast(),
-        )
-    }
-    .map_err(runtime("xrCreateVulkanInstanceKHR"))?
-    .map_err(|r| vk_err("creating the Vulkan instance")(vk::Result::from_raw(r)))?;
-    let raw_instance = vk::Instance::from_raw(raw_instance as u64);
+    let raw_instance = source.create_instance(&vk_entry, &create_info)?;
     // SAFETY: `raw_instance` was just created from `vk_entry`'s loader.
     let ash_instance = unsafe { ash::Instance::load(vk_entry.static_fn(), raw_instance) };
-    // SAFETY: the runtime reads the instance we created through it.
-    let physical_device = unsafe {
-        instance.vulkan_graphics_device(
-            system,
-            raw_instance.as_raw() as xr::sys::platform::VkInstance,
-        )
-    }
-    .map_err(runtime("xrGetVulkanGraphicsDevice2KHR"))?;
-    let physical_device = vk::PhysicalDevice::from_raw(physical_device as u64);
+    let physical_device = source.physical_device(&ash_instance)?;
     // SAFETY: `ash_instance` was created from `vk_entry` with `api_version`, exactly
-    // `extensions` (a superset of `desired_extensions`, as the runtime may add more)
-    // and `flags`; with no drop callback, wgpu-hal owns and destroys the instance.
+    // `extensions` (a superset of `desired_extensions`; the runtime may add more) and
+    // `flags`; with no drop callback, wgpu-hal owns and destroys the instance.
     let hal_instance = unsafe {
         hal::vulkan::Instance::from_raw(
-            vk_entry,
+            vk_entry.clone(),
             ash_instance.clone(),
             api_version,
             0,
@@ -306,13 +379,13 @@ fn create_vulkan(instance: &xr::Instance, system: xr::SystemId) -> VrResult<XrVu
     .map_err(|e| hal_err("adopting the Vulkan instance")(Box::new(e)))?;
     let exposed = hal_instance
         .expose_adapter(physical_device)
-        .ok_or_else(|| hal_err("the runtime's physical device")("wgpu cannot use it".into()))?;
+        .ok_or_else(|| hal_err("the physical device")("wgpu cannot use it".into()))?;
     // SAFETY: a query on a physical device of this instance.
     let queue_family =
         unsafe { ash_instance.get_physical_device_queue_family_properties(physical_device) }
             .iter()
             .position(|q| q.queue_flags.contains(vk::QueueFlags::GRAPHICS))
-            .ok_or_else(|| hal_err("the runtime's physical device")("no graphics queue".into()))?
+            .ok_or_else(|| hal_err("the physical device")("no graphics queue".into()))?
             as u32;
     let features = wgpu::Features::empty();
     let device_extensions = exposed.adapter.required_device_extensions(features);
@@ -330,19 +403,8 @@ fn create_vulkan(instance: &xr::Instance, system: xr::SystemId) -> VrResult<XrVu
             .queue_create_infos(&queues)
             .enabled_extension_names(&device_extension_ptrs),
     );
-    // SAFETY: `device_info` and its chain live until the call returns; the physical
-    // device is the runtime's own choice.
-    let raw_device = unsafe {
-        instance.create_vulkan_device(
-            system,
-            get_instance_proc_addr,
-            physical_device.as_raw() as xr::sys::platform::VkPhysicalDevice,
-            std::ptr::from_ref(&device_info).cast(),
-        )
-    }
-    .map_err(runtime("xrCreateVulkanDeviceKHR"))?
-    .map_err(|r| vk_err("creating the Vulkan device")(vk::Result::from_raw(r)))?;
-    let raw_device = vk::Device::from_raw(raw_device as u64);
+    let raw_device =
+        source.create_device(&vk_entry, &ash_instance, physical_device, &device_info)?;
     // SAFETY: `raw_device` was just created on `ash_instance`.
     let ash_device = unsafe { ash::Device::load(ash_instance.fp_v1_0(), raw_device) };
     let limits =
@@ -363,8 +425,8 @@ fn create_vulkan(instance: &xr::Instance, system: xr::SystemId) -> VrResult<XrVu
         )
     }
     .map_err(|e| hal_err("adopting the Vulkan device")(Box::new(e)))?;
-    // SAFETY: `hal_instance` is a valid Vulkan HAL instance, and `exposed` and `open`
-    // come from it.
+    // SAFETY: `hal_instance` is a valid Vulkan HAL instance; `exposed` and `open` come
+    // from it.
     let wgpu_instance = unsafe { wgpu::Instance::from_hal::<hal::api::Vulkan>(hal_instance) };
     // SAFETY: see above.
     let adapter = unsafe { wgpu_instance.create_adapter_from_hal(exposed) };
@@ -394,6 +456,18 @@ fn create_vulkan(instance: &xr::Instance, system: xr::SystemId) -> VrResult<XrVu
         physical_device,
         raw_device,
         queue_family,
+    })
+}
+
+/// Creates the Vulkan instance and device through the runtime and hands them to wgpu.
+fn create_vulkan(instance: &xr::Instance, system: xr::SystemId) -> VrResult<XrVulkan> {
+    let reqs = instance
+        .graphics_requirements::<xr::Vulkan>(system)
+        .map_err(runtime("Vulkan graphics requirements"))?;
+    adopt_vulkan(&XrVulkanSource {
+        instance,
+        system,
+        reqs,
     })
 }
 
@@ -551,64 +625,10 @@ fn eye_swapchain(
     let images = handle
         .enumerate_images()
         .map_err(runtime("swapchain images"))?;
-    let size = wgpu::Extent3d {
-        width,
-        height,
-        depth_or_array_layers: 1,
-    };
-    // SAFETY: the HAL device is the Vulkan device the runtime created the swapchain
-    // on (the wgpu device was adopted from it).
-    let hal_device = unsafe { device.as_hal::<hal::api::Vulkan>() }
-        .ok_or_else(|| hal_err("the swapchain")("the device is not Vulkan".into()))?;
-    let mut textures = Vec::with_capacity(images.len());
-    for image in images {
-        let hal_desc = hal::TextureDescriptor {
-            label: Some("xr swapchain image"),
-            size,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage: wgpu::TextureUses::COLOR_TARGET
-                | wgpu::TextureUses::COPY_SRC
-                | wgpu::TextureUses::RESOURCE,
-            memory_flags: hal::MemoryFlags::empty(),
-            view_formats: Vec::new(),
-        };
-        // SAFETY: `image` is a swapchain image the runtime created with this size,
-        // format and usage, and owns: the drop callback tells wgpu-hal not to destroy
-        // it, and the swapchain outlives the textures (dropped first, below).
-        let hal_texture = unsafe {
-            hal_device.texture_from_raw(
-                vk::Image::from_raw(image),
-                &hal_desc,
-                Some(Box::new(|| {})),
-                hal::vulkan::TextureMemory::External,
-            )
-        };
-        // SAFETY: as above; OpenXR hands out Vulkan swapchain images in the colour
-        // attachment layout, which is wgpu's COLOR_TARGET state.
-        let texture = unsafe {
-            device.create_texture_from_hal::<hal::api::Vulkan>(
-                hal_texture,
-                &wgpu::TextureDescriptor {
-                    label: Some("xr swapchain image"),
-                    size,
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format,
-                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                        | wgpu::TextureUsages::COPY_SRC
-                        | wgpu::TextureUsages::TEXTURE_BINDING,
-                    view_formats: &[],
-                },
-                wgpu::TextureUses::COLOR_TARGET,
-            )
-        };
-        textures.push(texture);
-    }
-    drop(hal_device);
+    let textures = images
+        .into_iter()
+        .map(|image| wrap_image(device, vk::Image::from_raw(image), format, (width, height)))
+        .collect::<VrResult<Vec<_>>>()?;
     let views = textures
         .iter()
         .map(|t| t.create_view(&wgpu::TextureViewDescriptor::default()))
@@ -618,6 +638,105 @@ fn eye_swapchain(
         textures,
         views,
     })
+}
+
+/// A Vulkan image owned elsewhere (a swapchain image) as a wgpu texture on `device`,
+/// which must be the Vulkan device the image was created on. wgpu never destroys it,
+/// and takes it to be in the colour attachment layout, as OpenXR hands out Vulkan
+/// swapchain images.
+fn wrap_image(
+    device: &wgpu::Device,
+    image: vk::Image,
+    format: wgpu::TextureFormat,
+    (width, height): (u32, u32),
+) -> VrResult<wgpu::Texture> {
+    let size = wgpu::Extent3d {
+        width,
+        height,
+        depth_or_array_layers: 1,
+    };
+    // SAFETY: the caller passes the device the image lives on.
+    let hal_device = unsafe { device.as_hal::<hal::api::Vulkan>() }
+        .ok_or_else(|| hal_err("wrapping an image")("the device is not Vulkan".into()))?;
+    let hal_desc = hal::TextureDescriptor {
+        label: Some("xr swapchain image"),
+        size,
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUses::COLOR_TARGET
+            | wgpu::TextureUses::COPY_SRC
+            | wgpu::TextureUses::RESOURCE,
+        memory_flags: hal::MemoryFlags::empty(),
+        view_formats: Vec::new(),
+    };
+    // SAFETY: `image` was created with this size, format and usage, and is owned by
+    // someone else (the runtime's swapchain): the empty drop callback tells wgpu-hal
+    // not to destroy it, and the owner outlives the texture (dropped first).
+    let hal_texture = unsafe {
+        hal_device.texture_from_raw(
+            image,
+            &hal_desc,
+            Some(Box::new(|| {})),
+            hal::vulkan::TextureMemory::External,
+        )
+    };
+    drop(hal_device);
+    // SAFETY: as above; the image is in the colour attachment layout, wgpu's
+    // COLOR_TARGET state.
+    let texture = unsafe {
+        device.create_texture_from_hal::<hal::api::Vulkan>(
+            hal_texture,
+            &wgpu::TextureDescriptor {
+                label: Some("xr swapchain image"),
+                size,
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::COPY_SRC
+                    | wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            },
+            wgpu::TextureUses::COLOR_TARGET,
+        )
+    };
+    Ok(texture)
+}
+
+/// Draws both eyes of `app`'s scene into `targets` (left, right), `size` pixels each,
+/// with the project's renderer: meshes brought up to date, the wand cursor, no HUD.
+fn render_eyes(
+    renderer: &mut Renderer,
+    app: &mut AppState,
+    cameras: &Views,
+    targets: [&wgpu::TextureView; 2],
+    size: (u32, u32),
+) -> FrameStats {
+    renderer.sync_with(|sinks| app.sync_meshes(sinks));
+    renderer.classes = app.surface_classes();
+    let lines = app.overlay_lines();
+    renderer.render(
+        &FrameInput {
+            views: cameras,
+            lines: &lines,
+            hud: &[],
+        },
+        &[
+            OutputTarget {
+                view: targets[0],
+                size,
+                content: OutputContent::LeftEye,
+            },
+            OutputTarget {
+                view: targets[1],
+                size,
+                content: OutputContent::RightEye,
+            },
+        ],
+    )
 }
 
 /// Copies a swapchain texture back to the CPU as RGBA, then returns it to the colour
@@ -1084,27 +1203,12 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
                 .map_err(runtime("xrWaitSwapchainImage"))?;
             waited += w.elapsed();
         }
-        renderer.sync_with(|sinks| app.sync_meshes(sinks));
-        renderer.classes = app.surface_classes();
-        let lines = app.overlay_lines();
-        renderer.render(
-            &FrameInput {
-                views: &cameras,
-                lines: &lines,
-                hud: &[],
-            },
-            &[
-                OutputTarget {
-                    view: &eyes[0].views[index[0]],
-                    size: eye_size,
-                    content: OutputContent::LeftEye,
-                },
-                OutputTarget {
-                    view: &eyes[1].views[index[1]],
-                    size: eye_size,
-                    content: OutputContent::RightEye,
-                },
-            ],
+        render_eyes(
+            &mut renderer,
+            app,
+            &cameras,
+            [&eyes[0].views[index[0]], &eyes[1].views[index[1]]],
+            eye_size,
         );
         let last = opts.frames.is_some_and(|n| report.frames_rendered + 1 >= n);
         if opts.capture && last {
@@ -1265,5 +1369,169 @@ mod tests {
             distinct.len()
         );
         assert!(dir.path().join(POSE_LOG_FILE).exists());
+    }
+
+    /// Plain Vulkan, no runtime: the adapter `WANDSCULPT_ADAPTER` names, else the first.
+    struct PlainVulkan;
+
+    impl VulkanSource for PlainVulkan {
+        fn check_version(&self, _api_version: u32) -> VrResult<()> {
+            Ok(())
+        }
+
+        fn create_instance(
+            &self,
+            entry: &ash::Entry,
+            info: &vk::InstanceCreateInfo<'_>,
+        ) -> VrResult<vk::Instance> {
+            // SAFETY: `info` is valid for the call.
+            let instance =
+                unsafe { entry.create_instance(info, None) }.map_err(vk_err("vkCreateInstance"))?;
+            Ok(instance.handle())
+        }
+
+        fn physical_device(&self, instance: &ash::Instance) -> VrResult<vk::PhysicalDevice> {
+            // SAFETY: queries on a live instance.
+            let devices = unsafe { instance.enumerate_physical_devices() }
+                .map_err(vk_err("vkEnumeratePhysicalDevices"))?;
+            let want = std::env::var(crate::render::gpu::ADAPTER_ENV)
+                .ok()
+                .map(|s| s.to_lowercase());
+            let named = |d: &vk::PhysicalDevice| {
+                // SAFETY: `d` is a physical device of `instance`.
+                let props = unsafe { instance.get_physical_device_properties(*d) };
+                let name = props
+                    .device_name_as_c_str()
+                    .map(|n| n.to_string_lossy().to_lowercase())
+                    .unwrap_or_default();
+                want.as_ref().is_none_or(|w| name.contains(w.as_str()))
+            };
+            devices.into_iter().find(named).ok_or_else(|| {
+                vk_err("no Vulkan physical device")(vk::Result::ERROR_INITIALIZATION_FAILED)
+            })
+        }
+
+        fn create_device(
+            &self,
+            _entry: &ash::Entry,
+            instance: &ash::Instance,
+            physical_device: vk::PhysicalDevice,
+            info: &vk::DeviceCreateInfo<'_>,
+        ) -> VrResult<vk::Device> {
+            // SAFETY: `info` is valid for the call; the device is of this instance.
+            let device = unsafe { instance.create_device(physical_device, info, None) }
+                .map_err(vk_err("vkCreateDevice"))?;
+            Ok(device.handle())
+        }
+    }
+
+    /// The Vulkan interop of `--xr` without a runtime: wgpu adopts a raw Vulkan
+    /// instance and device, wraps images it does not own (stand-ins for swapchain
+    /// images, in the colour attachment layout), and the project's renderer draws the
+    /// two XR views of the default scene into them.
+    #[test]
+    fn wgpu_adopts_raw_vulkan_and_draws_both_eyes_into_images_it_does_not_own() {
+        let vulkan =
+            adopt_vulkan(&PlainVulkan).unwrap_or_else(|e| panic!("Vulkan (lavapipe): {e}"));
+        let gpu = &vulkan.gpu;
+        let size = (96, 64);
+        let format = wgpu::TextureFormat::Rgba8UnormSrgb;
+        let owners: Vec<wgpu::Texture> = (0..2)
+            .map(|_| {
+                gpu.device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some("owned elsewhere"),
+                    size: wgpu::Extent3d {
+                        width: size.0,
+                        height: size.1,
+                        depth_or_array_layers: 1,
+                    },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                        | wgpu::TextureUsages::COPY_SRC
+                        | wgpu::TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                })
+            })
+            .collect();
+        // Into the colour attachment layout, as a runtime hands its images out.
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        for t in &owners {
+            let view = t.create_view(&Default::default());
+            drop(encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                ..Default::default()
+            }));
+        }
+        gpu.queue.submit([encoder.finish()]);
+        let wrapped: Vec<wgpu::Texture> = owners
+            .iter()
+            .map(|t| {
+                // SAFETY: the handle stays owned by `t`, which outlives the wrapper.
+                let raw = unsafe { t.as_hal::<hal::api::Vulkan>().unwrap().raw_handle() };
+                wrap_image(&gpu.device, raw, format, size).unwrap()
+            })
+            .collect();
+        let dir = tempfile::tempdir().unwrap();
+        let mut cfg = crate::config::Config::default();
+        cfg.files.dir = dir.path().to_path_buf();
+        let mut app = AppState::new(cfg).unwrap();
+        let (lo, hi) = app.document_bounds().unwrap();
+        let stage = actions::display_from_stage(ReferenceSpace::Stage, (lo + hi) * 0.5);
+        let eye = |x: f64| XrPose {
+            position: DVec3::new(x, actions::STANDING_EYE_HEIGHT_M, 0.0),
+            orientation: DQuat::IDENTITY,
+        };
+        let fov = XrFov {
+            angle_left: -0.8,
+            angle_right: 0.8,
+            angle_up: 0.8,
+            angle_down: -0.8,
+        };
+        let cameras = xr_views(
+            &[(eye(-0.032), fov), (eye(0.032), fov)],
+            &stage,
+            0.05,
+            100.0,
+        )
+        .unwrap();
+        let mut renderer = Renderer::with_samples(gpu, format, app.config.render.msaa);
+        let views: Vec<wgpu::TextureView> = wrapped
+            .iter()
+            .map(|t| t.create_view(&Default::default()))
+            .collect();
+        let stats = render_eyes(
+            &mut renderer,
+            &mut app,
+            &cameras,
+            [&views[0], &views[1]],
+            size,
+        );
+        assert!(stats.triangles > 0, "{stats:?}");
+        let left = read_back(gpu, &wrapped[0]).unwrap();
+        let right = read_back(gpu, &wrapped[1]).unwrap();
+        for img in [&left, &right] {
+            let distinct: std::collections::BTreeSet<[u8; 4]> = img.pixels().map(|p| p.0).collect();
+            assert!(
+                distinct.len() > 16,
+                "the shaded sheet, not a clear colour: {}",
+                distinct.len()
+            );
+        }
+        assert_ne!(left, right, "two eyes, two pictures");
+        // The owner's image holds what was drawn into the wrapper.
+        assert_eq!(read_back(gpu, &owners[0]).unwrap(), left);
+        drop(views);
+        drop(wrapped);
     }
 }
