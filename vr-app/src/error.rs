@@ -304,6 +304,16 @@ pub enum XrError {
         #[source]
         cause: Box<dyn std::error::Error + Send + Sync>,
     },
+    /// A file of the headset session (pose log header, replay config) could not be
+    /// encoded.
+    #[error("encoding {what}: {cause}")]
+    Encode {
+        /// The file.
+        what: &'static str,
+        /// The encoder's reason.
+        #[source]
+        cause: Box<dyn std::error::Error + Send + Sync>,
+    },
     /// None of the swapchain formats the runtime offers is one the renderer draws.
     #[error("no usable swapchain format among {0:?} (VkFormat values)")]
     SwapchainFormat(Vec<i64>),

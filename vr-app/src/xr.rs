@@ -1,6 +1,7 @@
 //! OpenXR, the pure parts: XR view poses and fields of view to the renderer's eye
-//! cameras (here), the session lifecycle ([`state`]), and the action set, its
-//! bindings and controllers as the wand ([`actions`]). These are always built and
+//! cameras (here), the session lifecycle ([`state`]), the action set, its bindings
+//! and controllers as tracker frames ([`actions`]), and the controller as the
+//! session's wand, with its pose log ([`wand`]). These are always built and
 //! unit-tested; the runtime glue (`xr_runtime`, feature `openxr`) uses them.
 //!
 //! OpenXR reports each eye as a pose in a reference space (`stage`: +Y up, -Z forward,
@@ -26,6 +27,7 @@ use crate::scene::Views;
 
 pub mod actions;
 pub mod state;
+pub mod wand;
 
 /// A rigid pose (`space_from_object`).
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -34,20 +34,16 @@ use ash::vk::{self, Handle};
 use glam::{DQuat, DVec3};
 use openxr as xr;
 use serde::Serialize;
-use tracking::poselog::{PoseLogHeader, PoseLogWriter};
-use tracking::stage::{FrameStage, StageConfig};
 use wgpu::hal;
 
 use crate::app::AppState;
 use crate::error::{VrError, VrResult, XrError};
-use crate::input::{Input, TrackingState};
-use crate::live::stage_inputs;
+use crate::input::TrackingState;
 use crate::render::{FrameInput, FrameStats, Gpu, OutputContent, OutputTarget, Renderer};
 use crate::scene::Views;
-use crate::xr::actions::{
-    self, ControllerState, PoseSource, ReferenceSpace, ThumbstickTool, WandAction, WandMapper,
-};
+use crate::xr::actions::{self, ControllerState, PoseSource, ReferenceSpace, WandAction};
 use crate::xr::state::{ExitReason, Lifecycle, LifecycleEvent, SessionAction, SessionState};
+use crate::xr::wand::XrWand;
 use crate::xr::{XrFov, XrPose, swapchain_format, xr_views};
 
 /// What the runtime reported.
@@ -594,6 +590,47 @@ fn located(space: &xr::Space, base: &xr::Space, time: xr::Time) -> Option<XrPose
     loc.location_flags.contains(valid).then(|| pose(&loc.pose))
 }
 
+/// The controller's state from the actions (after `xrSyncActions`), poses located
+/// in `base` at `time`.
+fn controller_state(
+    acts: &Actions,
+    session: &xr::Session<xr::Vulkan>,
+    grip_space: &xr::Space,
+    aim_space: &xr::Space,
+    base: &xr::Space,
+    time: xr::Time,
+) -> ControllerState {
+    let button = |a: &xr::Action<bool>| {
+        a.state(session, xr::Path::NULL)
+            .is_ok_and(|s| s.is_active && s.current_state)
+    };
+    let thumbstick = acts
+        .stick
+        .state(session, xr::Path::NULL)
+        .ok()
+        .filter(|s| s.is_active)
+        .map_or([0.0; 2], |s| {
+            [f64::from(s.current_state.x), f64::from(s.current_state.y)]
+        });
+    let trigger = acts
+        .draw
+        .state(session, xr::Path::NULL)
+        .ok()
+        .filter(|s| s.is_active)
+        .map_or(0.0, |s| f64::from(s.current_state));
+    ControllerState {
+        grip: located(grip_space, base, time),
+        aim: located(aim_space, base, time),
+        trigger,
+        mode: button(&acts.mode),
+        profile: button(&acts.profile),
+        undo: button(&acts.undo),
+        redo: button(&acts.redo),
+        next_target: button(&acts.next_target),
+        thumbstick,
+    }
+}
+
 /// One eye's swapchain with its images as wgpu textures.
 struct EyeSwapchain {
     handle: xr::Swapchain<xr::Vulkan>,
@@ -815,52 +852,6 @@ fn read_back(gpu: &Gpu, texture: &wgpu::Texture) -> VrResult<image::RgbaImage> {
     Ok(img)
 }
 
-/// The stage config for the frames the controller mapper writes.
-fn xr_stage_config(display_from_stage: &XrPose, timeout_s: f64) -> StageConfig {
-    StageConfig {
-        wand_id: actions::WAND_ID,
-        head_id: Some(actions::HEAD_ID),
-        timeout_s,
-        calibration: actions::stage_calibration(display_from_stage),
-        // The runtime already predicts and smooths its poses.
-        filter: tracking::filter::FilterConfig {
-            enabled: false,
-            ..Default::default()
-        },
-    }
-}
-
-/// `replay --config` for the session's pose log: the calibration, filter and stage.
-fn replay_config(stage: &StageConfig) -> VrResult<String> {
-    #[derive(Serialize)]
-    struct Tracking {
-        wand_id: u32,
-        head_id: Option<u32>,
-        timeout: f64,
-    }
-    #[derive(Serialize)]
-    struct ReplayFile<'a> {
-        calibration: &'a tracking::calibration::Calibration,
-        filter: &'a tracking::filter::FilterConfig,
-        tracking: Tracking,
-    }
-    toml::to_string(&ReplayFile {
-        calibration: &stage.calibration,
-        filter: &stage.filter,
-        tracking: Tracking {
-            wand_id: stage.wand_id,
-            head_id: stage.head_id,
-            timeout: stage.timeout_s,
-        },
-    })
-    .map_err(|e| hal_err("writing xr-replay.toml")(Box::new(e)))
-}
-
-/// The pose log's file name in the session directory.
-pub const POSE_LOG_FILE: &str = "xr.poselog";
-/// The replay config's file name in the session directory.
-pub const REPLAY_CONFIG_FILE: &str = "xr-replay.toml";
-
 /// Runs a headset session on `app` until the runtime ends it or `opts.frames` frames
 /// were rendered (see the module docs).
 pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
@@ -979,43 +970,21 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
     renderer.wireframe = app.config.display.wireframe;
     renderer.set_material(app.config.render.material);
 
-    // The controllers as a tracked wand: stage, pose log, replay config.
-    let stage_config = xr_stage_config(
-        &display_from_stage,
-        tracking::stage::StageConfig::default().timeout_s,
-    );
-    let mut stage = FrameStage::new(stage_config.clone()).map_err(|reason| VrError::Tracking {
-        what: "the XR frame stage".into(),
-        reason: Box::new(reason),
-    })?;
+    // The controllers as a tracked wand: pose log, replay config, frame stage.
     let dir = app.session.dir().to_path_buf();
-    let log_path = dir.join(POSE_LOG_FILE);
-    let mut header = PoseLogHeader::new(format!("openxr {} / {}", info.runtime, info.system));
-    header.calibration = serde_json::to_value(&stage_config.calibration).unwrap_or_default();
-    let tracking_err = |what: &PathBuf| {
-        let what = what.display().to_string();
-        move |reason| VrError::Tracking {
-            what: what.clone(),
-            reason: Box::new(reason),
-        }
-    };
-    let mut pose_log =
-        PoseLogWriter::create(&log_path, &header).map_err(tracking_err(&log_path))?;
-    crate::session::write_atomic(
-        &dir.join(REPLAY_CONFIG_FILE),
-        replay_config(&stage_config)?.as_bytes(),
+    let mut wand = XrWand::create(
+        &dir,
+        &format!("{} / {}", info.runtime, info.system),
+        &display_from_stage,
+        app.config.interaction.buttons,
+        opts.pose,
     )?;
     app.view = None;
     app.tracking = TrackingState::Lost;
-    let mut mapper = WandMapper::new(app.config.interaction.buttons, opts.pose);
-    let stick = ThumbstickTool::default();
-    let mut stick_pending = [0.0; 2];
 
     let mut lifecycle = Lifecycle::default();
     let mut events = xr::EventDataBuffer::new();
     let mut first_time: Option<i64> = None;
-    let mut last_t = 0.0;
-    let mut frame_number = 0u64;
     let mut report = XrReport {
         runtime: info,
         adapter: gpu.describe(),
@@ -1030,12 +999,10 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
         strokes: 0,
         frame_cpu_median_us: 0.0,
         exit: String::new(),
-        pose_log: log_path.clone(),
+        pose_log: wand.log_path().to_path_buf(),
         capture: None,
     };
     let mut frame_cpu: Vec<Duration> = Vec::new();
-    let mut stage_events = Vec::new();
-    let mut inputs = Vec::new();
     let exit = 'frames: loop {
         // 1. Events: the lifecycle says what to do.
         let mut pending = Vec::new();
@@ -1106,67 +1073,12 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
             }
         }
         // 3. Controllers: a tracker frame through the stage into the session.
-        if plan.read_input && t >= last_t {
+        if plan.read_input {
             session
                 .sync_actions(&[(&acts.set).into()])
                 .map_err(runtime("xrSyncActions"))?;
-            let get_bool = |a: &xr::Action<bool>| {
-                a.state(&session, xr::Path::NULL)
-                    .is_ok_and(|s| s.is_active && s.current_state)
-            };
-            let stick_state = acts
-                .stick
-                .state(&session, xr::Path::NULL)
-                .ok()
-                .filter(|s| s.is_active)
-                .map_or([0.0; 2], |s| {
-                    [f64::from(s.current_state.x), f64::from(s.current_state.y)]
-                });
-            let c = ControllerState {
-                grip: located(&grip_space, &space, time),
-                aim: located(&aim_space, &space, time),
-                trigger: acts
-                    .draw
-                    .state(&session, xr::Path::NULL)
-                    .ok()
-                    .filter(|s| s.is_active)
-                    .map_or(0.0, |s| f64::from(s.current_state)),
-                mode: get_bool(&acts.mode),
-                profile: get_bool(&acts.profile),
-                undo: get_bool(&acts.undo),
-                redo: get_bool(&acts.redo),
-                next_target: get_bool(&acts.next_target),
-                thumbstick: stick_state,
-            };
-            frame_number += 1;
-            let frame = mapper.frame(frame_number, t, &c, head_in_stage.as_ref());
-            pose_log
-                .write_frame(&frame)
-                .map_err(tracking_err(&log_path))?;
-            report.controller_frames += 1;
-            stage_events.clear();
-            stage.push(&frame, &mut stage_events);
-            inputs.clear();
-            stage_inputs(&stage_events, 0, &mut inputs);
-            app.tracking = if stage.wand_tracked() {
-                TrackingState::Ok
-            } else {
-                TrackingState::Lost
-            };
-            let rejected_before = app.session.rejected;
-            let mut applied = Vec::new();
-            for input in inputs.drain(..) {
-                match input {
-                    Input::Wand(ev) => applied.extend(app.session.handle(&ev)?),
-                    // The eyes come from the runtime's views, not the head body.
-                    Input::Head(_) | Input::Tracking(_) | Input::Tick(_) => {}
-                }
-            }
-            let tool = app.session.interaction.tool().clone();
-            for ev in stick.commands(t, t - last_t, c.thumbstick, &tool, &mut stick_pending) {
-                applied.extend(app.session.handle(&ev)?);
-            }
-            if let Some(fb) = actions::feedback(&applied, app.session.rejected - rejected_before) {
+            let c = controller_state(&acts, &session, &grip_space, &aim_space, &space, time);
+            if let Some(fb) = wand.step(app, t, &c, head_in_stage.as_ref())? {
                 let v = fb.vibration();
                 let vibration = xr::HapticVibration::new()
                     .amplitude(v.amplitude as f32)
@@ -1180,7 +1092,6 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
                     Err(e) => tracing::warn!("haptic pulse ({fb:?}): {e}"),
                 }
             }
-            last_t = t;
         }
         // 4. Render both eyes into the swapchains, or end the frame with no layers.
         let Some((pair, xr_poses, xr_fovs)) = views_in_stage.filter(|_| plan.render) else {
@@ -1259,13 +1170,14 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
         frame_cpu.push(began.elapsed().saturating_sub(waited));
     };
     // Gestures still paused end, and the document is saved, as in any session.
-    app.session.tick(last_t + 10.0)?;
+    app.session.tick(wand.last_t() + 10.0)?;
     app.session.save_document()?;
     report.exit = match exit {
         ExitReason::Requested => "requested",
         ExitReason::Lost => "lost",
     }
     .into();
+    report.controller_frames = wand.frames();
     report.operations = app.session.operations();
     report.strokes = app.session.doc.strokes().len();
     frame_cpu.sort();
@@ -1318,22 +1230,6 @@ mod tests {
         }
     }
 
-    #[test]
-    fn the_replay_config_carries_the_stage_calibration() {
-        let d = XrPose {
-            position: DVec3::new(0.0, -0.08, 0.45),
-            orientation: DQuat::IDENTITY,
-        };
-        let stage = xr_stage_config(&d, 0.5);
-        let text = replay_config(&stage).unwrap();
-        let value: toml::Value = toml::from_str(&text).unwrap();
-        assert_eq!(value["calibration"]["scale"].as_float(), Some(0.001));
-        assert_eq!(value["filter"]["enabled"].as_bool(), Some(false));
-        assert_eq!(value["tracking"]["wand_id"].as_integer(), Some(0));
-        let t = value["calibration"]["translation_m"].as_array().unwrap();
-        assert_eq!(t[2].as_float(), Some(0.45));
-    }
-
     /// Talks to a real runtime when `XR_RUNTIME_JSON` names one; says it was skipped
     /// otherwise. With a runtime (Monado's simulated headset), it renders a few frames
     /// of the default scene and checks the session ran and the image is the scene.
@@ -1368,7 +1264,7 @@ mod tests {
             "a scene, not a clear colour: {}",
             distinct.len()
         );
-        assert!(dir.path().join(POSE_LOG_FILE).exists());
+        assert!(dir.path().join(crate::xr::wand::POSE_LOG_FILE).exists());
     }
 
     /// Plain Vulkan, no runtime: the adapter `WANDSCULPT_ADAPTER` names, else the first.
