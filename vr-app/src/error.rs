@@ -248,7 +248,7 @@ pub enum XrError {
     EyePose,
     /// The OpenXR loader could not be loaded.
     #[cfg(feature = "openxr")]
-    #[error("no loader ({cause}): install libopenxr-loader1")]
+    #[error("no loader: libopenxr_loader.so.1 did not load ({cause}); install libopenxr-loader1")]
     Loader {
         /// The loader's reason.
         cause: openxr::EntryError,
