@@ -1055,7 +1055,7 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
         report.frames_waited += 1;
         let time = state.predicted_display_time;
         let t0 = *first_time.get_or_insert(time.as_nanos());
-        let t = (time.as_nanos() - t0) as f64 * 1e-9;
+        let t = Duration::from_nanos((time.as_nanos() - t0).max(0) as u64).as_secs_f64();
         let plan = lifecycle.frame(state.should_render);
         let mut head_in_stage = None;
         let mut views_in_stage = None;
@@ -1083,7 +1083,10 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
                 let vibration = xr::HapticVibration::new()
                     .amplitude(v.amplitude as f32)
                     .frequency(v.frequency_hz as f32)
-                    .duration(xr::Duration::from_nanos((v.duration_s * 1e9) as i64));
+                    .duration(xr::Duration::from_nanos(
+                        Duration::try_from_secs_f64(v.duration_s)
+                            .map_or(0, |d| d.as_nanos() as i64),
+                    ));
                 match acts
                     .haptic
                     .apply_feedback(&session, xr::Path::NULL, &vibration)
