@@ -26,7 +26,10 @@
 //! * [`cluster`] (NATS JetStream roles: ingest, node, frame barrier) -> config, live,
 //!   app, headless, session;
 //! * [`headless`] -> app, render, session, journal, input, output; `window` -> app,
-//!   render, output, input, [`desktop_wand`].
+//!   render, output, input, [`desktop_wand`];
+//! * [`xr`] (pure: views to cameras, session lifecycle, bindings, controllers as
+//!   tracker frames) -> projection, scene; `xr::wand` -> app, live, input;
+//!   `xr_runtime` (feature `openxr`: the headset session) -> xr, render, app.
 //!
 //! ```
 //! use vr_app::projection::{fixed_head, Screen, StereoRig};

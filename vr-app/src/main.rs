@@ -95,6 +95,14 @@ struct Cli {
     /// Cluster ingest: the feed to publish (`<session>.tracking.<feed>`).
     #[arg(long, value_name = "NAME", default_value = "main")]
     feed: String,
+    /// Sculpt in an OpenXR head-mounted display with its controllers as the wand
+    /// (feature `openxr`; see docs/openxr.md). With `--frames N`, stop after N frames.
+    #[arg(long)]
+    xr: bool,
+    /// With --xr: read the last frame's left-eye swapchain image back into
+    /// `xr-left.png` in the session directory.
+    #[arg(long, requires = "xr")]
+    xr_capture: bool,
 }
 
 /// `--cluster` roles.
@@ -194,6 +202,9 @@ fn run(cli: Cli) -> Result<()> {
     config.display.quadtree |= cli.quadtree;
     config.display.swap_eyes ^= cli.swap_eyes;
     config.validate()?;
+    if cli.xr {
+        return run_xr(&cli, config);
+    }
     if let Some(role) = cli.cluster {
         return run_cluster(&cli, role, config);
     }
@@ -259,6 +270,43 @@ fn run(cli: Cli) -> Result<()> {
     };
     run_windowed(app, input, cli.frames)?;
     Ok(())
+}
+
+/// `--xr`: a headset session. The probe runs first, so a missing loader or runtime is
+/// one line naming it, before any session file is written.
+#[cfg(feature = "openxr")]
+fn run_xr(cli: &Cli, config: Config) -> Result<()> {
+    use vr_app::xr_runtime::{XrOptions, probe, run_xr};
+    // The OpenXR loader writes its own errors to stderr unless told otherwise; the
+    // probe's error names what is missing in one line. XR_LOADER_DEBUG=all shows them.
+    if std::env::var_os("XR_LOADER_DEBUG").is_none() {
+        // SAFETY: only the main thread exists here (tracking, GPU and session threads
+        // start later), so nothing reads the environment while it is written.
+        #[allow(unsafe_code)]
+        unsafe {
+            std::env::set_var("XR_LOADER_DEBUG", "none")
+        };
+    }
+    let info = probe()?;
+    eprintln!(
+        "wandsculpt: OpenXR runtime {} ({})",
+        info.runtime, info.system
+    );
+    let mut app = AppState::new(config).context("opening the session")?;
+    let opts = XrOptions {
+        frames: cli.frames,
+        capture: cli.xr_capture,
+        ..XrOptions::default()
+    };
+    let report = run_xr(&mut app, &opts)?;
+    println!("{}", serde_json::to_string_pretty(&report)?);
+    Ok(())
+}
+
+/// `--xr` in a build without the `openxr` feature.
+#[cfg(not(feature = "openxr"))]
+fn run_xr(_cli: &Cli, _config: Config) -> Result<()> {
+    bail!("--xr needs wandsculpt built with `--features openxr`")
 }
 
 /// `--cluster ingest|node`.

@@ -1,6 +1,8 @@
 //! OpenXR, the pure parts: XR view poses and fields of view to the renderer's eye
-//! cameras, and controller poses and buttons to wand events. These are always built
-//! and unit-tested; the runtime glue (`xr_runtime`, feature `openxr`) uses them.
+//! cameras (here), the session lifecycle ([`state`]), the action set, its bindings
+//! and controllers as tracker frames ([`actions`]), and the controller as the
+//! session's wand, with its pose log ([`wand`]). These are always built and
+//! unit-tested; the runtime glue (`xr_runtime`, feature `openxr`) uses them.
 //!
 //! OpenXR reports each eye as a pose in a reference space (`stage`: +Y up, -Z forward,
 //! metres) and four half-angles of an asymmetric frustum. The renderer works in the
@@ -18,10 +20,14 @@
 //! ```
 
 use glam::{DMat4, DQuat, DVec3};
-use sculpt_core::interaction::{WandEvent, WandSample};
 
 use crate::error::{VrError, VrResult, XrError};
 use crate::projection::{EyeCamera, frustum_rh_zo};
+use crate::scene::Views;
+
+pub mod actions;
+pub mod state;
+pub mod wand;
 
 /// A rigid pose (`space_from_object`).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -53,7 +59,8 @@ impl XrPose {
         }
     }
 
-    fn is_valid(&self) -> bool {
+    /// Whether the pose is finite with a non-zero quaternion.
+    pub fn is_valid(&self) -> bool {
         self.position.is_finite()
             && self.orientation.is_finite()
             && self.orientation.length_squared() > sculpt_core::tolerance::ZERO_QUAT_LEN2
@@ -136,74 +143,64 @@ pub fn eye_camera(
     })
 }
 
-/// The controller state OpenXR actions give for one hand.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct XrController {
-    /// Aim pose in the stage space, if the runtime tracks it.
-    pub aim: Option<XrPose>,
-    /// Trigger value in [0, 1].
-    pub trigger: f64,
-    /// Grip (squeeze) value in [0, 1].
-    pub squeeze: f64,
-    /// Primary face button (A / X).
-    pub primary: bool,
-    /// Secondary face button (B / Y).
-    pub secondary: bool,
-    /// Thumbstick click.
-    pub thumbstick: bool,
-    /// Menu button.
-    pub menu: bool,
+/// The renderer's cameras for the two views `xrLocateViews` reports (left, right:
+/// pose in the stage space and field of view): each eye through [`eye_camera`]; the
+/// head-centre camera (used only by mono outputs) sits midway between the eyes with
+/// the left eye's orientation and the union of both fields of view.
+pub fn xr_views(
+    views: &[(XrPose, XrFov); 2],
+    display_from_stage: &XrPose,
+    near: f64,
+    far: f64,
+) -> VrResult<Views> {
+    let [(left_pose, left_fov), (right_pose, right_fov)] = views;
+    let left = eye_camera(left_pose, left_fov, display_from_stage, near, far)?;
+    let right = eye_camera(right_pose, right_fov, display_from_stage, near, far)?;
+    let centre_pose = XrPose {
+        position: (left_pose.position + right_pose.position) * 0.5,
+        orientation: left_pose.orientation,
+    };
+    let union = XrFov {
+        angle_left: left_fov.angle_left.min(right_fov.angle_left),
+        angle_right: left_fov.angle_right.max(right_fov.angle_right),
+        angle_up: left_fov.angle_up.max(right_fov.angle_up),
+        angle_down: left_fov.angle_down.min(right_fov.angle_down),
+    };
+    let center = eye_camera(&centre_pose, &union, display_from_stage, near, far)?;
+    Ok(Views {
+        left,
+        right,
+        center,
+    })
 }
 
-/// Maps controller states to wand events, with hysteresis on the analogue trigger and
-/// grip (press above 0.6, release below 0.4) so a trembling finger does not chatter.
-///
-/// Button bits: 0 trigger (action), 1 grip (mode), 2 thumbstick (profile),
-/// 3 secondary (undo), 4 primary (redo), 5 menu (select) — the default
-/// [`ButtonMap`](sculpt_core::interaction::ButtonMap).
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct XrWandMapper {
-    trigger_down: bool,
-    squeeze_down: bool,
-}
+/// Vulkan formats (`VkFormat`) the swapchain may use, with their wgpu twins, best
+/// first: sRGB formats let the runtime read linear colour without a conversion.
+pub const SWAPCHAIN_FORMATS: [(i64, wgpu::TextureFormat); 4] = [
+    // VK_FORMAT_R8G8B8A8_SRGB
+    (43, wgpu::TextureFormat::Rgba8UnormSrgb),
+    // VK_FORMAT_B8G8R8A8_SRGB
+    (50, wgpu::TextureFormat::Bgra8UnormSrgb),
+    // VK_FORMAT_R8G8B8A8_UNORM
+    (37, wgpu::TextureFormat::Rgba8Unorm),
+    // VK_FORMAT_B8G8R8A8_UNORM
+    (44, wgpu::TextureFormat::Bgra8Unorm),
+];
 
-impl XrWandMapper {
-    /// The wand event for a controller state at time `t` (seconds).
-    pub fn map(&mut self, t: f64, c: &XrController, display_from_stage: &XrPose) -> WandEvent {
-        fn hysteresis(down: &mut bool, v: f64) -> bool {
-            if v.is_finite() {
-                if *down && v < 0.4 {
-                    *down = false;
-                } else if !*down && v > 0.6 {
-                    *down = true;
-                }
-            }
-            *down
-        }
-        let trigger = hysteresis(&mut self.trigger_down, c.trigger);
-        let squeeze = hysteresis(&mut self.squeeze_down, c.squeeze);
-        let buttons = u32::from(trigger)
-            | u32::from(squeeze) << 1
-            | u32::from(c.thumbstick) << 2
-            | u32::from(c.secondary) << 3
-            | u32::from(c.primary) << 4
-            | u32::from(c.menu) << 5;
-        let sample = match c.aim.filter(XrPose::is_valid) {
-            Some(aim) => {
-                let p = display_from_stage.compose(&aim);
-                WandSample::tracked(p.position, p.orientation, buttons)
-            }
-            None => WandSample::lost(buttons),
-        };
-        WandEvent::sample(t, sample)
-    }
+/// The swapchain format to use among those the runtime offers (`VkFormat` values,
+/// in the runtime's order of preference): the first of [`SWAPCHAIN_FORMATS`] that is
+/// offered.
+pub fn swapchain_format(offered: &[i64]) -> Option<(i64, wgpu::TextureFormat)> {
+    SWAPCHAIN_FORMATS
+        .iter()
+        .copied()
+        .find(|(vk, _)| offered.contains(vk))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use sculpt_core::assert_near;
-    use sculpt_core::interaction::WandInput;
     use sculpt_core::tolerance::EXACT_EPS;
 
     #[test]
@@ -303,47 +300,48 @@ mod tests {
     }
 
     #[test]
-    fn controller_maps_to_wand_with_trigger_hysteresis() {
-        let mut m = XrWandMapper::default();
-        let mut c = XrController {
-            aim: Some(XrPose {
-                position: DVec3::new(0.1, 1.2, -0.3),
-                orientation: DQuat::IDENTITY,
-            }),
-            trigger: 0.0,
-            squeeze: 0.0,
-            primary: false,
-            secondary: true,
-            thumbstick: false,
-            menu: false,
+    fn two_xr_views_give_eye_cameras_and_a_centre_between_them() {
+        let fov = |l: f64, r: f64| XrFov {
+            angle_left: l,
+            angle_right: r,
+            angle_up: 0.7,
+            angle_down: -0.8,
         };
-        let stage = XrPose {
-            position: DVec3::new(0.0, 0.0, 1.0),
+        let eye = |x: f64| XrPose {
+            position: DVec3::new(x, 1.6, 0.0),
             orientation: DQuat::IDENTITY,
         };
-        let buttons = |e: WandEvent| match e.input {
-            WandInput::Sample(s) => (s.tracked, s.buttons, s.position),
-            WandInput::Command(_) => panic!(),
+        let stage = XrPose {
+            position: DVec3::new(0.0, 0.0, 0.5),
+            orientation: DQuat::IDENTITY,
         };
-        let (tracked, b, p) = buttons(m.map(0.0, &c, &stage));
-        assert!(tracked);
-        assert_eq!(b, 1 << 3);
-        assert_near!(p.to_array(), [0.1, 1.2, 0.7], EXACT_EPS);
-        for (v, held) in [
-            (0.5, false),
-            (0.65, true),
-            (0.5, true),
-            (0.35, false),
-            (f64::NAN, false),
-        ] {
-            c.trigger = v;
-            assert_eq!(
-                buttons(m.map(0.1, &c, &stage)).1 & 1 == 1,
-                held,
-                "trigger {v}"
-            );
-        }
-        c.aim = None;
-        assert!(!buttons(m.map(0.2, &c, &stage)).0);
+        let views = [(eye(-0.032), fov(-0.9, 0.7)), (eye(0.032), fov(-0.7, 0.9))];
+        let v = xr_views(&views, &stage, 0.05, 50.0).unwrap();
+        assert_near!(v.left.eye.to_array(), [-0.032, 1.6, 0.5], EXACT_EPS);
+        assert_near!(v.right.eye.to_array(), [0.032, 1.6, 0.5], EXACT_EPS);
+        assert_near!(v.center.eye.to_array(), [0.0, 1.6, 0.5], EXACT_EPS);
+        // Each eye's own frustum edge maps to its NDC border.
+        let edge = DVec3::new(-0.032 + 2.0 * 0.7f64.tan(), 1.6, 0.5 - 2.0);
+        assert_near!(v.left.project(edge).unwrap().x, 1.0, EXACT_EPS);
+        // The centre's frustum is the union: from -0.9 to 0.9.
+        let c_edge = DVec3::new(2.0 * 0.9f64.tan(), 1.6, 0.5 - 2.0);
+        assert_near!(v.center.project(c_edge).unwrap().x, 1.0, EXACT_EPS);
+        // A bad view is an error, not a camera.
+        let bad = [(eye(0.0), fov(0.5, 0.4)), views[1]];
+        assert!(xr_views(&bad, &stage, 0.05, 50.0).is_err());
+    }
+
+    #[test]
+    fn swapchain_format_prefers_srgb_among_the_offered() {
+        // Offered UNORM first and SRGB later: SRGB wins.
+        assert_eq!(
+            swapchain_format(&[37, 50, 126]),
+            Some((50, wgpu::TextureFormat::Bgra8UnormSrgb))
+        );
+        assert_eq!(
+            swapchain_format(&[44]),
+            Some((44, wgpu::TextureFormat::Bgra8Unorm))
+        );
+        assert_eq!(swapchain_format(&[126, 130]), None, "depth formats only");
     }
 }

@@ -1,0 +1,90 @@
+//! A headset session replays: scripted controller states (what the OpenXR actions
+//! report) go through `XrWand`, the path `wandsculpt --xr` runs (tracker frames, frame
+//! stage, edit loop, journal, operator log), and `replay` of the pose log it wrote,
+//! with the replay config it wrote, builds the same document byte for byte. No OpenXR
+//! runtime is involved.
+
+use glam::{DQuat, DVec3};
+use replay::config::ReplayConfig;
+use replay::pipeline::{default_document, replay_log};
+use sculpt_core::editor::default_surface_point;
+use vr_app::app::AppState;
+use vr_app::config::Config;
+use vr_app::xr::XrPose;
+use vr_app::xr::actions::{
+    ControllerState, Feedback, PoseSource, ReferenceSpace, display_from_stage,
+};
+use vr_app::xr::wand::{POSE_LOG_FILE, REPLAY_CONFIG_FILE, XrWand};
+
+#[test]
+fn a_headset_session_replays_to_the_same_document() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = Config::default();
+    cfg.files.dir = dir.path().to_path_buf();
+    let mut app = AppState::new(cfg).unwrap();
+    let (lo, hi) = app.document_bounds().unwrap();
+    let display_from = display_from_stage(ReferenceSpace::Stage, (lo + hi) * 0.5);
+    let mut wand = XrWand::create(
+        dir.path(),
+        "scripted",
+        &display_from,
+        app.config.interaction.buttons,
+        PoseSource::Grip,
+    )
+    .unwrap();
+    // A grip pose in the stage for a point of the display frame.
+    let grip_at = |p_in_display: DVec3| XrPose {
+        position: display_from.orientation.inverse() * (p_in_display - display_from.position),
+        orientation: DQuat::from_rotation_x(-0.3),
+    };
+    let dt = 1.0 / 90.0;
+    let mut t = 0.0;
+    let mut pulses = Vec::new();
+    // Two strokes across the sheet, at two heights, the trigger squeezed past its
+    // hysteresis, with a pause (and an undo press and release) between them.
+    for (row, y) in [1.1, 1.25].into_iter().enumerate() {
+        for i in 0..=40 {
+            let x = -0.12 + 0.006 * f64::from(i);
+            let state = ControllerState {
+                grip: Some(grip_at(default_surface_point(x, y))),
+                trigger: if (1..40).contains(&i) { 0.9 } else { 0.1 },
+                ..ControllerState::default()
+            };
+            pulses.extend(wand.step(&mut app, t, &state, None).unwrap());
+            t += dt;
+        }
+        if row == 0 {
+            for undo in [true, false, false] {
+                let state = ControllerState {
+                    grip: Some(grip_at(default_surface_point(0.0, 1.2) + DVec3::Z * 0.1)),
+                    undo,
+                    ..ControllerState::default()
+                };
+                pulses.extend(wand.step(&mut app, t, &state, None).unwrap());
+                t += dt;
+            }
+        }
+    }
+    assert_eq!(
+        pulses,
+        [Feedback::Applied, Feedback::Applied],
+        "one pulse per stroke"
+    );
+    assert_eq!(
+        app.session.doc.strokes().len(),
+        1,
+        "two strokes, one undone"
+    );
+    assert_eq!(wand.frames(), 85);
+    let live = app.session.doc.to_json();
+
+    let log = std::fs::read(dir.path().join(POSE_LOG_FILE)).unwrap();
+    let config = std::fs::read_to_string(dir.path().join(REPLAY_CONFIG_FILE)).unwrap();
+    let replay_cfg = ReplayConfig::from_toml_str(&config).unwrap();
+    let outcome = replay_log(&log, &replay_cfg, default_document(), "xr", false, None).unwrap();
+    assert_eq!(
+        String::from_utf8_lossy(&outcome.document.to_json()),
+        String::from_utf8_lossy(&live),
+        "replay of the headset session's pose log"
+    );
+}
