@@ -281,7 +281,9 @@ enum StudyCmd {
         #[arg(long, default_value_t = 6)]
         steps: usize,
     },
-    /// Print the next session to record (participant, method, trials, log path).
+    /// Print the next trial to record: the first session, in manifest order, with
+    /// fewer trials in its log than it asks for (participant, method, order, trial,
+    /// trials, log path).
     Next {
         /// Study directory.
         dir: PathBuf,
@@ -769,9 +771,23 @@ fn study_cmd(s: StudyCmd) -> Result<()> {
         }
         StudyCmd::Next { dir, json } => {
             let m = read_manifest(&dir)?;
-            match m.sessions.iter().find(|s| !dir.join(&s.log).exists()) {
-                Some(s) => {
-                    let log = dir.join(&s.log);
+            // The first session, in manifest order, with fewer trials recorded than it
+            // asks for: the trial `replay --study` and `wandsculpt --study` record next.
+            let mut next = None;
+            for s in &m.sessions {
+                let log = dir.join(&s.log);
+                let recorded = match std::fs::read(&log) {
+                    Ok(bytes) => sculpt_core::study::trials_in(&bytes)
+                        .with_context(|| format!("reading {}", log.display()))?,
+                    Err(_) => 0,
+                };
+                if recorded < s.trials {
+                    next = Some((s, recorded + 1, log));
+                    break;
+                }
+            }
+            match next {
+                Some((s, trial, log)) => {
                     if json {
                         say!(
                             "{}",
@@ -779,16 +795,18 @@ fn study_cmd(s: StudyCmd) -> Result<()> {
                                 "participant": s.participant,
                                 "method": s.method,
                                 "order": s.order,
+                                "trial": trial,
                                 "trials": s.trials,
                                 "log": log,
                             })
                         );
                     } else {
                         say!(
-                            "{}\t{}\t{}\t{}\t{}",
+                            "{}\t{}\t{}\t{}/{}\t{}",
                             s.participant,
                             s.method,
                             s.order,
+                            trial,
                             s.trials,
                             log.display()
                         );
