@@ -16,6 +16,7 @@ pub mod report;
 pub mod stats;
 pub mod study;
 pub mod synth;
+pub mod text;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
