@@ -11,6 +11,7 @@
 
 pub mod extract;
 pub mod klm;
+pub mod paper;
 pub mod plot;
 pub mod report;
 pub mod stats;
