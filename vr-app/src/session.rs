@@ -129,6 +129,10 @@ struct OperatorLog {
     segments: std::collections::BTreeMap<String, u32>,
     /// Study mode: the events of the trial being recorded.
     capture: Option<Vec<OpEvent>>,
+    /// A `trial_start` to write just before the next event (at its time): a segment
+    /// or trial starts at its first event, not at time zero (a live session's clock is
+    /// the tracker's).
+    pending: Option<EventKind>,
     /// The latest event time written.
     last_t: f64,
 }
@@ -162,9 +166,10 @@ impl OperatorLog {
             segment: None,
             segments: Default::default(),
             capture: None,
+            pending: None,
             last_t: 0.0,
         };
-        log.start_segment(0.0, method);
+        log.pending = Some(log.next_segment(method));
         log.flush();
         Ok(log)
     }
@@ -179,25 +184,23 @@ impl OperatorLog {
         self.writer = OpLogWriter::new(header);
         self.segment = None;
         self.segments.clear();
+        self.pending = None;
         self.last_t = 0.0;
         self.flush();
         Ok(())
     }
 
-    /// Opens the next segment of `method` at `t` (plain sessions).
-    fn start_segment(&mut self, t: f64, method: &str) {
+    /// Opens the next segment of `method` (plain sessions): its `trial_start`.
+    fn next_segment(&mut self, method: &str) -> EventKind {
         let n = self.segments.entry(method.to_owned()).or_insert(0);
         *n += 1;
         let trial = *n;
         self.segment = Some((method.to_owned(), trial));
-        self.write(
-            t,
-            EventKind::TrialStart {
-                trial,
-                task: None,
-                method: Some(method.to_owned()),
-            },
-        );
+        EventKind::TrialStart {
+            trial,
+            task: None,
+            method: Some(method.to_owned()),
+        }
     }
 
     fn push(&mut self, t: f64, event: &OperatorEvent) -> VrResult<()> {
@@ -207,8 +210,18 @@ impl OperatorLog {
                 && method != to
                 && t >= self.last_t
             {
-                self.write(t, EventKind::TrialEnd { trial });
-                self.start_segment(t, to);
+                if self.pending.is_some() {
+                    // Nothing in the segment yet: it is not counted, the new one starts
+                    // at the next event instead.
+                    if let Some(n) = self.segments.get_mut(&method) {
+                        *n -= 1;
+                    }
+                    self.pending = Some(self.next_segment(to));
+                } else {
+                    self.write(t, EventKind::TrialEnd { trial });
+                    let start = self.next_segment(to);
+                    self.write(t, start);
+                }
             }
         }
         self.push_kind(t, editor::oplog_event(event));
@@ -228,8 +241,15 @@ impl OperatorLog {
         self.write(t, kind);
     }
 
-    /// Writes one event to the file.
+    /// Writes one event to the file (after a pending `trial_start`, at the same time).
     fn write(&mut self, t: f64, kind: EventKind) {
+        if let Some(start) = self.pending.take() {
+            self.write_now(t, start);
+        }
+        self.write_now(t, kind);
+    }
+
+    fn write_now(&mut self, t: f64, kind: EventKind) {
         // The state machine never goes back in time; an event it could not order is
         // reported and left out rather than corrupting the log.
         if let Err(e) = self.writer.push(t, kind) {
@@ -546,19 +566,20 @@ impl Session {
         )
     }
 
-    /// Study mode: marks a trial's start at `t` in the operator log (`trial_start`
-    /// with the trial number, the task and the study method) and starts recording
-    /// its events.
-    pub fn begin_trial(&mut self, t: f64, trial: u32, task: Option<&str>, method: &str) {
+    /// Study mode: marks a trial's start in the operator log (`trial_start` with the
+    /// trial number, the task and the study method) at `t`, or with `None` at the next
+    /// event, and starts recording its events.
+    pub fn begin_trial(&mut self, t: Option<f64>, trial: u32, task: Option<&str>, method: &str) {
         let log = &mut self.files.oplog;
-        log.write(
-            t,
-            EventKind::TrialStart {
-                trial,
-                task: task.map(str::to_owned),
-                method: Some(method.to_owned()),
-            },
-        );
+        let start = EventKind::TrialStart {
+            trial,
+            task: task.map(str::to_owned),
+            method: Some(method.to_owned()),
+        };
+        match t {
+            Some(t) => log.write(t, start),
+            None => log.pending = Some(start),
+        }
         log.capture = Some(Vec::new());
     }
 
@@ -568,6 +589,10 @@ impl Session {
     pub fn end_trial(&mut self, t: f64, trial: u32) -> Option<Vec<OpEvent>> {
         let log = &mut self.files.oplog;
         let events = log.capture.take()?;
+        if log.pending.take().is_some() {
+            // It never started: no event came.
+            return None;
+        }
         let end = t.max(log.last_t);
         log.write(end, EventKind::TrialEnd { trial });
         Some(events)
@@ -721,6 +746,35 @@ mod tests {
                 "start carve 2"
             ]
         );
+        // A segment starts at its first event (a live clock is the tracker's, far from
+        // zero), and a mode switch before any event leaves no empty segment.
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = Session::open(&config(dir.path())).unwrap();
+        s.key(100.0, "3");
+        s.handle(&WandEvent::command(
+            100.0,
+            Command::SetMode {
+                mode: sculpt_core::interaction::InteractionMode::EMBOSS,
+            },
+        ))
+        .unwrap();
+        let log = decode_bytes(&std::fs::read(dir.path().join(OPLOG_FILE)).unwrap()).unwrap();
+        let first = &log.events[0];
+        assert_eq!(first.t, 100.0);
+        assert_eq!(
+            first.kind,
+            EventKind::TrialStart {
+                trial: 1,
+                task: None,
+                method: Some("carve".into())
+            }
+        );
+        let starts = log
+            .events
+            .iter()
+            .filter(|e| matches!(e.kind, EventKind::TrialStart { .. }))
+            .count();
+        assert_eq!(starts, 2, "{:?}", log.events);
     }
 
     /// Regression (issue 15, item 7): on a full disk a failed `operator.log` write

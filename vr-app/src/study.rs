@@ -116,7 +116,8 @@ impl StudyRun {
         }
         let t = t.max(session.log_time());
         let task = self.task(next);
-        session.begin_trial(t, next.trial, Some(&task), &next.session.method);
+        let at = (!self.from_first_event).then_some(t);
+        session.begin_trial(at, next.trial, Some(&task), &next.session.method);
         self.recording = Some(t);
         true
     }
@@ -125,6 +126,7 @@ impl StudyRun {
     /// whose input is the trial). False as [`StudyRun::start`].
     pub fn start_at_first_event(&mut self, session: &mut Session) -> bool {
         let t = session.log_time();
+        self.from_first_event = true;
         self.from_first_event = self.start(session, t);
         self.from_first_event
     }
