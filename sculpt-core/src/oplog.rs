@@ -17,6 +17,7 @@
 //! |---|---|---|
 //! | `pose` | `p: [x,y,z]` metres (display frame), `q: [x,y,z,w]` | a wand pose sample |
 //! | `button` | `id: u8`, `down: bool` | a button edge |
+//! | `key` | `key: string` (`Ctrl+Z`, `2`, `Tab`, ...) | a desktop key press (a keystroke; no release is logged) |
 //! | `mode` | `mode: string` (`sketch`, `carve`, `emboss`, ...) | interaction mode change |
 //! | `tool` | `tool: string` (`v-chisel`, `u-chisel`, ...) | tool change |
 //! | `stroke_start`, `stroke_end` | | a stroke begins / ends |
@@ -24,7 +25,7 @@
 //! | `tracking` | `state: "tracked" \| "coasting" \| "lost"` | tracking state change |
 //! | `target` | `id: string`, `p: [x,y,z]`, `width: f64` metres | the selectable target under the wand (for Fitts' law) |
 //! | `marker` | `label: string` | a free-form marker |
-//! | `trial_start` | `trial: u32`, optional `task: string` | a trial begins |
+//! | `trial_start` | `trial: u32`, optional `task: string`, optional `method: string` | a trial (or segment) begins; `method` overrides the header's for it |
 //! | `trial_end` | `trial: u32` | a trial ends |
 //!
 //! Writing is one [`OpLogWriter::push`] (or [`encode_line`]) per event into a byte
@@ -166,6 +167,11 @@ pub enum EventKind {
         /// True on press, false on release.
         down: bool,
     },
+    /// A desktop key press (a keystroke: the key's press; no release is logged).
+    Key {
+        /// The key as the key help shows it (`Ctrl+Z`, `2`, `Tab`, ...).
+        key: String,
+    },
     /// The interaction mode changed (`sketch`, `carve`, `emboss`, ...).
     Mode {
         /// New mode name.
@@ -212,6 +218,10 @@ pub enum EventKind {
         /// Task name, when the study has several.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         task: Option<String>,
+        /// The method of this trial, when it is not the header's (a session segment
+        /// after a mode switch).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        method: Option<String>,
     },
     /// A trial ends.
     TrialEnd {
@@ -543,6 +553,7 @@ mod tests {
                 kind: EventKind::TrialStart {
                     trial: 1,
                     task: Some("carve".into()),
+                    method: Some("wall".into()),
                 },
             },
             OpEvent {
@@ -559,6 +570,10 @@ mod tests {
             OpEvent {
                 t: 0.6,
                 kind: EventKind::Button { id: 0, down: false },
+            },
+            OpEvent {
+                t: 0.7,
+                kind: EventKind::Key { key: "2".into() },
             },
             OpEvent {
                 t: 0.7,
@@ -663,6 +678,24 @@ mod tests {
         );
         let h = encode_header(&OpLogHeader::new());
         assert_eq!(h, "{\"format\":\"wandsculpt-oplog\",\"version\":1}\n");
+        let mut out = Vec::new();
+        for kind in [
+            EventKind::Key {
+                key: "Ctrl+Z".into(),
+            },
+            EventKind::TrialStart {
+                trial: 2,
+                task: None,
+                method: Some("emboss".into()),
+            },
+        ] {
+            encode_line(&OpEvent { t: 0.5, kind }, &mut out);
+        }
+        assert_eq!(
+            String::from_utf8(out).unwrap(),
+            "{\"t\":0.5,\"ev\":\"key\",\"key\":\"Ctrl+Z\"}\n\
+             {\"t\":0.5,\"ev\":\"trial_start\",\"trial\":2,\"method\":\"emboss\"}\n"
+        );
     }
 
     #[test]
@@ -813,8 +846,17 @@ mod tests {
                 }
             }),
             "\\PC{0,20}".prop_map(|label| EventKind::Marker { label }),
-            (any::<u32>(), proptest::option::of("\\PC{0,8}"))
-                .prop_map(|(trial, task)| EventKind::TrialStart { trial, task }),
+            (
+                any::<u32>(),
+                proptest::option::of("\\PC{0,8}"),
+                proptest::option::of("\\PC{0,8}")
+            )
+                .prop_map(|(trial, task, method)| EventKind::TrialStart {
+                    trial,
+                    task,
+                    method
+                }),
+            "\\PC{0,8}".prop_map(|key| EventKind::Key { key }),
             any::<u32>().prop_map(|trial| EventKind::TrialEnd { trial }),
         ]
     }

@@ -305,6 +305,23 @@ pub fn append_trial(
     events: &[u8],
 ) -> crate::Result<Vec<u8>> {
     let trial = oplog::decode_bytes(events)?;
+    let t0 = trial.events.first().map_or(0.0, |e| e.t);
+    let t1 = trial.events.last().map_or(t0, |e| e.t);
+    append_span(existing, next, source, task, &trial.events, (t0, t1))
+}
+
+/// Appends one trial as [`append_trial`] does, from events already decoded, over the
+/// span `(t0, t1)` of the program's clock (the trial's start and end signals, which
+/// may lie before the first and after the last event). Events outside the span are
+/// left out.
+pub fn append_span(
+    existing: Option<&[u8]>,
+    next: &NextTrial,
+    source: &str,
+    task: Option<&str>,
+    events: &[oplog::OpEvent],
+    (t0, t1): (f64, f64),
+) -> crate::Result<Vec<u8>> {
     let (mut bytes, offset) = match existing {
         Some(old) => {
             let log = oplog::decode_bytes(old)?;
@@ -323,16 +340,16 @@ pub fn append_trial(
         // The header is already in `bytes`.
         w.take();
     }
-    let t0 = trial.events.first().map_or(0.0, |e| e.t);
-    let t1 = trial.events.last().map_or(t0, |e| e.t);
+    let t1 = t1.max(t0);
     w.push(
         offset,
         EventKind::TrialStart {
             trial: next.trial,
             task: task.map(str::to_owned),
+            method: None,
         },
     )?;
-    for e in &trial.events {
+    for e in events.iter().filter(|e| e.t >= t0 && e.t <= t1) {
         w.push(offset + (e.t - t0), e.kind.clone())?;
     }
     w.push(
@@ -410,7 +427,7 @@ mod tests {
             .events
             .iter()
             .filter_map(|e| match &e.kind {
-                EventKind::TrialStart { trial, task } => Some((
+                EventKind::TrialStart { trial, task, .. } => Some((
                     e.t,
                     format!("start {trial} {}", task.as_deref().unwrap_or("")),
                 )),

@@ -315,6 +315,11 @@ pub const REPLAY_POSE_EPS: f64 = 1e-3;
 pub const PRINTED_TABLE_EPS: f64 = 1e-5;
 /// Sums and ratios of a few two-decimal numbers (the tools' CSV cells) agree to this.
 pub const DECIMAL_SUM_EPS: f64 = 1e-9;
+/// A glyph's ink in a rasterised plot label against the font's metrics: whole pixels,
+/// an antialiased edge counting on either side (pixels).
+pub const GLYPH_INK_PX: f64 = 1.0;
+/// Sums of a few dozen glyph advances in `f32` pixels, added in another order (pixels).
+pub const GLYPH_ADVANCE_SUM_EPS: f64 = 1e-3;
 /// OCCT's face area against ours (Green's theorem over the same loops, 8-point Gauss
 /// per knot span): relative. Ours is converged to 1e-14; OCCT's adaptive integration
 /// is asked for 1e-8 (`--area-eps`) but on cubic stroke surfaces stays up to 2.4e-6 off

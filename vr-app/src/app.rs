@@ -37,6 +37,8 @@ pub struct AppState {
     /// The desktop camera (desktop mode: no `[tracking]`), framing the document at
     /// start; `None` on a tracked wall, whose view is the physical one.
     pub view: Option<DesktopView>,
+    /// Study mode (`--study`): the participant's trials, shown on the HUD.
+    pub study: Option<crate::study::StudyRun>,
     fixed_head: HeadPose,
     scene: SceneState,
     /// The quadtree overlay's lines and the strokes they were drawn for.
@@ -67,6 +69,7 @@ impl AppState {
             tracking,
             fps: 0.0,
             view,
+            study: None,
             fixed_head: head,
             scene: SceneState::default(),
             quadtree: None,
@@ -191,7 +194,16 @@ impl AppState {
         self.quadtree.as_ref().map_or(&[], |(_, l)| l.as_slice())
     }
 
-    /// HUD text: mode, tool, target, tracking, fps, operations.
+    /// Study mode: records the participant's trials of `study` in this session (the
+    /// operator log is started again for the study; call before any input).
+    pub fn start_study(&mut self, study: crate::study::StudyRun) -> VrResult<()> {
+        study.attach(&mut self.session)?;
+        self.study = Some(study);
+        Ok(())
+    }
+
+    /// HUD text: mode, tool, target, tracking, fps, operations; in study mode the
+    /// participant, method and trial.
     pub fn hud_lines(&self) -> Vec<String> {
         let i = &self.session.interaction;
         let mode = i.mode().name();
@@ -212,7 +224,7 @@ impl AppState {
             Some(StrokeMode::Emboss) => "  embossing",
             None => "",
         };
-        vec![
+        let mut lines = vec![
             format!(
                 "{mode} {profile} {:.1}x{:.1}mm  target {}/{}{live}",
                 t.width * 1000.0,
@@ -225,7 +237,9 @@ impl AppState {
                 self.fps,
                 self.session.operations()
             ),
-        ]
+        ];
+        lines.extend(self.study.as_ref().map(crate::study::StudyRun::hud_line));
+        lines
     }
 
     /// Updates the smoothed fps from one frame's duration (seconds).

@@ -34,6 +34,22 @@ pub enum VrError {
         /// Why it was refused.
         reason: Box<VrError>,
     },
+    /// A study manifest (`--study`) could not be used, or a trial not recorded.
+    #[error("study {}: {reason}", path.display())]
+    Study {
+        /// The manifest or the session log.
+        path: PathBuf,
+        /// Why.
+        reason: Box<sculpt_core::study::StudyError>,
+    },
+    /// A study trial could not be appended to its session log.
+    #[error("study log {}: {reason}", path.display())]
+    StudyLog {
+        /// The session log.
+        path: PathBuf,
+        /// Why.
+        reason: Box<sculpt_core::Error>,
+    },
     /// A base scene could not be read as a document.
     #[error("scene {}: {reason}", path.display())]
     Scene {

@@ -16,11 +16,12 @@
 //! * [`config`] -> output, `render::material` (pure) (it also holds
 //!   [`Playback`](config::Playback));
 //! * [`session`] -> config, journal;
+//! * [`study`] (`--study`: trials into a study's logs) -> session;
 //! * [`scene`] (a frame as plain values: cameras, overlay lines, the meshes of a
 //!   document and an interaction) -> preview;
 //! * [`render`] (wgpu) -> scene, output: it draws a [`FrameInput`](scene::FrameInput)
 //!   and fills mesh sinks it is handed, and never sees the app state;
-//! * [`app`] ([`AppState`](app::AppState)) -> config, session, scene, input,
+//! * [`app`] ([`AppState`](app::AppState)) -> config, session, study, scene, input,
 //!   [`desktop_view`] (the desktop camera), [`desktop_wand`];
 //! * [`live`] (tracking hub on tokio) -> config, input;
 //! * [`cluster`] (NATS JetStream roles: ingest, node, frame barrier) -> config, live,
@@ -60,6 +61,7 @@ pub mod quadtree;
 pub mod render;
 pub mod scene;
 pub mod session;
+pub mod study;
 #[cfg(feature = "window")]
 pub mod window;
 pub mod xr;

@@ -103,6 +103,23 @@ struct Cli {
     /// `xr-left.png` in the session directory.
     #[arg(long, requires = "xr")]
     xr_capture: bool,
+    /// Study mode: record the participant's next trials of this study manifest
+    /// (`study.toml` of `sculpt-tools goms study init`) into the logs it names; the HUD
+    /// shows participant, method and trial, `Enter` starts and ends a trial (headless:
+    /// the whole input is one trial). See docs/goms.md.
+    #[arg(
+        long,
+        value_name = "MANIFEST",
+        requires = "participant",
+        conflicts_with = "cluster"
+    )]
+    study: Option<PathBuf>,
+    /// With --study: the participant.
+    #[arg(long, value_name = "ID", requires = "study")]
+    participant: Option<String>,
+    /// With --study: the task named in each trial's `trial_start` (default: the method).
+    #[arg(long, value_name = "NAME", requires = "study")]
+    task: Option<String>,
 }
 
 /// `--cluster` roles.
@@ -232,6 +249,10 @@ fn run(cli: Cli) -> Result<()> {
                 .display()
         );
     }
+    if let (Some(manifest), Some(participant)) = (&cli.study, &cli.participant) {
+        let study = vr_app::study::StudyRun::open(manifest, participant, cli.task.clone())?;
+        app.start_study(study)?;
+    }
     let demo = || demo_events(&app.screen);
     if cli.headless {
         let events: Box<dyn Iterator<Item = Input>> = if cli.demo {
@@ -256,7 +277,16 @@ fn run(cli: Cli) -> Result<()> {
             render_every: cli.render_every,
             realtime: cli.realtime,
         };
+        if let Some(study) = &mut app.study {
+            study.start_at_first_event(&mut app.session);
+        }
         let report = run_headless(&mut app, &gpu, events, &opts)?;
+        if let Some(study) = &mut app.study {
+            let label = study.trial_label().unwrap_or_default();
+            if let Some(log) = study.finish(&mut app.session, None)? {
+                eprintln!("wandsculpt: recorded {label} -> {}", log.display());
+            }
+        }
         println!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(());
     }

@@ -20,6 +20,13 @@
 //!   `sculpt_core::oplog` format (header `source = "wandsculpt"`), appended and flushed
 //!   per event, read by `sculpt-tools goms`. A log left by an earlier run is kept as
 //!   `operator.N.log` (the first free `N`), since each run's clock starts at zero.
+//!   Desktop keys are logged as `key` events ([`Session::key`], a K operator). The
+//!   log is cut into segments, one per interaction mode: it opens with
+//!   `trial_start {trial: 1, method: <start mode>}`, and each mode switch ends the
+//!   segment and starts the next (`trial_end`, then `trial_start` with the new mode as
+//!   its `method`, numbered per mode), so `sculpt-tools goms` counts each operator
+//!   under the mode it was made in. In study mode ([`Session::start_study`]) the
+//!   study's method is the method and the study's trials are the segments.
 //!
 //! ```
 //! use vr_app::session::Session;
@@ -41,7 +48,7 @@ use sculpt_core::edit_loop::{EditHooks, EditLoop, LoopError, NoHooks, Step};
 use sculpt_core::editor::{self, Applied};
 use sculpt_core::error::Chain;
 use sculpt_core::interaction::{Command, Edit, Interaction, OperatorEvent, TargetIndex, WandEvent};
-use sculpt_core::oplog::{OpLogHeader, OpLogWriter};
+use sculpt_core::oplog::{EventKind, OpEvent, OpLogHeader, OpLogWriter};
 use sculpt_core::sculpt::document::Document;
 
 use crate::config::Config;
@@ -116,6 +123,18 @@ struct OperatorLog {
     writer: OpLogWriter,
     /// Set by the first failed write: nothing more is written.
     failed: bool,
+    /// Plain sessions: the segment open now (method, its number) and the segments
+    /// started per method; `None` in study mode, whose trials are the segments.
+    segment: Option<(String, u32)>,
+    segments: std::collections::BTreeMap<String, u32>,
+    /// Study mode: the events of the trial being recorded.
+    capture: Option<Vec<OpEvent>>,
+    /// A `trial_start` to write just before the next event (at its time): a segment
+    /// or trial starts at its first event, not at time zero (a live session's clock is
+    /// the tracker's).
+    pending: Option<EventKind>,
+    /// The latest event time written.
+    last_t: f64,
 }
 
 impl OperatorLog {
@@ -144,20 +163,101 @@ impl OperatorLog {
             file,
             writer,
             failed: false,
+            segment: None,
+            segments: Default::default(),
+            capture: None,
+            pending: None,
+            last_t: 0.0,
         };
+        log.pending = Some(log.next_segment(method));
         log.flush();
         Ok(log)
     }
 
-    fn push(&mut self, t: f64, event: &OperatorEvent) -> VrResult<()> {
-        // The state machine never goes back in time; an event it could not order is
-        // reported and left out rather than corrupting the log.
-        if let Err(e) = self.writer.push(t, editor::oplog_event(event)) {
-            tracing::warn!("operator log: {}", Chain(&e));
-            return Ok(());
-        }
+    /// Starts the log again with `header` and no segments (study mode). Only before
+    /// any input: the file holds nothing but the header and the first segment's start.
+    fn restart(&mut self, header: &OpLogHeader) -> VrResult<()> {
+        self.file
+            .set_len(0)
+            .and_then(|()| std::io::Seek::rewind(&mut self.file))
+            .map_err(|e| io_err(&self.path, e))?;
+        self.writer = OpLogWriter::new(header);
+        self.segment = None;
+        self.segments.clear();
+        self.pending = None;
+        self.last_t = 0.0;
         self.flush();
         Ok(())
+    }
+
+    /// Opens the next segment of `method` (plain sessions): its `trial_start`.
+    fn next_segment(&mut self, method: &str) -> EventKind {
+        let n = self.segments.entry(method.to_owned()).or_insert(0);
+        *n += 1;
+        let trial = *n;
+        self.segment = Some((method.to_owned(), trial));
+        EventKind::TrialStart {
+            trial,
+            task: None,
+            method: Some(method.to_owned()),
+        }
+    }
+
+    fn push(&mut self, t: f64, event: &OperatorEvent) -> VrResult<()> {
+        if let OperatorEvent::ModeChange { to, .. } = event {
+            let to = editor::mode_name(*to);
+            if let Some((method, trial)) = self.segment.clone()
+                && method != to
+                && t >= self.last_t
+            {
+                if self.pending.is_some() {
+                    // Nothing in the segment yet: it is not counted, the new one starts
+                    // at the next event instead.
+                    if let Some(n) = self.segments.get_mut(&method) {
+                        *n -= 1;
+                    }
+                    self.pending = Some(self.next_segment(to));
+                } else {
+                    self.write(t, EventKind::TrialEnd { trial });
+                    let start = self.next_segment(to);
+                    self.write(t, start);
+                }
+            }
+        }
+        self.push_kind(t, editor::oplog_event(event));
+        Ok(())
+    }
+
+    /// Logs one event (and captures it for a study trial being recorded).
+    fn push_kind(&mut self, t: f64, kind: EventKind) {
+        if let Some(c) = &mut self.capture
+            && t >= self.last_t
+        {
+            c.push(OpEvent {
+                t,
+                kind: kind.clone(),
+            });
+        }
+        self.write(t, kind);
+    }
+
+    /// Writes one event to the file (after a pending `trial_start`, at the same time).
+    fn write(&mut self, t: f64, kind: EventKind) {
+        if let Some(start) = self.pending.take() {
+            self.write_now(t, start);
+        }
+        self.write_now(t, kind);
+    }
+
+    fn write_now(&mut self, t: f64, kind: EventKind) {
+        // The state machine never goes back in time; an event it could not order is
+        // reported and left out rather than corrupting the log.
+        if let Err(e) = self.writer.push(t, kind) {
+            tracing::warn!("operator log: {}", Chain(&e));
+            return;
+        }
+        self.last_t = t;
+        self.flush();
     }
 
     /// Writes what is pending; after a failure, warns once and writes nothing more.
@@ -454,6 +554,71 @@ impl Session {
     pub fn save_document(&mut self) -> VrResult<PathBuf> {
         self.files.save_document(&self.edit_loop.doc)
     }
+
+    /// Logs a desktop key press at `t` as a `key` event (a K operator for
+    /// `sculpt-tools goms`), named as the key help names it (`Ctrl+Z`, `2`). Log it
+    /// before the key's command, which follows at the same time.
+    pub fn key(&mut self, t: f64, key: &str) {
+        self.files.oplog.push_kind(
+            t,
+            EventKind::Key {
+                key: key.to_owned(),
+            },
+        );
+        if t.is_finite() {
+            self.time = self.time.max(t);
+        }
+    }
+
+    /// Study mode: the operator log starts again with a header naming the participant
+    /// and the method (the study condition); the study's trials
+    /// ([`Session::begin_trial`]) replace the per-mode segments. Call it before any
+    /// input.
+    pub fn start_study(&mut self, participant: &str, method: &str) -> VrResult<()> {
+        self.files.oplog.restart(
+            &OpLogHeader::new()
+                .with_source(OPLOG_SOURCE)
+                .with_participant(participant)
+                .with_method(method),
+        )
+    }
+
+    /// Study mode: marks a trial's start in the operator log (`trial_start` with the
+    /// trial number, the task and the study method) at `t`, or with `None` at the next
+    /// event, and starts recording its events.
+    pub fn begin_trial(&mut self, t: Option<f64>, trial: u32, task: Option<&str>, method: &str) {
+        let log = &mut self.files.oplog;
+        let start = EventKind::TrialStart {
+            trial,
+            task: task.map(str::to_owned),
+            method: Some(method.to_owned()),
+        };
+        match t {
+            Some(t) => log.write(t, start),
+            None => log.pending = Some(start),
+        }
+        log.capture = Some(Vec::new());
+    }
+
+    /// Study mode: marks the trial's end at `t` (no earlier than its last event) and
+    /// hands back the events recorded since [`Session::begin_trial`]; `None` when no
+    /// trial was being recorded.
+    pub fn end_trial(&mut self, t: f64, trial: u32) -> Option<Vec<OpEvent>> {
+        let log = &mut self.files.oplog;
+        let events = log.capture.take()?;
+        if log.pending.take().is_some() {
+            // It never started: no event came.
+            return None;
+        }
+        let end = t.max(log.last_t);
+        log.write(end, EventKind::TrialEnd { trial });
+        Some(events)
+    }
+
+    /// The latest time in the operator log.
+    pub fn log_time(&self) -> f64 {
+        self.files.oplog.last_t
+    }
 }
 
 #[cfg(test)]
@@ -541,6 +706,92 @@ mod tests {
         assert!(dir.path().join("operator.1.log").exists());
         let log = decode_bytes(&std::fs::read(dir.path().join(OPLOG_FILE)).unwrap()).unwrap();
         assert_eq!(log.events.last().unwrap().kind, EventKind::Undo);
+    }
+
+    /// Regression (issue 19): desktop keys were no operator events, and the log's
+    /// header kept the start mode ("carve") after a switch to emboss or sketch. Keys
+    /// are `key` events now, and each mode's operators are in a segment that names
+    /// the mode.
+    #[test]
+    fn regression_keys_are_logged_and_each_mode_is_a_segment() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = Session::open(&config(dir.path())).unwrap();
+        stroke(&mut s, 0.0, 1.1);
+        s.key(0.5, "3");
+        s.handle(&WandEvent::command(
+            0.5,
+            Command::SetMode {
+                mode: sculpt_core::interaction::InteractionMode::EMBOSS,
+            },
+        ))
+        .unwrap();
+        stroke(&mut s, 1.0, 1.2);
+        s.key(2.0, "Ctrl+Z");
+        s.handle(&WandEvent::command(2.0, Command::Undo)).unwrap();
+        s.key(2.5, "2");
+        s.handle(&WandEvent::command(
+            2.5,
+            Command::SetMode {
+                mode: sculpt_core::interaction::InteractionMode::CARVE,
+            },
+        ))
+        .unwrap();
+        let log = decode_bytes(&std::fs::read(dir.path().join(OPLOG_FILE)).unwrap()).unwrap();
+        let marks: Vec<String> = log
+            .events
+            .iter()
+            .filter_map(|e| match &e.kind {
+                EventKind::TrialStart { trial, method, .. } => Some(format!(
+                    "start {} {trial}",
+                    method.as_deref().unwrap_or("-")
+                )),
+                EventKind::TrialEnd { trial } => Some(format!("end {trial}")),
+                EventKind::Key { key } => Some(format!("key {key}")),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(
+            marks,
+            [
+                "start carve 1",
+                "key 3",
+                "end 1",
+                "start emboss 1",
+                "key Ctrl+Z",
+                "key 2",
+                "end 1",
+                "start carve 2"
+            ]
+        );
+        // A segment starts at its first event (a live clock is the tracker's, far from
+        // zero), and a mode switch before any event leaves no empty segment.
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = Session::open(&config(dir.path())).unwrap();
+        s.key(100.0, "3");
+        s.handle(&WandEvent::command(
+            100.0,
+            Command::SetMode {
+                mode: sculpt_core::interaction::InteractionMode::EMBOSS,
+            },
+        ))
+        .unwrap();
+        let log = decode_bytes(&std::fs::read(dir.path().join(OPLOG_FILE)).unwrap()).unwrap();
+        let first = &log.events[0];
+        assert_eq!(first.t, 100.0);
+        assert_eq!(
+            first.kind,
+            EventKind::TrialStart {
+                trial: 1,
+                task: None,
+                method: Some("carve".into())
+            }
+        );
+        let starts = log
+            .events
+            .iter()
+            .filter(|e| matches!(e.kind, EventKind::TrialStart { .. }))
+            .count();
+        assert_eq!(starts, 2, "{:?}", log.events);
     }
 
     /// Regression (issue 15, item 7): on a full disk a failed `operator.log` write

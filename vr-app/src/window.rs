@@ -61,6 +61,8 @@ pub enum KeyAction {
     ResetView,
     /// Toggle the key help.
     Help,
+    /// Study mode: start the next trial, or end the one being recorded.
+    Trial,
     /// Quit (saving).
     Quit,
 }
@@ -165,6 +167,13 @@ pub const KEYS: &[KeyBinding] = &[
     bind("F1", "F1", false, KeyAction::Help, "key help on/off"),
     bind("H", "h", false, KeyAction::Help, "key help on/off"),
     bind("?", "?", false, KeyAction::Help, "key help on/off"),
+    bind(
+        "Enter",
+        "Enter",
+        false,
+        KeyAction::Trial,
+        "study mode: start / end the trial",
+    ),
     bind("Esc", "Escape", false, KeyAction::Quit, "quit (saves)"),
 ];
 
@@ -181,14 +190,24 @@ pub const MOUSE: &[(&str, &str)] = &[
 /// The action of `key` (a character or a named key, as in [`KeyBinding::key`]) with
 /// Ctrl held or not.
 pub fn key_action(key: &str, ctrl: bool) -> Option<KeyAction> {
+    key_binding(key, ctrl).map(|b| b.action.clone())
+}
+
+/// The binding of `key` with Ctrl held or not (see [`key_action`]).
+pub fn key_binding(key: &str, ctrl: bool) -> Option<&'static KeyBinding> {
     let key = if key.chars().count() == 1 {
         key.to_lowercase()
     } else {
         key.to_string()
     };
-    KEYS.iter()
-        .find(|b| b.key == key && b.ctrl == ctrl)
-        .map(|b| b.action.clone())
+    KEYS.iter().find(|b| b.key == key && b.ctrl == ctrl)
+}
+
+/// Whether a key press is an operator of the task, logged as a `key` event (K):
+/// every key but quitting and the study's trial key (the protocol's start and end
+/// signal, not part of the task).
+pub fn key_is_operator(action: &KeyAction) -> bool {
+    !matches!(action, KeyAction::Quit | KeyAction::Trial)
 }
 
 /// The help lines: every key and mouse action, one per line (shown on screen and in
@@ -305,6 +324,12 @@ pub fn run_windowed(app: AppState, input: WindowInput, frames: Option<u64>) -> V
     event_loop
         .run_app(&mut wa)
         .map_err(|e| VrError::Gpu(GpuError::EventLoop(e)))?;
+    // A trial still being recorded ends with the session.
+    if let Some(study) = &mut wa.app.study
+        && let Err(e) = study.finish(&mut wa.app.session, None)
+    {
+        tracing::error!("{e}");
+    }
     // Never lose work on a clean exit.
     wa.app.session.autosave()?;
     match wa.error {
@@ -405,13 +430,17 @@ impl WindowApp {
         })
     }
 
-    fn command(&mut self, c: Command) {
-        // Live input runs on the tracker's clock; the others on this window's.
-        let t = match self.input {
+    /// The time of a command: live input runs on the tracker's clock; the others on
+    /// this window's.
+    fn command_time(&self) -> f64 {
+        match self.input {
             WindowInput::Live(_) => self.app.session.time(),
             _ => self.last_t,
-        };
-        let ev = WandEvent::command(t, c);
+        }
+    }
+
+    fn command(&mut self, c: Command) {
+        let ev = WandEvent::command(self.command_time(), c);
         if let Err(e) = self.app.session.handle(&ev) {
             tracing::error!("{e}");
         }
@@ -423,15 +452,29 @@ impl WindowApp {
             Key::Named(NamedKey::Tab) => "Tab",
             Key::Named(NamedKey::F1) => "F1",
             Key::Named(NamedKey::Home) => "Home",
+            Key::Named(NamedKey::Enter) => "Enter",
             Key::Character(s) => s.as_str(),
             _ => return,
         };
-        let Some(action) = key_action(name, self.modifiers.control_key()) else {
+        let Some(binding) = key_binding(name, self.modifiers.control_key()) else {
             return;
         };
+        let action = binding.action.clone();
+        let t = self.command_time();
+        if key_is_operator(&action) {
+            // Every key of the task is an operator (K), logged before its command.
+            self.app.session.key(t, binding.label);
+        }
         let tool = self.app.session.interaction.tool().clone();
         match action {
             KeyAction::Quit => event_loop.exit(),
+            KeyAction::Trial => {
+                if let Some(study) = &mut self.app.study
+                    && let Err(e) = study.toggle(&mut self.app.session, t)
+                {
+                    tracing::error!("{e}");
+                }
+            }
             KeyAction::NextTarget => self.command(Command::SelectNextTarget),
             KeyAction::Undo => self.command(Command::Undo),
             KeyAction::Redo => self.command(Command::Redo),

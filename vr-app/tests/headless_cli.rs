@@ -84,3 +84,64 @@ fn headless_without_input_or_scene_and_bad_views_are_refused() {
         );
     }
 }
+
+/// `wandsculpt --headless --demo --study MANIFEST --participant P`: each run records
+/// the participant's next trial into the log the manifest names (the whole input is one
+/// trial), in the order `sculpt-tools goms study next` gives; once every trial is
+/// recorded the program refuses with exit 1.
+#[test]
+fn study_mode_records_each_run_as_the_next_trial_in_the_manifests_log() {
+    use sculpt_core::oplog::{EventKind, decode_bytes};
+    use sculpt_core::study::{MANIFEST, Manifest};
+    let dir = tempfile::tempdir().unwrap();
+    let ps = vec!["P1".to_owned(), "P2".to_owned()];
+    let ms = vec!["wall".to_owned(), "desk".to_owned()];
+    let manifest = dir.path().join(MANIFEST);
+    std::fs::write(
+        &manifest,
+        Manifest::plan(&ps, &ms, 1, true).to_toml().unwrap(),
+    )
+    .unwrap();
+    let run = |participant: &str| {
+        Command::new(env!("CARGO_BIN_EXE_wandsculpt"))
+            .args(["--headless", "--demo", "--size", "64x36", "--out"])
+            .arg(dir.path().join(format!("run-{participant}")))
+            .arg("--study")
+            .arg(&manifest)
+            .args(["--participant", participant, "--task", "groove"])
+            .env("WANDSCULPT_ADAPTER", "llvmpipe")
+            .output()
+            .unwrap()
+    };
+    // P2's balanced Latin-square order is desk, then wall.
+    for (method, trial) in [("desk", 1), ("wall", 1)] {
+        let out = run("P2");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{err}");
+        assert!(
+            err.contains(&format!("recorded P2 / {method} trial {trial} of 1")),
+            "{err}"
+        );
+        let log = decode_bytes(
+            &std::fs::read(dir.path().join(format!("logs/P2-{method}.oplog"))).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(log.header.participant.as_deref(), Some("P2"));
+        assert_eq!(log.header.method.as_deref(), Some(method));
+        assert_eq!(log.header.source.as_deref(), Some("wandsculpt"));
+        assert!(matches!(
+            &log.events[0].kind,
+            EventKind::TrialStart { trial: 1, task: Some(t), .. } if t == "groove"
+        ));
+        assert!(matches!(
+            log.events.last().unwrap().kind,
+            EventKind::TrialEnd { trial: 1 }
+        ));
+        assert!(log.events.iter().any(|e| e.kind == EventKind::StrokeStart));
+    }
+    let out = run("P2");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("every trial"), "{err}");
+    assert!(!dir.path().join("logs/P1-wall.oplog").exists());
+}

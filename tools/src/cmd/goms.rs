@@ -48,6 +48,32 @@ enum GomsCmd {
     /// Study mode: plan a study, see what is recorded, and get the next session.
     #[command(subcommand)]
     Study(StudyCmd),
+    /// A method's KLM prediction, measured trials and the paper's Tables 1 and 2 side
+    /// by side.
+    Paper(PaperArgs),
+}
+
+#[derive(Debug, Args)]
+struct PaperArgs {
+    /// Directory of operator logs (a study, or any operator.log / *.oplog below it);
+    /// every trial in it is taken as a trial of the method.
+    dir: PathBuf,
+    /// The paper's row: multires, trimming or multi-surface.
+    #[arg(long, default_value = "multires")]
+    paper: String,
+    /// The KLM method to predict with (`builtin:<id>` or a file).
+    #[arg(long, default_value = "builtin:multires-sculpting")]
+    klm: String,
+    /// Only the trials of this method id (default: all).
+    #[arg(long)]
+    method: Option<String>,
+    /// Also write the comparison as CSV.
+    #[arg(long)]
+    csv: Option<PathBuf>,
+    #[command(flatten)]
+    thresholds: Thresholds,
+    #[command(flatten)]
+    constants: KlmConstants,
 }
 
 /// Extraction thresholds (see `docs/goms.md` for the rules).
@@ -281,7 +307,9 @@ enum StudyCmd {
         #[arg(long, default_value_t = 6)]
         steps: usize,
     },
-    /// Print the next session to record (participant, method, trials, log path).
+    /// Print the next trial to record: the first session, in manifest order, with
+    /// fewer trials in its log than it asks for (participant, method, order, trial,
+    /// trials, log path).
     Next {
         /// Study directory.
         dir: PathBuf,
@@ -306,7 +334,50 @@ pub fn run(args: GomsArgs) -> Result<()> {
         GomsCmd::Klm(a) => klm_cmd(a),
         GomsCmd::Methods { id } => methods(id),
         GomsCmd::Study(s) => study_cmd(s),
+        GomsCmd::Paper(a) => paper_cmd(a),
     }
+}
+
+fn paper_cmd(a: PaperArgs) -> Result<()> {
+    use crate::goms::paper;
+    let cfg = a.thresholds.config()?;
+    let Some(row) = paper::row(&a.paper) else {
+        bail!(
+            "--paper {:?}: the paper's rows are multires, trimming and multi-surface",
+            a.paper
+        );
+    };
+    let text = klm_text(&a.klm, Path::new("."))?;
+    let m = klm::parse_method(&text).with_context(|| format!("KLM method {}", a.klm))?;
+    let prediction = klm::predict(&m.steps, &a.constants.constants());
+    let input = g::read_study(&a.dir, None, false)?;
+    let trials: Vec<_> = g::extract_all(&input.logs, &cfg)
+        .into_iter()
+        .filter(|t| a.method.as_ref().is_none_or(|m| *m == t.method))
+        .collect();
+    if trials.is_empty() {
+        bail!("{}: no trial to compare", a.dir.display());
+    }
+    let mut sources: std::collections::BTreeMap<String, usize> = Default::default();
+    for l in &input.logs {
+        let s = l
+            .log
+            .header
+            .source
+            .clone()
+            .unwrap_or_else(|| "unnamed".into());
+        *sources.entry(s).or_default() += 1;
+    }
+    let sources: Vec<String> = sources
+        .iter()
+        .map(|(s, n)| format!("{n} logs written by {s}"))
+        .collect();
+    let c = paper::compare(row, &prediction, &trials);
+    say!("{}", c.markdown(&a.klm, &sources.join(", ")));
+    if let Some(path) = &a.csv {
+        write(path, &c.csv())?;
+    }
+    Ok(())
 }
 
 fn extract(a: ExtractArgs) -> Result<()> {
@@ -769,9 +840,23 @@ fn study_cmd(s: StudyCmd) -> Result<()> {
         }
         StudyCmd::Next { dir, json } => {
             let m = read_manifest(&dir)?;
-            match m.sessions.iter().find(|s| !dir.join(&s.log).exists()) {
-                Some(s) => {
-                    let log = dir.join(&s.log);
+            // The first session, in manifest order, with fewer trials recorded than it
+            // asks for: the trial `replay --study` and `wandsculpt --study` record next.
+            let mut next = None;
+            for s in &m.sessions {
+                let log = dir.join(&s.log);
+                let recorded = match std::fs::read(&log) {
+                    Ok(bytes) => sculpt_core::study::trials_in(&bytes)
+                        .with_context(|| format!("reading {}", log.display()))?,
+                    Err(_) => 0,
+                };
+                if recorded < s.trials {
+                    next = Some((s, recorded + 1, log));
+                    break;
+                }
+            }
+            match next {
+                Some((s, trial, log)) => {
                     if json {
                         say!(
                             "{}",
@@ -779,16 +864,18 @@ fn study_cmd(s: StudyCmd) -> Result<()> {
                                 "participant": s.participant,
                                 "method": s.method,
                                 "order": s.order,
+                                "trial": trial,
                                 "trials": s.trials,
                                 "log": log,
                             })
                         );
                     } else {
                         say!(
-                            "{}\t{}\t{}\t{}\t{}",
+                            "{}\t{}\t{}\t{}/{}\t{}",
                             s.participant,
                             s.method,
                             s.order,
+                            trial,
                             s.trials,
                             log.display()
                         );

@@ -303,36 +303,44 @@ pub fn extract(log: &OpLog, cfg: &ExtractConfig, participant: &str, method: &str
     let method = log.header.method.as_deref().unwrap_or(method);
     let ev = &log.events;
     // Trial ranges over event indices.
-    let mut ranges: Vec<(u32, Option<String>, usize, usize)> = Vec::new();
-    let mut open: Option<(u32, Option<String>, usize)> = None;
+    // (trial, task, method of the trial when it names one, first and end index)
+    type Range = (u32, Option<String>, Option<String>, usize);
+    let mut ranges: Vec<(Range, usize)> = Vec::new();
+    let mut open: Option<Range> = None;
     for (i, e) in ev.iter().enumerate() {
         match &e.kind {
-            EventKind::TrialStart { trial, task } => {
-                if let Some((n, tk, s)) = open.take() {
-                    ranges.push((n, tk, s, i));
+            EventKind::TrialStart {
+                trial,
+                task,
+                method,
+            } => {
+                if let Some(r) = open.take() {
+                    ranges.push((r, i));
                 }
-                open = Some((*trial, task.clone(), i));
+                open = Some((*trial, task.clone(), method.clone(), i));
             }
             EventKind::TrialEnd { .. } => {
-                if let Some((n, tk, s)) = open.take() {
-                    ranges.push((n, tk, s, i + 1));
+                if let Some(r) = open.take() {
+                    ranges.push((r, i + 1));
                 }
             }
             _ => {}
         }
     }
-    if let Some((n, tk, s)) = open {
-        ranges.push((n, tk, s, ev.len()));
+    if let Some(r) = open {
+        ranges.push((r, ev.len()));
     }
     if ranges.is_empty() && !ev.is_empty() {
-        ranges.push((log.header.trial.unwrap_or(1), None, 0, ev.len()));
+        ranges.push(((log.header.trial.unwrap_or(1), None, None, 0), ev.len()));
     }
     ranges
         .into_iter()
-        .map(|(n, task, s, e)| {
+        .map(|((n, task, trial_method, s), e)| {
             let mut trial = extract_range(&ev[s..e], cfg);
             trial.participant = participant.to_owned();
-            trial.method = method.to_owned();
+            // A trial that names its method (a segment after a mode switch) is that
+            // method's; the others are the header's.
+            trial.method = trial_method.unwrap_or_else(|| method.to_owned());
             trial.trial = n;
             trial.task = task;
             trial
@@ -348,6 +356,7 @@ fn extract_range(ev: &[sculpt_core::oplog::OpEvent], cfg: &ExtractConfig) -> Tri
     let mut run = 0;
     let mut lost = false;
     let mut edges: Vec<(f64, u8, bool)> = Vec::new();
+    let mut keys: Vec<f64> = Vec::new();
     let mut targets: Vec<(f64, DVec3, f64)> = Vec::new();
     for e in ev {
         match &e.kind {
@@ -369,12 +378,19 @@ fn extract_range(ev: &[sculpt_core::oplog::OpEvent], cfg: &ExtractConfig) -> Tri
                 state: TrackingState::Lost,
             } => lost = true,
             EventKind::Button { id, down } => edges.push((e.t, *id, *down)),
+            EventKind::Key { .. } => keys.push(e.t),
             EventKind::Target { p, width, .. } => targets.push((e.t, *p, *width)),
             _ => {}
         }
     }
     let speed = smoothed_speed(&samples, cfg.smooth_sigma_s);
-    let edge_times: Vec<f64> = edges.iter().map(|e| e.0).collect();
+    // Key presses split movements and end pointing as button edges do.
+    let mut edge_times: Vec<f64> = edges
+        .iter()
+        .map(|e| e.0)
+        .chain(keys.iter().copied())
+        .collect();
+    edge_times.sort_by(f64::total_cmp);
     let movements = split_at(&segment(&samples, &speed, cfg), &edge_times);
 
     // Button operators: each press (K mode) or each edge (B+B mode) owns a short fixed
@@ -395,6 +411,9 @@ fn extract_range(ev: &[sculpt_core::oplog::OpEvent], cfg: &ExtractConfig) -> Tri
         }
     }
     presses.extend(held.iter().map(|h| (h.1, t1)));
+    // A desktop key is a keystroke (K in either mode): its press owns the window.
+    let key_presses: Vec<(f64, f64)> = keys.iter().map(|&t| (t, t + cfg.k_window_s)).collect();
+    presses.extend(&key_presses);
     presses.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut buttons: Vec<Operator> = match cfg.k_mode {
         KMode::K => presses
@@ -414,6 +433,12 @@ fn extract_range(ev: &[sculpt_core::oplog::OpEvent], cfg: &ExtractConfig) -> Tri
                 t_end: t + 0.5 * cfg.k_window_s,
                 fitts: None,
             })
+            .chain(key_presses.iter().map(|&(s, e)| Operator {
+                op: OpKind::K,
+                t_start: s,
+                t_end: e,
+                fitts: None,
+            }))
             .collect(),
     };
     buttons.sort_by(|a, b| a.t_start.total_cmp(&b.t_start));
@@ -889,6 +914,52 @@ mod tests {
         let f = fitts(&start, &end, None, None);
         assert_near!(f.amplitude, 0.9 * 2f64.sqrt(), EXACT_EPS);
         assert_eq!((f.id, f.id_angular), (None, None));
+    }
+
+    /// Regression (issue 19): desktop keys were no operators, and a session that
+    /// switched mode kept its first method. A `key` is a K in either mode, and a trial
+    /// that names its method is that method's.
+    #[test]
+    fn regression_keys_are_k_and_a_segment_names_its_method() {
+        let key = |k: &str| EventKind::Key { key: k.into() };
+        let start = |trial, method: Option<&str>| EventKind::TrialStart {
+            trial,
+            task: None,
+            method: method.map(str::to_owned),
+        };
+        let mut l = log(vec![
+            (0.0, start(1, None)),
+            (0.5, key("Ctrl+Z")),
+            (0.6, EventKind::Button { id: 0, down: true }),
+            (0.7, EventKind::Button { id: 0, down: false }),
+            (1.0, EventKind::TrialEnd { trial: 1 }),
+            (1.0, start(1, Some("emboss"))),
+            (1.0, key("3")),
+            (1.05, key("Tab")),
+            (1.5, EventKind::TrialEnd { trial: 1 }),
+        ]);
+        l.header = OpLogHeader::new().with_method("carve");
+        for mode in [KMode::K, KMode::Bb] {
+            let cfg = ExtractConfig {
+                k_mode: mode,
+                ..Default::default()
+            };
+            let trials = extract(&l, &cfg, "p", "m");
+            let methods: Vec<&str> = trials.iter().map(|t| t.method.as_str()).collect();
+            assert_eq!(methods, ["carve", "emboss"]);
+            let (carve, emboss) = (&trials[0], &trials[1]);
+            carve.check_tiling().unwrap();
+            emboss.check_tiling().unwrap();
+            match mode {
+                KMode::K => assert_eq!(carve.count(OpKind::K), 2),
+                KMode::Bb => {
+                    assert_eq!((carve.count(OpKind::K), carve.count(OpKind::B)), (1, 2))
+                }
+            }
+            // The first key's window is cut short by the second press.
+            assert_eq!(emboss.count(OpKind::K), 2);
+            assert_near!(emboss.time(OpKind::K), 0.05 + 0.2, EXACT_EPS);
+        }
     }
 
     #[test]

@@ -11,11 +11,13 @@
 
 pub mod extract;
 pub mod klm;
+pub mod paper;
 pub mod plot;
 pub mod report;
 pub mod stats;
 pub mod study;
 pub mod synth;
+pub mod text;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -41,6 +43,9 @@ pub struct StudyLog {
     pub participant: String,
     /// Method id (manifest, else header, else `unknown`).
     pub method: String,
+    /// Whether the manifest names the log (its method then holds for every trial;
+    /// otherwise a trial that names its method, a segment after a mode switch, keeps it).
+    pub from_manifest: bool,
     /// The decoded log.
     pub log: OpLog,
 }
@@ -146,6 +151,7 @@ pub fn read_study(dir: &Path, skip: Option<&Path>, skip_bad: bool) -> Result<Stu
         let stem = named_by
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default();
+        let from_manifest = who.is_some();
         let (participant, method) = match who {
             Some((p, m)) => {
                 if log.header.participant.as_ref().is_some_and(|h| h != &p)
@@ -171,6 +177,7 @@ pub fn read_study(dir: &Path, skip: Option<&Path>, skip_bad: bool) -> Result<Stu
         input.logs.push(StudyLog {
             participant,
             method,
+            from_manifest,
             log,
         });
     }
@@ -183,9 +190,12 @@ pub fn extract_all(logs: &[StudyLog], cfg: &ExtractConfig) -> Vec<Trial> {
         .flat_map(|l| {
             let mut trials = extract::extract(&l.log, cfg, &l.participant, &l.method);
             for t in &mut trials {
-                // The manifest (or the fallback naming) decides.
+                // The manifest (or the fallback naming) decides; without a manifest a
+                // trial naming its method (a plain session's mode segment) keeps it.
                 t.participant.clone_from(&l.participant);
-                t.method.clone_from(&l.method);
+                if l.from_manifest {
+                    t.method.clone_from(&l.method);
+                }
             }
             trials
         })

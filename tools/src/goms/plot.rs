@@ -3,7 +3,9 @@
 //! trial, and the speed trace of one trial with its detected movements.
 //!
 //! Text uses DejaVu Sans, shipped in `tools/assets/` (Bitstream Vera licence) and
-//! registered with plotters' `ab_glyph` backend, so no system font library is needed.
+//! registered with plotters' `ab_glyph` backend, so no system font library is needed;
+//! the PNGs draw it through [`Kerned`], which places glyphs by the font's advances,
+//! bearings and kerning.
 
 use std::path::{Path, PathBuf};
 use std::sync::Once;
@@ -13,14 +15,15 @@ use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::extract::{ExtractConfig, OpKind, Trial};
 use super::study::Analysis;
+use super::text::{FONT, Kerned};
 
-static FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
 static REGISTER: Once = Once::new();
 
-fn register_font() {
+pub(crate) fn register_font() {
     REGISTER.call_once(|| {
         // The shipped font is a valid TrueType file; a failure would show as missing
         // text, reported by the drawing calls.
@@ -73,7 +76,7 @@ macro_rules! both {
             root.present().p()?;
         }
         {
-            let root = BitMapBackend::new(&png, $size).into_drawing_area();
+            let root = Kerned(BitMapBackend::new(&png, $size)).into_drawing_area();
             $draw(&root, $($arg),*)?;
             root.present().p()?;
         }
@@ -149,23 +152,59 @@ fn method_chart<'a, DB: DrawingBackend>(
     chart
         .configure_mesh()
         .disable_x_mesh()
-        .x_labels(n.max(2) * 2 + 1)
-        .x_label_formatter(&|x| {
-            let i = x.round();
-            if (x - i).abs() < sculpt_core::tolerance::AXIS_INTEGER_EPS
-                && i >= 0.0
-                && (i as usize) < labels.len()
-            {
-                labels[i as usize].clone()
-            } else {
-                String::new()
-            }
-        })
+        // The categories get their own ticks and labels: plotters' numeric ticks on
+        // -0.5..n-0.5 fall between them (stray ticks on a single-category axis).
+        .x_labels(0)
         .y_desc(y_desc)
         .label_style(("sans-serif", 13))
         .draw()
         .p()?;
+    category_axis(root, &chart, &labels, Axis::X)?;
     Ok(chart)
+}
+
+/// Which axis holds the categories.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Axis {
+    X,
+    Y,
+}
+
+/// Length of a category tick mark, pixels.
+const TICK_PX: i32 = 5;
+
+/// One tick mark and label per category, at the category's position (0, 1, ...) on the
+/// axis: exactly as many ticks as categories.
+fn category_axis<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    chart: &Chart<'_, DB>,
+    labels: &[impl AsRef<str>],
+    axis: Axis,
+) -> Result<()> {
+    let (xr, yr) = (chart.x_range(), chart.y_range());
+    let style = ("sans-serif", 13).into_font().color(&BLACK);
+    for (i, label) in labels.iter().enumerate() {
+        let c = i as f64;
+        match axis {
+            Axis::X => {
+                let (x, y) = chart.backend_coord(&(c, yr.start));
+                root.draw(&PathElement::new([(x, y), (x, y + TICK_PX)], BLACK))
+                    .p()?;
+                let pos = Pos::new(HPos::Center, VPos::Top);
+                root.draw_text(label.as_ref(), &style.pos(pos), (x, y + 2 * TICK_PX))
+                    .p()?;
+            }
+            Axis::Y => {
+                let (x, y) = chart.backend_coord(&(xr.start, c));
+                root.draw(&PathElement::new([(x - TICK_PX, y), (x, y)], BLACK))
+                    .p()?;
+                let pos = Pos::new(HPos::Right, VPos::Center);
+                root.draw_text(label.as_ref(), &style.pos(pos), (x - 2 * TICK_PX, y))
+                    .p()?;
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Draws the series legend of a chart.
@@ -287,22 +326,12 @@ fn gantt<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, t: &Trial) -> Result
     chart
         .configure_mesh()
         .disable_y_mesh()
-        .y_labels(rows * 2 + 1)
-        .y_label_formatter(&|y| {
-            let i = y.round();
-            if (y - i).abs() < sculpt_core::tolerance::AXIS_INTEGER_EPS
-                && i >= 0.0
-                && (i as usize) < names.len()
-            {
-                names[i as usize].to_owned()
-            } else {
-                String::new()
-            }
-        })
+        .y_labels(0)
         .x_desc("seconds")
         .label_style(("sans-serif", 13))
         .draw()
         .p()?;
+    category_axis(root, &chart, &names, Axis::Y)?;
     // One bar per operator, outlined in white so that operators of one kind that follow
     // each other stay two bars.
     for (r, k) in kinds.iter().enumerate() {
@@ -478,5 +507,134 @@ mod tests {
         ] {
             assert!(speed.contains(label), "{label}");
         }
+    }
+
+    /// The two-point polylines and lines of an SVG as `((x1, y1), (x2, y2))`.
+    fn segments(svg: &str) -> Vec<((i32, i32), (i32, i32))> {
+        let attr = |tag: &str, name: &str| -> Option<String> {
+            let at = tag.find(&format!(" {name}=\""))? + name.len() + 3;
+            Some(tag[at..].split('"').next()?.to_owned())
+        };
+        let num = |s: &str| s.trim().parse::<f64>().ok().map(|v| v.round() as i32);
+        let mut out = Vec::new();
+        for tag in svg.split('<').filter(|t| t.starts_with("polyline ")) {
+            let pts: Vec<(i32, i32)> = attr(tag, "points")
+                .unwrap_or_default()
+                .split_whitespace()
+                .filter_map(|p| {
+                    let (x, y) = p.split_once(',')?;
+                    Some((num(x)?, num(y)?))
+                })
+                .collect();
+            if let [a, b] = pts[..] {
+                out.push((a, b));
+            }
+        }
+        for tag in svg.split('<').filter(|t| t.starts_with("line ")) {
+            let v: Vec<i32> = ["x1", "y1", "x2", "y2"]
+                .iter()
+                .filter_map(|n| num(&attr(tag, n)?))
+                .collect();
+            if let [x1, y1, x2, y2] = v[..] {
+                out.push(((x1, y1), (x2, y2)));
+            }
+        }
+        out
+    }
+
+    /// Short tick marks: vertical (on a horizontal axis) and horizontal (on a vertical
+    /// axis), at most twice the tick length.
+    fn ticks(svg: &str) -> (Vec<i32>, Vec<i32>) {
+        let short = |d: i32| d != 0 && d.abs() <= 2 * TICK_PX;
+        let segs = segments(svg);
+        let vertical = segs
+            .iter()
+            .filter(|(a, b)| a.0 == b.0 && short(b.1 - a.1))
+            .map(|(a, _)| a.0)
+            .collect();
+        let horizontal = segs
+            .iter()
+            .filter(|(a, b)| a.1 == b.1 && short(b.0 - a.0))
+            .map(|(a, _)| a.1)
+            .collect();
+        (vertical, horizontal)
+    }
+
+    /// Regression (issue 19): an axis of one category (one method, one operator kind)
+    /// had stray ticks between the categories. Each category axis now has exactly one
+    /// tick per category, at its bar.
+    #[test]
+    fn regression_a_category_axis_has_one_tick_per_category() {
+        use crate::goms::study::TallyRow;
+        for n in [1usize, 3] {
+            let rows: Vec<TallyRow> = (0..n)
+                .flat_map(|m| {
+                    (1..=2).map(move |p| TallyRow {
+                        participant: format!("P{p}"),
+                        method: format!("m{m}"),
+                        trial: 1,
+                        op: "P".into(),
+                        count: 2.0 + m as f64,
+                        time: 3.0 + p as f64,
+                    })
+                })
+                .collect();
+            let a = crate::goms::aggregate_with(
+                &rows,
+                None,
+                &[],
+                None,
+                crate::goms::stats::Bootstrap::default(),
+            );
+            let dir = tempfile::tempdir().unwrap();
+            study_plots(dir.path(), &a).unwrap();
+            let svg = std::fs::read_to_string(dir.path().join("operations_by_method.svg")).unwrap();
+            let (x_ticks, _) = ticks(&svg);
+            assert_eq!(x_ticks.len(), n, "{x_ticks:?}");
+            // Each at the centre of its method's bar.
+            let fill = format!(
+                "fill=\"#{:02X}{:02X}{:02X}\"",
+                colour(OpKind::P).0,
+                colour(OpKind::P).1,
+                colour(OpKind::P).2
+            );
+            let mut centres: Vec<i32> = svg
+                .split("<rect")
+                .skip(1)
+                .filter(|r| r.split("/>").next().is_some_and(|r| r.contains(&fill)))
+                .filter_map(|r| {
+                    let v = |name: &str| -> Option<i32> {
+                        let at = r.find(&format!(" {name}=\""))? + name.len() + 3;
+                        r[at..].split('"').next()?.parse().ok()
+                    };
+                    // Bars, not the legend's 10 px swatch.
+                    let width = v("width")?;
+                    (width > 2 * TICK_PX).then_some(v("x")? + width / 2)
+                })
+                .collect();
+            centres.sort_unstable();
+            let mut xs = x_ticks.clone();
+            xs.sort_unstable();
+            assert_eq!(centres.len(), n);
+            for (t, c) in xs.iter().zip(&centres) {
+                assert!((t - c).abs() <= 1, "tick {t}, bar centre {c}");
+            }
+        }
+        // The Gantt's operator axis: one tick per operator kind shown.
+        let t = Trial {
+            participant: "P1".into(),
+            method: "m".into(),
+            trial: 1,
+            task: None,
+            t0: 0.0,
+            t1: 1.0,
+            ops: vec![op(OpKind::P, 0.0, 1.0)],
+            speed: Vec::new(),
+            movements: Vec::new(),
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let files = trial_plots(dir.path(), &t, &ExtractConfig::default()).unwrap();
+        let (_, y_ticks) = ticks(&std::fs::read_to_string(&files[0]).unwrap());
+        assert_eq!(y_ticks.len(), 1, "{y_ticks:?}");
     }
 }

@@ -210,7 +210,11 @@ impl Script {
     /// Writes a trial boundary.
     pub fn trial(&mut self, trial: u32, start: bool) {
         let kind = if start {
-            EventKind::TrialStart { trial, task: None }
+            EventKind::TrialStart {
+                trial,
+                task: None,
+                method: None,
+            }
         } else {
             EventKind::TrialEnd { trial }
         };
