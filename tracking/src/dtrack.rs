@@ -330,10 +330,10 @@ fn line_kind(line: &[u8]) -> &[u8] {
     &line[..end]
 }
 
-fn line_error(kind: &str, reason: impl Into<String>) -> TrackingError {
+fn line_error(kind: &str, reason: &'static str) -> TrackingError {
     TrackingError::DTrackLine {
         kind: kind.to_string(),
-        reason: reason.into(),
+        reason,
     }
 }
 
@@ -360,9 +360,9 @@ pub fn parse_line(line: &[u8], frame: &mut Frame) -> Result<LineKind> {
     let mut c = Cursor::new(line);
     let kind = c.word();
     let name = || String::from_utf8_lossy(kind).into_owned();
-    let fail = |reason: &str| TrackingError::DTrackLine {
+    let fail = |reason: &'static str| TrackingError::DTrackLine {
         kind: name(),
-        reason: reason.to_string(),
+        reason,
     };
     let k = match kind {
         b"fr" => {

@@ -10,8 +10,9 @@ pub enum TrackingError {
     DTrackLine {
         /// The line type (`fr`, `6d`, `6df2`, ...), or `?` when unknown.
         kind: String,
-        /// What was wrong.
-        reason: String,
+        /// What was wrong: which field of the line, from a fixed set of descriptions
+        /// (`"bad timestamp"`, `"expected ] after quality"`, ...), never input text.
+        reason: &'static str,
     },
     /// A line exceeded the configured length cap and was discarded.
     #[error("line longer than {cap} bytes discarded")]
@@ -72,12 +73,18 @@ pub enum TrackingError {
     #[error("not a readable .tilt file: {0}")]
     TiltContainer(TiltContainerError),
     /// The `data.sketch` stream inside a `.tilt` file is malformed.
-    #[error("malformed data.sketch at byte {offset}: {reason}")]
+    #[error("malformed data.sketch at byte {offset}{}{}: {reason}",
+        .stroke.map(|s| format!(", stroke {s}")).unwrap_or_default(),
+        .point.map(|p| format!(", point {p}")).unwrap_or_default())]
     TiltSketch {
         /// Byte offset in `data.sketch` where the problem was found.
         offset: usize,
+        /// The stroke being read, if any.
+        stroke: Option<usize>,
+        /// The control point being read, if any.
+        point: Option<usize>,
         /// What was wrong.
-        reason: String,
+        reason: SketchError,
     },
     /// Import options or the sketch cannot make a wand track.
     #[error("import: {0}")]
@@ -118,6 +125,54 @@ pub enum ConfigError {
     /// A device id is neither `bodyN` nor `wandN` (the text as given).
     #[error("device id `{0}`: want bodyN or wandN")]
     DeviceId(String),
+}
+
+/// What is wrong in a `.tilt` file's `data.sketch` stream (see
+/// [`TrackingError::TiltSketch`] for where). `what` names the field being read.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SketchError {
+    /// The stream ends inside a field.
+    #[error("truncated: {what} needs {needed} bytes, {left} left")]
+    Truncated {
+        /// The field.
+        what: &'static str,
+        /// Bytes it needs.
+        needed: usize,
+        /// Bytes left.
+        left: usize,
+    },
+    /// A float that must be finite is not.
+    #[error("{what} is not finite ({value})")]
+    NotFinite {
+        /// The field.
+        what: &'static str,
+        /// Its value.
+        value: f32,
+    },
+    /// A count is negative or more than the bytes left could hold.
+    #[error("{what} {count} is impossible: {left} bytes left, {per_item} needed per item")]
+    ImpossibleCount {
+        /// The field.
+        what: &'static str,
+        /// The count read.
+        count: i32,
+        /// Bytes left.
+        left: usize,
+        /// The fewest bytes one item takes.
+        per_item: usize,
+    },
+    /// The stream does not start with the sketch sentinel.
+    #[error("bad sentinel {found:#010x} (expected {expected:#010x})")]
+    Sentinel {
+        /// What the stream starts with.
+        found: u32,
+        /// The sentinel.
+        expected: u32,
+    },
+    /// Bytes follow the last stroke.
+    #[error("{0} unexpected bytes after the last stroke")]
+    Trailing(usize),
 }
 
 /// Why a calibration is invalid or cannot be fitted.

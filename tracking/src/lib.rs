@@ -50,7 +50,7 @@ pub mod tilt;
 pub mod transport;
 
 pub use error::{
-    CalibrationError, ConfigError, Degeneracy, ImportError, Result, SimError, TiltContainerError,
-    TrackingError,
+    CalibrationError, ConfigError, Degeneracy, ImportError, Result, SimError, SketchError,
+    TiltContainerError, TrackingError,
 };
 pub use frame::{Body, DeviceId, Frame, Pose, Wand};

@@ -40,7 +40,7 @@ use std::io::{Cursor, Read, Write};
 
 use glam::{DQuat, DVec3};
 
-use crate::error::{Result, TiltContainerError, TrackingError as Error};
+use crate::error::{Result, SketchError, TiltContainerError, TrackingError as Error};
 
 /// The magic at the start of every `.tilt` file.
 pub const TILT_MAGIC: &[u8; 4] = b"tilT";
@@ -287,10 +287,12 @@ struct Reader<'a> {
 }
 
 impl<'a> Reader<'a> {
-    fn err(&self, reason: impl Into<String>) -> Error {
+    fn err(&self, reason: SketchError) -> Error {
         Error::TiltSketch {
             offset: self.pos,
-            reason: reason.into(),
+            stroke: None,
+            point: None,
+            reason,
         }
     }
 
@@ -298,44 +300,45 @@ impl<'a> Reader<'a> {
         self.bytes.len() - self.pos
     }
 
-    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
+    fn take(&mut self, n: usize, what: &'static str) -> Result<&'a [u8]> {
         if self.remaining() < n {
-            return Err(self.err(format!(
-                "truncated: {what} needs {n} bytes, {} left",
-                self.remaining()
-            )));
+            return Err(self.err(SketchError::Truncated {
+                what,
+                needed: n,
+                left: self.remaining(),
+            }));
         }
         let s = &self.bytes[self.pos..self.pos + n];
         self.pos += n;
         Ok(s)
     }
 
-    fn u32(&mut self, what: &str) -> Result<u32> {
+    fn u32(&mut self, what: &'static str) -> Result<u32> {
         let b = self.take(4, what)?;
         Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
     }
 
-    fn i32(&mut self, what: &str) -> Result<i32> {
+    fn i32(&mut self, what: &'static str) -> Result<i32> {
         Ok(self.u32(what)? as i32)
     }
 
-    fn f32(&mut self, what: &str) -> Result<f32> {
+    fn f32(&mut self, what: &'static str) -> Result<f32> {
         Ok(f32::from_bits(self.u32(what)?))
     }
 
-    fn finite_f32(&mut self, what: &str) -> Result<f32> {
+    fn finite_f32(&mut self, what: &'static str) -> Result<f32> {
         let start = self.pos;
         let v = self.f32(what)?;
         if v.is_finite() {
             Ok(v)
         } else {
             self.pos = start;
-            Err(self.err(format!("{what} is not finite ({v})")))
+            Err(self.err(SketchError::NotFinite { what, value: v }))
         }
     }
 
     /// A non-negative count whose items need at least `min_item_bytes` each.
-    fn count(&mut self, what: &str, min_item_bytes: usize) -> Result<usize> {
+    fn count(&mut self, what: &'static str, min_item_bytes: usize) -> Result<usize> {
         let start = self.pos;
         let n = self.i32(what)?;
         let fits = usize::try_from(n)
@@ -346,9 +349,12 @@ impl<'a> Reader<'a> {
             None => {
                 let left = self.remaining();
                 self.pos = start;
-                Err(self.err(format!(
-                    "{what} {n} is impossible: {left} bytes left, {min_item_bytes} needed per item"
-                )))
+                Err(self.err(SketchError::ImpossibleCount {
+                    what,
+                    count: n,
+                    left,
+                    per_item: min_item_bytes,
+                }))
             }
         }
     }
@@ -360,9 +366,10 @@ pub fn parse_sketch(bytes: &[u8]) -> Result<Sketch> {
     let sentinel = r.u32("sentinel")?;
     if sentinel != SKETCH_SENTINEL {
         r.pos = 0;
-        return Err(r.err(format!(
-            "bad sentinel {sentinel:#010x} (expected {SKETCH_SENTINEL:#010x})"
-        )));
+        return Err(r.err(SketchError::Sentinel {
+            found: sentinel,
+            expected: SKETCH_SENTINEL,
+        }));
     }
     let version = r.u32("version")?;
     let _reserved = r.u32("reserved")?;
@@ -371,19 +378,15 @@ pub fn parse_sketch(bytes: &[u8]) -> Result<Sketch> {
     let stroke_count = r.count("stroke count", MIN_STROKE_BYTES)?;
     let mut strokes = Vec::with_capacity(stroke_count);
     for index in 0..stroke_count {
-        strokes.push(parse_stroke(&mut r).map_err(|e| match e {
-            Error::TiltSketch { offset, reason } => Error::TiltSketch {
-                offset,
-                reason: format!("stroke {index}: {reason}"),
-            },
-            other => other,
+        strokes.push(parse_stroke(&mut r).map_err(|mut e| {
+            if let Error::TiltSketch { stroke, .. } = &mut e {
+                *stroke = Some(index);
+            }
+            e
         })?);
     }
     if r.remaining() != 0 {
-        return Err(r.err(format!(
-            "{} unexpected bytes after the last stroke",
-            r.remaining()
-        )));
+        return Err(r.err(SketchError::Trailing(r.remaining())));
     }
     Ok(Sketch { version, strokes })
 }
@@ -426,12 +429,11 @@ fn parse_stroke(r: &mut Reader<'_>) -> Result<TiltStroke> {
     let point_count = r.count("control-point count", point_bytes)?;
     let mut points = Vec::with_capacity(point_count);
     for index in 0..point_count {
-        points.push(parse_point(r, point_mask).map_err(|e| match e {
-            Error::TiltSketch { offset, reason } => Error::TiltSketch {
-                offset,
-                reason: format!("point {index}: {reason}"),
-            },
-            other => other,
+        points.push(parse_point(r, point_mask).map_err(|mut e| {
+            if let Error::TiltSketch { point, .. } = &mut e {
+                *point = Some(index);
+            }
+            e
         })?);
     }
     stroke.points = points;
