@@ -174,20 +174,69 @@ pub fn place_corners(model: &PolygonModel, centres: &[DVec3], snap: &DataSnap<'_
             QuadCorner::Patch(_) => {}
         }
     }
-    let quads = model
-        .quads
-        .iter()
-        .map(|q| {
-            let p = q.map(|c| corners[&c].0);
-            let along: DVec3 = q.iter().map(|c| corners[c].1).sum();
-            if (p[2] - p[0]).cross(p[3] - p[1]).dot(along) < 0.0 {
-                [q[0], q[3], q[2], q[1]]
-            } else {
-                *q
-            }
-        })
-        .collect();
+    let quads = orient(&model.quads, &corners);
     QuadMesh { corners, quads }
+}
+
+/// Orients the quads: across every side held by two quads they run it in opposite
+/// directions (propagated breadth first over each connected piece), and each piece
+/// turns so that most of its area faces along the data normals.
+fn orient(
+    quads: &[[QuadCorner; 4]],
+    corners: &BTreeMap<QuadCorner, (DVec3, DVec3)>,
+) -> Vec<[QuadCorner; 4]> {
+    let flip = |q: [QuadCorner; 4]| [q[0], q[3], q[2], q[1]];
+    let mut out = quads.to_vec();
+    let mut by_side: BTreeMap<(QuadCorner, QuadCorner), Vec<usize>> = BTreeMap::new();
+    for (qi, q) in quads.iter().enumerate() {
+        for k in 0..4 {
+            let (a, b) = (q[k], q[(k + 1) % 4]);
+            by_side.entry((a.min(b), a.max(b))).or_default().push(qi);
+        }
+    }
+    let runs = |q: &[QuadCorner; 4], a: QuadCorner, b: QuadCorner| {
+        (0..4).any(|k| q[k] == a && q[(k + 1) % 4] == b)
+    };
+    let mut seen = vec![false; quads.len()];
+    for start in 0..quads.len() {
+        if seen[start] {
+            continue;
+        }
+        seen[start] = true;
+        let mut piece = vec![start];
+        let mut queue = std::collections::VecDeque::from([start]);
+        while let Some(qi) = queue.pop_front() {
+            let q = out[qi];
+            for k in 0..4 {
+                let (a, b) = (q[k], q[(k + 1) % 4]);
+                for &other in &by_side[&(a.min(b), a.max(b))] {
+                    if seen[other] {
+                        continue;
+                    }
+                    seen[other] = true;
+                    if runs(&out[other], a, b) {
+                        out[other] = flip(out[other]);
+                    }
+                    piece.push(other);
+                    queue.push_back(other);
+                }
+            }
+        }
+        let facing: f64 = piece
+            .iter()
+            .map(|&qi| {
+                let p = out[qi].map(|c| corners[&c].0);
+                let along: DVec3 = out[qi].iter().map(|c| corners[c].1).sum();
+                (p[2] - p[0]).cross(p[3] - p[1]).dot(along)
+            })
+            .sum();
+        if facing < 0.0 {
+            for &qi in &piece {
+                out[qi] = flip(out[qi]);
+            }
+        }
+    }
+    out
 }
 
 /// One side of a quad on a grid (or control net) whose last index is `m`.
@@ -839,6 +888,75 @@ mod tests {
         let (without, with) = (angles(0), angles(3));
         eprintln!("G1 (mean, worst) without {without:?} with {with:?}");
         assert!(with.0 < without.0, "{with:?} {without:?}");
+    }
+
+    #[test]
+    fn a_stroke_across_a_patch_boundary_stays_on_its_patch() {
+        use crate::editor::{self, Applied};
+        use crate::interaction::{Edit, StrokeEdit, StrokeSample, TargetIndex};
+        use crate::sculpt::stroke::Tool;
+
+        let seg = seg_of(torus(3000, 0.2, 0.08, 3), 24);
+        let settings = NetworkSettings {
+            levels: 3,
+            control: 6,
+            ..NetworkSettings::new()
+        };
+        let (_, net) = network(&seg, &settings);
+        let mut doc = Document::from_json(&to_document(&net).to_json()).unwrap();
+        assert_eq!(doc.targets().len(), net.surfaces.len());
+        // From the middle of patch A to the middle of a side, then on into patch B.
+        let [(qa, sa), (qb, sb)] = shared_sides(&net.quads, 1).swap_remove(0);
+        let (sa_mid, sb_mid) = (sa.uv[0].lerp(sa.uv[1], 0.5), sb.uv[0].lerp(sb.uv[1], 0.5));
+        let centre = DVec2::splat(0.5);
+        let uv_path: Vec<(usize, DVec2)> = (0..=10)
+            .map(|k| (qa, centre.lerp(sa_mid, f64::from(k) / 10.0)))
+            .chain((1..=10).map(|k| (qb, sb_mid.lerp(centre, f64::from(k) / 10.0))))
+            .collect();
+        let samples = uv_path
+            .iter()
+            .enumerate()
+            .map(|(k, (q, uv))| StrokeSample {
+                t: k as f64 * 0.01,
+                position: net.surfaces[*q].point_uv(*uv),
+            })
+            .collect();
+        let tool = Tool {
+            width: 0.01,
+            ..Tool::default()
+        };
+        let edit = Edit::Stroke(StrokeEdit::new(
+            TargetIndex(qa as u32),
+            tool.clone(),
+            samples,
+        ));
+        let Applied::Stroke { id, target } = editor::apply(&mut doc, &edit) else {
+            panic!("stroke refused");
+        };
+        assert_eq!(target, doc.targets()[qa].id);
+        // It stays on A: B gets nothing.
+        assert!(doc.strokes_on(doc.targets()[qb].id).is_empty());
+        let stroke = doc.stroke(id).unwrap();
+        let side_mid = net.surfaces[qa].point_uv(sa_mid);
+        // It reaches A's edge (the last foot is on the domain's boundary) and goes no
+        // further.
+        let last = *stroke.centre_uv.last().unwrap();
+        let edge_gap = last.min_element().min(1.0 - last.max_element());
+        assert!(edge_gap.abs() < crate::tolerance::UV_PAD, "{last}");
+        let b_centre = net.surfaces[qb].point_uv(centre);
+        let reach = side_mid.distance(b_centre);
+        assert!(
+            stroke
+                .centre
+                .iter()
+                .all(|p| p.distance(b_centre) > 0.5 * reach)
+        );
+        assert!(
+            stroke
+                .centre_uv
+                .iter()
+                .all(|uv| uv.cmpge(DVec2::ZERO).all() && uv.cmple(DVec2::ONE).all())
+        );
     }
 
     #[test]
