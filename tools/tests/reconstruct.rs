@@ -83,12 +83,12 @@ fn fig(v: &serde_json::Value, key: &str) -> f64 {
 
 /// E_avg bound of the small torus (4,000 points, K = 30, 8x8 bicubic patches): the
 /// issue's 0.03 % of the bounding-box diagonal.
-const TORUS_E_AVG: f64 = 3e-4;
+const TORUS_E_AVG: f64 = 3e-4; // not a tolerance: an acceptance bound on a measured figure
 /// Worst G1 angle of the small torus, degrees (near the corners where five or more
 /// quads meet; the mean over sides is under 2 degrees).
 const TORUS_G1_DEGREES: f64 = 15.0;
 /// E_avg bound of the real scans: the 0.1 % of the bounding-box diagonal.
-const SCAN_E_AVG: f64 = 1e-3;
+const SCAN_E_AVG: f64 = 1e-3; // not a tolerance: an acceptance bound on a measured figure
 
 #[test]
 fn torus_patches_cover_a_genus_one_surface() {

@@ -717,17 +717,17 @@ mod tests {
 
     /// How far a snapped point may be from the unit sphere (the quadric's error, far
     /// below the point spacing of about 0.056).
-    const SPHERE_SNAP_TOL: f64 = 1e-4;
+    const SPHERE_SNAP_TOL: f64 = 1e-4; // not a tolerance: an acceptance bound on a measured figure
     /// Largest angle (cosine deficit) between the snap's line and the radius.
-    const RADIAL_COS_TOL: f64 = 1e-3;
+    const RADIAL_COS_TOL: f64 = 1e-3; // not a tolerance: an acceptance bound on a measured figure
     /// How far a corner may be from the cube of half side 1 (corners on a crease,
     /// where the quadric straddles two faces; the point spacing is 0.17).
     const CREASE_SNAP_TOL: f64 = 0.05;
     /// How far a corner may be from the torus, metres (point spacing about 1.2 cm).
-    const TORUS_SNAP_TOL: f64 = 5e-4;
+    const TORUS_SNAP_TOL: f64 = 5e-4; // not a tolerance: an acceptance bound on a measured figure
     /// E_avg and E_max bounds of the small torus (4,000 points, 6x6 control points).
-    const TORUS_E_AVG: f64 = 3e-4;
-    const TORUS_E_MAX: f64 = 5e-3;
+    const TORUS_E_AVG: f64 = 3e-4; // not a tolerance: an acceptance bound on a measured figure
+    const TORUS_E_MAX: f64 = 5e-3; // not a tolerance: an acceptance bound on a measured figure
     /// Worst G1 angle of the small torus, degrees.
     const TORUS_G1_DEGREES: f64 = 10.0;
 
