@@ -1,5 +1,6 @@
-//! Scan reconstruction, stages 1 and 2 on the paper's torus (16,200 points, K = 80):
-//! neighbours, PCA normals with orientation, K-means and adjacency.
+//! Scan reconstruction on the paper's torus (16,200 points): stages 1 and 2 alone
+//! (neighbours, PCA normals with orientation, K-means and adjacency, K = 80), and the
+//! whole method (K = 30, bicubic 8x8 patches on 17x17 grids, G1, the error figures).
 //!
 //! `cargo bench -p sculpt-core --bench reconstruct`
 
@@ -7,6 +8,8 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use sculpt_core::reconstruct::network::NetworkSettings;
+use sculpt_core::reconstruct::pipeline::reconstruct;
 use sculpt_core::reconstruct::read::PointCloud;
 use sculpt_core::reconstruct::sample::torus;
 use sculpt_core::reconstruct::segment::{SegmentSettings, segment};
@@ -20,6 +23,17 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10).measurement_time(Duration::from_secs(10));
     g.bench_function("segment_k80", |b| {
         b.iter(|| segment(black_box(&cloud), &SegmentSettings::new(80), |_| {}).unwrap())
+    });
+    g.bench_function("network_k30_n8", |b| {
+        b.iter(|| {
+            reconstruct(
+                black_box(&cloud),
+                &SegmentSettings::new(30),
+                &NetworkSettings::new(),
+                |_| {},
+            )
+            .unwrap()
+        })
     });
     g.finish();
 }

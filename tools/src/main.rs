@@ -13,8 +13,9 @@
 //! - `sculpt-tools goms ...`: the GOMS / KLM timing-study harness.
 //! - `sculpt-tools tilt2poselog IN.tilt --out OUT.poselog`: Open Brush strokes as a
 //!   recorded wand session.
-//! - `sculpt-tools reconstruct POINTS --patches K [--report R.json] [--layout L.ply]`:
-//!   scan points into K patches (docs/reconstruct.md).
+//! - `sculpt-tools reconstruct POINTS --patches K [--degree 2|3] [--control N] [--out
+//!   scan.json] [--igs X.igs] [--obj X.obj] [--report R.json] [--layout L.ply]`: scan
+//!   points into a network of NURBS patches to sculpt on (docs/reconstruct.md).
 //!
 //! Pure: the tools link only `sculpt-core` and the pure layer of `tracking` (the
 //! `.tilt` codec, the importer and pose logs, `default-features = false`), never a GPU,
@@ -62,8 +63,8 @@ enum Command {
     /// Convert an Open Brush `.tilt` sketch into a pose log (each stroke a button-down,
     /// sweep, button-up at its recorded timing).
     Tilt2poselog(cmd::tilt2poselog::Tilt2PoselogArgs),
-    /// Scan reconstruction, stages 1 and 2: read points, normals, K patches and their
-    /// adjacency; a report and a patch-layout PLY.
+    /// Scan reconstruction: points to a network of NURBS patches (a document, IGES,
+    /// OBJ), with a report and a patch-layout PLY.
     Reconstruct(cmd::reconstruct::ReconstructArgs),
 }
 

@@ -7,7 +7,12 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use sculpt_core::editor::{self, Applied};
+use sculpt_core::formats::{iges, obj};
+use sculpt_core::interaction::{Edit, StrokeEdit, StrokeSample, TargetIndex};
 use sculpt_core::reconstruct::read::{PointFormat, read_points};
+use sculpt_core::sculpt::document::Document;
+use sculpt_core::sculpt::stroke::Tool;
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_sculpt-tools"))
@@ -67,28 +72,89 @@ fn check_closed_genus_one(r: &serde_json::Value) {
     assert_eq!(num(r, "open_model_edges"), 0, "{r}");
     assert_eq!(num(r, "open_quad_edges"), 0, "{r}");
     assert!(num(r, "quads") >= 3 * num(r, "model_faces"), "{r}");
+    // One NURBS patch per quad, every side shared by two patches.
+    assert_eq!(num(r, "nurbs_patches"), num(r, "quads"), "{r}");
+    assert_eq!(num(r, "shared_sides"), 2 * num(r, "quads"), "{r}");
 }
+
+fn fig(v: &serde_json::Value, key: &str) -> f64 {
+    v[key].as_f64().unwrap_or_else(|| panic!("{key} in {v}"))
+}
+
+/// E_avg bound of the small torus (4,000 points, K = 30, 8x8 bicubic patches): the
+/// issue's 0.03 % of the bounding-box diagonal.
+const TORUS_E_AVG: f64 = 3e-4; // not a tolerance: an acceptance bound on a measured figure
+/// Worst G1 angle of the small torus, degrees (near the corners where five or more
+/// quads meet; the mean over sides is under 2 degrees).
+const TORUS_G1_DEGREES: f64 = 15.0;
+/// E_avg bound of the real scans: the 0.1 % of the bounding-box diagonal.
+const SCAN_E_AVG: f64 = 1e-3; // not a tolerance: an acceptance bound on a measured figure
 
 #[test]
 fn torus_patches_cover_a_genus_one_surface() {
     let dir = tempfile::tempdir().unwrap();
     let layout = dir.path().join("layout.ply");
+    let (doc, igs, obj) = (
+        dir.path().join("scan.json"),
+        dir.path().join("scan.igs"),
+        dir.path().join("scan.obj"),
+    );
     let out = run(&[
         "reconstruct",
         "torus:4000:7",
         "--patches",
         "30",
+        "--degree",
+        "3",
+        "--control",
+        "8",
         "--layout",
         layout.to_str().unwrap(),
+        "--out",
+        doc.to_str().unwrap(),
+        "--igs",
+        igs.to_str().unwrap(),
+        "--obj",
+        obj.to_str().unwrap(),
     ]);
     let r = report(&out);
     assert_eq!(num(&r, "points"), 4000);
     assert_eq!(r["normals"], "estimated");
     check_closed_genus_one(&r);
+    assert!(fig(&r, "e_avg") <= TORUS_E_AVG, "{r}");
+    assert!(fig(&r, "e_avg") <= fig(&r, "e_max"), "{r}");
+    assert!(fig(&r, "g1_max_degrees") < TORUS_G1_DEGREES, "{r}");
     // The layout reads back through the point reader, with its normals.
     let back = read_points(&std::fs::read(&layout).unwrap(), PointFormat::Ply).unwrap();
     assert_eq!(back.points.len(), 4000);
     assert_eq!(back.normals.map(|n| n.len()), Some(4000));
+    // The document holds one target per patch, and carves (one stroke through the
+    // editor, the path the app and replay use).
+    let patches = num(&r, "nurbs_patches");
+    let mut document = Document::from_json(&std::fs::read(&doc).unwrap()).unwrap();
+    assert_eq!(document.targets().len(), patches);
+    let surface = document.targets()[0].surface.clone();
+    let samples = (0..=20)
+        .map(|k| StrokeSample {
+            t: 0.01 * f64::from(k),
+            position: surface.point(0.2 + 0.03 * f64::from(k), 0.5),
+        })
+        .collect();
+    let tool = Tool {
+        width: 0.01,
+        ..Tool::default()
+    };
+    let edit = Edit::Stroke(StrokeEdit::new(TargetIndex(0), tool, samples));
+    assert!(matches!(
+        editor::apply(&mut document, &edit),
+        Applied::Stroke { .. }
+    ));
+    assert_eq!(document.strokes().len(), 1);
+    // IGES: one type 128 surface per patch; OBJ: a mesh with triangles.
+    let model = iges::read(&std::fs::read(&igs).unwrap()).unwrap();
+    assert_eq!(model.surfaces.len(), patches);
+    let mesh = obj::read(&std::fs::read(&obj).unwrap()).unwrap();
+    assert!(mesh.triangles.len() >= 2 * patches);
 }
 
 #[test]
@@ -107,6 +173,7 @@ fn kitten_scan_patches() {
     assert_eq!(num(&r, "points"), 5210);
     assert_eq!(r["normals"], "file");
     check_closed_genus_one(&r);
+    assert!(fig(&r, "e_avg") <= SCAN_E_AVG, "{r}");
 }
 
 #[test]

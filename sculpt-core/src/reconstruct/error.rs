@@ -82,4 +82,36 @@ pub enum ReconstructError {
         /// Normal count.
         normals: usize,
     },
+    /// The degree is not 2 or 3.
+    #[error("degree {degree} (expected 2 or 3)")]
+    Degree {
+        /// The degree asked for.
+        degree: usize,
+    },
+    /// The control count does not fit the degree and the grid.
+    #[error(
+        "{control} control points per direction for degree {degree} (expected {degree} < N <= {max})"
+    )]
+    ControlCount {
+        /// Control points asked for.
+        control: usize,
+        /// The degree.
+        degree: usize,
+        /// The most the local grids allow.
+        max: usize,
+    },
+    /// The polygonal model has no quads to fit.
+    #[error(
+        "the patches never meet three at a time, so there are no quads to fit (try more patches)"
+    )]
+    NoQuads,
+    /// The kernel's least-squares fit of a quad failed.
+    #[error("fitting quad {quad}")]
+    Fit {
+        /// The quad.
+        quad: usize,
+        /// The kernel's error.
+        #[source]
+        cause: Box<crate::Error>,
+    },
 }

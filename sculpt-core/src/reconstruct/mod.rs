@@ -6,13 +6,18 @@
 //!    [`normals`]: k nearest neighbours, PCA normals, consistent orientation.
 //! 2. [`kmeans`]: generalised Lloyd clustering into K patches and their adjacency;
 //!    [`segment`] runs stages 1 and 2 together.
-//! 3. [`polygon`]: the polygonal model (faces where patches meet) and its quads.
+//! 3. [`polygon`]: the polygonal model (faces where patches meet) and its quads;
+//!    [`network`]: their corners on the data, then stages 4 to 6 (local grids,
+//!    the NURBS patch network with G1 across sides, errors, the document);
+//!    [`pipeline`] runs everything.
 //!
 //! [`sample`] makes seeded point sets with known surfaces (the paper's torus).
 
 pub mod error;
 pub mod kmeans;
+pub mod network;
 pub mod normals;
+pub mod pipeline;
 pub mod polygon;
 pub mod read;
 pub mod sample;

@@ -1,8 +1,12 @@
-//! `sculpt-tools reconstruct POINTS --patches K [--report R.json] [--layout L.ply]`:
-//! stages 1 to 3 of scan reconstruction (docs/reconstruct.md): reads the points,
-//! estimates normals when the file has none, clusters them into K patches, finds the
-//! patch adjacency and builds the polygonal model and its quads (combinatorially). The report gives the counts and timings; the layout is an ASCII PLY
-//! of the points with their normals, coloured by patch (open it in any mesh viewer).
+//! `sculpt-tools reconstruct POINTS --patches K [--degree 2|3] [--control N] [--out
+//! scan.json] [--igs X.igs] [--obj X.obj] [--report R.json] [--layout L.ply]`: scan
+//! reconstruction (docs/reconstruct.md): reads the points, estimates normals when the
+//! file has none, clusters them into K patches, builds the polygonal model and its
+//! quads, places them on the data, fits one NURBS patch per quad with G1 across the
+//! sides and measures the result. Writes the patches as a `wandsculpt-document` (one
+//! target per patch), IGES (one type 128 entity per patch) and an OBJ mesh. The report
+//! gives the counts, the error figures and the time; the layout is an ASCII PLY of the
+//! points with their normals, coloured by patch (open it in any mesh viewer).
 //!
 //! `POINTS` is a `.xyz`, `.pwn`, `.ply`, `.obj` or `.off` file, or `torus:N[:SEED]` for
 //! the paper's torus (N points, seeded).
@@ -10,10 +14,13 @@
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use sculpt_core::reconstruct::polygon::polygon_model;
+use sculpt_core::formats::{iges, obj};
+use sculpt_core::reconstruct::network::{NetworkSettings, shared_sides, to_document};
+use sculpt_core::reconstruct::pipeline::{Reconstruction, STAGES, reconstruct as run_method};
 use sculpt_core::reconstruct::read::{PointCloud, PointFormat, read_points};
 use sculpt_core::reconstruct::sample::torus;
-use sculpt_core::reconstruct::segment::{SegmentSettings, Segmentation, bbox_diagonal, segment};
+use sculpt_core::reconstruct::segment::{SegmentSettings, Segmentation};
+use sculpt_core::sculpt::tessellate::Detail;
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -33,6 +40,21 @@ pub struct ReconstructArgs {
     /// Neighbours per point for normals and adjacency.
     #[arg(long, default_value_t = 10)]
     pub neighbours: usize,
+    /// Degree of the patches in both directions (2 or 3).
+    #[arg(long, default_value_t = 3)]
+    pub degree: usize,
+    /// Control points per direction of each patch (degree < N <= 17).
+    #[arg(long, default_value_t = 8)]
+    pub control: usize,
+    /// Write the patches here as a `wandsculpt-document` (one target per patch).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Write the patches here as IGES (one type 128 entity per patch).
+    #[arg(long)]
+    pub igs: Option<PathBuf>,
+    /// Write the tessellated patches here as an OBJ mesh.
+    #[arg(long)]
+    pub obj: Option<PathBuf>,
     /// Write the report (JSON) here.
     #[arg(long)]
     pub report: Option<PathBuf>,
@@ -79,7 +101,25 @@ pub struct Report {
     pub quads: usize,
     /// Quad edges not shared by exactly two quads (0 on a closed object).
     pub open_quad_edges: usize,
-    /// Seconds for reading and segmenting (not writing).
+    /// Degree of the patches.
+    pub degree: usize,
+    /// Control points per direction of each patch.
+    pub control: usize,
+    /// Points per direction of each quad's local grid.
+    pub grid: usize,
+    /// NURBS patches fitted (one per quad).
+    pub nurbs_patches: usize,
+    /// Patch sides shared by two patches.
+    pub shared_sides: usize,
+    /// Mean distance of the points to the network over the bounding-box diagonal.
+    pub e_avg: f64,
+    /// Largest distance of a point to the network over the bounding-box diagonal.
+    pub e_max: f64,
+    /// Largest angle between the two patches' normals along any shared side, degrees.
+    pub g1_max_degrees: f64,
+    /// Mean over shared sides of each side's largest angle, degrees.
+    pub g1_mean_degrees: f64,
+    /// Seconds for reading and the whole method, figures included (not writing).
     pub seconds: f64,
 }
 
@@ -113,30 +153,40 @@ fn load(spec: &str) -> Result<PointCloud> {
     read_points(&bytes, format).with_context(|| spec.to_string())
 }
 
-/// Reads and segments, with a progress line on a terminal.
-pub fn reconstruct(args: &ReconstructArgs) -> Result<(Segmentation, Report)> {
+/// Reads the points and runs the method, with a progress bar on a terminal.
+pub fn reconstruct(args: &ReconstructArgs) -> Result<(Reconstruction, Report)> {
     let start = Instant::now();
-    let bar = ProgressBar::new_spinner();
+    let bar = ProgressBar::new(STAGES.len() as u64 + 1);
     bar.set_style(
-        ProgressStyle::with_template("{spinner} {msg} ({elapsed})")
-            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+        ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} ({elapsed})")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     bar.set_message("reading");
     let cloud = load(&args.points)?;
     let mut settings = SegmentSettings::new(args.patches);
     settings.neighbours = args.neighbours.max(3);
-    let seg = segment(&cloud, &settings, |stage| bar.set_message(stage))
-        .with_context(|| args.points.clone())?;
-    bar.set_message("polygonal model");
-    let model = polygon_model(&seg.clusters.labels, &seg.neighbours, &seg.adjacency);
+    let network_settings = NetworkSettings {
+        degree: args.degree,
+        control: args.control,
+        ..NetworkSettings::new()
+    };
+    let r = run_method(&cloud, &settings, &network_settings, |stage| {
+        let at = STAGES.iter().position(|s| *s == stage).unwrap_or(0);
+        bar.set_position(at as u64 + 1);
+        bar.set_message(stage);
+    })
+    .with_context(|| args.points.clone())?;
     bar.finish_and_clear();
+    let seg = &r.segmentation;
+    let model = &r.model;
     let edge_uses = model.edge_uses();
     let sizes = seg.clusters.sizes();
     let degrees = seg.degrees();
+    let angles: Vec<f64> = r.figures.angles.iter().map(|a| a.max_degrees).collect();
     let report = Report {
         input: args.points.clone(),
         points: seg.points.len(),
-        bbox_diagonal: bbox_diagonal(&seg.points),
+        bbox_diagonal: r.figures.bbox_diagonal,
         normals: if seg.normals_estimated {
             "estimated"
         } else {
@@ -160,9 +210,18 @@ pub fn reconstruct(args: &ReconstructArgs) -> Result<(Segmentation, Report)> {
             .count(),
         quads: model.quads.len(),
         open_quad_edges: model.quad_edge_uses().values().filter(|&&u| u != 2).count(),
+        degree: args.degree,
+        control: args.control,
+        grid: (1 << network_settings.levels) + 1,
+        nurbs_patches: r.network.surfaces.len(),
+        shared_sides: shared_sides(&r.network.quads, 1).len(),
+        e_avg: r.figures.e_avg,
+        e_max: r.figures.e_max,
+        g1_max_degrees: r.figures.worst_angle(),
+        g1_mean_degrees: angles.iter().sum::<f64>() / angles.len().max(1) as f64,
         seconds: start.elapsed().as_secs_f64(),
     };
-    Ok((seg, report))
+    Ok((r, report))
 }
 
 /// A colour per patch (golden-ratio hues).
@@ -203,17 +262,37 @@ pub fn layout_ply(seg: &Segmentation) -> String {
     out
 }
 
+fn write(path: &Path, bytes: &[u8]) -> Result<()> {
+    std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))
+}
+
 /// Runs `reconstruct`.
 pub fn run(args: ReconstructArgs) -> Result<()> {
-    let (seg, report) = reconstruct(&args)?;
+    let (r, report) = reconstruct(&args)?;
     if let Some(path) = &args.layout {
-        std::fs::write(path, layout_ply(&seg))
-            .with_context(|| format!("writing {}", path.display()))?;
+        write(path, layout_ply(&r.segmentation).as_bytes())?;
+    }
+    if args.out.is_some() || args.igs.is_some() || args.obj.is_some() {
+        let doc = to_document(&r.network);
+        if let Some(path) = &args.out {
+            write(path, &doc.to_json())?;
+        }
+        if let Some(path) = &args.igs {
+            write(path, &iges::write(&doc.iges_surfaces()))?;
+        }
+        if let Some(path) = &args.obj {
+            let size = r.figures.bbox_diagonal;
+            let tol = (size * sculpt_core::tolerance::MESH_WELD_REL)
+                .max(sculpt_core::tolerance::MESH_WELD_MIN);
+            write(
+                path,
+                &obj::write(&doc.mesh(Detail::Final).welded(tol as f32)),
+            )?;
+        }
     }
     let json = serde_json::to_string_pretty(&report)?;
     match &args.report {
-        Some(path) => std::fs::write(path, json + "\n")
-            .with_context(|| format!("writing {}", path.display()))?,
+        Some(path) => write(path, (json + "\n").as_bytes())?,
         None => println!("{json}"),
     }
     Ok(())

@@ -1,0 +1,987 @@
+//! Stages 3 (positions) to 6: the quads placed on the data, their local
+//! parameterisation by recursive subdivision, one least-squares NURBS patch per quad
+//! with shared boundaries and G1 across them, and the error figures.
+//!
+//! - [`DataSnap`]: moves a point onto the data along the averaged normal of its
+//!   nearest points (where the line through it meets a local quadric fitted to them).
+//! - [`place_corners`]: patch centres, edge midpoints and face centres snapped to the
+//!   data; quads oriented so that `du x dv` points along the data normals (outward).
+//! - [`quad_grids`]: each quad's `(2^L + 1)^2` grid (3x3, 5x5, 9x9, 17x17): a side's
+//!   points are made once and read by both quads of that side, so neighbours share
+//!   them exactly; inner points are midpoints (and cell centres) snapped to the data.
+//! - [`fit_network`]: the kernel's least-squares fit
+//!   ([`NurbsSurface::approximate_scattered`]) of each grid at its grid parameters on
+//!   common uniform knots; control points on shared sides and corners averaged (the
+//!   patches then meet exactly); G1 across each shared side by making the control
+//!   points on either side collinear through the boundary point with one ratio per side.
+//! - [`g1_angles`] and [`network_distances`]: the measured angles between normals along
+//!   every shared side and the distance of each input point to the network (certified
+//!   inverter per patch).
+
+use std::collections::BTreeMap;
+
+use glam::{DVec2, DVec3};
+use nalgebra::{SMatrix, SVector};
+use rstar::RTree;
+use rstar::primitives::GeomWithData;
+
+use super::error::ReconstructError;
+use super::normals::{IndexedPoint, point_tree};
+use super::polygon::{PolygonModel, QuadCorner};
+use crate::nurbs::{KnotVector, NurbsSurface, SurfaceInverter};
+use crate::sculpt::document::Document;
+
+/// Maps `f` over `items`, on the rayon pool when the `parallel` feature is on.
+fn par_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync + Send) -> Vec<R> {
+    #[cfg(feature = "parallel")]
+    {
+        use rayon::prelude::*;
+        items.par_iter().map(f).collect()
+    }
+    #[cfg(not(feature = "parallel"))]
+    {
+        items.iter().map(f).collect()
+    }
+}
+
+/// Snaps points onto the data: the points, their unit normals and an R*-tree.
+#[derive(Debug)]
+pub struct DataSnap<'a> {
+    points: &'a [DVec3],
+    normals: &'a [DVec3],
+    tree: RTree<IndexedPoint>,
+    neighbours: usize,
+}
+
+impl<'a> DataSnap<'a> {
+    /// A snapper over `points` with unit `normals`, using the `neighbours` nearest
+    /// points of a query (at least 6 are needed for the quadric).
+    pub fn new(points: &'a [DVec3], normals: &'a [DVec3], neighbours: usize) -> Self {
+        Self {
+            points,
+            normals,
+            tree: point_tree(points),
+            neighbours: neighbours.max(6),
+        }
+    }
+
+    /// The point where the line through `q` along the averaged normal of its nearest
+    /// data points meets the quadric `h(x, y)` fitted to them (least squares in the
+    /// frame of that normal), and that normal. Nearest points facing away from the
+    /// nearest one (the far side of a thin part) are left out. Two rounds: the second
+    /// starts from the first one's answer.
+    pub fn snap(&self, q: DVec3) -> (DVec3, DVec3) {
+        let mut q = q;
+        let mut n = DVec3::Z;
+        for _ in 0..2 {
+            let near: Vec<usize> = self
+                .tree
+                .nearest_neighbor_iter(&q.to_array())
+                .take(self.neighbours)
+                .map(|g| g.data)
+                .collect();
+            let Some(&first) = near.first() else {
+                return (q, n);
+            };
+            let reference = self.normals[first];
+            let same: Vec<DVec3> = near
+                .iter()
+                .filter(|&&i| self.normals[i].dot(reference) > 0.0)
+                .map(|&i| self.points[i])
+                .collect();
+            let sum: DVec3 = near
+                .iter()
+                .filter(|&&i| self.normals[i].dot(reference) > 0.0)
+                .map(|&i| self.normals[i])
+                .sum();
+            n = sum.try_normalize().unwrap_or(reference);
+            q += n * height_at(q, n, &same);
+        }
+        (q, n)
+    }
+}
+
+/// The height along `n` above `q` of the quadric `h = a + b x + c y + d x^2 + e x y +
+/// f y^2` fitted to `pts` in the frame `(x, y, n)` at `q`, or of their mean plane when
+/// the quadric is undetermined or leaves the band the points span.
+fn height_at(q: DVec3, n: DVec3, pts: &[DVec3]) -> f64 {
+    if pts.is_empty() {
+        return 0.0;
+    }
+    let (e1, e2) = n.any_orthonormal_pair();
+    let mut ata = SMatrix::<f64, 6, 6>::zeros();
+    let mut atb = SVector::<f64, 6>::zeros();
+    let (mut lo, mut hi, mut mean) = (f64::INFINITY, f64::NEG_INFINITY, 0.0);
+    for p in pts {
+        let d = *p - q;
+        let (x, y, h) = (d.dot(e1), d.dot(e2), d.dot(n));
+        let row = SVector::<f64, 6>::from([1.0, x, y, x * x, x * y, y * y]);
+        ata += row * row.transpose();
+        atb += row * h;
+        lo = lo.min(h);
+        hi = hi.max(h);
+        mean += h;
+    }
+    let plane = mean / pts.len() as f64;
+    if pts.len() < 9 {
+        return plane;
+    }
+    let band = hi - lo;
+    match ata.cholesky().map(|c| c.solve(&atb)[0]) {
+        Some(a) if a.is_finite() && a >= lo - band && a <= hi + band => a,
+        _ => plane,
+    }
+}
+
+/// The quads with positions: each corner's point on the data and its data normal.
+#[derive(Debug, Clone, PartialEq)]
+pub struct QuadMesh {
+    /// Point and unit normal of every corner.
+    pub corners: BTreeMap<QuadCorner, (DVec3, DVec3)>,
+    /// Quads, oriented: `(c1 - c0) x (c3 - c0)` points along the data normals.
+    pub quads: Vec<[QuadCorner; 4]>,
+}
+
+/// Stage 3, positions: patch centres, then model edge midpoints (between the snapped
+/// patch points), then face centres (the mean of the face's snapped patch points), each
+/// snapped to the data; every quad oriented along the data normals.
+pub fn place_corners(model: &PolygonModel, centres: &[DVec3], snap: &DataSnap<'_>) -> QuadMesh {
+    let mut corners: BTreeMap<QuadCorner, (DVec3, DVec3)> = BTreeMap::new();
+    let used: std::collections::BTreeSet<QuadCorner> =
+        model.quads.iter().flatten().copied().collect();
+    let patch = |v: usize| centres.get(v).copied().unwrap_or(DVec3::ZERO);
+    for c in &used {
+        if let QuadCorner::Patch(v) = c {
+            corners.insert(*c, snap.snap(patch(*v)));
+        }
+    }
+    let at = |corners: &BTreeMap<QuadCorner, (DVec3, DVec3)>, v: usize| {
+        corners
+            .get(&QuadCorner::Patch(v))
+            .map_or_else(|| patch(v), |c| c.0)
+    };
+    for c in &used {
+        match c {
+            QuadCorner::Edge(a, b) => {
+                let mid = (at(&corners, *a) + at(&corners, *b)) * 0.5;
+                corners.insert(*c, snap.snap(mid));
+            }
+            QuadCorner::Face(f) => {
+                let face = &model.faces[*f];
+                let sum: DVec3 = face.iter().map(|&v| at(&corners, v)).sum();
+                corners.insert(*c, snap.snap(sum / face.len().max(1) as f64));
+            }
+            QuadCorner::Patch(_) => {}
+        }
+    }
+    let quads = orient(&model.quads, &corners);
+    QuadMesh { corners, quads }
+}
+
+/// Orients the quads: across every side held by two quads they run it in opposite
+/// directions (propagated breadth first over each connected piece), and each piece
+/// turns so that most of its area faces along the data normals.
+fn orient(
+    quads: &[[QuadCorner; 4]],
+    corners: &BTreeMap<QuadCorner, (DVec3, DVec3)>,
+) -> Vec<[QuadCorner; 4]> {
+    let flip = |q: [QuadCorner; 4]| [q[0], q[3], q[2], q[1]];
+    let mut out = quads.to_vec();
+    let mut by_side: BTreeMap<(QuadCorner, QuadCorner), Vec<usize>> = BTreeMap::new();
+    for (qi, q) in quads.iter().enumerate() {
+        for k in 0..4 {
+            let (a, b) = (q[k], q[(k + 1) % 4]);
+            by_side.entry((a.min(b), a.max(b))).or_default().push(qi);
+        }
+    }
+    let runs = |q: &[QuadCorner; 4], a: QuadCorner, b: QuadCorner| {
+        (0..4).any(|k| q[k] == a && q[(k + 1) % 4] == b)
+    };
+    let mut seen = vec![false; quads.len()];
+    for start in 0..quads.len() {
+        if seen[start] {
+            continue;
+        }
+        seen[start] = true;
+        let mut piece = vec![start];
+        let mut queue = std::collections::VecDeque::from([start]);
+        while let Some(qi) = queue.pop_front() {
+            let q = out[qi];
+            for k in 0..4 {
+                let (a, b) = (q[k], q[(k + 1) % 4]);
+                for &other in &by_side[&(a.min(b), a.max(b))] {
+                    if seen[other] {
+                        continue;
+                    }
+                    seen[other] = true;
+                    if runs(&out[other], a, b) {
+                        out[other] = flip(out[other]);
+                    }
+                    piece.push(other);
+                    queue.push_back(other);
+                }
+            }
+        }
+        let facing: f64 = piece
+            .iter()
+            .map(|&qi| {
+                let p = out[qi].map(|c| corners[&c].0);
+                let along: DVec3 = out[qi].iter().map(|c| corners[c].1).sum();
+                (p[2] - p[0]).cross(p[3] - p[1]).dot(along)
+            })
+            .sum();
+        if facing < 0.0 {
+            for &qi in &piece {
+                out[qi] = flip(out[qi]);
+            }
+        }
+    }
+    out
+}
+
+/// One side of a quad on a grid (or control net) whose last index is `m`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Side {
+    /// The corner it starts from.
+    pub from: QuadCorner,
+    /// The corner it ends at.
+    pub to: QuadCorner,
+    /// Grid indices `(i, j)` along the side, from `from` to `to`.
+    pub on: Vec<(usize, usize)>,
+    /// Grid indices of the row next to the side, inside the quad.
+    pub inner: Vec<(usize, usize)>,
+    /// Parameters of `from` and `to` on the quad's domain `[0, 1]^2`.
+    pub uv: [DVec2; 2],
+}
+
+impl Side {
+    /// The side's key (its corners, smaller first) and whether it runs that way.
+    pub fn key(&self) -> ((QuadCorner, QuadCorner), bool) {
+        if self.from < self.to {
+            ((self.from, self.to), true)
+        } else {
+            ((self.to, self.from), false)
+        }
+    }
+
+    /// The side run in its key's direction.
+    pub fn canonical(&self) -> Self {
+        if self.key().1 {
+            return self.clone();
+        }
+        Self {
+            from: self.to,
+            to: self.from,
+            on: self.on.iter().rev().copied().collect(),
+            inner: self.inner.iter().rev().copied().collect(),
+            uv: [self.uv[1], self.uv[0]],
+        }
+    }
+}
+
+/// The four sides of quad `q = [c0, c1, c2, c3]` on a grid with last index `m`: `u`
+/// runs from `c0` to `c1` (`j = 0`), `v` from `c0` to `c3` (`i = 0`).
+pub fn sides(q: &[QuadCorner; 4], m: usize) -> [Side; 4] {
+    let r = 0..=m;
+    let side = |from, to, on: Vec<_>, inner: Vec<_>, a: [f64; 2], b: [f64; 2]| Side {
+        from,
+        to,
+        on,
+        inner,
+        uv: [DVec2::from(a), DVec2::from(b)],
+    };
+    [
+        side(
+            q[0],
+            q[1],
+            r.clone().map(|k| (k, 0)).collect(),
+            r.clone().map(|k| (k, 1)).collect(),
+            [0.0, 0.0],
+            [1.0, 0.0],
+        ),
+        side(
+            q[1],
+            q[2],
+            r.clone().map(|k| (m, k)).collect(),
+            r.clone().map(|k| (m - 1, k)).collect(),
+            [1.0, 0.0],
+            [1.0, 1.0],
+        ),
+        side(
+            q[3],
+            q[2],
+            r.clone().map(|k| (k, m)).collect(),
+            r.clone().map(|k| (k, m - 1)).collect(),
+            [0.0, 1.0],
+            [1.0, 1.0],
+        ),
+        side(
+            q[0],
+            q[3],
+            r.clone().map(|k| (0, k)).collect(),
+            r.map(|k| (1, k)).collect(),
+            [0.0, 0.0],
+            [0.0, 1.0],
+        ),
+    ]
+}
+
+/// A grid `g[i][j]` of points, `i` along `u`.
+pub type Grid = Vec<Vec<DVec3>>;
+
+/// Stage 4: the `(2^levels + 1)^2` grid of every quad by recursive subdivision. Each
+/// side's points are made once (midpoints snapped to the data, halving until the
+/// spacing is reached) and shared by both quads of the side; inside, each level adds
+/// the midpoints of the previous level's cell sides and the cell centres (the mean of
+/// the cell's four corners), snapped.
+pub fn quad_grids(mesh: &QuadMesh, levels: u32, snap: &DataSnap<'_>) -> Vec<Grid> {
+    let n = 1usize << levels;
+    let mut side_points: BTreeMap<(QuadCorner, QuadCorner), Vec<DVec3>> = BTreeMap::new();
+    for q in &mesh.quads {
+        for s in sides(q, n) {
+            let (key, _) = s.key();
+            side_points.entry(key).or_insert_with(|| {
+                let mut pts = vec![DVec3::ZERO; n + 1];
+                pts[0] = mesh.corners[&key.0].0;
+                pts[n] = mesh.corners[&key.1].0;
+                let mut step = n;
+                while step > 1 {
+                    let h = step / 2;
+                    for i in (h..n).step_by(step) {
+                        pts[i] = snap.snap((pts[i - h] + pts[i + h]) * 0.5).0;
+                    }
+                    step = h;
+                }
+                pts
+            });
+        }
+    }
+    par_map(&mesh.quads, |q| {
+        let mut g = vec![vec![DVec3::ZERO; n + 1]; n + 1];
+        for s in sides(q, n) {
+            let c = s.canonical();
+            for (k, &(i, j)) in c.on.iter().enumerate() {
+                g[i][j] = side_points[&s.key().0][k];
+            }
+        }
+        let mut step = n;
+        while step > 1 {
+            let h = step / 2;
+            for i in (h..n).step_by(h) {
+                for j in (h..n).step_by(h) {
+                    if i % step == 0 && j % step == 0 {
+                        continue;
+                    }
+                    let guess = match (i % step != 0, j % step != 0) {
+                        (true, true) => {
+                            (g[i - h][j - h] + g[i + h][j - h] + g[i - h][j + h] + g[i + h][j + h])
+                                * 0.25
+                        }
+                        (true, false) => (g[i - h][j] + g[i + h][j]) * 0.5,
+                        _ => (g[i][j - h] + g[i][j + h]) * 0.5,
+                    };
+                    g[i][j] = snap.snap(guess).0;
+                }
+            }
+            step = h;
+        }
+        g
+    })
+}
+
+/// Settings of [`fit_network`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NetworkSettings {
+    /// Degree in both directions (2 or 3).
+    pub degree: usize,
+    /// Control points per direction of each patch.
+    pub control: usize,
+    /// Subdivision levels of the local parameterisation (4: 17x17 grids).
+    pub levels: u32,
+    /// Nearest data points used to snap a point onto the data.
+    pub snap_neighbours: usize,
+    /// Rounds of the G1 adjustment over all shared sides.
+    pub g1_rounds: usize,
+}
+
+impl NetworkSettings {
+    /// The defaults: bicubic, 8 x 8 control points, 17 x 17 grids.
+    pub fn new() -> Self {
+        Self {
+            degree: 3,
+            control: 8,
+            levels: 4,
+            snap_neighbours: 16,
+            g1_rounds: 3,
+        }
+    }
+
+    /// Checks degree (2 or 3) and control count (`degree < control <= 2^levels + 1`).
+    pub fn validate(&self) -> Result<(), ReconstructError> {
+        if !(2..=3).contains(&self.degree) {
+            return Err(ReconstructError::Degree {
+                degree: self.degree,
+            });
+        }
+        let max = (1usize << self.levels.min(6)) + 1;
+        if self.control <= self.degree || self.control > max {
+            return Err(ReconstructError::ControlCount {
+                control: self.control,
+                degree: self.degree,
+                max,
+            });
+        }
+        Ok(())
+    }
+}
+
+impl Default for NetworkSettings {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The fitted patch network.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PatchNetwork {
+    /// The quads (oriented), one patch each.
+    pub quads: Vec<[QuadCorner; 4]>,
+    /// The data grid of each quad (stage 4).
+    pub grids: Vec<Grid>,
+    /// One non-rational surface per quad, all on the same uniform clamped knots, with
+    /// `du x dv` pointing outward.
+    pub surfaces: Vec<NurbsSurface>,
+}
+
+/// Key of a boundary control point: a corner `(c, c, 0)` or the `k`-th point of a side
+/// in its key's direction.
+type BoundaryKey = (QuadCorner, QuadCorner, usize);
+
+fn boundary_key(key: (QuadCorner, QuadCorner), k: usize, last: usize) -> BoundaryKey {
+    if k == 0 {
+        (key.0, key.0, 0)
+    } else if k == last {
+        (key.1, key.1, 0)
+    } else {
+        (key.0, key.1, k)
+    }
+}
+
+/// The shared sides: for each side key held by exactly two quads, the two quads and
+/// their sides run in the key's direction.
+pub fn shared_sides(quads: &[[QuadCorner; 4]], m: usize) -> Vec<[(usize, Side); 2]> {
+    let mut by_key: BTreeMap<(QuadCorner, QuadCorner), Vec<(usize, Side)>> = BTreeMap::new();
+    for (qi, q) in quads.iter().enumerate() {
+        for s in sides(q, m) {
+            by_key
+                .entry(s.key().0)
+                .or_default()
+                .push((qi, s.canonical()));
+        }
+    }
+    by_key
+        .into_values()
+        .filter_map(|v| <[(usize, Side); 2]>::try_from(v).ok())
+        .collect()
+}
+
+/// Averages the control points on sides and corners over the quads that hold them.
+fn average_boundaries(quads: &[[QuadCorner; 4]], nets: &mut [Grid], m: usize) {
+    let mut acc: BTreeMap<BoundaryKey, (DVec3, usize)> = BTreeMap::new();
+    for (qi, q) in quads.iter().enumerate() {
+        for s in sides(q, m) {
+            let key = s.key().0;
+            for (k, &(i, j)) in s.canonical().on.iter().enumerate() {
+                let e = acc
+                    .entry(boundary_key(key, k, m))
+                    .or_insert((DVec3::ZERO, 0));
+                e.0 += nets[qi][i][j];
+                e.1 += 1;
+            }
+        }
+    }
+    for (qi, q) in quads.iter().enumerate() {
+        for s in sides(q, m) {
+            let key = s.key().0;
+            for (k, &(i, j)) in s.canonical().on.iter().enumerate() {
+                let (sum, count) = acc[&boundary_key(key, k, m)];
+                nets[qi][i][j] = sum / count as f64;
+            }
+        }
+    }
+}
+
+/// One round of the G1 condition over the shared sides: for each boundary control
+/// point `B_k` (corners excepted) with inner neighbours `A_k` and `C_k` on either side,
+/// both are projected onto the plane through `B_k` that holds the side's tangent
+/// `B_{k+1} - B_{k-1}` and the average of the two sides' normals there (the averaged
+/// tangent plane). The cross-boundary derivatives of both patches are sums of
+/// `A_k - B_k` (and `C_k - B_k`), so along the side they lie in (nearly) the same
+/// plane as the side's tangent: the normals agree. Near quad corners an inner point
+/// belongs to two sides; repeated rounds alternate between the two planes and settle
+/// on their intersection.
+fn enforce_g1(shared: &[[(usize, Side); 2]], nets: &mut [Grid]) {
+    for [(qa, sa), (qb, sb)] in shared {
+        let last = sa.on.len() - 1;
+        for k in 1..last {
+            let at = |q: usize, (i, j): (usize, usize), nets: &[Grid]| nets[q][i][j];
+            let b = at(*qa, sa.on[k], nets);
+            let tangent = at(*qa, sa.on[k + 1], nets) - at(*qa, sa.on[k - 1], nets);
+            let a = at(*qa, sa.inner[k], nets) - b;
+            let c = at(*qb, sb.inner[k], nets) - b;
+            let (Some(na), Some(nc)) = (
+                tangent.cross(a).try_normalize(),
+                c.cross(tangent).try_normalize(),
+            ) else {
+                continue;
+            };
+            let Some(n) = (na + nc).try_normalize() else {
+                continue;
+            };
+            let (ai, aj) = sa.inner[k];
+            let (ci, cj) = sb.inner[k];
+            nets[*qa][ai][aj] = b + a - n * a.dot(n);
+            nets[*qb][ci][cj] = b + c - n * c.dot(n);
+        }
+    }
+}
+
+/// Stage 5: fits every quad's grid (the kernel's least squares on uniform clamped
+/// knots, common to all patches, grid point `(i, j)` at parameter `(i, j) / 2^L`),
+/// averages the control points on shared sides and corners, then applies the G1
+/// condition (see [`NetworkSettings::g1_rounds`]).
+pub fn fit_network(
+    quads: &[[QuadCorner; 4]],
+    grids: Vec<Grid>,
+    settings: &NetworkSettings,
+) -> Result<PatchNetwork, ReconstructError> {
+    settings.validate()?;
+    if quads.is_empty() {
+        return Err(ReconstructError::NoQuads);
+    }
+    let (p, c) = (settings.degree, settings.control);
+    let fits: Vec<Result<Grid, ReconstructError>> =
+        par_map(&grids.iter().enumerate().collect::<Vec<_>>(), |(qi, g)| {
+            let n = g.len() - 1;
+            let mut pts = Vec::with_capacity(g.len() * g.len());
+            let mut params = Vec::with_capacity(pts.capacity());
+            for (i, row) in g.iter().enumerate() {
+                for (j, pt) in row.iter().enumerate() {
+                    pts.push(*pt);
+                    params.push(DVec2::new(i as f64, j as f64) / n as f64);
+                }
+            }
+            NurbsSurface::approximate_scattered(&pts, &params, c, c, p, p)
+                .map(|s| s.control_points())
+                .map_err(|cause| ReconstructError::Fit {
+                    quad: *qi,
+                    cause: Box::new(cause),
+                })
+        });
+    let mut nets: Vec<Grid> = fits.into_iter().collect::<Result<_, _>>()?;
+    let m = c - 1;
+    average_boundaries(quads, &mut nets, m);
+    if m >= 2 {
+        let shared = shared_sides(quads, m);
+        for _ in 0..settings.g1_rounds {
+            enforce_g1(&shared, &mut nets);
+        }
+    }
+    let knots = KnotVector::uniform_clamped(p, c).map_err(|cause| ReconstructError::Fit {
+        quad: 0,
+        cause: Box::new(cause),
+    })?;
+    let surfaces = nets
+        .into_iter()
+        .enumerate()
+        .map(|(qi, net)| {
+            NurbsSurface::new(
+                p,
+                p,
+                knots.knots().to_vec(),
+                knots.knots().to_vec(),
+                net,
+                None,
+            )
+            .map_err(|cause| ReconstructError::Fit {
+                quad: qi,
+                cause: Box::new(cause),
+            })
+        })
+        .collect::<Result<_, _>>()?;
+    Ok(PatchNetwork {
+        quads: quads.to_vec(),
+        grids,
+        surfaces,
+    })
+}
+
+/// The largest angle between the two patches' normals along one shared side.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SideAngle {
+    /// The two quads.
+    pub quads: [usize; 2],
+    /// The largest angle over the samples, degrees.
+    pub max_degrees: f64,
+}
+
+/// The angle between the normals of the two patches at `samples + 1` points along
+/// every shared side (the patches share the side's parameterisation), largest per side.
+pub fn g1_angles(network: &PatchNetwork, samples: usize) -> Vec<SideAngle> {
+    let samples = samples.max(1);
+    shared_sides(&network.quads, 1)
+        .iter()
+        .map(|[(qa, sa), (qb, sb)]| {
+            let mut worst: f64 = 0.0;
+            for s in 0..=samples {
+                let t = s as f64 / samples as f64;
+                let ua = sa.uv[0].lerp(sa.uv[1], t);
+                let ub = sb.uv[0].lerp(sb.uv[1], t);
+                let na = network.surfaces[*qa].normal(ua.x, ua.y);
+                let nb = network.surfaces[*qb].normal(ub.x, ub.y);
+                worst = worst.max(na.dot(nb).clamp(-1.0, 1.0).acos().to_degrees());
+            }
+            SideAngle {
+                quads: [*qa, *qb],
+                max_degrees: worst,
+            }
+        })
+        .collect()
+}
+
+/// Grid samples looked at per point in [`network_distances`].
+const NEAREST_SAMPLES: usize = 48;
+/// Patches tried per point in [`network_distances`].
+const NEAREST_PATCHES: usize = 6;
+
+/// The distance from each point to the network: the certified closest point
+/// ([`SurfaceInverter::closest_point_from`]) on each patch owning one of the point's
+/// nearest grid samples (seeded there), the smallest of them.
+pub fn network_distances(network: &PatchNetwork, points: &[DVec3]) -> Vec<f64> {
+    let inverters: Vec<SurfaceInverter> = par_map(&network.surfaces, NurbsSurface::inverter);
+    let mut samples = Vec::new();
+    for (qi, g) in network.grids.iter().enumerate() {
+        let n = g.len() - 1;
+        for (i, row) in g.iter().enumerate() {
+            for (j, p) in row.iter().enumerate() {
+                let uv = [i as f64 / n as f64, j as f64 / n as f64];
+                samples.push(GeomWithData::new(p.to_array(), (qi, uv)));
+            }
+        }
+    }
+    let tree = RTree::bulk_load(samples);
+    par_map(points, |p| {
+        let mut tried: Vec<usize> = Vec::with_capacity(3);
+        let mut best = f64::INFINITY;
+        for g in tree
+            .nearest_neighbor_iter(&p.to_array())
+            .take(NEAREST_SAMPLES)
+        {
+            let (qi, uv) = g.data;
+            if tried.contains(&qi) {
+                continue;
+            }
+            tried.push(qi);
+            let d = inverters[qi]
+                .closest_point_from(*p, DVec2::from(uv))
+                .distance;
+            best = best.min(d);
+            if tried.len() == NEAREST_PATCHES {
+                break;
+            }
+        }
+        best
+    })
+}
+
+/// Stage 6: a document whose targets are the patches (`patch 0`, `patch 1`, ...), as
+/// its base (undo never removes them).
+pub fn to_document(network: &PatchNetwork) -> Document {
+    let mut doc = Document::new();
+    for (i, s) in network.surfaces.iter().enumerate() {
+        doc.add_target(&format!("patch {i}"), s.clone());
+    }
+    doc.seal_history();
+    doc
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::reconstruct::kmeans::tests::cube;
+    use crate::reconstruct::polygon::polygon_model;
+    use crate::reconstruct::read::PointCloud;
+    use crate::reconstruct::sample::{torus, torus_distance};
+    use crate::reconstruct::segment::{SegmentSettings, Segmentation, bbox_diagonal, segment};
+    use crate::tolerance::POINT_EPS;
+
+    /// How far a snapped point may be from the unit sphere (the quadric's error, far
+    /// below the point spacing of about 0.056).
+    const SPHERE_SNAP_TOL: f64 = 1e-4; // not a tolerance: an acceptance bound on a measured figure
+    /// Largest angle (cosine deficit) between the snap's line and the radius.
+    const RADIAL_COS_TOL: f64 = 1e-3; // not a tolerance: an acceptance bound on a measured figure
+    /// How far a corner may be from the cube of half side 1 (corners on a crease,
+    /// where the quadric straddles two faces; the point spacing is 0.17).
+    const CREASE_SNAP_TOL: f64 = 0.05;
+    /// How far a corner may be from the torus, metres (point spacing about 1.2 cm).
+    const TORUS_SNAP_TOL: f64 = 5e-4; // not a tolerance: an acceptance bound on a measured figure
+    /// E_avg and E_max bounds of the small torus (4,000 points, 6x6 control points).
+    const TORUS_E_AVG: f64 = 3e-4; // not a tolerance: an acceptance bound on a measured figure
+    const TORUS_E_MAX: f64 = 5e-3; // not a tolerance: an acceptance bound on a measured figure
+    /// Worst G1 angle of the small torus, degrees.
+    const TORUS_G1_DEGREES: f64 = 10.0;
+
+    fn seg_of(points: Vec<DVec3>, k: usize) -> Segmentation {
+        let cloud = PointCloud {
+            points,
+            normals: None,
+        };
+        segment(&cloud, &SegmentSettings::new(k), |_| {}).unwrap()
+    }
+
+    fn network(seg: &Segmentation, settings: &NetworkSettings) -> (QuadMesh, PatchNetwork) {
+        let model = polygon_model(&seg.clusters.labels, &seg.neighbours, &seg.adjacency);
+        let snap = DataSnap::new(&seg.points, &seg.normals, settings.snap_neighbours);
+        let mesh = place_corners(&model, &seg.clusters.centres, &snap);
+        let grids = quad_grids(&mesh, settings.levels, &snap);
+        let net = fit_network(&mesh.quads, grids, settings).unwrap();
+        (mesh, net)
+    }
+
+    #[test]
+    fn snap_lands_on_a_sphere_along_its_normal() {
+        // 4000 points on the unit sphere (Fibonacci lattice), exact outward normals.
+        let n = 4000;
+        let pts: Vec<DVec3> = (0..n)
+            .map(|i| {
+                let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+                let r = (1.0 - z * z).sqrt();
+                let a = i as f64 * 2.399_963_229_728_653;
+                DVec3::new(r * a.cos(), r * a.sin(), z)
+            })
+            .collect();
+        let normals = pts.clone();
+        let snap = DataSnap::new(&pts, &normals, 16);
+        for q in [DVec3::new(0.3, 0.2, 0.5), DVec3::new(-1.2, 0.1, 0.4)] {
+            let (p, nrm) = snap.snap(q);
+            // On the sphere (the quadric fit is far better than the point spacing,
+            // about 0.056) and along the radial line through q.
+            assert!(
+                (p.length() - 1.0).abs() < SPHERE_SNAP_TOL,
+                "{p} {}",
+                p.length()
+            );
+            assert!(p.normalize().dot(q.normalize()) > 1.0 - RADIAL_COS_TOL);
+            assert!(nrm.dot(p.normalize()) > 0.99);
+        }
+    }
+
+    #[test]
+    fn cube_corners_sit_on_the_faces_and_quads_face_outward() {
+        let seg = seg_of(cube(12), 6);
+        let model = polygon_model(&seg.clusters.labels, &seg.neighbours, &seg.adjacency);
+        let snap = DataSnap::new(&seg.points, &seg.normals, 16);
+        let mesh = place_corners(&model, &seg.clusters.centres, &snap);
+        assert_eq!(mesh.quads.len(), 24);
+        // Every corner lies on the cube (|x|, |y| or |z| = 1) up to the quadric's
+        // error where it straddles a crease, with its normal outward.
+        for (c, (p, n)) in &mesh.corners {
+            let off = (p.abs().max_element() - 1.0).abs();
+            assert!(off < CREASE_SNAP_TOL, "{c:?} {p} {off}");
+            assert!(n.dot(*p) > 0.0);
+        }
+        for q in &mesh.quads {
+            let p = q.map(|c| mesh.corners[&c].0);
+            let centre = (p[0] + p[1] + p[2] + p[3]) * 0.25;
+            assert!((p[1] - p[0]).cross(p[3] - p[0]).dot(centre) > 0.0);
+        }
+    }
+
+    #[test]
+    fn torus_network_closes_shares_sides_and_fits() {
+        let (major, minor) = (0.2, 0.08);
+        let seg = seg_of(torus(4000, major, minor, 7), 30);
+        let settings = NetworkSettings {
+            levels: 3,
+            control: 6,
+            ..NetworkSettings::new()
+        };
+        let (mesh, net) = network(&seg, &settings);
+        // Stage 3: every corner on the torus (the snap's quadric error, well under
+        // the point spacing of about 1.2 cm), every quad side held by two quads.
+        for (c, (p, _)) in &mesh.corners {
+            assert!(
+                torus_distance(*p, major, minor).abs() < TORUS_SNAP_TOL,
+                "{c:?}"
+            );
+        }
+        let shared = shared_sides(&net.quads, 1);
+        assert_eq!(
+            shared.len() * 2,
+            net.quads.len() * 4,
+            "closed: all sides shared"
+        );
+        // Stage 4: neighbours read the same grid points along a shared side.
+        for [(qa, sa), (qb, sb)] in shared_sides(&net.quads, 8) {
+            for (x, y) in sa.on.iter().zip(&sb.on) {
+                assert_eq!(net.grids[qa][x.0][x.1], net.grids[qb][y.0][y.1]);
+            }
+        }
+        // Stage 5: shared sides meet exactly (common knots, averaged control points).
+        for [(qa, sa), (qb, sb)] in shared_sides(&net.quads, 1) {
+            for s in 0..=8 {
+                let t = f64::from(s) / 8.0;
+                let ua = sa.uv[0].lerp(sa.uv[1], t);
+                let ub = sb.uv[0].lerp(sb.uv[1], t);
+                let gap = net.surfaces[qa]
+                    .point_uv(ua)
+                    .distance(net.surfaces[qb].point_uv(ub));
+                assert!(gap < POINT_EPS, "gap {gap}");
+            }
+        }
+        // Every input point is close to the network, and the normals agree across
+        // sides within a few degrees.
+        let d = network_distances(&net, &seg.points);
+        let diag = bbox_diagonal(&seg.points);
+        let mean = d.iter().sum::<f64>() / d.len() as f64;
+        let max = d.iter().copied().fold(0.0, f64::max);
+        eprintln!("E_avg {} E_max {}", mean / diag, max / diag);
+        assert!(mean / diag < TORUS_E_AVG, "E_avg {}", mean / diag);
+        assert!(max / diag < TORUS_E_MAX, "E_max {}", max / diag);
+        let worst = g1_angles(&net, 8)
+            .iter()
+            .map(|a| a.max_degrees)
+            .fold(0.0, f64::max);
+        eprintln!("G1 {worst}");
+        assert!(worst < TORUS_G1_DEGREES, "G1 {worst} degrees");
+        // Normals point outward (away from the tube's core circle).
+        for s in &net.surfaces {
+            let p = s.point(0.5, 0.5);
+            let core = DVec3::new(p.x, p.y, 0.0).normalize() * major;
+            assert!(s.normal(0.5, 0.5).dot(p - core) > 0.0);
+        }
+    }
+
+    #[test]
+    fn g1_rounds_reduce_the_angles_across_sides() {
+        let seg = seg_of(torus(3000, 0.2, 0.08, 3), 24);
+        let base = NetworkSettings {
+            levels: 3,
+            control: 6,
+            ..NetworkSettings::new()
+        };
+        // The mean over sides of each side's largest angle, and the worst.
+        let angles = |rounds| {
+            let (_, net) = network(
+                &seg,
+                &NetworkSettings {
+                    g1_rounds: rounds,
+                    ..base
+                },
+            );
+            let a: Vec<f64> = g1_angles(&net, 8).iter().map(|a| a.max_degrees).collect();
+            (
+                a.iter().sum::<f64>() / a.len() as f64,
+                a.iter().copied().fold(0.0, f64::max),
+            )
+        };
+        let (without, with) = (angles(0), angles(3));
+        eprintln!("G1 (mean, worst) without {without:?} with {with:?}");
+        assert!(with.0 < without.0, "{with:?} {without:?}");
+    }
+
+    #[test]
+    fn a_stroke_across_a_patch_boundary_stays_on_its_patch() {
+        use crate::editor::{self, Applied};
+        use crate::interaction::{Edit, StrokeEdit, StrokeSample, TargetIndex};
+        use crate::sculpt::stroke::Tool;
+
+        let seg = seg_of(torus(3000, 0.2, 0.08, 3), 24);
+        let settings = NetworkSettings {
+            levels: 3,
+            control: 6,
+            ..NetworkSettings::new()
+        };
+        let (_, net) = network(&seg, &settings);
+        let mut doc = Document::from_json(&to_document(&net).to_json()).unwrap();
+        assert_eq!(doc.targets().len(), net.surfaces.len());
+        // From the middle of patch A to the middle of a side, then on into patch B.
+        let [(qa, sa), (qb, sb)] = shared_sides(&net.quads, 1).swap_remove(0);
+        let (sa_mid, sb_mid) = (sa.uv[0].lerp(sa.uv[1], 0.5), sb.uv[0].lerp(sb.uv[1], 0.5));
+        let centre = DVec2::splat(0.5);
+        let uv_path: Vec<(usize, DVec2)> = (0..=10)
+            .map(|k| (qa, centre.lerp(sa_mid, f64::from(k) / 10.0)))
+            .chain((1..=10).map(|k| (qb, sb_mid.lerp(centre, f64::from(k) / 10.0))))
+            .collect();
+        let samples = uv_path
+            .iter()
+            .enumerate()
+            .map(|(k, (q, uv))| StrokeSample {
+                t: k as f64 * 0.01,
+                position: net.surfaces[*q].point_uv(*uv),
+            })
+            .collect();
+        let tool = Tool {
+            width: 0.01,
+            ..Tool::default()
+        };
+        let edit = Edit::Stroke(StrokeEdit::new(
+            TargetIndex(qa as u32),
+            tool.clone(),
+            samples,
+        ));
+        let Applied::Stroke { id, target } = editor::apply(&mut doc, &edit) else {
+            panic!("stroke refused");
+        };
+        assert_eq!(target, doc.targets()[qa].id);
+        // It stays on A: B gets nothing.
+        assert!(doc.strokes_on(doc.targets()[qb].id).is_empty());
+        let stroke = doc.stroke(id).unwrap();
+        let side_mid = net.surfaces[qa].point_uv(sa_mid);
+        // It reaches A's edge (the last foot is on the domain's boundary) and goes no
+        // further.
+        let last = *stroke.centre_uv.last().unwrap();
+        let edge_gap = last.min_element().min(1.0 - last.max_element());
+        assert!(edge_gap.abs() < crate::tolerance::UV_PAD, "{last}");
+        let b_centre = net.surfaces[qb].point_uv(centre);
+        let reach = side_mid.distance(b_centre);
+        assert!(
+            stroke
+                .centre
+                .iter()
+                .all(|p| p.distance(b_centre) > 0.5 * reach)
+        );
+        assert!(
+            stroke
+                .centre_uv
+                .iter()
+                .all(|uv| uv.cmpge(DVec2::ZERO).all() && uv.cmple(DVec2::ONE).all())
+        );
+    }
+
+    #[test]
+    fn bad_settings_are_errors() {
+        let s = NetworkSettings {
+            degree: 4,
+            ..NetworkSettings::new()
+        };
+        assert_eq!(s.validate(), Err(ReconstructError::Degree { degree: 4 }));
+        let s = NetworkSettings {
+            control: 3,
+            ..NetworkSettings::new()
+        };
+        assert!(matches!(
+            s.validate(),
+            Err(ReconstructError::ControlCount { control: 3, .. })
+        ));
+        let s = NetworkSettings {
+            control: 40,
+            ..NetworkSettings::new()
+        };
+        assert!(s.validate().is_err());
+        assert_eq!(
+            fit_network(&[], Vec::new(), &NetworkSettings::new()),
+            Err(ReconstructError::NoQuads)
+        );
+    }
+}
