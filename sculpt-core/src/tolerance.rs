@@ -388,6 +388,18 @@ pub const MESH_DEPTH_TOL: f64 = 1e-4;
 /// [`crate::sculpt::stroke`]): the stroke is split there.
 pub const BASIN_JUMP_RATIO: f64 = 4.0;
 
+// ---------------------------------------------------------------------------------
+// Reconstruction (scan to sculpt).
+// ---------------------------------------------------------------------------------
+
+/// How far a point snapped onto sampled data may lie from the sampled surface,
+/// relative to the surface's size (the local quadric fit's error, far below the point
+/// spacing of the test clouds).
+pub const SNAP_REL_TOL: f64 = 1e-4;
+
+/// Largest cosine deficit between a snap's line and the true normal.
+pub const SNAP_NORMAL_COS_TOL: f64 = 1e-3;
+
 /// True when `a` and `b` differ by at most `tol`, counting NaN as never near.
 #[inline]
 pub fn near(a: f64, b: f64, tol: f64) -> bool {

@@ -9,7 +9,7 @@ use std::process::{Command, Output};
 
 use sculpt_core::editor::{self, Applied};
 use sculpt_core::formats::{iges, obj};
-use sculpt_core::interaction::{Edit, StrokeEdit, StrokeSample, TargetIndex};
+use sculpt_core::interaction::{Edit, StrokeEdit, StrokeSample};
 use sculpt_core::reconstruct::read::{PointFormat, read_points};
 use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::stroke::Tool;
@@ -144,7 +144,7 @@ fn torus_patches_cover_a_genus_one_surface() {
         width: 0.01,
         ..Tool::default()
     };
-    let edit = Edit::Stroke(StrokeEdit::new(TargetIndex(0), tool, samples));
+    let edit = Edit::Stroke(StrokeEdit::new(document.targets()[0].id, tool, samples));
     assert!(matches!(
         editor::apply(&mut document, &edit),
         Applied::Stroke { .. }

@@ -278,16 +278,16 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
             write(path, &doc.to_json())?;
         }
         if let Some(path) = &args.igs {
-            write(path, &iges::write(&doc.iges_surfaces()))?;
+            let bytes = iges::write(&doc.iges_surfaces()).context("writing IGES")?;
+            write(path, &bytes)?;
         }
         if let Some(path) = &args.obj {
             let size = r.figures.bbox_diagonal;
             let tol = (size * sculpt_core::tolerance::MESH_WELD_REL)
                 .max(sculpt_core::tolerance::MESH_WELD_MIN);
-            write(
-                path,
-                &obj::write(&doc.mesh(Detail::Final).welded(tol as f32)),
-            )?;
+            let bytes =
+                obj::write(&doc.mesh(Detail::Final).welded(tol as f32)).context("writing OBJ")?;
+            write(path, &bytes)?;
         }
     }
     let json = serde_json::to_string_pretty(&report)?;
