@@ -83,8 +83,8 @@ pub enum TrackingError {
         stroke: Option<usize>,
         /// The control point being read, if any.
         point: Option<usize>,
-        /// What was wrong.
-        reason: SketchError,
+        /// What was wrong (boxed: it is rare, and keeps every `Result` small).
+        reason: Box<SketchError>,
     },
     /// Import options or the sketch cannot make a wand track.
     #[error("import: {0}")]

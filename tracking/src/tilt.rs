@@ -292,7 +292,7 @@ impl<'a> Reader<'a> {
             offset: self.pos,
             stroke: None,
             point: None,
-            reason,
+            reason: Box::new(reason),
         }
     }
 
@@ -666,9 +666,18 @@ mod tests {
     fn non_finite_positions_are_rejected() {
         let mut s = sample();
         s.strokes[0].points[1].position[2] = f32::NAN;
-        let e = parse_sketch(&encode_sketch(&s)).unwrap_err().to_string();
+        let e = parse_sketch(&encode_sketch(&s)).unwrap_err();
         assert!(
-            e.contains("stroke 0: point 1: position is not finite"),
+            matches!(
+                &e,
+                Error::TiltSketch { stroke: Some(0), point: Some(1), reason, .. }
+                    if matches!(**reason, SketchError::NotFinite { what: "position", value } if value.is_nan())
+            ),
+            "{e:?}"
+        );
+        let e = e.to_string();
+        assert!(
+            e.contains(", stroke 0, point 1: position is not finite"),
             "{e}"
         );
     }
