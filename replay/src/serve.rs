@@ -141,13 +141,42 @@ pub struct ServeReport {
 pub enum Delivery {
     /// The receiver read the stream to its end and closed the connection (over TCP).
     ReadToEnd,
-    /// The receiver did not take the data: it refused or reset the connection, closed
-    /// it before the end, or never came back after a disconnect. The text says which.
-    NotTaken(String),
+    /// The receiver did not take the data; the reason says how we know.
+    NotTaken(NotTaken),
     /// The link cannot tell (a serial line), or the receiver neither closed nor reset
     /// the connection within [`ACK_WAIT`].
     #[default]
     Unknown,
+}
+
+/// How a sender knows its receiver did not take the data.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum NotTaken {
+    /// It closed the connection before the end.
+    ClosedEarly,
+    /// The connection failed; the system's message.
+    Failed(String),
+    /// It reset the connection; the system's message.
+    Reset(String),
+    /// Records fell due while it was disconnected.
+    Missed(usize),
+    /// It went away and did not come back within this time.
+    GoneAway(Duration),
+}
+
+impl std::fmt::Display for NotTaken {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            NotTaken::ClosedEarly => f.write_str("it closed the connection before the end"),
+            NotTaken::Failed(e) => write!(f, "the connection failed: {e}"),
+            NotTaken::Reset(e) => write!(f, "it reset the connection ({e})"),
+            NotTaken::Missed(n) => write!(f, "{n} records fell due while it was disconnected"),
+            NotTaken::GoneAway(t) => {
+                write!(f, "it went away and did not come back within {t:?}")
+            }
+        }
+    }
 }
 
 impl Delivery {
@@ -180,7 +209,7 @@ pub const ACK_WAIT: Duration = Duration::from_secs(10);
 /// for the receiver to close in turn (see [`Delivery`]).
 fn finish_tcp(stream: &mut TcpStream, wait: Duration) -> Delivery {
     use std::io::{ErrorKind, Read};
-    let not_taken = |why: String| Delivery::NotTaken(why);
+    let not_taken = Delivery::NotTaken;
     // A receiver that closed while we were still sending did not read to the end: the
     // display server never closes a healthy stream on its own.
     if stream.set_nonblocking(true).is_ok() {
@@ -188,15 +217,15 @@ fn finish_tcp(stream: &mut TcpStream, wait: Duration) -> Delivery {
         let early = stream.peek(&mut probe);
         let _ = stream.set_nonblocking(false);
         match early {
-            Ok(0) => return not_taken("it closed the connection before the end".into()),
+            Ok(0) => return not_taken(NotTaken::ClosedEarly),
             Err(e) if e.kind() != ErrorKind::WouldBlock => {
-                return not_taken(format!("the connection failed: {e}"));
+                return not_taken(NotTaken::Failed(e.to_string()));
             }
             _ => {}
         }
     }
     if let Err(e) = stream.shutdown(std::net::Shutdown::Write) {
-        return not_taken(format!("the connection failed: {e}"));
+        return not_taken(NotTaken::Failed(e.to_string()));
     }
     let _ = stream.set_read_timeout(Some(wait));
     let mut buf = [0u8; 4096];
@@ -208,7 +237,7 @@ fn finish_tcp(stream: &mut TcpStream, wait: Duration) -> Delivery {
                 return Delivery::Unknown;
             }
             Err(e) if e.kind() == ErrorKind::Interrupted => {}
-            Err(e) => return not_taken(format!("it reset the connection ({e})")),
+            Err(e) => return not_taken(NotTaken::Reset(e.to_string())),
         }
     }
 }
@@ -378,17 +407,11 @@ pub fn serve(
         // listening, clients come and go as they choose (a display server restarted
         // after a crash), as with a real tracker; the summary counts what they missed.
         Some(Sink::Tcp(_)) if report.missed > 0 && matches!(endpoint, Endpoint::Connect(_)) => {
-            Delivery::NotTaken(format!(
-                "{} records fell due while it was disconnected",
-                report.missed
-            ))
+            Delivery::NotTaken(NotTaken::Missed(report.missed))
         }
         Some(Sink::Tcp(stream)) => finish_tcp(stream, ACK_WAIT),
         Some(Sink::File(_)) => Delivery::Unknown,
-        None => Delivery::NotTaken(format!(
-            "it went away and did not come back within {:?}",
-            options.reconnect_timeout
-        )),
+        None => Delivery::NotTaken(NotTaken::GoneAway(options.reconnect_timeout)),
     };
     Ok(report)
 }

@@ -2,14 +2,16 @@
 
 use thiserror::Error;
 
+use crate::error::Excerpt;
+
 /// What went wrong reading points or clustering them. Every variant says where (line,
 /// element, byte offset) and carries its cause.
 #[derive(Debug, Error, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum ReconstructError {
     /// The file extension names no point format this reader knows.
-    #[error("unknown point format {0:?} (expected xyz, pwn, ply, obj or off)")]
-    UnknownFormat(String),
+    #[error("unknown point format {0} (expected xyz, pwn, ply, obj or off)")]
+    UnknownFormat(Excerpt),
     /// A text line is not valid UTF-8.
     #[error("line {line}: not UTF-8 text")]
     NotText {
@@ -17,14 +19,15 @@ pub enum ReconstructError {
         line: usize,
     },
     /// A number could not be parsed.
-    #[error("line {line}: {text:?} is not a number ({cause})")]
+    #[error("line {line}: {text} is not a number")]
     Number {
         /// 1-based line number.
         line: usize,
-        /// The field as written.
-        text: String,
-        /// The parser's reason.
-        cause: String,
+        /// The field as written (a short prefix of it).
+        text: Excerpt,
+        /// The parser's error.
+        #[source]
+        cause: std::num::ParseFloatError,
     },
     /// A line has the wrong number of fields.
     #[error("line {line}: {got} fields, expected {expected}")]
@@ -47,8 +50,8 @@ pub enum ReconstructError {
     Header {
         /// 1-based line number.
         line: usize,
-        /// What is wrong.
-        reason: String,
+        /// What is wrong, from a fixed set of descriptions (never input text).
+        reason: &'static str,
     },
     /// The file ends before all declared elements were read.
     #[error("truncated: {what} {index} of {count} is missing")]
