@@ -1,15 +1,19 @@
 //! # tests
 //!
 //! End-to-end tests that cross crate boundaries live in `tests/tests/`. This library
-//! holds only helpers shared by those tests: where the shipped data lives, and
-//! replaying a shipped session through the library pipeline.
+//! holds only helpers shared by those tests: where the shipped data lives, replaying a
+//! shipped session through the library pipeline, and running the `replay` and
+//! `wandsculpt` programs (offline, and as a tracking server).
 //!
 //! ```
 //! let dir = tests::sessions_dir();
 //! assert!(dir.join("patch-carve.poselog").exists());
 //! ```
 
-use std::path::PathBuf;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::Duration;
 
 use replay::config::ReplayConfig;
 use replay::pipeline::{Outcome, default_document, replay_log};
@@ -122,4 +126,68 @@ impl Drop for ChildGuard {
             let _ = self.0.wait();
         }
     }
+}
+
+/// The `replay` and `wandsculpt` programs, built once per test process before any of
+/// them starts: a `replay --serve` waiting for its client must never wait on a
+/// compiler.
+#[derive(Debug)]
+pub struct Bins {
+    /// `replay`.
+    pub replay: PathBuf,
+    /// `wandsculpt`, the display server.
+    pub wandsculpt: PathBuf,
+}
+
+/// The programs (see [`Bins`]).
+pub fn bins() -> &'static Bins {
+    static BINS: std::sync::OnceLock<Bins> = std::sync::OnceLock::new();
+    BINS.get_or_init(|| Bins {
+        replay: workspace_bin("replay", "replay"),
+        wandsculpt: workspace_bin("vr-app", "wandsculpt"),
+    })
+}
+
+/// The shipped pose log of session `name`.
+pub fn session_log(name: &str) -> PathBuf {
+    sessions_dir().join(format!("{name}.poselog"))
+}
+
+/// `replay SESSION ARGS.. --out DIR -q`: the offline document's bytes.
+pub fn replay_offline(name: &str, dir: &Path, args: &[&std::ffi::OsStr]) -> Vec<u8> {
+    let status = Command::new(&bins().replay)
+        .arg(session_log(name))
+        .args(args)
+        .arg("--out")
+        .arg(dir)
+        .arg("-q")
+        .stdout(Stdio::null())
+        .status()
+        .unwrap();
+    assert!(status.success(), "replay {name} --out {}", dir.display());
+    std::fs::read(dir.join("scene.json")).unwrap()
+}
+
+/// `replay SESSION --serve tcp://127.0.0.1:0 --wait WAIT --speed SPEED`, and the
+/// address it listens on. Its output is drained, so its closing summary never meets a
+/// closed pipe.
+pub fn serve_tcp(name: &str, speed: f64, wait: Duration) -> (ChildGuard, String) {
+    let mut child = ChildGuard::spawn(
+        Command::new(&bins().replay)
+            .arg(session_log(name))
+            .args(["--serve", "tcp://127.0.0.1:0", "-q"])
+            .args(["--wait", &wait.as_secs().to_string()])
+            .args(["--speed", &speed.to_string()])
+            .stdout(Stdio::piped()),
+    );
+    let mut stdout = BufReader::new(child.0.stdout.take().unwrap());
+    let mut line = String::new();
+    stdout.read_line(&mut line).unwrap();
+    std::thread::spawn(move || std::io::copy(&mut stdout, &mut std::io::sink()));
+    let addr = line
+        .trim()
+        .strip_prefix("listening on tcp://")
+        .unwrap_or_else(|| panic!("replay said {line:?}"))
+        .to_string();
+    (child, addr)
 }

@@ -5,7 +5,6 @@
 //!
 //! The tests fail (never skip) when `nats-server` is missing and `CI` is set.
 
-use std::io::{BufRead, BufReader};
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -15,7 +14,7 @@ use sculpt_core::editor;
 use sculpt_core::interaction::Edit;
 use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::stroke::StrokeInput;
-use tests::{ChildGuard, sessions_dir, workspace_bin};
+use tests::{ChildGuard, bins, replay_offline, serve_tcp};
 use vr_app::cluster::node::READY_FILE;
 use vr_app::journal::Journal;
 use vr_app::session::{DOCUMENT_FILE, JOURNAL_FILE};
@@ -25,20 +24,6 @@ const TIMEOUT: Duration = Duration::from_secs(240);
 const USER: &str = "cave";
 const PASSWORD: &str = "s3cret";
 
-struct Bins {
-    replay: PathBuf,
-    wandsculpt: PathBuf,
-}
-
-fn bins() -> &'static Bins {
-    static BINS: std::sync::OnceLock<Bins> = std::sync::OnceLock::new();
-    BINS.get_or_init(|| Bins {
-        replay: workspace_bin("replay", "replay"),
-        wandsculpt: workspace_bin("vr-app", "wandsculpt"),
-    })
-}
-
-/// `nats-server`, or `None` (after saying why) when it is not installed outside CI.
 fn nats_server_bin() -> Option<PathBuf> {
     let found = std::env::var_os("PATH").and_then(|paths| {
         std::env::split_paths(&paths)
@@ -144,45 +129,6 @@ fn signal(child: &ChildGuard, sig: &str) {
         .status()
         .unwrap();
     assert!(status.success(), "kill -{sig}");
-}
-
-fn session(name: &str) -> PathBuf {
-    sessions_dir().join(format!("{name}.poselog"))
-}
-
-/// `replay SESSION --out DIR`: the offline document.
-fn offline(name: &str, dir: &Path) -> Vec<u8> {
-    let status = Command::new(&bins().replay)
-        .arg(session(name))
-        .arg("--out")
-        .arg(dir)
-        .arg("-q")
-        .stdout(Stdio::null())
-        .status()
-        .unwrap();
-    assert!(status.success());
-    std::fs::read(dir.join("scene.json")).unwrap()
-}
-
-/// `replay SESSION --serve tcp://127.0.0.1:0`, and the address it listens on.
-fn serve_tcp(name: &str, speed: f64) -> (ChildGuard, String) {
-    let mut child = ChildGuard::spawn(
-        Command::new(&bins().replay)
-            .arg(session(name))
-            .args(["--serve", "tcp://127.0.0.1:0", "--wait", "240", "-q"])
-            .args(["--speed", &speed.to_string()])
-            .stdout(Stdio::piped()),
-    );
-    let mut stdout = BufReader::new(child.0.stdout.take().unwrap());
-    let mut line = String::new();
-    stdout.read_line(&mut line).unwrap();
-    std::thread::spawn(move || std::io::copy(&mut stdout, &mut std::io::sink()));
-    let addr = line
-        .trim()
-        .strip_prefix("listening on tcp://")
-        .unwrap_or_else(|| panic!("replay said {line:?}"))
-        .to_string();
-    (child, addr)
 }
 
 /// A render node: name, owner, feed, screen corners.
@@ -369,9 +315,9 @@ fn three_screens_build_the_offline_document_and_each_draws_its_own_view() {
     let _ = bins();
     let dir = tempfile::tempdir().unwrap();
     let name = "patch-overlaps";
-    let expected = offline(name, &dir.path().join("offline"));
+    let expected = replay_offline(name, &dir.path().join("offline"), &[]);
     let nats = Nats::start(bin, dir.path());
-    let (mut server, addr) = serve_tcp(name, 3.0);
+    let (mut server, addr) = serve_tcp(name, 3.0, TIMEOUT);
     // Three screens of a CAVE, and a twin of the front screen on a fourth node.
     let specs = [
         node("front", true, FRONT),
@@ -440,9 +386,9 @@ fn a_node_killed_mid_session_replays_the_stream_and_converges() {
     let dir = tempfile::tempdir().unwrap();
     // Five strokes over 11 s, served at twice real time.
     let name = "patch-mask";
-    let expected = offline(name, &dir.path().join("offline"));
+    let expected = replay_offline(name, &dir.path().join("offline"), &[]);
     let nats = Nats::start(bin, dir.path());
-    let (mut server, addr) = serve_tcp(name, 2.0);
+    let (mut server, addr) = serve_tcp(name, 2.0, TIMEOUT);
     let specs = [node("front", true, FRONT), node("left", false, LEFT)];
     let config = cluster_config(
         &dir.path().join("cave.toml"),
@@ -488,7 +434,7 @@ fn a_nats_server_restart_mid_session_loses_and_duplicates_no_operation() {
     let dir = tempfile::tempdir().unwrap();
     let name = "patch-mask";
     let mut nats = Nats::start(bin, dir.path());
-    let (mut server, addr) = serve_tcp(name, 2.0);
+    let (mut server, addr) = serve_tcp(name, 2.0, TIMEOUT);
     let specs = [node("front", true, FRONT), node("left", false, LEFT)];
     let config = cluster_config(
         &dir.path().join("cave.toml"),
@@ -545,9 +491,9 @@ fn a_stopped_node_is_dropped_from_the_barrier_readmitted_and_catches_up() {
     let _ = bins();
     let dir = tempfile::tempdir().unwrap();
     let name = "patch-mask";
-    let expected = offline(name, &dir.path().join("offline"));
+    let expected = replay_offline(name, &dir.path().join("offline"), &[]);
     let nats = Nats::start(bin, dir.path());
-    let (mut server, addr) = serve_tcp(name, 2.0);
+    let (mut server, addr) = serve_tcp(name, 2.0, TIMEOUT);
     let specs = [
         node("front", true, FRONT),
         node("left", false, LEFT),
@@ -606,12 +552,12 @@ fn two_sculptors_on_two_feeds_each_stroke_is_once_in_every_document() {
     let _ = bins();
     let dir = tempfile::tempdir().unwrap();
     let (name_a, name_b) = ("patch-carve", "patch-emboss");
-    let want_a = stroke_inputs(&offline(name_a, &dir.path().join("offline-a")));
-    let want_b = stroke_inputs(&offline(name_b, &dir.path().join("offline-b")));
+    let want_a = stroke_inputs(&replay_offline(name_a, &dir.path().join("offline-a"), &[]));
+    let want_b = stroke_inputs(&replay_offline(name_b, &dir.path().join("offline-b"), &[]));
     assert!(!want_a.is_empty() && !want_b.is_empty());
     let nats = Nats::start(bin, dir.path());
-    let (mut server_a, addr_a) = serve_tcp(name_a, 2.0);
-    let (mut server_b, addr_b) = serve_tcp(name_b, 2.0);
+    let (mut server_a, addr_a) = serve_tcp(name_a, 2.0, TIMEOUT);
+    let (mut server_b, addr_b) = serve_tcp(name_b, 2.0, TIMEOUT);
     let specs = [
         NodeSpec {
             name: "wall",
@@ -688,9 +634,9 @@ fn bad_peers_are_refused_and_garbage_is_counted_and_ignored() {
     let _ = bins();
     let dir = tempfile::tempdir().unwrap();
     let name = "patch-carve";
-    let expected = offline(name, &dir.path().join("offline"));
+    let expected = replay_offline(name, &dir.path().join("offline"), &[]);
     let nats = Nats::start(bin, dir.path());
-    let (mut server, addr) = serve_tcp(name, 3.0);
+    let (mut server, addr) = serve_tcp(name, 3.0, TIMEOUT);
     let specs = [node("front", true, FRONT), node("left", false, LEFT)];
     // A peer with the wrong password is refused at once.
     let intruder = cluster_config(

@@ -18,73 +18,12 @@ use sculpt_core::editor;
 use sculpt_core::interaction::Edit;
 use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::stroke::StrokeInput;
-use tests::{ChildGuard, sessions_dir, workspace_bin};
+use tests::{ChildGuard, bins, replay_offline, serve_tcp, session_log};
 use vr_app::journal::{Journal, JournalEntry};
 use vr_app::session::{DOCUMENT_FILE, JOURNAL_FILE};
 
 /// Plenty for a few seconds of session, on a loaded 2-core CI machine.
 const TIMEOUT: Duration = Duration::from_secs(120);
-
-fn session(name: &str) -> PathBuf {
-    sessions_dir().join(format!("{name}.poselog"))
-}
-
-/// The two programs, built once per test process before any of them starts: a
-/// `replay --serve` waiting for its client must never wait on a compiler.
-struct Bins {
-    replay: PathBuf,
-    wandsculpt: PathBuf,
-}
-
-fn bins() -> &'static Bins {
-    static BINS: std::sync::OnceLock<Bins> = std::sync::OnceLock::new();
-    BINS.get_or_init(|| Bins {
-        replay: workspace_bin("replay", "replay"),
-        wandsculpt: workspace_bin("vr-app", "wandsculpt"),
-    })
-}
-
-/// `replay SESSION --out DIR`: the offline outputs.
-fn offline(name: &str, dir: &Path) -> Vec<u8> {
-    offline_with(name, dir, &[])
-}
-
-/// `replay SESSION ARGS.. --out DIR`: the offline outputs.
-fn offline_with(name: &str, dir: &Path, args: &[&std::ffi::OsStr]) -> Vec<u8> {
-    let status = Command::new(&bins().replay)
-        .arg(session(name))
-        .args(args)
-        .arg("--out")
-        .arg(dir)
-        .arg("-q")
-        .stdout(Stdio::null())
-        .status()
-        .unwrap();
-    assert!(status.success());
-    std::fs::read(dir.join("scene.json")).unwrap()
-}
-
-/// `replay SESSION --serve tcp://127.0.0.1:0`, and the address it listens on.
-fn serve_tcp(name: &str, speed: f64) -> (ChildGuard, String) {
-    let mut child = ChildGuard::spawn(
-        Command::new(&bins().replay)
-            .arg(session(name))
-            .args(["--serve", "tcp://127.0.0.1:0", "--wait", "120", "-q"])
-            .args(["--speed", &speed.to_string()])
-            .stdout(Stdio::piped()),
-    );
-    let mut stdout = BufReader::new(child.0.stdout.take().unwrap());
-    let mut line = String::new();
-    stdout.read_line(&mut line).unwrap();
-    // Keep draining, so its closing summary never meets a closed pipe.
-    std::thread::spawn(move || std::io::copy(&mut stdout, &mut std::io::sink()));
-    let addr = line
-        .trim()
-        .strip_prefix("listening on tcp://")
-        .unwrap_or_else(|| panic!("replay said {line:?}"))
-        .to_string();
-    (child, addr)
-}
 
 /// A headless display server config reading DTrack2 from `addr` (connecting out).
 fn display_config(dir: &Path, addr: &str) -> PathBuf {
@@ -173,8 +112,8 @@ fn live_equals_offline(name: &str) {
 /// [`live_equals_offline`] served at `speed` (0: as fast as possible).
 fn live_equals_offline_at(name: &str, speed: f64) {
     let dir = tempfile::tempdir().unwrap();
-    let expected = offline(name, &dir.path().join("offline"));
-    let (mut server, addr) = serve_tcp(name, speed);
+    let expected = replay_offline(name, &dir.path().join("offline"), &[]);
+    let (mut server, addr) = serve_tcp(name, speed, TIMEOUT);
     let live = dir.path().join("live");
     let mut app = wandsculpt(&display_config(dir.path(), &addr), &live);
     assert!(server.wait_for("replay --serve", TIMEOUT).success());
@@ -249,7 +188,7 @@ fn a_display_server_killed_mid_session_recovers_every_acknowledged_operation() {
     // Five strokes over 11 s, served at twice real time.
     let name = "patch-mask";
     let dir = tempfile::tempdir().unwrap();
-    let (mut server, addr) = serve_tcp(name, 2.0);
+    let (mut server, addr) = serve_tcp(name, 2.0, TIMEOUT);
     let config = display_config(dir.path(), &addr);
     let live = dir.path().join("live");
     let mut first = wandsculpt(&config, &live);
@@ -346,7 +285,7 @@ fn a_session_served_over_a_serial_pty_builds_the_offline_document() {
         &format!("kind = \"serial-dtrack\"\nport = \"{}\"", pair.ends[1]),
     );
     // Offline with the display server's own config file, as a lab would replay it.
-    let expected = offline_with(
+    let expected = replay_offline(
         name,
         &dir.path().join("offline"),
         &["--config".as_ref(), config.as_os_str()],
@@ -371,7 +310,7 @@ fn a_session_served_over_a_serial_pty_builds_the_offline_document() {
     }
     let mut server = ChildGuard::spawn(
         Command::new(&bins().replay)
-            .arg(session(name))
+            .arg(session_log(name))
             .arg("--serve")
             .arg(format!("serial://{}", pair.ends[0]))
             .args(["--speed", "3", "-q"])

@@ -1,27 +1,13 @@
 //! End-to-end tests of `sculpt-tools goms`, running the real binary.
 
+mod common;
+use common::{ok, tools};
+
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
 
 use sculpt_core::assert_near;
 use sculpt_core::tolerance::{DECIMAL_SUM_EPS, TRUNCATE_EPS};
-
-fn tools(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sculpt-tools"))
-        .args(args)
-        .output()
-        .expect("sculpt-tools runs")
-}
-
-fn ok(args: &[&str]) -> String {
-    let out = tools(args);
-    assert!(
-        out.status.success(),
-        "sculpt-tools {args:?} failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
-}
 
 fn data(name: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -4,8 +4,10 @@
 //! logs it wrote: keys are K operators, each mode's operators are that mode's, and a
 //! study trial lands where `goms study next` said.
 
+mod common;
+use common::ok;
+
 use std::path::Path;
-use std::process::{Command, Output};
 
 use glam::DQuat;
 use sculpt_core::editor::default_surface_point;
@@ -13,23 +15,6 @@ use sculpt_core::interaction::{Command as WandCommand, InteractionMode, WandEven
 use vr_app::config::Config;
 use vr_app::session::Session;
 use vr_app::study::StudyRun;
-
-fn tools(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sculpt-tools"))
-        .args(args)
-        .output()
-        .expect("sculpt-tools runs")
-}
-
-fn ok(args: &[&str]) -> String {
-    let out = tools(args);
-    assert!(
-        out.status.success(),
-        "sculpt-tools {args:?} failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
-}
 
 /// `tally.csv` rows `(method, trial, op, count)`.
 fn tally(path: &Path) -> Vec<(String, String, String, f64)> {

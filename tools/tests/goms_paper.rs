@@ -4,25 +4,14 @@
 //! from `goms analyze`'s tally, the prediction from `goms klm`'s printout, the paper's
 //! cells from `tests/data/paper-tables-1-2.csv`.
 
+mod common;
+use common::ok;
+
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
-use std::process::Command;
 
 use sculpt_core::assert_near;
 use sculpt_core::tolerance::DECIMAL_SUM_EPS;
-
-fn ok(args: &[&str]) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_sculpt-tools"))
-        .args(args)
-        .output()
-        .expect("sculpt-tools runs");
-    assert!(
-        out.status.success(),
-        "sculpt-tools {args:?} failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
-}
 
 fn rows(path: &Path) -> Vec<Vec<String>> {
     std::fs::read_to_string(path)

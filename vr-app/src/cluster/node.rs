@@ -40,6 +40,10 @@ use crate::session::JOURNAL_FILE;
 /// feed and the stream (tests and scripts wait for it before starting the tracker).
 pub const READY_FILE: &str = "cluster.ready";
 
+/// Further tries at creating (or finding) the operation stream, and the pause between.
+const STREAM_ATTEMPTS: u32 = 10;
+const STREAM_RETRY: Duration = Duration::from_millis(300);
+
 /// How long an owner waits for JetStream to acknowledge one publish before retrying.
 const ACK_WAIT: Duration = Duration::from_secs(2);
 
@@ -371,14 +375,26 @@ pub fn run_node(config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeR
     let js = jetstream::new(client.clone());
     let jserr =
         |what: &'static str| move |e: NatsFailure| ClusterError::JetStream { what, source: e };
-    let mut ops_stream = rt
-        .block_on(js.get_or_create_stream(stream::Config {
-            name: subjects.stream.clone(),
-            subjects: vec![subjects.ops.clone()],
-            storage: stream::StorageType::File,
-            ..Default::default()
-        }))
-        .map_err(|e| jserr("stream")(e.into()))?;
+    // Nodes starting together race to create the stream, and a server just started
+    // may not have JetStream ready yet: retry for a while before giving up.
+    let stream_config = stream::Config {
+        name: subjects.stream.clone(),
+        subjects: vec![subjects.ops.clone()],
+        storage: stream::StorageType::File,
+        ..Default::default()
+    };
+    let mut attempt = 0;
+    let mut ops_stream = loop {
+        match rt.block_on(js.get_or_create_stream(stream_config.clone())) {
+            Ok(stream) => break stream,
+            Err(e) if attempt < STREAM_ATTEMPTS => {
+                attempt += 1;
+                tracing::warn!("creating the operation stream: {e}; retrying");
+                std::thread::sleep(STREAM_RETRY);
+            }
+            Err(e) => return Err(jserr("stream")(e.into()).into()),
+        }
+    };
     let backlog = rt
         .block_on(ops_stream.info())
         .map_err(|e| jserr("stream info")(e.into()))?
