@@ -155,6 +155,26 @@ fn node(name: &'static str, owner: bool, screen: [[f64; 3]; 3]) -> NodeSpec {
     }
 }
 
+/// The start of every test: the nats-server binary (`None`, and the test returns,
+/// where [`nats_server_bin`] allows it), the programs built, a temporary directory.
+fn rig() -> Option<(PathBuf, tempfile::TempDir)> {
+    let bin = nats_server_bin()?;
+    let _ = bins();
+    Some((bin, tempfile::tempdir().unwrap()))
+}
+
+/// `DIR/cave.toml`: the cluster config of most tests (the right password).
+fn cave_config(dir: &Path, addr: &str, nats: &Nats, extra: &str, nodes: &[NodeSpec]) -> PathBuf {
+    cluster_config(
+        &dir.join("cave.toml"),
+        addr,
+        &nats.url(),
+        PASSWORD,
+        extra,
+        nodes,
+    )
+}
+
 /// The one cluster config: the tracker `addr` (for the ingest), the server, the
 /// session and a section per node.
 fn cluster_config(
@@ -309,11 +329,9 @@ fn edits(out: &Path) -> Vec<Edit> {
 
 #[test]
 fn three_screens_build_the_offline_document_and_each_draws_its_own_view() {
-    let Some(bin) = nats_server_bin() else {
+    let Some((bin, dir)) = rig() else {
         return;
     };
-    let _ = bins();
-    let dir = tempfile::tempdir().unwrap();
     let name = "patch-overlaps";
     let expected = replay_offline(name, &dir.path().join("offline"), &[]);
     let nats = Nats::start(bin, dir.path());
@@ -325,14 +343,7 @@ fn three_screens_build_the_offline_document_and_each_draws_its_own_view() {
         node("right", false, RIGHT),
         node("twin", false, FRONT),
     ];
-    let config = cluster_config(
-        &dir.path().join("cave.toml"),
-        &addr,
-        &nats.url(),
-        PASSWORD,
-        "",
-        &specs,
-    );
+    let config = cave_config(dir.path(), &addr, &nats, "", &specs);
     let outs: Vec<PathBuf> = specs.iter().map(|s| dir.path().join(s.name)).collect();
     let mut nodes: Vec<ChildGuard> = specs
         .iter()
@@ -379,25 +390,16 @@ fn three_screens_build_the_offline_document_and_each_draws_its_own_view() {
 
 #[test]
 fn a_node_killed_mid_session_replays_the_stream_and_converges() {
-    let Some(bin) = nats_server_bin() else {
+    let Some((bin, dir)) = rig() else {
         return;
     };
-    let _ = bins();
-    let dir = tempfile::tempdir().unwrap();
     // Five strokes over 11 s, served at twice real time.
     let name = "patch-mask";
     let expected = replay_offline(name, &dir.path().join("offline"), &[]);
     let nats = Nats::start(bin, dir.path());
     let (mut server, addr) = serve_tcp(name, 2.0, TIMEOUT);
     let specs = [node("front", true, FRONT), node("left", false, LEFT)];
-    let config = cluster_config(
-        &dir.path().join("cave.toml"),
-        &addr,
-        &nats.url(),
-        PASSWORD,
-        "",
-        &specs,
-    );
+    let config = cave_config(dir.path(), &addr, &nats, "", &specs);
     let (front, left) = (dir.path().join("front"), dir.path().join("left"));
     let mut a = start_node(&config, "front", &front);
     let mut b = start_node(&config, "left", &left);
@@ -427,23 +429,14 @@ fn a_node_killed_mid_session_replays_the_stream_and_converges() {
 
 #[test]
 fn a_nats_server_restart_mid_session_loses_and_duplicates_no_operation() {
-    let Some(bin) = nats_server_bin() else {
+    let Some((bin, dir)) = rig() else {
         return;
     };
-    let _ = bins();
-    let dir = tempfile::tempdir().unwrap();
     let name = "patch-mask";
     let mut nats = Nats::start(bin, dir.path());
     let (mut server, addr) = serve_tcp(name, 2.0, TIMEOUT);
     let specs = [node("front", true, FRONT), node("left", false, LEFT)];
-    let config = cluster_config(
-        &dir.path().join("cave.toml"),
-        &addr,
-        &nats.url(),
-        PASSWORD,
-        "",
-        &specs,
-    );
+    let config = cave_config(dir.path(), &addr, &nats, "", &specs);
     let (front, left) = (dir.path().join("front"), dir.path().join("left"));
     let mut a = start_node(&config, "front", &front);
     let mut b = start_node(&config, "left", &left);
@@ -485,11 +478,9 @@ fn a_nats_server_restart_mid_session_loses_and_duplicates_no_operation() {
 
 #[test]
 fn a_stopped_node_is_dropped_from_the_barrier_readmitted_and_catches_up() {
-    let Some(bin) = nats_server_bin() else {
+    let Some((bin, dir)) = rig() else {
         return;
     };
-    let _ = bins();
-    let dir = tempfile::tempdir().unwrap();
     let name = "patch-mask";
     let expected = replay_offline(name, &dir.path().join("offline"), &[]);
     let nats = Nats::start(bin, dir.path());
@@ -499,14 +490,7 @@ fn a_stopped_node_is_dropped_from_the_barrier_readmitted_and_catches_up() {
         node("left", false, LEFT),
         node("right", false, RIGHT),
     ];
-    let config = cluster_config(
-        &dir.path().join("cave.toml"),
-        &addr,
-        &nats.url(),
-        PASSWORD,
-        "barrier_timeout = 0.3",
-        &specs,
-    );
+    let config = cave_config(dir.path(), &addr, &nats, "barrier_timeout = 0.3", &specs);
     let outs: Vec<PathBuf> = specs.iter().map(|s| dir.path().join(s.name)).collect();
     let mut nodes: Vec<ChildGuard> = specs
         .iter()
@@ -546,11 +530,9 @@ fn stroke_inputs(doc: &[u8]) -> Vec<StrokeInput> {
 
 #[test]
 fn two_sculptors_on_two_feeds_each_stroke_is_once_in_every_document() {
-    let Some(bin) = nats_server_bin() else {
+    let Some((bin, dir)) = rig() else {
         return;
     };
-    let _ = bins();
-    let dir = tempfile::tempdir().unwrap();
     let (name_a, name_b) = ("patch-carve", "patch-emboss");
     let want_a = stroke_inputs(&replay_offline(name_a, &dir.path().join("offline-a"), &[]));
     let want_b = stroke_inputs(&replay_offline(name_b, &dir.path().join("offline-b"), &[]));
@@ -628,11 +610,9 @@ fn two_sculptors_on_two_feeds_each_stroke_is_once_in_every_document() {
 
 #[test]
 fn bad_peers_are_refused_and_garbage_is_counted_and_ignored() {
-    let Some(bin) = nats_server_bin() else {
+    let Some((bin, dir)) = rig() else {
         return;
     };
-    let _ = bins();
-    let dir = tempfile::tempdir().unwrap();
     let name = "patch-carve";
     let expected = replay_offline(name, &dir.path().join("offline"), &[]);
     let nats = Nats::start(bin, dir.path());
@@ -657,14 +637,7 @@ fn bad_peers_are_refused_and_garbage_is_counted_and_ignored() {
     assert!(!refused.status.success(), "{said}");
     assert!(said.to_lowercase().contains("authorization"), "{said}");
 
-    let config = cluster_config(
-        &dir.path().join("cave.toml"),
-        &addr,
-        &nats.url(),
-        PASSWORD,
-        "",
-        &specs,
-    );
+    let config = cave_config(dir.path(), &addr, &nats, "", &specs);
     let (front, left) = (dir.path().join("front"), dir.path().join("left"));
     let mut a = start_node(&config, "front", &front);
     let mut b = start_node(&config, "left", &left);
