@@ -342,6 +342,74 @@ impl OpLogWriter {
     }
 }
 
+/// Cuts a plain session's log into segments, one per interaction mode, so that the
+/// GOMS harness counts each operator under the mode it was made in: the log opens with
+/// `trial_start {trial: 1, method: <start mode>}` at its first event, and each mode
+/// switch ends the segment and starts the next (`trial_end`, then `trial_start` with
+/// the new mode as its `method`, numbered per mode), both at the switch's time. A
+/// segment starts at its first event, not at time zero (a live session's clock is the
+/// tracker's), and a switch before any event leaves no empty segment. The display
+/// server and `replay` both write their plain logs through it; in a study the study's
+/// trials are the segments instead.
+#[derive(Debug, Clone)]
+pub struct ModeSegments {
+    /// The open segment: its method and number.
+    open: (String, u32),
+    /// Segments started per method.
+    started: BTreeMap<String, u32>,
+    /// Whether the open segment's `trial_start` has been handed out.
+    begun: bool,
+    /// The latest event time seen.
+    last_t: f64,
+}
+
+impl ModeSegments {
+    /// Segments for a session that starts in mode `method`.
+    pub fn new(method: &str) -> Self {
+        Self {
+            open: (method.to_owned(), 1),
+            started: BTreeMap::from([(method.to_owned(), 1)]),
+            begun: false,
+            last_t: 0.0,
+        }
+    }
+
+    /// The segment events to log at `t` just before `kind` (also at `t`): the open
+    /// segment's `trial_start` before its first event, and at a `mode` event that
+    /// switches mode, the `trial_end` of the segment and the next one's start. Nothing
+    /// for an event the writer will refuse (time not finite or going back).
+    pub fn before(&mut self, t: f64, kind: &EventKind) -> Vec<EventKind> {
+        if !t.is_finite() || t < self.last_t {
+            return Vec::new();
+        }
+        self.last_t = t;
+        let mut out = Vec::new();
+        if let EventKind::Mode { mode } = kind
+            && *mode != self.open.0
+        {
+            if self.begun {
+                out.push(EventKind::TrialEnd { trial: self.open.1 });
+            } else if let Some(n) = self.started.get_mut(&self.open.0) {
+                // Nothing in the segment yet: it is not counted.
+                *n -= 1;
+            }
+            let n = self.started.entry(mode.clone()).or_insert(0);
+            *n += 1;
+            self.open = (mode.clone(), *n);
+            self.begun = false;
+        }
+        if !self.begun {
+            self.begun = true;
+            out.push(EventKind::TrialStart {
+                trial: self.open.1,
+                task: None,
+                method: Some(self.open.0.clone()),
+            });
+        }
+        out
+    }
+}
+
 /// Checks one event's values; the reason when it is bad.
 fn validate(e: &OpEvent) -> std::result::Result<(), OpLogError> {
     match &e.kind {
@@ -641,6 +709,69 @@ mod tests {
             events,
             truncated_tail: false,
         }
+    }
+
+    /// Issue 19: a plain log is one segment per mode, for the display server and
+    /// `replay` alike (replay's log kept the start mode's segment after a switch). A
+    /// switch before any event leaves no empty segment; segments are numbered per mode;
+    /// an event going back in time gets no marks.
+    #[test]
+    fn mode_segments_open_at_the_first_event_and_cut_at_each_switch() {
+        let mode = |m: &str| EventKind::Mode { mode: m.to_owned() };
+        let start = |trial, m: &str| EventKind::TrialStart {
+            trial,
+            task: None,
+            method: Some(m.to_owned()),
+        };
+        let press = EventKind::Button { id: 0, down: true };
+        let mut seg = ModeSegments::new("carve");
+        // Switched away before anything happened in carve: no carve segment.
+        assert_eq!(seg.before(5.0, &mode("emboss")), vec![start(1, "emboss")]);
+        assert_eq!(seg.before(5.5, &press), vec![]);
+        assert_eq!(seg.before(6.0, &mode("emboss")), vec![], "not a switch");
+        assert_eq!(
+            seg.before(7.0, &mode("carve")),
+            vec![EventKind::TrialEnd { trial: 1 }, start(1, "carve")]
+        );
+        assert_eq!(seg.before(6.5, &mode("emboss")), vec![], "time going back");
+        assert_eq!(
+            seg.before(8.0, &mode("emboss")),
+            vec![EventKind::TrialEnd { trial: 1 }, start(2, "emboss")]
+        );
+        // Through a writer, the marks come out at the events' times.
+        let mut seg = ModeSegments::new("sketch");
+        let mut w = OpLogWriter::new(&OpLogHeader::new().with_method("sketch"));
+        for (t, k) in [(2.0, press.clone()), (3.0, mode("carve")), (4.0, press)] {
+            for m in seg.before(t, &k) {
+                w.push(t, m).unwrap();
+            }
+            w.push(t, k).unwrap();
+        }
+        let log = decode_bytes(w.pending()).unwrap();
+        let kinds: Vec<(f64, &str)> = log
+            .events
+            .iter()
+            .map(|e| {
+                let k = match &e.kind {
+                    EventKind::TrialStart { .. } => "start",
+                    EventKind::TrialEnd { .. } => "end",
+                    EventKind::Mode { .. } => "mode",
+                    _ => "press",
+                };
+                (e.t, k)
+            })
+            .collect();
+        assert_eq!(
+            kinds,
+            [
+                (2.0, "start"),
+                (2.0, "press"),
+                (3.0, "end"),
+                (3.0, "start"),
+                (3.0, "mode"),
+                (4.0, "press")
+            ]
+        );
     }
 
     #[test]

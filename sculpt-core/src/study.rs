@@ -313,7 +313,8 @@ pub fn append_trial(
 /// Appends one trial as [`append_trial`] does, from events already decoded, over the
 /// span `(t0, t1)` of the program's clock (the trial's start and end signals, which
 /// may lie before the first and after the last event). Events outside the span are
-/// left out.
+/// left out, and so are the events' own `trial_start` and `trial_end` marks (a plain
+/// log's segments, [`oplog::ModeSegments`]): the study's trial is the segment.
 pub fn append_span(
     existing: Option<&[u8]>,
     next: &NextTrial,
@@ -349,7 +350,14 @@ pub fn append_span(
             method: None,
         },
     )?;
-    for e in events.iter().filter(|e| e.t >= t0 && e.t <= t1) {
+    // A plain log's own segment marks (one per mode, `ModeSegments`) are left out:
+    // the study's trial is the segment.
+    let marks =
+        |k: &EventKind| matches!(k, EventKind::TrialStart { .. } | EventKind::TrialEnd { .. });
+    for e in events
+        .iter()
+        .filter(|e| e.t >= t0 && e.t <= t1 && !marks(&e.kind))
+    {
         w.push(offset + (e.t - t0), e.kind.clone())?;
     }
     w.push(

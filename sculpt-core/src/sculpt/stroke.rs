@@ -659,6 +659,73 @@ impl Stroke {
         &self.centre_segments
     }
 
+    /// The groove wall's strip lines in the square, for a tessellator: with `fracs` the
+    /// profile sample fractions of the half-width (strictly between 0 and 1, ascending),
+    /// the point `p(i, k, f) = centre_uv[i] + f (rims_uv[k][i] - centre_uv[i])` on each
+    /// side `k`, and
+    /// - **rungs** across the stroke: `centre_uv[i]`, then `p(i, k, f)` for each `f`, then
+    ///   `rims_uv[k][i]`, as consecutive segments;
+    /// - **rows** along the stroke: `p(i, k, f)` for consecutive `i`, one row per side
+    ///   and fraction.
+    ///
+    /// Rows, rungs, the centreline and the rims cut the footprint's strip into quads
+    /// with the profile's sample points at their corners, so each quad spans one step
+    /// along the stroke and one profile interval across it. Wrapped into the square
+    /// like [`Self::centre_segments`]; zero-length segments (a tapered end, where the
+    /// rim meets the centre) are left out.
+    pub fn wall_segments(&self, fracs: &[f64]) -> Vec<[DVec2; 2]> {
+        let closed = self.buckets.closed;
+        let n = self.centre_uv.len();
+        let mut out = Vec::with_capacity(2 * n * (2 * fracs.len() + 1));
+        let mut line: Vec<DVec2> = Vec::with_capacity(n.max(fracs.len() + 2));
+        for rim in &self.rims_uv {
+            for (&c, &r) in self.centre_uv.iter().zip(rim) {
+                line.clear();
+                line.push(c);
+                line.extend(fracs.iter().map(|&f| c.lerp(r, f)));
+                line.push(r);
+                out.extend(wrapped_segments(&line, closed));
+            }
+            for &f in fracs {
+                line.clear();
+                line.extend(self.centre_uv.iter().zip(rim).map(|(c, r)| c.lerp(*r, f)));
+                out.extend(wrapped_segments(&line, closed));
+            }
+        }
+        out
+    }
+
+    /// True when `uv` (in the square) lies in the strip that [`Self::wall_segments`]
+    /// cuts into quads, edges included: in one of the triangles `(c_i, c_i+1, x_i+1)`
+    /// and `(c_i, x_i+1, x_i)` where `c` is the centreline and `x` either rim (those of
+    /// no area, at a tapered end, left out). The end caps of blunt ends are not part of
+    /// the strip.
+    pub fn in_strip(&self, uv: DVec2) -> bool {
+        let inside = |p: DVec2, t: [DVec2; 3]| {
+            if (t[1] - t[0]).perp_dot(t[2] - t[0]).abs() <= crate::tolerance::UV_AREA_EPS {
+                return false;
+            }
+            let s = [
+                (t[1] - t[0]).perp_dot(p - t[0]),
+                (t[2] - t[1]).perp_dot(p - t[1]),
+                (t[0] - t[2]).perp_dot(p - t[2]),
+            ];
+            s.iter().all(|&x| x >= 0.0) || s.iter().all(|&x| x <= 0.0)
+        };
+        let (c, [l, r]) = (&self.centre_uv, &self.rims_uv);
+        let [(u0, u1), (v0, v1)] = self.buckets.shifts(uv);
+        (v0..=v1)
+            .flat_map(|kv| (u0..=u1).map(move |ku| uv + DVec2::new(ku as f64, kv as f64)))
+            .any(|p| {
+                self.buckets.candidates(p).iter().any(|&i| {
+                    let i = i as usize;
+                    [l, r].iter().any(|x| {
+                        inside(p, [c[i], c[i + 1], x[i + 1]]) || inside(p, [c[i], x[i + 1], x[i]])
+                    })
+                })
+            })
+    }
+
     /// True when the stroke closes on itself (its end came back to its start): the
     /// centreline's last point is its first (up to whole periods on a closed target) and
     /// the ends are not tapered.

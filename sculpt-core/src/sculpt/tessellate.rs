@@ -8,8 +8,13 @@
 //!   constraint edges: boundary leaves are clipped exactly along it, so the trimmed target
 //!   and the stroke surfaces meet along one polyline, with no gap and no overlap;
 //! - each stroke's **centreline** as constraint edges, so a V groove's bottom is a mesh
-//!   edge at exactly the tool depth, and (for curved profiles and at final detail)
-//!   sample lines across the profile.
+//!   edge at exactly the tool depth;
+//! - each stroke's **groove wall** as strips along the stroke
+//!   ([`Stroke::wall_segments`]): rows at the profile's sample fractions of the
+//!   half-width (more for curved profiles and at final detail) and rungs across the
+//!   stroke at every centreline sample, as constraint edges. Leaf corners inside the
+//!   strip are left out, so each wall quad spans one sample step along the stroke and
+//!   one profile interval across it, and its vertices lie on the profile's sample lines.
 //!
 //! Every vertex is placed at `S(uv) + h(uv) N(uv)`: `h = 0` on the target and along the
 //! outline, and inside footprints the strokes combine in order like real carving: carving
@@ -31,7 +36,7 @@
 
 use super::jordan::{Location, NodeClass, Rect, Region};
 use super::stroke::{Mode, Stroke};
-use super::surface::{ParamSurface, SurfaceExtent, extent, normal_from, wrap_uv};
+use super::surface::{ParamSurface, SurfaceExtent, extent, normal_from};
 use super::uvmap::UvMap;
 use crate::mesh::{MeshSink, MeshVertex, PatchKey};
 use crate::tolerance::{
@@ -624,7 +629,9 @@ impl TargetTessellation {
         a.is_some() && a == b
     }
 
-    /// The outline and centreline segments, indexed for the roots in `mask`.
+    /// The outline, centreline and groove-wall segments ([`Stroke::wall_segments`]: the
+    /// walls are triangulated as strips along the stroke), indexed for the roots in
+    /// `mask`.
     fn segments(&self, strokes: &[StrokeRef<'_>], mask: &[bool]) -> Segments {
         let n = self.map.n();
         let mut by_root = vec![Vec::new(); (n * n) as usize];
@@ -654,7 +661,13 @@ impl TargetTessellation {
                     .get(id)
                     .is_none_or(|t| t.iter().any(|&r| mask[r as usize]))
             })
-            .flat_map(|(_, s)| s.centre_segments().iter().copied())
+            .flat_map(|(_, s)| {
+                let fracs = self.detail.profile_lines(s.tool.profile.is_curved());
+                s.centre_segments()
+                    .iter()
+                    .copied()
+                    .chain(s.wall_segments(fracs))
+            })
             .filter(|w| !self.on_pole(w))
             .map(|w| (w, Kind::Plain));
         for (s, kind) in hidden.chain(centres) {
@@ -708,6 +721,11 @@ impl TargetTessellation {
     fn patch_input(&self, root: u32, strokes: &[StrokeRef<'_>], segments: &Segments) -> PatchInput {
         let rect = self.map.node(root).rect;
         let mut input = PatchInput::new(rect);
+        // Leaf corners inside a stroke's strip are left out: the strip's rows and rungs
+        // (constraints, below) triangulate the groove wall as strips along the stroke.
+        // Both cells sharing a side decide alike, since the strokes reaching a side
+        // point are listed for both.
+        let off_strips = |c: DVec2| !strokes.iter().any(|(_, s)| s.in_strip(c));
         // Sides: the leaf corners that both cells have along the side (the tree is
         // graded, so the finer cell loses at most one corner per coarse leaf, and a
         // cell whose neighbour is subdivided keeps its side), plus segment crossings.
@@ -725,9 +743,16 @@ impl TargetTessellation {
                 2 => (rect.min.y, rect.min.x, rect.max.x, true),
                 _ => (rect.max.y, rect.min.x, rect.max.x, true),
             };
+            let at = |p: f64| {
+                if along_u {
+                    DVec2::new(p, fixed)
+                } else {
+                    DVec2::new(fixed, p)
+                }
+            };
             let mut params: Vec<(f64, Kind)> = corners
                 .into_iter()
-                .filter(|&p| p >= lo && p <= hi)
+                .filter(|&p| p >= lo && p <= hi && off_strips(at(p)))
                 .map(|p| (p, Kind::Plain))
                 .collect();
             // The seam: the side of a closed surface takes the crossings of both copies.
@@ -750,12 +775,7 @@ impl TargetTessellation {
                 }
             }
             for (p, kind) in params {
-                let uv = if along_u {
-                    DVec2::new(p, fixed)
-                } else {
-                    DVec2::new(fixed, p)
-                };
-                input.point(uv, kind);
+                input.point(at(p), kind);
             }
         }
         // Leaf corners inside the cell.
@@ -767,7 +787,7 @@ impl TargetTessellation {
                 DVec2::new(r.min.x, r.max.y),
                 r.max,
             ] {
-                if rect_strictly_contains(&rect, c) {
+                if rect_strictly_contains(&rect, c) && off_strips(c) {
                     input.point(c, Kind::Plain);
                 }
             }
@@ -783,23 +803,6 @@ impl TargetTessellation {
                 let ib = input.point(b, kind);
                 if ia != ib {
                     input.constraints.push(([ia, ib], kind));
-                }
-            }
-        }
-        // Profile sample lines inside footprints.
-        for (_, s) in strokes {
-            if !s.bounds.touches(&rect) {
-                continue;
-            }
-            let fracs = self.detail.profile_lines(s.tool.profile.is_curved());
-            for i in 0..s.centre_uv.len() {
-                for rim in &s.rims_uv {
-                    for &f in fracs {
-                        let uv = wrap_uv(s.centre_uv[i].lerp(rim[i], f));
-                        if rect_strictly_contains(&rect, uv) {
-                            input.point(uv, Kind::Plain);
-                        }
-                    }
                 }
             }
         }
@@ -1512,9 +1515,9 @@ impl PatchInput {
         let (a, b) = (self.points[a0].0, self.points[a1].0);
         let (c, d) = (self.points[b0].0, self.points[b1].0);
         let mut touching = false;
-        for (k, ends, (s0, s1), (e0, e1)) in [
-            (i, [(b0, c), (b1, d)], (a, b), (a0, a1)),
-            (j, [(a0, a), (a1, b)], (c, d), (b0, b1)),
+        for (k, ends, (s0, s1), (e0, e1), kind) in [
+            (i, [(b0, c), (b1, d)], (a, b), (a0, a1), ka),
+            (j, [(a0, a), (a1, b)], (c, d), (b0, b1), kb),
         ] {
             for (v, p) in ends {
                 if v != e0
@@ -1523,6 +1526,11 @@ impl PatchInput {
                 {
                     splits[k].push((t, v));
                     touching = true;
+                    // An end on the outline is on the rim (a groove wall's rung ending
+                    // where collinear rim points were merged into one outline edge).
+                    if kind == Kind::Rim {
+                        self.points[v].1 = Kind::Rim;
+                    }
                 }
             }
         }
@@ -2085,5 +2093,79 @@ mod tests {
                 "{detail:?}: crease not split {verts:?}"
             );
         }
+    }
+
+    /// Issue 20: groove walls are triangulated as strips along the stroke. On a plane,
+    /// a straight groove's profile sample lines are lines of constant distance from the
+    /// centreline; every triangle inside the groove has its corners on those lines
+    /// (leaf corners inside the strip are left out; the root grid's corners, which every
+    /// cell keeps, are the exception), spans one profile interval across the stroke and
+    /// at most one sample step along it. The quadtree's leaf corners, which the groove
+    /// kept before, sat between the lines and failed this.
+    #[test]
+    fn groove_walls_are_strips_along_the_stroke() {
+        let s = plane(1.0);
+        let mut checked = 0;
+        for profile in [Profile::V, Profile::U] {
+            let a = stroke(
+                &s,
+                DVec3::new(0.2, 0.5, 0.0),
+                DVec3::new(0.8, 0.5, 0.0),
+                tool(Mode::Carve, profile.clone()),
+            );
+            let step = a
+                .centre_uv
+                .windows(2)
+                .map(|w| w[0].distance(w[1]))
+                .fold(0.0, f64::max);
+            let hw = a.half_width[a.half_width.len() / 2];
+            for detail in [Detail::Interactive, Detail::Final] {
+                let mut levels = vec![0.0];
+                levels.extend_from_slice(detail.profile_lines(profile.is_curved()));
+                levels.push(1.0);
+                let level_of = |y: f64| {
+                    let f = (y - 0.5).abs() / hw;
+                    levels.iter().position(|&l| (l - f).abs() <= F32_EPS / hw)
+                };
+                let mut tess = TargetTessellation::new(&s, 0, detail);
+                let mut mesh = PatchMesh::new();
+                tess.update(&s, &[(1, &a)], None, &mut mesh);
+                let n = f64::from(tess.map().n());
+                let on_grid = |x: f64| ((x * n).round() - x * n).abs() <= F32_EPS * n;
+                let (tris, _) = uv_triangles(&mesh);
+                for t in &tris {
+                    let centre = (t[0] + t[1] + t[2]) / 3.0;
+                    let inside =
+                        (centre.y - 0.5).abs() < hw && t.iter().all(|p| p.x > 0.3 && p.x < 0.7);
+                    if !inside || t.iter().any(|p| on_grid(p.x) && on_grid(p.y)) {
+                        continue;
+                    }
+                    let lv: Vec<usize> = t
+                        .iter()
+                        .map(|p| {
+                            level_of(p.y).unwrap_or_else(|| {
+                                panic!("{profile:?} {detail:?}: corner {p} off the profile lines")
+                            })
+                        })
+                        .collect();
+                    let (lo, hi) = (lv.iter().min().unwrap(), lv.iter().max().unwrap());
+                    assert!(
+                        hi - lo <= 1,
+                        "{profile:?} {detail:?}: {t:?} spans {lo}..{hi}"
+                    );
+                    let (x0, x1) = t
+                        .iter()
+                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+                            (a.min(p.x), b.max(p.x))
+                        });
+                    assert!(
+                        x1 - x0 <= step + F32_EPS,
+                        "{profile:?} {detail:?}: {t:?} along"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 200, "only {checked} groove triangles");
     }
 }
