@@ -14,7 +14,8 @@
 //!    to the [`Document`] (strokes through the multiresolution trimming, sketches
 //!    fitted into new targets, undo and redo). The replay counts what each [`Step`]
 //!    did into its metrics, times each stroke's apply ([`EditHooks`]) and writes the
-//!    operator log with [`editor::oplog_event`].
+//!    operator log with [`editor::oplog_event`], one segment per interaction mode
+//!    ([`ModeSegments`], as the display server's log).
 //!
 //! Time is virtual: the frames' own times, so a replay is deterministic, runs as fast
 //! as the CPU allows, and matches a live run of the same log.
@@ -28,7 +29,7 @@ use sculpt_core::error::StrokeRejection;
 use sculpt_core::interaction::{
     Edit, EndReason, Interaction, OperatorEvent, Profile, StrokeEdit, StrokeMode,
 };
-use sculpt_core::oplog::{OpLogHeader, OpLogWriter};
+use sculpt_core::oplog::{ModeSegments, OpLogHeader, OpLogWriter};
 use sculpt_core::sculpt::document::{Document, StrokeId, TargetId};
 use serde::Serialize;
 use tracking::Frame;
@@ -227,6 +228,8 @@ pub struct Replayer {
     edit_loop: EditLoop,
     timer: ApplyTimer,
     oplog: OpLogWriter,
+    /// The operator log's segments, one per interaction mode.
+    segments: ModeSegments,
     metrics: Metrics,
     pause_timeout: f64,
     first_t: Option<f64>,
@@ -254,6 +257,7 @@ impl Replayer {
             edit_loop: EditLoop::new(interaction, doc),
             timer: ApplyTimer::default(),
             oplog,
+            segments: ModeSegments::new(editor::mode_name(cfg.tool.mode)),
             metrics: Metrics {
                 session: session.to_string(),
                 ..Metrics::default()
@@ -361,7 +365,11 @@ impl Replayer {
                         }
                     }
                     // Times are monotone by construction; a refused event is dropped.
-                    let _ = self.oplog.push(*t, editor::oplog_event(event));
+                    let kind = editor::oplog_event(event);
+                    for mark in self.segments.before(*t, &kind) {
+                        let _ = self.oplog.push(*t, mark);
+                    }
+                    let _ = self.oplog.push(*t, kind);
                 }
                 LoopEvent::Edit { edit, applied } => self.applied(edit, applied, step.t),
             }

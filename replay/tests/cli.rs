@@ -394,3 +394,36 @@ fn an_out_path_that_is_a_file_says_it_is_not_a_directory() {
     assert!(err.contains("exists and is not a directory"), "{err}");
     assert_eq!(std::fs::read(&file).unwrap(), b"x");
 }
+
+/// Issue 19: replay's operator log is cut into one segment per interaction mode, as the
+/// display server's is (it used to keep the start mode's segment after a switch, so
+/// `goms` counted sketching as carving). Every mode switch starts a segment naming the
+/// new mode at the switch's time, and every event lies in a segment.
+#[test]
+fn regression_the_plain_log_follows_mode_switches() {
+    use sculpt_core::oplog::EventKind;
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("sketch-carve");
+    run_to(&dir, "sketch-carve");
+    let log = sculpt_core::oplog::decode_bytes(&std::fs::read(dir.join("operator.log")).unwrap())
+        .unwrap();
+    let mut open: Option<String> = None;
+    let mut methods = Vec::new();
+    for e in &log.events {
+        match &e.kind {
+            EventKind::TrialStart { method, .. } => {
+                open = method.clone();
+                methods.push(method.clone().unwrap_or_default());
+            }
+            EventKind::TrialEnd { .. } => open = None,
+            EventKind::Mode { mode } => {
+                assert_eq!(open.as_deref(), Some(mode.as_str()), "at {}", e.t)
+            }
+            _ => assert!(open.is_some(), "an event outside a segment at {}", e.t),
+        }
+    }
+    assert!(
+        methods.iter().any(|m| m == "sketch") && methods.iter().any(|m| m == "carve"),
+        "{methods:?}"
+    );
+}

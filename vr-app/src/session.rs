@@ -21,11 +21,9 @@
 //!   per event, read by `sculpt-tools goms`. A log left by an earlier run is kept as
 //!   `operator.N.log` (the first free `N`), since each run's clock starts at zero.
 //!   Desktop keys are logged as `key` events ([`Session::key`], a K operator). The
-//!   log is cut into segments, one per interaction mode: it opens with
-//!   `trial_start {trial: 1, method: <start mode>}`, and each mode switch ends the
-//!   segment and starts the next (`trial_end`, then `trial_start` with the new mode as
-//!   its `method`, numbered per mode), so `sculpt-tools goms` counts each operator
-//!   under the mode it was made in. In study mode ([`Session::start_study`]) the
+//!   log is cut into segments, one per interaction mode
+//!   ([`sculpt_core::oplog::ModeSegments`], as `replay` does), so `sculpt-tools goms`
+//!   counts each operator under the mode it was made in. In study mode ([`Session::start_study`]) the
 //!   study's method is the method and the study's trials are the segments.
 //!
 //! ```
@@ -48,7 +46,7 @@ use sculpt_core::edit_loop::{EditHooks, EditLoop, LoopError, NoHooks, Step};
 use sculpt_core::editor::{self, Applied};
 use sculpt_core::error::Chain;
 use sculpt_core::interaction::{Command, Edit, Interaction, OperatorEvent, TargetIndex, WandEvent};
-use sculpt_core::oplog::{EventKind, OpEvent, OpLogHeader, OpLogWriter};
+use sculpt_core::oplog::{EventKind, ModeSegments, OpEvent, OpLogHeader, OpLogWriter};
 use sculpt_core::sculpt::document::Document;
 
 use crate::config::Config;
@@ -123,14 +121,13 @@ struct OperatorLog {
     writer: OpLogWriter,
     /// Set by the first failed write: nothing more is written.
     failed: bool,
-    /// Plain sessions: the segment open now (method, its number) and the segments
-    /// started per method; `None` in study mode, whose trials are the segments.
-    segment: Option<(String, u32)>,
-    segments: std::collections::BTreeMap<String, u32>,
+    /// Plain sessions: one segment per mode; `None` in study mode, whose trials are
+    /// the segments.
+    segments: Option<ModeSegments>,
     /// Study mode: the events of the trial being recorded.
     capture: Option<Vec<OpEvent>>,
-    /// A `trial_start` to write just before the next event (at its time): a segment
-    /// or trial starts at its first event, not at time zero (a live session's clock is
+    /// Study mode: a `trial_start` to write just before the next event (at its time):
+    /// a trial starts at its first event, not at time zero (a live session's clock is
     /// the tracker's).
     pending: Option<EventKind>,
     /// The latest event time written.
@@ -163,13 +160,11 @@ impl OperatorLog {
             file,
             writer,
             failed: false,
-            segment: None,
-            segments: Default::default(),
+            segments: Some(ModeSegments::new(method)),
             capture: None,
             pending: None,
             last_t: 0.0,
         };
-        log.pending = Some(log.next_segment(method));
         log.flush();
         Ok(log)
     }
@@ -182,54 +177,25 @@ impl OperatorLog {
             .and_then(|()| std::io::Seek::rewind(&mut self.file))
             .map_err(|e| io_err(&self.path, e))?;
         self.writer = OpLogWriter::new(header);
-        self.segment = None;
-        self.segments.clear();
+        self.segments = None;
         self.pending = None;
         self.last_t = 0.0;
         self.flush();
         Ok(())
     }
 
-    /// Opens the next segment of `method` (plain sessions): its `trial_start`.
-    fn next_segment(&mut self, method: &str) -> EventKind {
-        let n = self.segments.entry(method.to_owned()).or_insert(0);
-        *n += 1;
-        let trial = *n;
-        self.segment = Some((method.to_owned(), trial));
-        EventKind::TrialStart {
-            trial,
-            task: None,
-            method: Some(method.to_owned()),
-        }
-    }
-
     fn push(&mut self, t: f64, event: &OperatorEvent) -> VrResult<()> {
-        if let OperatorEvent::ModeChange { to, .. } = event {
-            let to = editor::mode_name(*to);
-            if let Some((method, trial)) = self.segment.clone()
-                && method != to
-                && t >= self.last_t
-            {
-                if self.pending.is_some() {
-                    // Nothing in the segment yet: it is not counted, the new one starts
-                    // at the next event instead.
-                    if let Some(n) = self.segments.get_mut(&method) {
-                        *n -= 1;
-                    }
-                    self.pending = Some(self.next_segment(to));
-                } else {
-                    self.write(t, EventKind::TrialEnd { trial });
-                    let start = self.next_segment(to);
-                    self.write(t, start);
-                }
-            }
-        }
         self.push_kind(t, editor::oplog_event(event));
         Ok(())
     }
 
     /// Logs one event (and captures it for a study trial being recorded).
     fn push_kind(&mut self, t: f64, kind: EventKind) {
+        if let Some(segments) = &mut self.segments {
+            for mark in segments.before(t, &kind) {
+                self.write(t, mark);
+            }
+        }
         if let Some(c) = &mut self.capture
             && t >= self.last_t
         {
