@@ -729,7 +729,14 @@ impl ApplicationHandler for WindowApp {
                 }
             }
             WindowEvent::ModifiersChanged(m) => self.modifiers = m.state(),
-            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
+            // winit makes up a press (`is_synthetic`) for each key already held when the
+            // window gains focus; that is no keystroke of the sculptor's. Regression: under
+            // Xvfb the first key typed after focusing was logged twice.
+            WindowEvent::KeyboardInput {
+                event,
+                is_synthetic: false,
+                ..
+            } if event.state == ElementState::Pressed => {
                 self.key(&event.logical_key, event_loop);
             }
             WindowEvent::RedrawRequested => {

@@ -78,8 +78,11 @@ fn help_lists_the_desktop_keys() {
 /// switches start a sketch and an emboss segment, and Esc's quit autosaves the document.
 #[test]
 fn keys_typed_into_the_window_are_logged_and_switch_modes() {
+    // Regression: `xdotool version` opens the X display before it answers, so with no
+    // DISPLAY (CI, before xvfb-run starts one) it failed and the test called xdotool
+    // missing; `--version` needs no display.
     let have_xdotool = Command::new("xdotool")
-        .arg("version")
+        .arg("--version")
         .output()
         .is_ok_and(|o| o.status.success());
     if !have_xvfb_run() || !have_xdotool {

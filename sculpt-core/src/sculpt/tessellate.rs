@@ -787,7 +787,11 @@ impl TargetTessellation {
                 DVec2::new(r.min.x, r.max.y),
                 r.max,
             ] {
-                if rect_strictly_contains(&rect, c) && off_strips(c) {
+                // An exterior leaf meets no outline: its corners lie outside every
+                // footprint, so outside every strip.
+                if rect_strictly_contains(&rect, c)
+                    && (leaf.class == NodeClass::Exterior || off_strips(c))
+                {
                     input.point(c, Kind::Plain);
                 }
             }
