@@ -950,6 +950,37 @@ mod tests {
     }
 
     #[test]
+    fn distances_are_to_the_nearest_of_all_patches() {
+        // The box filter skips only patches that cannot be nearer: the distances equal
+        // the smallest certified distance over every patch, for points on the data
+        // and points lifted off it by up to 2 cm (near other patches' boxes).
+        let seg = seg_of(torus(3000, 0.2, 0.08, 3), 24);
+        let settings = NetworkSettings {
+            levels: 3,
+            control: 6,
+            ..NetworkSettings::new()
+        };
+        let (_, net) = network(&seg, &settings);
+        let queries: Vec<DVec3> = seg
+            .points
+            .iter()
+            .zip(&seg.normals)
+            .step_by(25)
+            .enumerate()
+            .map(|(k, (p, n))| *p + *n * (0.005 * (k % 5) as f64))
+            .collect();
+        let inverters: Vec<SurfaceInverter> = net.surfaces.iter().map(|s| s.inverter()).collect();
+        let fast = network_distances(&net, &queries);
+        for (q, d) in queries.iter().zip(fast) {
+            let all = inverters
+                .iter()
+                .map(|inv| inv.closest_point(*q).distance)
+                .fold(f64::INFINITY, f64::min);
+            assert!((d - all).abs() < POINT_EPS, "{q}: {d} against {all}");
+        }
+    }
+
+    #[test]
     fn g1_rounds_reduce_the_angles_across_sides() {
         let seg = seg_of(torus(3000, 0.2, 0.08, 3), 24);
         let base = NetworkSettings {
