@@ -84,7 +84,7 @@ pub fn reconstruct(
     progress("local grids");
     let grids = quad_grids(&mesh, settings.levels, &snap);
     progress("fitting");
-    let network = fit_network(&mesh.quads, grids, settings)?;
+    let network = fit_network(&mesh, grids, settings)?;
     progress("errors");
     let figures = figures(&network, &seg);
     Ok(Reconstruction {
