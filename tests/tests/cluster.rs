@@ -882,3 +882,126 @@ fn a_corrupt_or_truncated_snapshot_is_logged_once_and_the_node_replays_the_whole
         );
     }
 }
+
+/// The strokes of a shipped session as operations (`Edit::Stroke`), in order.
+fn stroke_edits(name: &str) -> Vec<Edit> {
+    use sculpt_core::interaction::{StrokeEdit, StrokeSample};
+    tests::replay_session(name)
+        .document
+        .strokes()
+        .iter()
+        .map(|s| {
+            let samples = s
+                .input
+                .samples
+                .iter()
+                .map(|&(t, position)| StrokeSample { t, position })
+                .collect();
+            Edit::Stroke(StrokeEdit::new(s.target, s.input.tool.clone(), samples))
+        })
+        .collect()
+}
+
+/// Regression (snapshot design): a snapshot's document has no undo history, so an
+/// undo in the stream that reaches a step older than the snapshot must not be refused
+/// on the node that loaded it (the documents would part); the node rebuilds from the
+/// whole stream and ends with the document of a node that replayed it all.
+#[test]
+fn undoing_past_the_snapshot_rebuilds_the_document_from_the_whole_stream() {
+    use vr_app::cluster::node::OpRecord;
+    use vr_app::cluster::snapshot::StreamId;
+    let Some((bin, dir)) = rig() else {
+        return;
+    };
+    let strokes = stroke_edits("soak-60s");
+    assert!(strokes.len() >= 4);
+    // Three strokes (the snapshot covers them), two undos reaching into them, a redo
+    // and a fourth stroke.
+    let snapped = 3;
+    let mut ops: Vec<Edit> = strokes[..snapped].to_vec();
+    ops.extend([Edit::Undo, Edit::Undo, Edit::Redo, strokes[snapped].clone()]);
+    let mut whole = sculpt_core::editor::default_document();
+    let mut at_snapshot = None;
+    for (i, e) in ops.iter().enumerate() {
+        sculpt_core::editor::apply(&mut whole, e);
+        if i + 1 == snapped {
+            at_snapshot = Some(whole.to_json());
+        }
+    }
+    let expected = whole.to_json();
+    let nats = Nats::start(bin, dir.path());
+    // Nobody serves tracking here: the node only follows the stream.
+    let specs = [node("front", true, FRONT), node("late", false, RIGHT)];
+    let config = cave_config(dir.path(), "127.0.0.1:9", &nats, "barrier = false", &specs);
+    let session = format!("s{}", std::process::id());
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    rt.block_on(async {
+        let client =
+            async_nats::ConnectOptions::with_user_and_password(USER.into(), PASSWORD.into())
+                .connect(nats.url())
+                .await
+                .unwrap();
+        let js = async_nats::jetstream::new(client);
+        let mut stream = js
+            .get_or_create_stream(async_nats::jetstream::stream::Config {
+                name: format!("WS_{session}"),
+                subjects: vec![format!("{session}.ops")],
+                storage: async_nats::jetstream::stream::StorageType::File,
+                ..Default::default()
+            })
+            .await
+            .unwrap();
+        let publish = async |kind: &str, body: Vec<u8>| {
+            let mut h = async_nats::HeaderMap::new();
+            h.insert("Ws-Kind", kind);
+            h.insert("Ws-Owner", "front");
+            js.publish_with_headers(format!("{session}.ops"), h, body.into())
+                .await
+                .unwrap()
+                .await
+                .unwrap()
+                .sequence
+        };
+        for (i, edit) in ops.iter().enumerate() {
+            let body = serde_json::to_vec(&OpRecord {
+                t: i as f64,
+                edit: edit.clone(),
+            })
+            .unwrap();
+            let seq = publish("edit", body).await;
+            if i + 1 == snapped {
+                let created = stream.info().await.unwrap().created.unix_timestamp_nanos();
+                let rec = SnapshotRecord {
+                    session: session.clone(),
+                    stream: StreamId {
+                        created_unix_ns: i64::try_from(created).unwrap(),
+                    },
+                    seq,
+                    ends: Vec::new(),
+                    writer: "test".into(),
+                    document: at_snapshot.clone().unwrap(),
+                };
+                let b = snapshot::bucket(&js, &format!("WS_{session}_snap"))
+                    .await
+                    .unwrap();
+                snapshot::store(&b, rec.encode().unwrap()).await.unwrap();
+            }
+        }
+        publish("end", Vec::new()).await;
+    });
+    let out = dir.path().join("late");
+    let (r, _) = run_late(&config, &out);
+    assert_eq!(
+        r["snapshot"]["loaded_seq"].as_u64(),
+        Some(snapped as u64),
+        "{r}"
+    );
+    assert_eq!(r["snapshot"]["rebuilt"], 1, "{r}");
+    assert!(
+        scene(&out) == expected,
+        "differs from the whole stream's document\n{r}"
+    );
+}
