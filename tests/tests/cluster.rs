@@ -737,7 +737,12 @@ fn stored_snapshot(nats: &Nats) -> Option<Vec<u8>> {
 
 /// A late node, configured as `late` (not an owner): its report and stderr.
 fn run_late(config: &Path, out: &Path) -> (serde_json::Value, String) {
-    let mut late = start_node(config, "late", out);
+    run_to_end(config, "late", out)
+}
+
+/// Runs node `name` to its end: its report and stderr.
+fn run_to_end(config: &Path, name: &str, out: &Path) -> (serde_json::Value, String) {
+    let mut late = start_node(config, name, out);
     let mut err = late.0.stderr.take().unwrap();
     let err_reader = std::thread::spawn(move || {
         let mut s = String::new();
@@ -908,8 +913,6 @@ fn stroke_edits(name: &str) -> Vec<Edit> {
 /// whole stream and ends with the document of a node that replayed it all.
 #[test]
 fn undoing_past_the_snapshot_rebuilds_the_document_from_the_whole_stream() {
-    use vr_app::cluster::node::OpRecord;
-    use vr_app::cluster::snapshot::StreamId;
     let Some((bin, dir)) = rig() else {
         return;
     };
@@ -933,6 +936,27 @@ fn undoing_past_the_snapshot_rebuilds_the_document_from_the_whole_stream() {
     // Nobody serves tracking here: the node only follows the stream.
     let specs = [node("front", true, FRONT), node("late", false, RIGHT)];
     let config = cave_config(dir.path(), "127.0.0.1:9", &nats, "barrier = false", &specs);
+    write_stream(&nats, &ops, at_snapshot.map(|d| (snapped, d)));
+    let out = dir.path().join("late");
+    let (r, _) = run_late(&config, &out);
+    assert_eq!(
+        r["snapshot"]["loaded_seq"].as_u64(),
+        Some(snapped as u64),
+        "{r}"
+    );
+    assert_eq!(r["snapshot"]["rebuilt"], 1, "{r}");
+    assert!(
+        scene(&out) == expected,
+        "differs from the whole stream's document\n{r}"
+    );
+}
+
+/// Writes `ops` into the session's stream as owner `front` would, then its end
+/// marker; with `snapshot = Some((n, document))`, also a snapshot of `document` at the
+/// `n`-th operation, as the writer would.
+fn write_stream(nats: &Nats, ops: &[Edit], snapshot: Option<(usize, Vec<u8>)>) {
+    use vr_app::cluster::node::OpRecord;
+    use vr_app::cluster::snapshot::StreamId;
     let session = format!("s{}", std::process::id());
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
@@ -972,7 +996,9 @@ fn undoing_past_the_snapshot_rebuilds_the_document_from_the_whole_stream() {
             })
             .unwrap();
             let seq = publish("edit", body).await;
-            if i + 1 == snapped {
+            if let Some((n, document)) = &snapshot
+                && i + 1 == *n
+            {
                 let created = stream.info().await.unwrap().created.unix_timestamp_nanos();
                 let rec = SnapshotRecord {
                     session: session.clone(),
@@ -982,7 +1008,7 @@ fn undoing_past_the_snapshot_rebuilds_the_document_from_the_whole_stream() {
                     seq,
                     ends: Vec::new(),
                     writer: "test".into(),
-                    document: at_snapshot.clone().unwrap(),
+                    document: document.clone(),
                 };
                 let b = snapshot::bucket(&js, &format!("WS_{session}_snap"))
                     .await
@@ -992,16 +1018,70 @@ fn undoing_past_the_snapshot_rebuilds_the_document_from_the_whole_stream() {
         }
         publish("end", Vec::new()).await;
     });
-    let out = dir.path().join("late");
-    let (r, _) = run_late(&config, &out);
+}
+
+/// The catch-up figures (`scripts/cluster-figures catchup`; not run by default): a
+/// ten-minute session's operations (the strokes of `soak-60s`, a minute of work, ten
+/// times over: `WS_CATCHUP_MINUTES` changes the ten) in the stream, then a node that
+/// catches up from scratch (the owner: it writes the session's snapshot as it leaves)
+/// and one that starts from that snapshot. Both must end with the document of the
+/// same operations applied in order; the times are printed as one JSON line.
+#[test]
+#[ignore = "a measurement of minutes: scripts/cluster-figures catchup"]
+fn catch_up_after_a_ten_minute_session() {
+    let Some((bin, dir)) = rig() else {
+        return;
+    };
+    let minutes: usize = std::env::var("WS_CATCHUP_MINUTES")
+        .ok()
+        .and_then(|m| m.parse().ok())
+        .unwrap_or(10);
+    let minute = stroke_edits("soak-60s");
+    let ops: Vec<Edit> = (0..minutes).flat_map(|_| minute.iter().cloned()).collect();
+    let mut whole = sculpt_core::editor::default_document();
+    for e in &ops {
+        sculpt_core::editor::apply(&mut whole, e);
+    }
+    let expected = whole.to_json();
+    let nats = Nats::start(bin, dir.path());
+    let specs = [node("front", true, FRONT), node("late", false, RIGHT)];
+    let config = cave_config(dir.path(), "127.0.0.1:9", &nats, "barrier = false", &specs);
+    write_stream(&nats, &ops, None);
+    let (scratch_out, snap_out) = (dir.path().join("scratch"), dir.path().join("snap"));
+    let t = Instant::now();
+    let (scratch, _) = run_to_end(&config, "front", &scratch_out);
+    let scratch_wall = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let (snap, _) = run_late(&config, &snap_out);
+    let snap_wall = t.elapsed().as_secs_f64();
+    assert!(scene(&scratch_out) == expected, "{scratch}");
+    assert!(scene(&snap_out) == expected, "{snap}");
+    assert_eq!(scratch["snapshot"]["loaded_seq"], serde_json::Value::Null);
+    assert_eq!(scratch["applied"].as_u64(), Some(ops.len() as u64));
+    let covered = scratch["snapshot"]["written_seq"]
+        .as_u64()
+        .expect("written");
     assert_eq!(
-        r["snapshot"]["loaded_seq"].as_u64(),
-        Some(snapped as u64),
-        "{r}"
+        snap["snapshot"]["loaded_seq"].as_u64(),
+        Some(covered),
+        "{snap}"
     );
-    assert_eq!(r["snapshot"]["rebuilt"], 1, "{r}");
-    assert!(
-        scene(&out) == expected,
-        "differs from the whole stream's document\n{r}"
+    let snapshot_bytes = stored_snapshot(&nats).map_or(0, |b| b.len());
+    println!(
+        "{}",
+        serde_json::json!({
+            "minutes": minutes,
+            "operations": ops.len(),
+            "document_bytes": expected.len(),
+            "snapshot_bytes": snapshot_bytes,
+            "from_scratch": {
+                "backlog": scratch["backlog"], "catch_up_s": scratch["catch_up_s"],
+                "process_s": scratch_wall,
+            },
+            "from_snapshot": {
+                "backlog": snap["backlog"], "catch_up_s": snap["catch_up_s"],
+                "process_s": snap_wall,
+            },
+        })
     );
 }
