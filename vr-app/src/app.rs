@@ -43,6 +43,9 @@ pub struct AppState {
     scene: SceneState,
     /// The quadtree overlay's lines and the strokes they were drawn for.
     quadtree: Option<(Vec<u64>, Vec<LineVertex>)>,
+    /// The other sculptors' wands (a cluster node sets them each frame, see
+    /// [`crate::cluster::wand`]), drawn with the own cursor.
+    pub peer_wand_lines: Vec<LineVertex>,
 }
 
 impl AppState {
@@ -73,6 +76,7 @@ impl AppState {
             fixed_head: head,
             scene: SceneState::default(),
             quadtree: None,
+            peer_wand_lines: Vec::new(),
         };
         app.reset_view();
         Ok(app)
@@ -176,6 +180,7 @@ impl AppState {
         if self.config.display.quadtree {
             lines.extend_from_slice(self.quadtree_lines());
         }
+        lines.extend_from_slice(&self.peer_wand_lines);
         lines
     }
 

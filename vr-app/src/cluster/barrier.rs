@@ -177,6 +177,12 @@ impl Barrier {
         1 + self.members.values().filter(|m| !m.dropped).count()
     }
 
+    /// Whether `node` is this node or a member not dropped (a configured member that
+    /// has not reported yet counts as live until its first timeout).
+    pub fn is_live(&self, node: &str) -> bool {
+        node == self.me || self.members.get(node).is_some_and(|m| !m.dropped)
+    }
+
     /// The statistics so far.
     pub fn stats(&mut self) -> BarrierStats {
         let mut s = self.stats.clone();

@@ -20,6 +20,8 @@
 pub mod barrier;
 pub mod ingest;
 pub mod node;
+pub mod snapshot;
+pub mod wand;
 
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
@@ -214,6 +216,17 @@ pub struct ClusterSection {
     /// Seconds an owner waits for JetStream to acknowledge an operation (retrying
     /// through a server restart) before giving up.
     pub commit_timeout: f64,
+    /// Whether nodes load the session's latest document snapshot at start (and the
+    /// snapshot writer writes them); off, a node replays the whole stream.
+    pub snapshots: bool,
+    /// The snapshot writer (the lowest-named live owner) writes a snapshot every this
+    /// many stream positions, and once more when the session ends; 0: only at the end.
+    pub snapshot_every: u64,
+    /// Owners publish their wand's pose at most this often (per second) on
+    /// `<session>.wand.<node>`, for the other nodes to draw.
+    pub wand_rate: f64,
+    /// An other sculptor's wand not heard of for this many seconds is no longer drawn.
+    pub wand_stale: f64,
     /// The render nodes.
     #[serde(rename = "node")]
     pub nodes: Vec<NodeSection>,
@@ -230,6 +243,10 @@ impl Default for ClusterSection {
             frame_rate: 60.0,
             barrier: true,
             commit_timeout: 30.0,
+            snapshots: true,
+            snapshot_every: 500,
+            wand_rate: 30.0,
+            wand_stale: 1.0,
             nodes: Vec::new(),
         }
     }
@@ -269,10 +286,19 @@ pub struct Subjects {
     pub ops: String,
     /// Frame barrier reports (core NATS).
     pub barrier: String,
+    /// The JetStream object store bucket of the document snapshots.
+    pub snapshots: String,
+    /// Every owner's wand poses (core NATS), for a subscription.
+    pub wands: String,
     prefix: String,
 }
 
 impl Subjects {
+    /// The wand poses of owner `node` (core NATS).
+    pub fn wand(&self, node: &str) -> String {
+        format!("{}.wand.{node}", self.prefix)
+    }
+
     /// Tracking frames of `feed` (core NATS).
     pub fn tracking(&self, feed: &str) -> String {
         format!("{}.tracking.{feed}", self.prefix)
@@ -294,6 +320,8 @@ impl ClusterSection {
             stream: format!("WS_{}", self.session),
             ops: format!("{}.ops", self.session),
             barrier: format!("{}.barrier", self.session),
+            snapshots: format!("WS_{}_snap", self.session),
+            wands: format!("{}.wand.*", self.session),
             prefix: self.session.clone(),
         }
     }
@@ -311,6 +339,8 @@ impl ClusterSection {
             ("barrier_timeout", self.barrier_timeout),
             ("frame_rate", self.frame_rate),
             ("commit_timeout", self.commit_timeout),
+            ("wand_rate", self.wand_rate),
+            ("wand_stale", self.wand_stale),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return bad(ClusterConfigError::NotPositive { name, value: v });
@@ -445,6 +475,10 @@ mod tests {
         assert!(c.validate().is_ok());
         assert_eq!(c.subjects().tracking("main"), "s1.tracking.main");
         assert_eq!(c.subjects().stream, "WS_s1");
+        assert_eq!(c.subjects().snapshots, "WS_s1_snap");
+        assert_eq!(c.subjects().wand("left"), "s1.wand.left");
+        c.wand_rate = 0.0;
+        assert!(c.validate().is_err());
     }
 
     #[test]

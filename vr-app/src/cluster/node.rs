@@ -23,6 +23,8 @@ use sculpt_core::interaction::Edit;
 use serde::{Deserialize, Serialize};
 
 use super::barrier::{Barrier, BarrierStats};
+use super::snapshot::{self, SnapshotError, SnapshotRecord, StreamId};
+use super::wand::{PeerWandStats, PeerWands, WandPose, WandRate, show_peers};
 use super::{
     ClusterConfigError, ClusterError, ClusterSection, HDR_KIND, HDR_OWNER, HDR_POSE, HDR_SENT,
     KIND_EDIT, KIND_END, NatsFailure, Percentiles, Subjects, header, unix_ns,
@@ -46,6 +48,10 @@ const STREAM_RETRY: Duration = Duration::from_millis(300);
 
 /// How long an owner waits for JetStream to acknowledge one publish before retrying.
 const ACK_WAIT: Duration = Duration::from_secs(2);
+
+/// The base scene a node opens when it starts from a snapshot (the snapshot's
+/// document), in its session directory.
+pub const SNAPSHOT_SCENE_FILE: &str = "snapshot.scene.json";
 
 /// One operation in the stream: the body of a `<session>.ops` message.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -83,10 +89,15 @@ pub struct NodeReport {
     pub applied: u64,
     /// Operations this node proposed and the stream acknowledged.
     pub committed: u64,
-    /// Operations already in the stream when the node started (a late join's backlog).
+    /// Stream positions to replay when the node started (a late join's backlog: the
+    /// whole stream, or what follows the snapshot it loaded).
     pub backlog: u64,
-    /// Seconds from connecting to having applied the backlog.
+    /// Seconds from connecting to having applied the backlog (the snapshot loaded).
     pub catch_up_s: f64,
+    /// Snapshots loaded and written.
+    pub snapshot: SnapshotReport,
+    /// The other sculptors' wands.
+    pub peer_wands: PeerWandStats,
     /// Stream messages that were not operations (counted and ignored).
     pub garbage_ops: u64,
     /// Tracking messages that were not DTrack2 frames (counted and ignored).
@@ -102,6 +113,23 @@ pub struct NodeReport {
     pub apply_ms: Percentiles,
     /// The frame barrier, when on.
     pub barrier: Option<BarrierStats>,
+}
+
+/// What a node did with snapshots (in its report).
+#[derive(Debug, Clone, PartialEq, Serialize, Default)]
+pub struct SnapshotReport {
+    /// The stream position of the snapshot the node started from.
+    pub loaded_seq: Option<u64>,
+    /// Why no snapshot was used (none stored, or what was wrong with it: the node
+    /// replayed the whole stream).
+    pub fallback: Option<String>,
+    /// Snapshots this node wrote.
+    pub written: u64,
+    /// The stream position of the last one it wrote.
+    pub written_seq: Option<u64>,
+    /// Times the stream undid a step older than the loaded snapshot and the node
+    /// rebuilt its document from the whole stream.
+    pub rebuilt: u64,
 }
 
 /// One stream message as the ops task hands it over.
@@ -180,6 +208,27 @@ struct Node {
     commit_ms: Vec<f64>,
     apply_ms: Vec<f64>,
     app: AppState,
+    snap: Snapshots,
+}
+
+/// A node's snapshot state.
+struct Snapshots {
+    /// The bucket (`None`: snapshots off, or the bucket could not be had).
+    store: Option<async_nats::jetstream::object_store::ObjectStore>,
+    session: String,
+    stream: StreamId,
+    /// The stream (to rebuild the document from its start).
+    ops_stream: stream::Stream,
+    /// Write one every this many positions (0: only at the end).
+    every: u64,
+    /// The position the document was loaded at, until a rebuild: undoing a step older
+    /// than it needs the whole stream.
+    loaded: Option<u64>,
+    /// The base scene before the snapshot replaced it (`None`: the default document).
+    base_scene: Option<PathBuf>,
+    /// The snapshot being stored.
+    writing: Option<tokio::task::JoinHandle<Result<(), SnapshotError>>>,
+    report: SnapshotReport,
 }
 
 impl Node {
@@ -201,6 +250,14 @@ impl Node {
             }
             Some(KIND_EDIT) => match serde_json::from_slice::<OpRecord>(&m.payload) {
                 Ok(rec) => {
+                    if rec.edit == Edit::Undo
+                        && self.snap.loaded.is_some()
+                        && !self.app.session.doc.can_undo()
+                    {
+                        // The step to undo is older than the snapshot, whose document
+                        // has no history: rebuild from the whole stream first.
+                        self.rebuild(m.seq - 1)?;
+                    }
                     self.app.session.apply_committed(rec.t, &rec.edit)?;
                     self.applied += 1;
                     if let Some(sent) = m.sent_ns {
@@ -225,6 +282,116 @@ impl Node {
             }
         }
         Ok(())
+    }
+
+    /// Replaces the document (loaded from a snapshot, so without undo history) with
+    /// the one the stream's positions `1..=upto` build from the base scene, as a node
+    /// that replayed the whole stream has it.
+    fn rebuild(&mut self, upto: u64) -> VrResult<()> {
+        let from = self.snap.loaded.take().unwrap_or_default();
+        tracing::warn!(
+            snapshot = from,
+            upto,
+            "the stream undoes a step older than the snapshot; rebuilding the document from the whole stream"
+        );
+        let mut doc = match &self.snap.base_scene {
+            Some(p) => crate::session::load_scene(p)?,
+            None => sculpt_core::editor::default_document(),
+        };
+        let deadline = Instant::now() + self.commit_timeout;
+        let ops_stream = self.snap.ops_stream.clone();
+        let subject = self.subjects.ops.clone();
+        let (tx, rx) = mpsc::channel();
+        let task = self.rt.spawn(follow_stream(ops_stream, subject, 1, tx));
+        let mut seq = 0;
+        while seq < upto {
+            let left = deadline.saturating_duration_since(Instant::now());
+            let m = rx.recv_timeout(left).map_err(|_| ClusterError::JetStream {
+                what: "operation stream (rebuild)",
+                source: NatsFailure::ConsumerEnded,
+            })?;
+            seq = m.seq;
+            if m.kind.as_deref() == Some(KIND_EDIT)
+                && let Ok(rec) = serde_json::from_slice::<OpRecord>(&m.payload)
+            {
+                sculpt_core::editor::apply(&mut doc, &rec.edit);
+            }
+        }
+        task.abort();
+        *self.app.session.draw_parts().0 = doc;
+        self.snap.report.rebuilt += 1;
+        Ok(())
+    }
+
+    /// The snapshot writer's turn: stores a snapshot of the document when `every`
+    /// positions have passed since the last (or, at `end`, when any have), in the
+    /// background. Only at a position whose document says everything the stream
+    /// needs: no undone step waiting for a redo (the document's JSON has no history).
+    fn snapshot(&mut self, end: bool) {
+        let Some(store) = self.snap.store.clone() else {
+            return;
+        };
+        if let Some(task) = &self.snap.writing {
+            if !task.is_finished() && !end {
+                return;
+            }
+            if let Some(task) = self.snap.writing.take() {
+                match self.rt.block_on(task) {
+                    Ok(Ok(())) => {}
+                    Ok(Err(e)) => {
+                        tracing::warn!("storing a snapshot: {}", sculpt_core::error::Chain(&e))
+                    }
+                    Err(e) => tracing::warn!("storing a snapshot: {e}"),
+                }
+            }
+        }
+        let last = self.snap.report.written_seq.unwrap_or_default();
+        let due = if end {
+            self.applied_seq > last
+        } else {
+            self.snap.every > 0 && self.applied_seq >= last + self.snap.every
+        };
+        if !due || self.app.session.doc.can_redo() {
+            return;
+        }
+        let record = SnapshotRecord {
+            session: self.snap.session.clone(),
+            stream: self.snap.stream,
+            seq: self.applied_seq,
+            ends: self.ends.iter().cloned().collect(),
+            writer: self.name.clone(),
+            document: self.app.session.doc.to_json(),
+        };
+        let bytes = match record.encode() {
+            Ok(b) => b,
+            Err(e) => {
+                tracing::warn!("encoding a snapshot: {}", sculpt_core::error::Chain(&e));
+                return;
+            }
+        };
+        tracing::info!(seq = record.seq, bytes = bytes.len(), "writing a snapshot");
+        self.snap.report.written += 1;
+        self.snap.report.written_seq = Some(record.seq);
+        let task = self
+            .rt
+            .spawn(async move { snapshot::store(&store, bytes).await });
+        if end {
+            let timeout = self.commit_timeout;
+            // (The timer needs the runtime: build it inside.)
+            match self
+                .rt
+                .block_on(async move { tokio::time::timeout(timeout, task).await })
+            {
+                Ok(Ok(Ok(()))) => {}
+                Ok(Ok(Err(e))) => {
+                    tracing::warn!("storing a snapshot: {}", sculpt_core::error::Chain(&e));
+                }
+                Ok(Err(e)) => tracing::warn!("storing a snapshot: {e}"),
+                Err(_) => tracing::warn!("storing a snapshot: not done within {timeout:?}"),
+            }
+        } else {
+            self.snap.writing = Some(task);
+        }
     }
 
     /// Applies what the stream has delivered so far.
@@ -346,7 +513,7 @@ impl Node {
 
 /// Runs a headless node until every owner's session has ended (or `duration`
 /// passes), then writes its document and its screen's pictures.
-pub fn run_node(config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeReport> {
+pub fn run_node(mut config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeReport> {
     let cluster: ClusterSection = config
         .cluster
         .clone()
@@ -363,7 +530,6 @@ pub fn run_node(config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeR
     section.playback = None;
     let mut live = LiveTracking::start(&section, config.interaction.pause_timeout)?;
     let (hub, feed_src) = live.add_feed(&format!("nats:{}", me.feed));
-    let app = AppState::new(config.clone())?;
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(1)
         .enable_all()
@@ -395,15 +561,72 @@ pub fn run_node(config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeR
             Err(e) => return Err(jserr("stream")(e.into()).into()),
         }
     };
-    let backlog = rt
+    let info = rt
         .block_on(ops_stream.info())
-        .map_err(|e| jserr("stream info")(e.into()))?
-        .state
-        .last_sequence;
+        .map_err(|e| jserr("stream info")(e.into()))?;
+    let stream_last = info.state.last_sequence;
+    let stream_id = StreamId {
+        created_unix_ns: i64::try_from(info.created.unix_timestamp_nanos()).unwrap_or(i64::MAX),
+    };
 
-    // The operation stream, in order, from its first message.
+    // The latest snapshot, when there is a good one: its document becomes the base
+    // scene and the stream is followed from the position after it.
+    let base_scene = config.files.scene.clone();
+    let mut snap_report = SnapshotReport::default();
+    let mut snap_store = None;
+    let mut loaded: Option<SnapshotRecord> = None;
+    if cluster.snapshots {
+        match rt.block_on(snapshot::bucket(&js, &subjects.snapshots)) {
+            Ok(store) => {
+                match rt.block_on(load_snapshot(
+                    &store,
+                    &cluster.session,
+                    stream_id,
+                    stream_last,
+                    &config.files.dir,
+                )) {
+                    Ok((rec, path)) => {
+                        tracing::info!(
+                            seq = rec.seq,
+                            writer = %rec.writer,
+                            "starting from the snapshot"
+                        );
+                        config.files.scene = Some(path);
+                        snap_report.loaded_seq = Some(rec.seq);
+                        loaded = Some(rec);
+                    }
+                    Err(reason) => {
+                        let text = reason.map_or_else(
+                            || "no snapshot stored".to_string(),
+                            |e| sculpt_core::error::Chain(&e).to_string(),
+                        );
+                        if text != "no snapshot stored" {
+                            tracing::warn!("snapshot not used, replaying the whole stream: {text}");
+                        }
+                        snap_report.fallback = Some(text);
+                    }
+                }
+                snap_store = Some(store);
+            }
+            Err(e) => {
+                let text = sculpt_core::error::Chain(&e).to_string();
+                tracing::warn!("no snapshot bucket, replaying the whole stream: {text}");
+                snap_report.fallback = Some(text);
+            }
+        }
+    }
+    let start_seq = loaded.as_ref().map_or(0, |r| r.seq);
+    let backlog = stream_last.saturating_sub(start_seq);
+    let app = AppState::new(config.clone())?;
+
+    // The operation stream, in order, from the position after the snapshot.
     let (ops_tx, ops_rx) = mpsc::channel();
-    rt.spawn(follow_stream(ops_stream, subjects.ops.clone(), ops_tx));
+    rt.spawn(follow_stream(
+        ops_stream.clone(),
+        subjects.ops.clone(),
+        start_seq + 1,
+        ops_tx,
+    ));
 
     // The tracking feed into this node's hub.
     let feed = Arc::new(FeedStats::default());
@@ -467,6 +690,37 @@ pub fn run_node(config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeR
     } else {
         None
     };
+    // The other sculptors' wands.
+    let (wand_tx, wand_rx) = mpsc::channel::<(String, Vec<u8>)>();
+    let mut wand_sub = rt
+        .block_on(client.subscribe(subjects.wands.clone()))
+        .map_err(|e| jserr("wand subscription")(e.into()))?;
+    rt.spawn(async move {
+        while let Some(msg) = wand_sub.next().await {
+            let node = msg
+                .subject
+                .rsplit('.')
+                .next()
+                .unwrap_or_default()
+                .to_string();
+            if wand_tx.send((node, msg.payload.to_vec())).is_err() {
+                break;
+            }
+        }
+    });
+    let (own_feed, other_feeds): (Vec<&super::NodeSection>, Vec<&super::NodeSection>) = cluster
+        .nodes
+        .iter()
+        .filter(|n| n.owner)
+        .partition(|n| n.feed == me.feed);
+    let mut peers = PeerWands::new(
+        other_feeds.iter().map(|n| n.name.clone()),
+        own_feed.iter().map(|n| n.name.clone()),
+        Duration::from_secs_f64(cluster.wand_stale),
+    );
+    let mut wand_rate = WandRate::new(cluster.wand_rate);
+    let wand_subject = subjects.wand(&me.name);
+
     rt.block_on(client.flush())
         .map_err(|e| jserr("flush")(e.into()))?;
 
@@ -481,17 +735,35 @@ pub fn run_node(config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeR
         run_id: unix_ns(),
         proposed: 0,
         ops: ops_rx,
-        applied_seq: 0,
+        applied_seq: start_seq,
         applied: 0,
         committed: 0,
         garbage_ops: 0,
-        ends: BTreeSet::new(),
+        ends: loaded
+            .as_ref()
+            .map(|r| r.ends.iter().cloned().collect())
+            .unwrap_or_default(),
         commit_ms: Vec::new(),
         apply_ms: Vec::new(),
         app,
+        snap: Snapshots {
+            store: snap_store,
+            session: cluster.session.clone(),
+            stream: stream_id,
+            ops_stream,
+            every: cluster.snapshot_every,
+            loaded: loaded.as_ref().map(|r| r.seq),
+            base_scene,
+            writing: None,
+            report: snap_report,
+        },
     };
+    drop(loaded);
     // Catch up with the stream before following the feed.
-    node.wait_applied(backlog, started + Duration::from_secs_f64(opts.duration))?;
+    node.wait_applied(
+        stream_last,
+        started + Duration::from_secs_f64(opts.duration),
+    )?;
     let catch_up_s = started.elapsed().as_secs_f64();
     tracing::info!(node = %me.name, backlog, catch_up_s, "caught up with the operation stream");
     crate::session::write_atomic(
@@ -509,6 +781,28 @@ pub fn run_node(config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeR
             node.input(input, &mut last_t)?;
         }
         node.drain()?;
+        let now = Instant::now();
+        show_peers(&mut node.app, &mut peers, wand_rx.try_iter(), now);
+        if node.owner
+            && !ended
+            && let Some((t, tip, q)) = node.app.session.interaction.wand()
+            && wand_rate.due(t, now)
+        {
+            let active = node.app.session.interaction.gesture_active();
+            let body = WandPose::new(tip, q, active).encode()?;
+            // Best effort, as tracking frames: a lost pose is followed by the next.
+            if let Err(e) = node
+                .rt
+                .block_on(client.publish(wand_subject.clone(), body.into()))
+            {
+                tracing::debug!("publishing the wand pose: {e}");
+            } else {
+                peers.published();
+            }
+        }
+        if snapshot_writer(&node, &cluster, barrier.as_ref()) {
+            node.snapshot(false);
+        }
         let idle = live
             .last_report()
             .is_some_and(|l| live.now().saturating_sub(l).as_secs_f64() > opts.idle_exit);
@@ -554,6 +848,10 @@ pub fn run_node(config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeR
     if !node.owner {
         node.app.session.propose_tick(last_t + 10.0)?;
     }
+    // The writer's last snapshot covers the whole session (a clean exit).
+    if snapshot_writer(&node, &cluster, barrier.as_ref()) {
+        node.snapshot(true);
+    }
     drop(live);
     let headless = run_headless(&mut node.app, gpu, std::iter::empty(), &opts.headless)?;
     let propagation = feed
@@ -569,6 +867,8 @@ pub fn run_node(config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeR
         committed: node.committed,
         backlog,
         catch_up_s,
+        snapshot: node.snap.report.clone(),
+        peer_wands: peers.stats(),
         garbage_ops: node.garbage_ops,
         garbage_frames: feed.garbage.load(Ordering::Relaxed),
         frames: feed.frames.load(Ordering::Relaxed),
@@ -579,10 +879,56 @@ pub fn run_node(config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeR
     })
 }
 
-/// Follows the operation stream with an ordered consumer from `next` on, recreating
-/// it after an error (a server restart), and hands every message over in order.
-async fn follow_stream(stream: stream::Stream, subject: String, tx: mpsc::Sender<OpMsg>) {
-    let mut next = 1u64;
+/// Whether this node writes the snapshots now: the lowest-named owner among those the
+/// frame barrier sees live (every configured owner, without a barrier).
+fn snapshot_writer(node: &Node, cluster: &ClusterSection, barrier: Option<&Barrier>) -> bool {
+    node.owner
+        && node.snap.store.is_some()
+        && cluster.snapshots
+        && node
+            .owners
+            .iter()
+            .find(|o| **o == node.name || barrier.is_none_or(|b| b.is_live(o)))
+            == Some(&node.name)
+}
+
+/// Fetches, checks and keeps the latest snapshot: its document is written to the
+/// session directory ([`SNAPSHOT_SCENE_FILE`]) for the session to open. `Err(None)`:
+/// there is none yet.
+async fn load_snapshot(
+    store: &async_nats::jetstream::object_store::ObjectStore,
+    session: &str,
+    stream: StreamId,
+    last: u64,
+    dir: &std::path::Path,
+) -> Result<(SnapshotRecord, PathBuf), Option<SnapshotError>> {
+    let bytes = snapshot::fetch(store).await?.ok_or(None)?;
+    let rec = SnapshotRecord::decode(&bytes)?;
+    rec.check(session, stream, last)?;
+    sculpt_core::sculpt::document::Document::from_json(&rec.document)
+        .map_err(|e| SnapshotError::Document(Box::new(e)))?;
+    let write = |e: VrError| SnapshotError::Write(Box::new(e));
+    crate::session::create_output_dir(dir).map_err(|source| {
+        write(VrError::Io {
+            path: dir.display().to_string(),
+            source,
+        })
+    })?;
+    let path = dir.join(SNAPSHOT_SCENE_FILE);
+    crate::session::write_atomic(&path, &rec.document).map_err(write)?;
+    Ok((rec, path))
+}
+
+/// Follows the operation stream with an ordered consumer from position `start` on,
+/// recreating it after an error (a server restart), and hands every message over in
+/// order.
+async fn follow_stream(
+    stream: stream::Stream,
+    subject: String,
+    start: u64,
+    tx: mpsc::Sender<OpMsg>,
+) {
+    let mut next = start.max(1);
     loop {
         let deliver_policy = if next <= 1 {
             consumer::DeliverPolicy::All
