@@ -43,6 +43,16 @@
 //! min_sketch_rows = 4
 //! max_samples = 200000     # gesture sample cap (memory bound)
 //! pose_every = 1           # operator-log pose events every n-th tracked sample
+//!
+//! [thumbstick]             # a headset session's (`wandsculpt --xr`) tool changes from
+//!                          # the wand's analog axes (vr_app::xr::actions::ThumbstickTool);
+//!                          # omit: the axes change nothing
+//! dead_zone = 0.2
+//! width_rate = 0.02        # m/s at full deflection (x axis)
+//! depth_rate = 0.005       # m/s at full deflection (y axis)
+//! width_range = [0.002, 0.1]
+//! depth_range = [0.0005, 0.03]
+//! step = 0.0005            # commands in steps of this (metres)
 //! ```
 //!
 //! Replay runs the live app's code on these: [`tracking::stage::FrameStage`], then
@@ -61,6 +71,7 @@ use serde::{Deserialize, Serialize};
 pub use tracking::calibration::Calibration;
 pub use tracking::filter::FilterConfig;
 use tracking::stage::StageConfig;
+pub use vr_app::xr::actions::ThumbstickTool;
 
 use crate::error::{Error, Result};
 
@@ -105,6 +116,9 @@ pub struct ReplayConfig {
     pub tool: ToolSection,
     /// Gesture tuning: the interaction state machine's own config.
     pub interaction: InteractionConfig,
+    /// The wand's analog axes change the tool's width and depth (a headset session's
+    /// thumbstick); `None`: they change nothing.
+    pub thumbstick: Option<ThumbstickTool>,
 }
 
 impl ReplayConfig {
@@ -147,6 +161,7 @@ impl ReplayConfig {
             filter: stage.filter,
             tool: display.tool.clone(),
             interaction: display.interaction,
+            thumbstick: None,
         })
     }
 
@@ -177,6 +192,9 @@ impl ReplayConfig {
         self.interaction
             .validate()
             .map_err(Error::ConfigInteraction)?;
+        if let Some(stick) = &self.thumbstick {
+            stick.validate().map_err(Error::ConfigThumbstick)?;
+        }
         Ok(())
     }
 }
@@ -236,6 +254,26 @@ mod tests {
         let e = ReplayConfig::from_toml_str("[calibration]\naxes = [\"x\", \"x\", \"z\"]\n")
             .unwrap_err();
         assert!(chain(&e).contains("calibration"), "{e}");
+    }
+
+    #[test]
+    fn a_thumbstick_section_is_read_and_checked() {
+        let c = ReplayConfig::from_toml_str("[thumbstick]\nwidth_rate = 0.04\n").unwrap();
+        let stick = c.thumbstick.unwrap();
+        assert_eq!(stick.width_rate, 0.04);
+        assert_eq!(stick.depth_rate, ThumbstickTool::default().depth_rate);
+        assert_eq!(ReplayConfig::from_toml_str("").unwrap().thumbstick, None);
+        let e = ReplayConfig::from_toml_str("[thumbstick]\ndead_zone = 1.0\n").unwrap_err();
+        assert!(
+            matches!(
+                e,
+                Error::ConfigThumbstick(vr_app::xr::actions::ThumbstickError::DeadZone(d)) if d == 1.0
+            ),
+            "{e:?}"
+        );
+        let e =
+            ReplayConfig::from_toml_str("[thumbstick]\nwidth_range = [0.1, 0.01]\n").unwrap_err();
+        assert!(chain(&e).contains("width_range"), "{e}");
     }
 
     /// The message as a binary prints it: the error and its causes.

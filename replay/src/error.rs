@@ -54,6 +54,9 @@ pub enum Error {
     /// The configured tool was refused by the sculpting layer.
     #[error("config: tool")]
     ConfigTool(#[source] sculpt_core::Error),
+    /// The `[thumbstick]` settings (a headset session's tool changes) cannot work.
+    #[error("config: thumbstick")]
+    ConfigThumbstick(#[source] vr_app::xr::actions::ThumbstickError),
     /// The `[interaction]` settings were refused by the sculpting layer (the one
     /// validation `wandsculpt` uses too).
     #[error("config: interaction")]

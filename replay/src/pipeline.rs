@@ -15,7 +15,9 @@
 //!    fitted into new targets, undo and redo). The replay counts what each [`Step`]
 //!    did into its metrics, times each stroke's apply ([`EditHooks`]) and writes the
 //!    operator log with [`editor::oplog_event`], one segment per interaction mode
-//!    ([`ModeSegments`], as the display server's log).
+//!    ([`ModeSegments`], as the display server's log); with a `[thumbstick]` config (a
+//!    headset session), each accepted frame's analog axes then change the tool's width
+//!    and depth as they did live ([`ThumbstickDriver`]).
 //!
 //! Time is virtual: the frames' own times, so a replay is deterministic, runs as fast
 //! as the CPU allows, and matches a live run of the same log.
@@ -35,6 +37,8 @@ use serde::Serialize;
 use tracking::Frame;
 use tracking::poselog::{PoseLogReader, Record, RecordKind};
 use tracking::stage::{FrameStage, HeadSample, StageEvent, WandSample as StageWand};
+
+use vr_app::xr::actions::ThumbstickDriver;
 
 use crate::config::ReplayConfig;
 use crate::error::{Error, Result};
@@ -236,6 +240,8 @@ pub struct Replayer {
     last_t: f64,
     head: Option<HeadSample>,
     events: Vec<StageEvent>,
+    wand_id: u32,
+    stick: Option<ThumbstickDriver>,
 }
 
 impl Replayer {
@@ -267,6 +273,8 @@ impl Replayer {
             last_t: 0.0,
             head: None,
             events: Vec::new(),
+            wand_id: cfg.tracking.wand_id,
+            stick: cfg.thumbstick.map(ThumbstickDriver::new),
         })
     }
 
@@ -312,7 +320,7 @@ impl Replayer {
     pub fn feed_frame(&mut self, frame: &Frame) {
         let mut events = std::mem::take(&mut self.events);
         events.clear();
-        self.stage.push(frame, &mut events);
+        let accepted = self.stage.push(frame, &mut events);
         if let Some(t) = self.stage.time() {
             self.first_t.get_or_insert(t);
             self.last_t = t;
@@ -324,11 +332,22 @@ impl Replayer {
             }
         }
         self.events = events;
+        // The thumbstick's tool changes, after the frame's samples, as live.
+        if let (true, Some(t), Some(stick)) = (accepted, self.stage.time(), &mut self.stick) {
+            let tool = self.edit_loop.interaction.tool().clone();
+            for ev in stick.commands(t, frame, self.wand_id, &tool) {
+                self.wand_event(&ev);
+            }
+        }
     }
 
     fn wand(&mut self, w: &StageWand) {
+        self.wand_event(&w.wand_event(0));
+    }
+
+    fn wand_event(&mut self, ev: &sculpt_core::interaction::WandEvent) {
         // Stage times never go back, so the interaction accepts every sample.
-        match self.edit_loop.handle(&w.wand_event(0), &mut self.timer) {
+        match self.edit_loop.handle(ev, &mut self.timer) {
             Ok(step) => self.record(&step),
             Err(LoopError::Refused(_)) => {}
             Err(LoopError::Hook(never)) => match never {},

@@ -1,8 +1,8 @@
 //! A headset session replays: scripted controller states (what the OpenXR actions
 //! report) go through `XrWand`, the path `wandsculpt --xr` runs (tracker frames, frame
 //! stage, edit loop, journal, operator log), and `replay` of the pose log it wrote,
-//! with the replay config it wrote, builds the same document byte for byte. No OpenXR
-//! runtime is involved.
+//! with the replay config it wrote, builds the same document byte for byte, the
+//! thumbstick's tool changes included. No OpenXR runtime is involved.
 
 use glam::{DQuat, DVec3};
 use replay::config::ReplayConfig;
@@ -22,6 +22,7 @@ fn a_headset_session_replays_to_the_same_document() {
     let mut cfg = Config::default();
     cfg.files.dir = dir.path().to_path_buf();
     let mut app = AppState::new(cfg).unwrap();
+    let start_tool = app.session.interaction.tool().clone();
     let (lo, hi) = app.document_bounds().unwrap();
     let display_from = display_from_stage(ReferenceSpace::Stage, (lo + hi) * 0.5);
     let mut wand = XrWand::create(
@@ -41,7 +42,8 @@ fn a_headset_session_replays_to_the_same_document() {
     let mut t = 0.0;
     let mut pulses = Vec::new();
     // Two strokes across the sheet, at two heights, the trigger squeezed past its
-    // hysteresis, with a pause (and an undo press and release) between them.
+    // hysteresis, with a pause between them: an undo press and release, then the
+    // thumbstick held right and down for half a second (a wider, shallower tool).
     for (row, y) in [1.1, 1.25].into_iter().enumerate() {
         for i in 0..=40 {
             let x = -0.12 + 0.006 * f64::from(i);
@@ -63,6 +65,15 @@ fn a_headset_session_replays_to_the_same_document() {
                 pulses.extend(wand.step(&mut app, t, &state, None).unwrap());
                 t += dt;
             }
+            for _ in 0..STICK_FRAMES {
+                let state = ControllerState {
+                    grip: Some(grip_at(default_surface_point(0.0, 1.2) + DVec3::Z * 0.1)),
+                    thumbstick: [0.9, -0.6],
+                    ..ControllerState::default()
+                };
+                pulses.extend(wand.step(&mut app, t, &state, None).unwrap());
+                t += dt;
+            }
         }
     }
     assert_eq!(
@@ -75,16 +86,39 @@ fn a_headset_session_replays_to_the_same_document() {
         1,
         "two strokes, one undone"
     );
-    assert_eq!(wand.frames(), 85);
+    assert_eq!(wand.frames(), 85 + STICK_FRAMES);
+    // The thumbstick changed the tool, and the second stroke was cut with it.
+    let tool = app.session.interaction.tool().clone();
+    assert!(
+        tool.width > start_tool.width && tool.depth < start_tool.depth,
+        "{start_tool:?} -> {tool:?}"
+    );
+    let stroke = app.session.doc.strokes().last().unwrap();
+    assert_eq!(stroke.input.tool.width, tool.width);
     let live = app.session.doc.to_json();
 
     let log = std::fs::read(dir.path().join(POSE_LOG_FILE)).unwrap();
     let config = std::fs::read_to_string(dir.path().join(REPLAY_CONFIG_FILE)).unwrap();
     let replay_cfg = ReplayConfig::from_toml_str(&config).unwrap();
+    assert!(replay_cfg.thumbstick.is_some(), "{config}");
     let outcome = replay_log(&log, &replay_cfg, default_document(), "xr", false, None).unwrap();
     assert_eq!(
         String::from_utf8_lossy(&outcome.document.to_json()),
         String::from_utf8_lossy(&live),
         "replay of the headset session's pose log"
     );
+    // Without the `[thumbstick]` section (a config from before it existed) the axes
+    // change nothing: the second stroke keeps the starting tool, and the documents
+    // differ.
+    let without = ReplayConfig {
+        thumbstick: None,
+        ..replay_cfg
+    };
+    let outcome = replay_log(&log, &without, default_document(), "xr", false, None).unwrap();
+    let stroke = outcome.document.strokes().last().unwrap();
+    assert_eq!(stroke.input.tool.width, start_tool.width);
+    assert_ne!(outcome.document.to_json(), live);
 }
+
+/// Frames with the thumbstick held (90 Hz: half a second).
+const STICK_FRAMES: u64 = 45;

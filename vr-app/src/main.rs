@@ -103,6 +103,10 @@ struct Cli {
     /// `xr-left.png` in the session directory.
     #[arg(long, requires = "xr")]
     xr_capture: bool,
+    /// With --xr: do not submit the depth layer (`XR_KHR_composition_layer_depth`)
+    /// even when the runtime offers it.
+    #[arg(long, requires = "xr")]
+    xr_no_depth: bool,
     /// Study mode: record the participant's next trials of this study manifest
     /// (`study.toml` of `sculpt-tools goms study init`) into the logs it names; the HUD
     /// shows participant, method and trial, `Enter` starts and ends a trial (headless:
@@ -326,10 +330,12 @@ fn run_xr(cli: &Cli, config: Config) -> Result<()> {
     let opts = XrOptions {
         frames: cli.frames,
         capture: cli.xr_capture,
+        depth_layer: !cli.xr_no_depth,
         ..XrOptions::default()
     };
     let report = run_xr(&mut app, &opts)?;
     println!("{}", serde_json::to_string_pretty(&report)?);
+    eprint!("{}", report.timing);
     Ok(())
 }
 

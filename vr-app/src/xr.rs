@@ -26,7 +26,9 @@ use crate::projection::{EyeCamera, frustum_rh_zo};
 use crate::scene::Views;
 
 pub mod actions;
+pub mod depth;
 pub mod state;
+pub mod timing;
 pub mod wand;
 
 /// A rigid pose (`space_from_object`).

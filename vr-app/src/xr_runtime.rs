@@ -17,11 +17,12 @@
 //!   through the action set of [`crate::xr::actions`] as tracker frames into the same
 //!   [`FrameStage`], edit loop, journal and operator log as a tracked wand, written to
 //!   a pose log (`xr.poselog`, with `xr-replay.toml` for `replay --config`); a haptic
-//!   pulse when a stroke is applied or refused.
-//!
-//! Not done: the depth layer (`XR_KHR_composition_layer_depth`). The renderer keeps
-//! view depth in a resolved geometry image, not a depth buffer a swapchain could take,
-//! so the extension is reported but not enabled.
+//!   pulse when a stroke is applied or refused;
+//! * the depth layer (`XR_KHR_composition_layer_depth`) when the runtime offers it:
+//!   a depth swapchain per eye drawn by [`DepthPass`] and chained to its projection
+//!   view with the near and far of the eyes' projection ([`DepthLayer`]);
+//! * the CPU time of each rendered frame by phase ([`FrameTimer`]), its median and
+//!   99th percentile in the report.
 //!
 //! This module needs unsafe code: the HAL interop hands raw Vulkan handles between
 //! the OpenXR runtime, ash and wgpu. Each `unsafe` block says what it relies on.
@@ -42,7 +43,9 @@ use crate::input::TrackingState;
 use crate::render::{FrameInput, FrameStats, Gpu, OutputContent, OutputTarget, Renderer};
 use crate::scene::Views;
 use crate::xr::actions::{self, ControllerState, PoseSource, ReferenceSpace, WandAction};
+use crate::xr::depth::{DepthLayer, DepthPass, depth_swapchain_format};
 use crate::xr::state::{ExitReason, Lifecycle, LifecycleEvent, SessionAction, SessionState};
+use crate::xr::timing::{FramePhases, FrameTimer, XrFrameTiming};
 use crate::xr::wand::XrWand;
 use crate::xr::{XrFov, XrPose, swapchain_format, xr_views};
 
@@ -145,6 +148,9 @@ pub struct XrOptions {
     pub near_far: (f64, f64),
     /// Read the last rendered left-eye swapchain image back into `xr-left.png`.
     pub capture: bool,
+    /// Submit each eye's depth (`XR_KHR_composition_layer_depth`) when the runtime
+    /// offers it.
+    pub depth_layer: bool,
 }
 
 impl Default for XrOptions {
@@ -154,6 +160,7 @@ impl Default for XrOptions {
             pose: PoseSource::Grip,
             near_far: (0.05, 100.0),
             capture: false,
+            depth_layer: true,
         }
     }
 }
@@ -171,6 +178,8 @@ pub struct XrReport {
     pub eye_size: (u32, u32),
     /// The swapchain format (`VkFormat`).
     pub format: i64,
+    /// The depth swapchains' format (`VkFormat`) when the depth layer is submitted.
+    pub depth_format: Option<i64>,
     /// Frames waited for (`xrWaitFrame`).
     pub frames_waited: u64,
     /// Frames rendered and submitted with the projection layer.
@@ -184,8 +193,11 @@ pub struct XrReport {
     /// Strokes in the document at the end.
     pub strokes: usize,
     /// Median CPU time per rendered frame, both eyes (from `xrBeginFrame` to
-    /// `xrEndFrame`, without waiting for the swapchain image), microseconds.
+    /// `xrEndFrame`, without waiting for the swapchain image), microseconds
+    /// (`timing.cpu.median_us`).
     pub frame_cpu_median_us: f64,
+    /// Per-phase CPU time of the rendered frames: median, p99, max.
+    pub timing: XrFrameTiming,
     /// Why the session ended: `requested` or `lost`.
     pub exit: String,
     /// The pose log written.
@@ -631,6 +643,27 @@ fn controller_state(
     }
 }
 
+/// Acquires the next image of `sc` and waits until it may be drawn into; returns its
+/// index and how long the wait blocked.
+fn acquire(sc: &mut EyeSwapchain) -> VrResult<(usize, Duration)> {
+    let index = sc
+        .handle
+        .acquire_image()
+        .map_err(runtime("xrAcquireSwapchainImage"))? as usize;
+    let start = Instant::now();
+    sc.handle
+        .wait_image(xr::Duration::INFINITE)
+        .map_err(runtime("xrWaitSwapchainImage"))?;
+    Ok((index, start.elapsed()))
+}
+
+/// The depth layer's swapchains (one per eye) and the pass that draws them.
+struct DepthSwapchains {
+    format: i64,
+    eyes: [EyeSwapchain; 2],
+    pass: DepthPass,
+}
+
 /// One eye's swapchain with its images as wgpu textures.
 struct EyeSwapchain {
     handle: xr::Swapchain<xr::Vulkan>,
@@ -643,13 +676,12 @@ fn eye_swapchain(
     device: &wgpu::Device,
     (vk_format, format): (i64, wgpu::TextureFormat),
     (width, height): (u32, u32),
+    role: ImageRole,
 ) -> VrResult<EyeSwapchain> {
     let handle = session
         .create_swapchain(&xr::SwapchainCreateInfo {
             create_flags: xr::SwapchainCreateFlags::EMPTY,
-            usage_flags: xr::SwapchainUsageFlags::COLOR_ATTACHMENT
-                | xr::SwapchainUsageFlags::SAMPLED
-                | xr::SwapchainUsageFlags::TRANSFER_SRC,
+            usage_flags: role.swapchain_usage(),
             format: vk_format as u32,
             sample_count: 1,
             width,
@@ -664,7 +696,15 @@ fn eye_swapchain(
         .map_err(runtime("swapchain images"))?;
     let textures = images
         .into_iter()
-        .map(|image| wrap_image(device, vk::Image::from_raw(image), format, (width, height)))
+        .map(|image| {
+            wrap_image(
+                device,
+                vk::Image::from_raw(image),
+                format,
+                (width, height),
+                role,
+            )
+        })
         .collect::<VrResult<Vec<_>>>()?;
     let views = textures
         .iter()
@@ -677,16 +717,76 @@ fn eye_swapchain(
     })
 }
 
+/// What a swapchain image is drawn as.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum ImageRole {
+    /// A colour attachment (an eye's picture).
+    Colour,
+    /// A depth attachment (the depth layer).
+    Depth,
+}
+
+impl ImageRole {
+    /// The HAL uses the image allows and the state OpenXR hands it out in (the
+    /// colour, or depth-stencil, attachment layout), as wgpu names them.
+    fn uses(self) -> (wgpu::TextureUses, wgpu::TextureUses) {
+        match self {
+            ImageRole::Colour => (
+                wgpu::TextureUses::COLOR_TARGET
+                    | wgpu::TextureUses::COPY_SRC
+                    | wgpu::TextureUses::RESOURCE,
+                wgpu::TextureUses::COLOR_TARGET,
+            ),
+            ImageRole::Depth => (
+                wgpu::TextureUses::DEPTH_STENCIL_READ
+                    | wgpu::TextureUses::DEPTH_STENCIL_WRITE
+                    | wgpu::TextureUses::COPY_SRC,
+                wgpu::TextureUses::DEPTH_STENCIL_WRITE,
+            ),
+        }
+    }
+
+    fn usage(self) -> wgpu::TextureUsages {
+        match self {
+            ImageRole::Colour => {
+                wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::COPY_SRC
+                    | wgpu::TextureUsages::TEXTURE_BINDING
+            }
+            ImageRole::Depth => {
+                wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC
+            }
+        }
+    }
+
+    /// The swapchain usage to ask the runtime for.
+    fn swapchain_usage(self) -> xr::SwapchainUsageFlags {
+        match self {
+            ImageRole::Colour => {
+                xr::SwapchainUsageFlags::COLOR_ATTACHMENT
+                    | xr::SwapchainUsageFlags::SAMPLED
+                    | xr::SwapchainUsageFlags::TRANSFER_SRC
+            }
+            ImageRole::Depth => {
+                xr::SwapchainUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                    | xr::SwapchainUsageFlags::TRANSFER_SRC
+            }
+        }
+    }
+}
+
 /// A Vulkan image owned elsewhere (a swapchain image) as a wgpu texture on `device`,
 /// which must be the Vulkan device the image was created on. wgpu never destroys it,
-/// and takes it to be in the colour attachment layout, as OpenXR hands out Vulkan
-/// swapchain images.
+/// and takes it to be in the colour (or depth-stencil) attachment layout, as OpenXR
+/// hands out Vulkan swapchain images.
 fn wrap_image(
     device: &wgpu::Device,
     image: vk::Image,
     format: wgpu::TextureFormat,
     (width, height): (u32, u32),
+    role: ImageRole,
 ) -> VrResult<wgpu::Texture> {
+    let (hal_uses, handed_out_as) = role.uses();
     let size = wgpu::Extent3d {
         width,
         height,
@@ -702,9 +802,7 @@ fn wrap_image(
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
         format,
-        usage: wgpu::TextureUses::COLOR_TARGET
-            | wgpu::TextureUses::COPY_SRC
-            | wgpu::TextureUses::RESOURCE,
+        usage: hal_uses,
         memory_flags: hal::MemoryFlags::empty(),
         view_formats: Vec::new(),
     };
@@ -720,8 +818,9 @@ fn wrap_image(
         )
     };
     drop(hal_device);
-    // SAFETY: as above; the image is in the colour attachment layout, wgpu's
-    // COLOR_TARGET state.
+    // SAFETY: as above; the image is in the layout `handed_out_as` names (the colour
+    // attachment layout is wgpu's COLOR_TARGET state, the depth-stencil attachment
+    // layout its DEPTH_STENCIL_WRITE).
     let texture = unsafe {
         device.create_texture_from_hal::<hal::api::Vulkan>(
             hal_texture,
@@ -732,12 +831,10 @@ fn wrap_image(
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
                 format,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                    | wgpu::TextureUsages::COPY_SRC
-                    | wgpu::TextureUsages::TEXTURE_BINDING,
+                usage: role.usage(),
                 view_formats: &[],
             },
-            wgpu::TextureUses::COLOR_TARGET,
+            handed_out_as,
         )
     };
     Ok(texture)
@@ -859,6 +956,7 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
     let available = entry.enumerate_extensions().map_err(no_runtime)?;
     let mut wanted = xr::ExtensionSet::default();
     wanted.khr_vulkan_enable2 = available.khr_vulkan_enable2;
+    wanted.khr_composition_layer_depth = available.khr_composition_layer_depth && opts.depth_layer;
     let instance = entry
         .create_instance(&app_info(), &wanted, &[], &())
         .map_err(no_runtime)?;
@@ -963,9 +1061,29 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
     let format = swapchain_format(&formats)
         .ok_or_else(|| VrError::Xr(XrError::SwapchainFormat(formats.clone())))?;
     let mut eyes = [
-        eye_swapchain(&session, &gpu.device, format, eye_size)?,
-        eye_swapchain(&session, &gpu.device, format, eye_size)?,
+        eye_swapchain(&session, &gpu.device, format, eye_size, ImageRole::Colour)?,
+        eye_swapchain(&session, &gpu.device, format, eye_size, ImageRole::Colour)?,
     ];
+    // The depth layer: a depth swapchain per eye, drawn by the depth pass.
+    let layer = DepthLayer::new(opts.near_far.0, opts.near_far.1)?;
+    let depth_format = depth_swapchain_format(&formats);
+    if wanted.khr_composition_layer_depth && depth_format.is_none() {
+        tracing::warn!(
+            ?formats,
+            "no depth swapchain format this renderer can draw: no depth layer"
+        );
+    }
+    let mut depth = match depth_format.filter(|_| wanted.khr_composition_layer_depth) {
+        Some(f) => Some(DepthSwapchains {
+            format: f.0,
+            eyes: [
+                eye_swapchain(&session, &gpu.device, f, eye_size, ImageRole::Depth)?,
+                eye_swapchain(&session, &gpu.device, f, eye_size, ImageRole::Depth)?,
+            ],
+            pass: DepthPass::new(&gpu.device, f.1),
+        }),
+        None => None,
+    };
     let mut renderer = Renderer::with_samples(gpu, format.1, app.config.render.msaa);
     renderer.wireframe = app.config.display.wireframe;
     renderer.set_material(app.config.render.material);
@@ -991,6 +1109,7 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
         reference_space: format!("{space_kind:?}").to_lowercase(),
         eye_size,
         format: format.0,
+        depth_format: depth.as_ref().map(|d| d.format),
         frames_waited: 0,
         frames_rendered: 0,
         controller_frames: 0,
@@ -998,11 +1117,12 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
         operations: 0,
         strokes: 0,
         frame_cpu_median_us: 0.0,
+        timing: XrFrameTiming::default(),
         exit: String::new(),
         pose_log: wand.log_path().to_path_buf(),
         capture: None,
     };
-    let mut frame_cpu: Vec<Duration> = Vec::new();
+    let mut timer = FrameTimer::default();
     let exit = 'frames: loop {
         // 1. Events: the lifecycle says what to do.
         let mut pending = Vec::new();
@@ -1049,9 +1169,11 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
             continue;
         }
         // 2. The frame.
+        let wait_start = Instant::now();
         let state = waiter.wait().map_err(runtime("xrWaitFrame"))?;
-        let began = Instant::now();
+        let begin_start = Instant::now();
         stream.begin().map_err(runtime("xrBeginFrame"))?;
+        let render_start = Instant::now();
         report.frames_waited += 1;
         let time = state.predicted_display_time;
         let t0 = *first_time.get_or_insert(time.as_nanos());
@@ -1106,16 +1228,18 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
         let cameras = xr_views(&pair, &display_from_stage, opts.near_far.0, opts.near_far.1)?;
         let mut waited = Duration::ZERO;
         let mut index = [0usize; 2];
+        let mut depth_index = [0usize; 2];
         for (eye, sc) in eyes.iter_mut().enumerate() {
-            index[eye] = sc
-                .handle
-                .acquire_image()
-                .map_err(runtime("xrAcquireSwapchainImage"))? as usize;
-            let w = Instant::now();
-            sc.handle
-                .wait_image(xr::Duration::INFINITE)
-                .map_err(runtime("xrWaitSwapchainImage"))?;
-            waited += w.elapsed();
+            let (i, w) = acquire(sc)?;
+            index[eye] = i;
+            waited += w;
+        }
+        if let Some(d) = &mut depth {
+            for (eye, sc) in d.eyes.iter_mut().enumerate() {
+                let (i, w) = acquire(sc)?;
+                depth_index[eye] = i;
+                waited += w;
+            }
         }
         render_eyes(
             &mut renderer,
@@ -1124,8 +1248,21 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
             [&eyes[0].views[index[0]], &eyes[1].views[index[1]]],
             eye_size,
         );
+        if let Some(d) = &depth {
+            d.pass.draw(
+                &gpu.queue,
+                &renderer,
+                &cameras,
+                [
+                    &d.eyes[0].views[depth_index[0]],
+                    &d.eyes[1].views[depth_index[1]],
+                ],
+            );
+        }
         let last = opts.frames.is_some_and(|n| report.frames_rendered + 1 >= n);
+        let mut captured = Duration::ZERO;
         if opts.capture && last {
+            let capture_start = Instant::now();
             let img = read_back(gpu, &eyes[0].textures[index[0]])?;
             let path = dir.join("xr-left.png");
             let mut png = std::io::Cursor::new(Vec::new());
@@ -1136,8 +1273,12 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
                 })?;
             crate::session::write_atomic(&path, png.get_ref())?;
             report.capture = Some(path);
+            captured = capture_start.elapsed();
         }
-        for sc in &mut eyes {
+        for sc in eyes
+            .iter_mut()
+            .chain(depth.iter_mut().flat_map(|d| d.eyes.iter_mut()))
+        {
             sc.handle
                 .release_image()
                 .map_err(runtime("xrReleaseSwapchainImage"))?;
@@ -1149,8 +1290,25 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
                 height: eye_size.1 as i32,
             },
         };
+        // Each view's depth, chained to it (`XrCompositionLayerDepthInfoKHR`); they
+        // live until `xrEndFrame` returns.
+        let depth_infos = depth.as_ref().map(|d| {
+            [0, 1].map(|eye| xr::sys::CompositionLayerDepthInfoKHR {
+                ty: xr::sys::CompositionLayerDepthInfoKHR::TYPE,
+                next: std::ptr::null(),
+                sub_image: xr::SwapchainSubImage::new()
+                    .swapchain(&d.eyes[eye].handle)
+                    .image_array_index(0)
+                    .image_rect(rect)
+                    .into_raw(),
+                min_depth: layer.min_depth as f32,
+                max_depth: layer.max_depth as f32,
+                near_z: layer.near_z as f32,
+                far_z: layer.far_z as f32,
+            })
+        });
         let projection_views = [0, 1].map(|eye| {
-            xr::CompositionLayerProjectionView::new()
+            let view = xr::CompositionLayerProjectionView::new()
                 .pose(xr_poses[eye])
                 .fov(xr_fovs[eye])
                 .sub_image(
@@ -1158,8 +1316,19 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
                         .swapchain(&eyes[eye].handle)
                         .image_array_index(0)
                         .image_rect(rect),
-                )
+                );
+            match &depth_infos {
+                Some(infos) => {
+                    let mut raw = view.into_raw();
+                    raw.next = std::ptr::from_ref(&infos[eye]).cast();
+                    // SAFETY: the chained depth info and the swapchains it names
+                    // outlive the `xrEndFrame` call that reads them.
+                    unsafe { xr::CompositionLayerProjectionView::from_raw(raw) }
+                }
+                None => view,
+            }
         });
+        let end_start = Instant::now();
         stream
             .end(
                 time,
@@ -1170,7 +1339,14 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
             )
             .map_err(runtime("xrEndFrame"))?;
         report.frames_rendered += 1;
-        frame_cpu.push(began.elapsed().saturating_sub(waited));
+        timer.push(FramePhases {
+            wait: begin_start - wait_start,
+            begin: render_start - begin_start,
+            // The capture's read-back is not a frame's work.
+            render: (end_start - render_start).saturating_sub(waited + captured),
+            image_wait: waited,
+            end: end_start.elapsed(),
+        });
     };
     // Gestures still paused end, and the document is saved, as in any session.
     app.session.tick(wand.last_t() + 10.0)?;
@@ -1183,11 +1359,10 @@ pub fn run_xr(app: &mut AppState, opts: &XrOptions) -> VrResult<XrReport> {
     report.controller_frames = wand.frames();
     report.operations = app.session.operations();
     report.strokes = app.session.doc.strokes().len();
-    frame_cpu.sort();
-    report.frame_cpu_median_us = frame_cpu
-        .get(frame_cpu.len() / 2)
-        .map_or(0.0, |d| d.as_secs_f64() * 1e6);
+    report.timing = timer.summary();
+    report.frame_cpu_median_us = report.timing.cpu.median_us;
     // OpenXR objects go before the Vulkan device and instance they use.
+    drop(depth);
     drop(eyes);
     drop((space, grip_space, aim_space, acts, stream, waiter, session));
     drop(renderer);
@@ -1258,7 +1433,15 @@ mod tests {
         )
         .unwrap_or_else(|e| panic!("runtime {}: {e}", std::path::Path::new(&json).display()));
         eprintln!("{}", serde_json::to_string_pretty(&report).unwrap());
+        eprint!("{}", report.timing);
         assert!(report.frames_rendered >= 30, "{report:?}");
+        assert_eq!(report.timing.frames as u64, report.frames_rendered);
+        // A runtime that offers depth layers gets one (with a depth format we draw).
+        assert_eq!(
+            report.depth_format.is_some(),
+            report.runtime.depth,
+            "{report:?}"
+        );
         let img = image::open(report.capture.unwrap()).unwrap().to_rgba8();
         let distinct: std::collections::BTreeSet<[u8; 4]> = img.pixels().map(|p| p.0).collect();
         assert!(
@@ -1377,7 +1560,7 @@ mod tests {
             .map(|t| {
                 // SAFETY: the handle stays owned by `t`, which outlives the wrapper.
                 let raw = unsafe { t.as_hal::<hal::api::Vulkan>().unwrap().raw_handle() };
-                wrap_image(&gpu.device, raw, format, size).unwrap()
+                wrap_image(&gpu.device, raw, format, size, ImageRole::Colour).unwrap()
             })
             .collect();
         let dir = tempfile::tempdir().unwrap();

@@ -592,8 +592,10 @@ pub fn display_from_stage(space: ReferenceSpace, doc_centre: DVec3) -> XrPose {
     }
 }
 
-/// Rate and range of the thumbstick's tool changes.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Rate and range of the thumbstick's tool changes. A headset session writes them to
+/// its replay config (`[thumbstick]`), so `replay` makes the same changes.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct ThumbstickTool {
     /// Axis values within this of zero do nothing.
     pub dead_zone: f64,
@@ -623,7 +625,63 @@ impl Default for ThumbstickTool {
     }
 }
 
+/// A [`ThumbstickTool`] setting that cannot work.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ThumbstickError {
+    /// The dead zone is not in [0, 1).
+    #[error("thumbstick dead_zone {0} is not in [0, 1)")]
+    DeadZone(f64),
+    /// A rate is negative or not finite.
+    #[error("thumbstick {name} {value} is not a finite rate >= 0 (m/s)")]
+    Rate {
+        /// `width_rate` or `depth_rate`.
+        name: &'static str,
+        /// The value given.
+        value: f64,
+    },
+    /// A range is not `0 < low <= high`, finite.
+    #[error("thumbstick {name} [{low}, {high}] is not a range 0 < low <= high (m)")]
+    Range {
+        /// `width_range` or `depth_range`.
+        name: &'static str,
+        /// Its low end.
+        low: f64,
+        /// Its high end.
+        high: f64,
+    },
+    /// The step is not positive and finite.
+    #[error("thumbstick step {0} is not a finite length > 0 (m)")]
+    Step(f64),
+}
+
 impl ThumbstickTool {
+    /// Checks every setting (a replay config is user input).
+    pub fn validate(&self) -> Result<(), ThumbstickError> {
+        if !(self.dead_zone >= 0.0 && self.dead_zone < 1.0) {
+            return Err(ThumbstickError::DeadZone(self.dead_zone));
+        }
+        for (name, value) in [
+            ("width_rate", self.width_rate),
+            ("depth_rate", self.depth_rate),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(ThumbstickError::Rate { name, value });
+            }
+        }
+        for (name, (low, high)) in [
+            ("width_range", self.width_range),
+            ("depth_range", self.depth_range),
+        ] {
+            if !(low > 0.0 && high >= low && high.is_finite()) {
+                return Err(ThumbstickError::Range { name, low, high });
+            }
+        }
+        if !(self.step.is_finite() && self.step > 0.0) {
+            return Err(ThumbstickError::Step(self.step));
+        }
+        Ok(())
+    }
+
     /// The commands for holding `stick` (x: width, y: depth) for `dt` seconds, at time
     /// `t`, with the tool as it is. `pending` accumulates sub-step changes between
     /// calls (width, depth).
@@ -672,6 +730,48 @@ impl ThumbstickTool {
             }
         }
         out
+    }
+}
+
+/// The thumbstick's tool changes driven by tracker frames: the wand's first two analog
+/// axes (x: width, y: depth) of each frame the stage accepted, at the stage's time.
+/// The live session ([`XrWand`](super::wand::XrWand)) and `replay` both run it on the
+/// frames as the pose log holds them (axes to two decimals, `ts` to six), so both make
+/// the same commands at the same times.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ThumbstickDriver {
+    /// Rates and ranges.
+    pub tool: ThumbstickTool,
+    pending: [f64; 2],
+    last_t: Option<f64>,
+}
+
+impl ThumbstickDriver {
+    /// A driver with no frame seen yet.
+    pub fn new(tool: ThumbstickTool) -> Self {
+        Self {
+            tool,
+            pending: [0.0; 2],
+            last_t: None,
+        }
+    }
+
+    /// The commands after the stage accepted `frame` at stage time `t`, for the wand
+    /// `wand_id` (its axes held since the previous accepted frame), with the tool as
+    /// it is. The first frame only starts the clock.
+    pub fn commands(&mut self, t: f64, frame: &Frame, wand_id: u32, tool: &Tool) -> Vec<WandEvent> {
+        let axes = frame
+            .wands
+            .iter()
+            .find(|w| w.id == wand_id)
+            .map_or([0.0; 2], |w| {
+                [0, 1].map(|i| w.analog.get(i).copied().unwrap_or(0.0))
+            });
+        let dt = self.last_t.map_or(0.0, |last| t - last);
+        if t.is_finite() {
+            self.last_t = Some(t);
+        }
+        self.tool.commands(t, dt, axes, tool, &mut self.pending)
     }
 }
 
@@ -961,6 +1061,86 @@ mod tests {
                 .commands(50.0, dt, [f64::NAN, f64::INFINITY], &tool, &mut pending)
                 .is_empty()
         );
+    }
+
+    #[test]
+    fn the_thumbstick_driver_reads_its_wand_and_starts_its_clock_on_the_first_frame() {
+        let stick = ThumbstickTool::default();
+        let mut driver = ThumbstickDriver::new(stick);
+        let tool = Interaction::default().tool().clone();
+        let frame = |analog: Vec<f64>, id: u32| {
+            let mut f = Frame::new(1);
+            f.wands.push(Wand {
+                id,
+                quality: 1.0,
+                pose: Pose::from_position_mm(DVec3::ZERO),
+                button_count: 6,
+                buttons: 0,
+                analog,
+            });
+            f
+        };
+        // The first frame has no duration: nothing, however far the stick is pushed.
+        assert!(
+            driver
+                .commands(10.0, &frame(vec![1.0, 1.0], WAND_ID), WAND_ID, &tool)
+                .is_empty()
+        );
+        // One second later, full right: the width grows by the rate (in steps).
+        let out = driver.commands(11.0, &frame(vec![1.0, 0.0], WAND_ID), WAND_ID, &tool);
+        let [ev] = out.as_slice() else {
+            panic!("one command: {out:?}")
+        };
+        let WandInput::Command(Command::SetWidth { width }) = ev.input else {
+            panic!("a width command: {ev:?}")
+        };
+        assert_eq!(ev.t, 11.0);
+        assert_near!(width, tool.width + stick.width_rate, stick.step);
+        // Another wand's stick, or a wand without axes, changes nothing.
+        assert!(
+            driver
+                .commands(12.0, &frame(vec![1.0, 1.0], WAND_ID + 1), WAND_ID, &tool)
+                .is_empty()
+        );
+        assert!(
+            driver
+                .commands(13.0, &frame(Vec::new(), WAND_ID), WAND_ID, &tool)
+                .is_empty()
+        );
+    }
+
+    #[test]
+    fn thumbstick_settings_that_cannot_work_are_named() {
+        let ok = ThumbstickTool::default();
+        assert_eq!(ok.validate(), Ok(()));
+        let bad = [
+            (
+                ThumbstickTool {
+                    dead_zone: 1.0,
+                    ..ok
+                },
+                "dead_zone",
+            ),
+            (
+                ThumbstickTool {
+                    depth_rate: f64::NAN,
+                    ..ok
+                },
+                "depth_rate",
+            ),
+            (
+                ThumbstickTool {
+                    width_range: (0.0, 0.1),
+                    ..ok
+                },
+                "width_range",
+            ),
+            (ThumbstickTool { step: 0.0, ..ok }, "step"),
+        ];
+        for (stick, name) in bad {
+            let e = stick.validate().unwrap_err();
+            assert!(e.to_string().contains(name), "{e}");
+        }
     }
 
     #[test]

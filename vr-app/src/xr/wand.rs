@@ -39,7 +39,8 @@ use tracking::stage::{FrameStage, StageConfig, StageEvent};
 
 use super::XrPose;
 use super::actions::{
-    self, ControllerState, Feedback, PoseSource, ThumbstickTool, WandMapper, feedback,
+    self, ControllerState, Feedback, PoseSource, ThumbstickDriver, ThumbstickTool, WandMapper,
+    feedback,
 };
 use crate::app::AppState;
 use crate::error::{VrError, VrResult, XrError};
@@ -71,8 +72,9 @@ pub fn xr_stage_config(display_from_stage: &XrPose, timeout_s: f64) -> StageConf
 }
 
 /// `replay --config` for the session's pose log (its flat layout): the calibration,
-/// the filter and the stage.
-pub fn replay_config(stage: &StageConfig) -> VrResult<String> {
+/// the filter, the stage and the thumbstick's rates (so `replay` makes the same tool
+/// changes).
+pub fn replay_config(stage: &StageConfig, thumbstick: &ThumbstickTool) -> VrResult<String> {
     #[derive(Serialize)]
     struct Tracking {
         wand_id: u32,
@@ -84,6 +86,7 @@ pub fn replay_config(stage: &StageConfig) -> VrResult<String> {
         calibration: &'a tracking::calibration::Calibration,
         filter: &'a tracking::filter::FilterConfig,
         tracking: Tracking,
+        thumbstick: &'a ThumbstickTool,
     }
     toml::to_string(&ReplayFile {
         calibration: &stage.calibration,
@@ -93,6 +96,7 @@ pub fn replay_config(stage: &StageConfig) -> VrResult<String> {
             head_id: stage.head_id,
             timeout: stage.timeout_s,
         },
+        thumbstick,
     })
     .map_err(|e| encode(REPLAY_CONFIG_FILE)(Box::new(e)))
 }
@@ -102,8 +106,7 @@ pub fn replay_config(stage: &StageConfig) -> VrResult<String> {
 pub struct XrWand {
     mapper: WandMapper,
     stage: FrameStage,
-    stick: ThumbstickTool,
-    stick_pending: [f64; 2],
+    stick: ThumbstickDriver,
     frame_number: u64,
     last_t: f64,
     log: PoseLogWriter<BufWriter<File>>,
@@ -139,13 +142,12 @@ impl XrWand {
         let log = PoseLogWriter::create(&log_path, &header).map_err(tracking_err(&log_path))?;
         crate::session::write_atomic(
             &dir.join(REPLAY_CONFIG_FILE),
-            replay_config(&stage_config)?.as_bytes(),
+            replay_config(&stage_config, &ThumbstickTool::default())?.as_bytes(),
         )?;
         Ok(Self {
             mapper: WandMapper::new(buttons, pose),
             stage,
-            stick: ThumbstickTool::default(),
-            stick_pending: [0.0; 2],
+            stick: ThumbstickDriver::new(ThumbstickTool::default()),
             frame_number: 0,
             last_t: 0.0,
             log,
@@ -201,7 +203,7 @@ impl XrWand {
         let mut logged = tracking::dtrack::parse_frame(&self.bytes).map_err(log_err)?;
         logged.receive_time = frame.receive_time;
         self.stage_events.clear();
-        self.stage.push(&logged, &mut self.stage_events);
+        let accepted = self.stage.push(&logged, &mut self.stage_events);
         self.inputs.clear();
         stage_inputs(&self.stage_events, 0, &mut self.inputs);
         app.tracking = if self.stage.wand_tracked() {
@@ -218,13 +220,16 @@ impl XrWand {
                 Input::Head(_) | Input::Tracking(_) | Input::Tick(_) => {}
             }
         }
-        let tool = app.session.interaction.tool().clone();
-        let dt = t - self.last_t;
-        for ev in self
-            .stick
-            .commands(t, dt, c.thumbstick, &tool, &mut self.stick_pending)
-        {
-            applied.extend(app.session.handle(&ev)?);
+        // The thumbstick as logged (two decimals) at the stage's time: what `replay`
+        // sees.
+        if let (true, Some(stage_t)) = (accepted, self.stage.time()) {
+            let tool = app.session.interaction.tool().clone();
+            for ev in self
+                .stick
+                .commands(stage_t, &logged, actions::WAND_ID, &tool)
+            {
+                applied.extend(app.session.handle(&ev)?);
+            }
         }
         self.last_t = t;
         Ok(feedback(
@@ -246,12 +251,18 @@ mod tests {
             orientation: DQuat::IDENTITY,
         };
         let stage = xr_stage_config(&d, 0.5);
-        let text = replay_config(&stage).unwrap();
+        let stick = ThumbstickTool {
+            width_rate: 0.03,
+            ..ThumbstickTool::default()
+        };
+        let text = replay_config(&stage, &stick).unwrap();
         let value: toml::Value = toml::from_str(&text).unwrap();
         assert_eq!(value["calibration"]["scale"].as_float(), Some(0.001));
         assert_eq!(value["filter"]["enabled"].as_bool(), Some(false));
         assert_eq!(value["tracking"]["wand_id"].as_integer(), Some(0));
         let t = value["calibration"]["translation_m"].as_array().unwrap();
         assert_eq!(t[2].as_float(), Some(0.45));
+        let back: ThumbstickTool = value["thumbstick"].clone().try_into().unwrap();
+        assert_eq!(back, stick);
     }
 }
