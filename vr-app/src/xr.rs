@@ -27,6 +27,8 @@ use crate::scene::Views;
 
 pub mod actions;
 pub mod depth;
+#[cfg(all(test, feature = "openxr"))]
+pub mod monado_remote;
 pub mod state;
 pub mod timing;
 pub mod wand;

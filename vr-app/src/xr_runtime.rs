@@ -1452,6 +1452,102 @@ mod tests {
         assert!(dir.path().join(crate::xr::wand::POSE_LOG_FILE).exists());
     }
 
+    /// Where Monado's remote driver listens, for the controller test below.
+    const REMOTE_ENV: &str = "WANDSCULPT_XR_REMOTE";
+
+    /// Controllers through a real runtime's action system: Monado with its remote driver
+    /// (`crate::xr::monado_remote`; `P_OVERRIDE_ACTIVE_CONFIG=remote`), whose Valve Index
+    /// controllers a TCP peer moves. The right controller draws a 24 cm stroke across the
+    /// default sheet with the trigger held, pushes its thumbstick forward, then the left
+    /// controller's A and B undo and redo. The session must hold exactly that: one stroke
+    /// (with its haptic pulse), tool changes, undo then redo, in the operator log.
+    /// Run by hand: `XR_RUNTIME_JSON=... WANDSCULPT_XR_REMOTE=127.0.0.1:4242
+    /// P_OVERRIDE_ACTIVE_CONFIG=remote cargo test -p vr-app --features openxr --lib --
+    /// --ignored real_runtimes_controllers`.
+    #[test]
+    #[ignore = "needs Monado's remote driver: XR_RUNTIME_JSON and WANDSCULPT_XR_REMOTE"]
+    fn a_real_runtimes_controllers_carve_undo_and_redo() {
+        use crate::xr::monado_remote::{self, Controller};
+        let addr = std::env::var(REMOTE_ENV)
+            .unwrap_or_else(|_| panic!("{REMOTE_ENV} names no remote driver (host:port)"));
+        let dir = tempfile::tempdir().unwrap();
+        let mut cfg = crate::config::Config::default();
+        cfg.files.dir = dir.path().to_path_buf();
+        let mut app = AppState::new(cfg).unwrap();
+        // The default sheet's centre sits at chest height, REACH_M in front of the eyes.
+        let (y, z) = (
+            (actions::STANDING_EYE_HEIGHT_M - actions::BELOW_EYES_M) as f32,
+            -actions::REACH_M as f32,
+        );
+        let driver = std::thread::spawn(move || {
+            let mut stream = monado_remote::connect(&addr, std::time::Duration::from_secs(30))?;
+            monado_remote::play(&mut stream, std::time::Duration::from_secs(7), |t| {
+                let t = t - 2.0; // Two seconds for the session to start.
+                let mut right = Controller {
+                    position: [-0.12, y, z],
+                    ..Controller::default()
+                };
+                if (0.0..1.5).contains(&t) {
+                    right.position[0] = -0.12 + 0.24 * t / 1.5;
+                    right.trigger = 1.0;
+                } else if t >= 1.5 {
+                    right.position[0] = 0.12;
+                }
+                if (2.0..2.5).contains(&t) {
+                    right.thumbstick = [0.0, 1.0];
+                }
+                let left = Controller {
+                    position: [-0.3, y - 0.15, z + 0.15],
+                    a_click: (3.0..3.2).contains(&t),
+                    b_click: (3.8..4.0).contains(&t),
+                    ..Controller::default()
+                };
+                (left, right)
+            })
+        });
+        // 900 frames outlast the script at up to 128 Hz.
+        let report = run_xr(
+            &mut app,
+            &XrOptions {
+                frames: Some(900),
+                ..XrOptions::default()
+            },
+        )
+        .unwrap_or_else(|e| panic!("the runtime: {e}"));
+        driver
+            .join()
+            .unwrap()
+            .expect("the remote driver took the script");
+        eprintln!("{}", serde_json::to_string_pretty(&report).unwrap());
+        assert_eq!(report.strokes, 1, "{report:?}");
+        assert!(report.haptic_pulses >= 1, "{report:?}");
+        let log = sculpt_core::oplog::decode_bytes(
+            &std::fs::read(dir.path().join(crate::session::OPLOG_FILE)).unwrap(),
+        )
+        .unwrap();
+        use sculpt_core::oplog::EventKind;
+        let kinds: Vec<&str> = log
+            .events
+            .iter()
+            .filter_map(|e| match e.kind {
+                EventKind::StrokeStart => Some("stroke_start"),
+                EventKind::StrokeEnd => Some("stroke_end"),
+                EventKind::Tool { .. } => Some("tool"),
+                EventKind::Undo => Some("undo"),
+                EventKind::Redo => Some("redo"),
+                _ => None,
+            })
+            .collect();
+        let mut distinct = kinds.clone();
+        distinct.dedup();
+        assert_eq!(
+            distinct,
+            ["stroke_start", "stroke_end", "tool", "undo", "redo"],
+            "{kinds:?}"
+        );
+        assert!(dir.path().join(crate::xr::wand::POSE_LOG_FILE).exists());
+    }
+
     /// Plain Vulkan, no runtime: the adapter `WANDSCULPT_ADAPTER` names, else the first.
     struct PlainVulkan;
 
