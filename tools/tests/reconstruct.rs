@@ -162,8 +162,7 @@ fn kitten_scan_patches() {
     let Some(path) = scan("kitten.xyz") else {
         return;
     };
-    // K = 80: at K = 50 or 60 some holes' boundary loops touch each other and stay
-    // open (docs/reconstruct.md, not built yet).
+    // K = 80 (at K = 50 the model closes with Euler characteristic 1: docs/reconstruct.md).
     let r = report(&run(&[
         "reconstruct",
         path.to_str().unwrap(),

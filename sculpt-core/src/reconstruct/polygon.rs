@@ -78,50 +78,13 @@ pub fn polygon_model(
             faces.push(vec![a, b, c]);
         }
     }
-    // Holes: edges with fewer than two faces, walked into loops.
-    let mut open: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
-    for &(a, b) in &adjacent {
-        if uses.get(&(a, b)).copied().unwrap_or(0) == 1 {
-            open.entry(a).or_default().push(b);
-            open.entry(b).or_default().push(a);
-        }
-    }
-    let mut used: BTreeSet<(usize, usize)> = BTreeSet::new();
-    let starts: Vec<(usize, usize)> = open
+    // Holes: edges with fewer than two faces, split into loops.
+    let open: BTreeSet<(usize, usize)> = adjacent
         .iter()
-        .flat_map(|(&a, l)| l.iter().map(move |&b| (a, b)))
+        .copied()
+        .filter(|e| uses.get(e).copied().unwrap_or(0) == 1)
         .collect();
-    for (a, b) in starts {
-        if used.contains(&edge(a, b)) || open.get(&a).is_none_or(|l| l.len() != 2) {
-            continue;
-        }
-        let mut lp = vec![a];
-        let (mut prev, mut cur) = (a, b);
-        let mut closed = false;
-        while lp.len() <= open.len() {
-            if cur == a {
-                closed = true;
-                break;
-            }
-            let Some(next) = open
-                .get(&cur)
-                .filter(|l| l.len() == 2)
-                .and_then(|l| l.iter().copied().find(|&n| n != prev))
-            else {
-                break;
-            };
-            lp.push(cur);
-            (prev, cur) = (cur, next);
-        }
-        if closed && lp.len() >= 3 {
-            for k in 0..lp.len() {
-                let e = edge(lp[k], lp[(k + 1) % lp.len()]);
-                used.insert(e);
-                *uses.entry(e).or_default() += 1;
-            }
-            faces.push(lp);
-        }
-    }
+    faces.extend(hole_loops(&open));
     let mut quads = Vec::new();
     for (f, face) in faces.iter().enumerate() {
         let n = face.len();
@@ -138,6 +101,63 @@ pub fn polygon_model(
         }
     }
     PolygonModel { faces, quads }
+}
+
+/// Splits the open `edges` (each `(a, b)` with `a < b`) into loops, each edge in at
+/// most one: for each edge in order, the shortest way back from its far end to its
+/// near end over the edges not yet taken (breadth first, lowest vertex first) closes
+/// its loop. Where loops touch (a vertex with four or more open edges) the shortest way
+/// stays on the edge's own loop, so touching holes become separate faces; an edge with
+/// no way back stays open.
+pub fn hole_loops(edges: &BTreeSet<(usize, usize)>) -> Vec<Vec<usize>> {
+    let mut graph: BTreeMap<usize, BTreeSet<usize>> = BTreeMap::new();
+    for &(a, b) in edges {
+        graph.entry(a).or_default().insert(b);
+        graph.entry(b).or_default().insert(a);
+    }
+    let mut loops = Vec::new();
+    for &(a, b) in edges {
+        if !graph.get(&a).is_some_and(|l| l.contains(&b)) {
+            continue; // Taken by an earlier loop.
+        }
+        // Breadth-first from b to a, not over the edge (a, b) itself.
+        let mut came_from: BTreeMap<usize, usize> = BTreeMap::from([(b, b)]);
+        let mut frontier = std::collections::VecDeque::from([b]);
+        while let Some(v) = frontier.pop_front() {
+            if v == a {
+                break;
+            }
+            for &w in &graph[&v] {
+                if (v, w) == (b, a) || came_from.contains_key(&w) {
+                    continue;
+                }
+                came_from.insert(w, v);
+                frontier.push_back(w);
+            }
+        }
+        if !came_from.contains_key(&a) {
+            continue;
+        }
+        // The loop: a, then the way back reversed (b ... the vertex before a).
+        let mut lp = vec![a];
+        let mut v = came_from[&a];
+        while v != b {
+            lp.push(v);
+            v = came_from[&v];
+        }
+        lp.push(b);
+        lp[1..].reverse();
+        for k in 0..lp.len() {
+            let (x, y) = (lp[k], lp[(k + 1) % lp.len()]);
+            for (p, q) in [(x, y), (y, x)] {
+                if let Some(l) = graph.get_mut(&p) {
+                    l.remove(&q);
+                }
+            }
+        }
+        loops.push(lp);
+    }
+    loops
 }
 
 impl PolygonModel {
@@ -195,6 +215,40 @@ mod tests {
         assert_eq!(m.quads.len(), 24);
         assert!(m.edge_uses().values().all(|&u| u == 2));
         assert!(m.quad_edge_uses().values().all(|&u| u == 2));
+    }
+
+    /// Regression (the kitten at K = 50 and 60 kept 8 open model edges): two hole loops
+    /// that touch at a vertex were skipped, because the walk stopped at any vertex with
+    /// more than two open edges. They become two faces now.
+    #[test]
+    fn touching_hole_loops_become_separate_faces() {
+        // A square 0-1-2-3 and a triangle 3-4-5, touching at 3; and a dangling edge 6-7.
+        let edges: BTreeSet<(usize, usize)> = [
+            (0, 1),
+            (1, 2),
+            (2, 3),
+            (0, 3),
+            (3, 4),
+            (4, 5),
+            (3, 5),
+            (6, 7),
+        ]
+        .into_iter()
+        .collect();
+        let mut loops = hole_loops(&edges);
+        for l in &mut loops {
+            let i = l
+                .iter()
+                .position(|&v| v == *l.iter().min().unwrap())
+                .unwrap();
+            l.rotate_left(i);
+        }
+        assert_eq!(loops, vec![vec![0, 1, 2, 3], vec![3, 4, 5]]);
+        // A single loop comes out whole, each edge once.
+        let ring: BTreeSet<(usize, usize)> = [(0, 1), (1, 2), (2, 3), (3, 4), (0, 4)]
+            .into_iter()
+            .collect();
+        assert_eq!(hole_loops(&ring), vec![vec![0, 1, 2, 3, 4]]);
     }
 
     #[test]
