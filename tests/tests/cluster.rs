@@ -669,13 +669,22 @@ fn bad_peers_are_refused_and_garbage_is_counted_and_ignored() {
     let mut b = start_node(&config, "left", &left);
     wait_ready(&mut a, &front);
     wait_ready(&mut b, &left);
-    // Garbage on every subject of the session, from a peer with the credentials.
     let session = format!("s{}", std::process::id());
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
         .unwrap();
     rt.block_on(async {
+        // A client with no credentials at all is refused too.
+        match async_nats::connect(nats.url()).await {
+            Ok(_) => panic!("a client without credentials was let in"),
+            Err(e) => assert_eq!(
+                e.kind(),
+                async_nats::ConnectErrorKind::AuthorizationViolation,
+                "{e}"
+            ),
+        }
+        // Garbage on every subject of the session, from a peer with the credentials.
         let client =
             async_nats::ConnectOptions::with_user_and_password(USER.into(), PASSWORD.into())
                 .connect(nats.url())
