@@ -7,7 +7,7 @@ use std::path::Path;
 use std::process::Command;
 
 use sculpt_core::assert_near;
-use sculpt_core::tolerance::{DECIMAL_SUM_EPS, TRUNCATE_EPS};
+use sculpt_core::tolerance::{DECIMAL_SUM_EPS, TIME_EPS, TRUNCATE_EPS};
 
 fn data(name: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -262,14 +262,14 @@ fn regression_a_directory_with_no_trial_is_an_error() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("1 operator logs found"));
 }
 
-/// Per trial of an `events.csv`: `(participant, trial)`, its operators' `(op, start,
-/// end)` in file order.
-type TrialOps = ((String, String), Vec<(String, f64, f64)>);
+/// Per trial of an `events.csv`: `(participant, method, trial)`, its operators' `(op,
+/// start, end)` in file order.
+type TrialOps = ((String, String, String), Vec<(String, f64, f64)>);
 
 fn trials_of(events: &[Vec<String>]) -> Vec<TrialOps> {
     let mut out: Vec<TrialOps> = Vec::new();
     for r in &events[1..] {
-        let key = (r[0].clone(), r[2].clone());
+        let key = (r[0].clone(), r[1].clone(), r[2].clone());
         let op = (r[3].clone(), r[4].parse().unwrap(), r[5].parse().unwrap());
         match out.last_mut() {
             Some((k, ops)) if *k == key => ops.push(op),
@@ -279,14 +279,71 @@ fn trials_of(events: &[Vec<String>]) -> Vec<TrialOps> {
     out
 }
 
+/// A log's trials as the log itself marks them, read as plain JSON lines (not by the
+/// harness): per `trial_start`, its method (else the header's), trial number, start
+/// time and end time: its `trial_end`'s, or the last event's when the log ends first
+/// (a plain session's last mode segment).
+fn marked_trials(path: &Path) -> Vec<(String, String, f64, f64)> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines().map(|l| {
+        serde_json::from_str::<serde_json::Value>(l).unwrap_or_else(|e| panic!("{l}: {e}"))
+    });
+    let header = lines.next().unwrap();
+    let mut out = Vec::new();
+    let mut open: Option<(String, String, f64)> = None;
+    let mut last = 0.0;
+    for v in lines {
+        let t = v["t"].as_f64().unwrap();
+        match v["ev"].as_str().unwrap() {
+            "trial_start" => {
+                assert!(
+                    open.is_none(),
+                    "{}: a trial starts inside one",
+                    path.display()
+                );
+                let method = v["method"].as_str().or(header["method"].as_str());
+                open = Some((method.unwrap().to_owned(), v["trial"].to_string(), t));
+            }
+            "trial_end" => {
+                let (m, n, t0) = open.take().expect("trial_end without trial_start");
+                assert_eq!(n, v["trial"].to_string(), "{}", path.display());
+                out.push((m, n, t0, t));
+            }
+            _ => {}
+        }
+        last = t;
+    }
+    if let Some((m, n, t0)) = open {
+        out.push((m, n, t0, last));
+    }
+    out
+}
+
+/// Checks that the operators of `ops` follow each other without gap or overlap and
+/// that their seconds sum to the trial's length as its log marks it.
+fn assert_operators_fill(trial: &str, ops: &[(String, f64, f64)], marked: (f64, f64)) {
+    for w in ops.windows(2) {
+        assert_eq!(w[0].2, w[1].1, "{trial}: {w:?}");
+    }
+    let sum: f64 = ops.iter().map(|o| o.2 - o.1).sum();
+    assert_near!(
+        sum,
+        marked.1 - marked.0,
+        TIME_EPS,
+        "{trial}: operator seconds"
+    );
+    assert_near!(ops[0].1, marked.0, TIME_EPS, "{trial}: first operator");
+}
+
 /// The operator logs `replay` wrote for every recorded session: found by their name
-/// (`operator.log`, one directory down), each session one trial, and in every trial the
-/// operators follow each other without gap or overlap, so their seconds sum to the trial.
+/// (`operator.log`, one directory down), each mode segment of a session one trial under
+/// its mode, and in every trial the operators follow each other without gap or overlap,
+/// so their seconds sum to the segment's length as the log marks it.
 #[test]
 fn analyze_reads_the_operator_logs_of_every_recorded_session() {
     let dir = tempfile::tempdir().unwrap();
     let logs = data("operator-logs");
-    let sessions: Vec<String> = std::fs::read_dir(&logs)
+    let mut sessions: Vec<String> = std::fs::read_dir(&logs)
         .unwrap()
         .filter_map(|e| {
             let e = e.unwrap();
@@ -296,33 +353,46 @@ fn analyze_reads_the_operator_logs_of_every_recorded_session() {
                 .then(|| e.file_name().to_string_lossy().into_owned())
         })
         .collect();
+    sessions.sort();
     assert!(sessions.len() >= 12, "{sessions:?}");
+    // The trials the logs mark, session by session (the harness reads them sorted).
+    let mut marked = Vec::new();
+    for s in &sessions {
+        for (m, n, t0, t1) in marked_trials(&Path::new(&logs).join(s).join("operator.log")) {
+            marked.push(((s.clone(), m, n), (t0, t1)));
+        }
+    }
+    assert!(
+        marked.len() > sessions.len(),
+        "some session switches mode: {marked:?}"
+    );
     let out = dir.path().join("r");
     let said = ok(&["goms", "analyze", &logs, "-o", out.to_str().unwrap()]);
     assert!(
-        said.starts_with(&format!("{} trials", sessions.len())),
+        said.starts_with(&format!("{} trials", marked.len())),
         "{said}"
     );
     let events = csv(&out.join("events.csv"));
     let trials = trials_of(&events);
-    assert_eq!(trials.len(), sessions.len());
-    for ((participant, trial), ops) in &trials {
-        assert!(sessions.contains(participant), "{participant}");
-        for w in ops.windows(2) {
-            assert_eq!(w[0].2, w[1].1, "{participant} trial {trial}: {w:?}");
-        }
-        let sum: f64 = ops.iter().map(|o| o.2 - o.1).sum();
-        let span = ops.last().unwrap().2 - ops[0].1;
-        assert_near!(sum, span, DECIMAL_SUM_EPS);
-        // Each recorded stroke is a press: at least one K, and no K longer than its
-        // keystroke window (0.2 s by default), however long the button was held.
-        let ks: Vec<f64> = ops
+    let keys: Vec<_> = trials.iter().map(|t| t.0.clone()).collect();
+    let want: Vec<_> = marked.iter().map(|m| m.0.clone()).collect();
+    assert_eq!(keys, want);
+    for (((participant, method, trial), ops), (_, span)) in trials.iter().zip(&marked) {
+        assert_operators_fill(&format!("{participant} {method} {trial}"), ops, *span);
+    }
+    // Each recorded stroke is a press: every session has a K, and no K is longer than
+    // its keystroke window (0.2 s by default), however long the button was held.
+    for s in &sessions {
+        let ks: Vec<f64> = trials
             .iter()
-            .filter(|o| o.0 == "K")
-            .map(|o| o.2 - o.1)
+            .filter(|t| t.0.0 == *s)
+            .flat_map(|t| t.1.iter().filter(|o| o.0 == "K").map(|o| o.2 - o.1))
             .collect();
-        assert!(!ks.is_empty(), "{participant}");
-        assert!(ks.iter().all(|&k| k <= 0.2 + DECIMAL_SUM_EPS), "{ks:?}");
+        assert!(!ks.is_empty(), "{s}");
+        assert!(
+            ks.iter().all(|&k| k <= 0.2 + DECIMAL_SUM_EPS),
+            "{s}: {ks:?}"
+        );
     }
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(report.contains("sum to its length"), "{report}");
@@ -511,6 +581,66 @@ fn replay_bin() -> std::path::PathBuf {
     bin
 }
 
+/// Regression: the committed operator logs went stale when `replay`'s log began to
+/// follow mode switches (one segment per mode, commit c6e31bc), and every test reading
+/// them kept passing on the old logs. Every recorded session but the minute-long soak
+/// has a fixture, and replaying it with today's `replay` (as
+/// `tools/tests/data/operator-logs/README.md` says) writes that fixture byte for byte:
+/// the log holds no wall-clock or run-dependent field.
+#[test]
+fn regression_operator_log_fixtures_are_what_replay_writes_now() {
+    let sessions = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/sessions");
+    let fixtures = Path::new(&data("operator-logs")).to_path_buf();
+    let names = |dir: &Path, keep: &dyn Fn(&Path) -> Option<String>| {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .filter_map(|e| keep(&e.unwrap().path()))
+            .collect();
+        v.sort();
+        v
+    };
+    let recorded = names(&sessions, &|p| {
+        let stem = p.file_stem()?.to_string_lossy().into_owned();
+        (p.extension()? == "poselog" && stem != "soak-60s").then_some(stem)
+    });
+    let fixed = names(&fixtures, &|p| {
+        p.is_dir()
+            .then(|| p.file_name().unwrap().to_string_lossy().into_owned())
+    });
+    assert_eq!(fixed, recorded, "one fixture per recorded session");
+    let dir = tempfile::tempdir().unwrap();
+    for name in &recorded {
+        let out = dir.path().join(name);
+        let run = Command::new(replay_bin())
+            .arg(sessions.join(format!("{name}.poselog")))
+            .arg("--out")
+            .arg(&out)
+            .arg("-q")
+            .output()
+            .unwrap();
+        assert!(
+            run.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let now = std::fs::read_to_string(out.join("operator.log")).unwrap();
+        let committed = std::fs::read_to_string(fixtures.join(name).join("operator.log")).unwrap();
+        if now != committed {
+            let (i, (a, b)) = now
+                .lines()
+                .zip(committed.lines())
+                .enumerate()
+                .find(|(_, (a, b))| a != b)
+                .unwrap_or((0, ("(one log is a prefix of the other)", "")));
+            panic!(
+                "{name}: the committed operator.log is stale (regenerate it with the loop in \
+                 tools/tests/data/operator-logs/README.md); line {}:\n  replay: {a}\n  committed: {b}",
+                i + 1
+            );
+        }
+    }
+}
+
 /// Issue 19's done-when: a study of three simulated participants, `study init`, every
 /// trial recorded by `replay --study` from a recorded session into the log the manifest
 /// names, then `goms analyze` writes the report and plots with no copying by hand, and
@@ -572,7 +702,15 @@ fn study_of_three_participants_recorded_by_replay() {
     let out = replay("P1", "patch-carve");
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("every trial"));
-    assert!(ok(&["goms", "study", "status", s.to_str().unwrap()]).contains("recorded (2/2 trials"));
+    // Every participant's session shows both its trials recorded.
+    let status = ok(&["goms", "study", "status", s.to_str().unwrap()]);
+    for p in ["P1", "P2", "P3"] {
+        let line = status
+            .lines()
+            .find(|l| l.split('\t').next() == Some(p))
+            .unwrap_or_else(|| panic!("no status line for {p}:\n{status}"));
+        assert!(line.contains("recorded (2/2 trials"), "{line}");
+    }
 
     let said = ok(&["goms", "analyze", s.to_str().unwrap(), "--trace", "all"]);
     assert!(said.starts_with("6 trials of 1 methods"), "{said}");
@@ -588,17 +726,22 @@ fn study_of_three_participants_recorded_by_replay() {
     }
     let events = csv(&report.join("events.csv"));
     let trials = trials_of(&events);
-    let keys: Vec<(String, String)> = trials.iter().map(|t| t.0.clone()).collect();
-    let want: Vec<(String, String)> = (1..=3)
-        .flat_map(|p| (1..=2).map(move |t| (format!("P{p}"), t.to_string())))
+    let keys: Vec<_> = trials.iter().map(|t| t.0.clone()).collect();
+    let want: Vec<_> = (1..=3)
+        .flat_map(|p| (1..=2).map(move |t| (format!("P{p}"), "sculpt".into(), t.to_string())))
         .collect();
     assert_eq!(keys, want);
-    for ((participant, trial), ops) in &trials {
-        for w in ops.windows(2) {
-            assert_eq!(w[0].2, w[1].1, "{participant} trial {trial}: {w:?}");
-        }
-        let sum: f64 = ops.iter().map(|o| o.2 - o.1).sum();
-        assert_near!(sum, ops.last().unwrap().2 - ops[0].1, DECIMAL_SUM_EPS);
+    // Each trial's operator seconds are its trial_end - trial_start in the log.
+    for ((participant, method, trial), ops) in &trials {
+        let log = s.join(format!("logs/{participant}-{method}.oplog"));
+        let marked = marked_trials(&log);
+        assert_eq!(marked.len(), 2, "{}", log.display());
+        let (.., t0, t1) = marked
+            .iter()
+            .find(|m| m.1 == *trial)
+            .unwrap_or_else(|| panic!("{participant} trial {trial} not in its log"));
+        assert!(t1 > t0, "{participant} trial {trial}: {t0} .. {t1}");
+        assert_operators_fill(&format!("{participant} trial {trial}"), ops, (*t0, *t1));
     }
     // The log itself says who, what and which trial.
     let log = std::fs::read_to_string(s.join("logs/P2-sculpt.oplog")).unwrap();
@@ -607,5 +750,4 @@ fn study_of_three_participants_recorded_by_replay() {
         header.contains("\"participant\":\"P2\"") && header.contains("\"method\":\"sculpt\""),
         "{header}"
     );
-    assert_eq!(log.matches("\"ev\":\"trial_start\"").count(), 2);
 }

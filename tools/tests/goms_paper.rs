@@ -40,15 +40,31 @@ fn paper_comparison_columns_match_independent_computations() {
         "patch-mask",
         "sketch-carve",
     ];
+    // The same logs with their mode segment marks taken out by hand: each session is
+    // then one trial for `goms analyze`, the independent computation below.
+    let whole = dir.path().join("whole");
+    let mut segments = 0;
     for s in sessions {
-        let to = logs.join(s);
-        std::fs::create_dir_all(&to).unwrap();
-        std::fs::copy(
-            data.join("operator-logs").join(s).join("operator.log"),
-            to.join("operator.log"),
-        )
-        .unwrap();
+        let log = std::fs::read_to_string(data.join("operator-logs").join(s).join("operator.log"))
+            .unwrap();
+        let marks =
+            |l: &&str| l.contains("\"ev\":\"trial_start\"") || l.contains("\"ev\":\"trial_end\"");
+        segments += log
+            .lines()
+            .filter(|l| l.contains("\"ev\":\"trial_start\""))
+            .count();
+        let unmarked: String = log
+            .lines()
+            .filter(|l| !marks(l))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        for (root, text) in [(&logs, &log), (&whole, &unmarked)] {
+            let to = root.join(s);
+            std::fs::create_dir_all(&to).unwrap();
+            std::fs::write(to.join("operator.log"), text).unwrap();
+        }
     }
+    assert!(segments > sessions.len(), "some sessions switch mode");
     let csv = dir.path().join("paper.csv");
     let said = ok(&[
         "goms",
@@ -59,6 +75,12 @@ fn paper_comparison_columns_match_independent_computations() {
     ]);
     assert!(said.contains("Multi-resolution sculpting"), "{said}");
     assert!(said.contains("no thinking"), "{said}");
+    // Regression (issue 19): each session is one trial of the task, however many mode
+    // segments its log has (a mode switch is part of the paper's task).
+    assert!(
+        said.contains(&format!("mean over {} trials", sessions.len())),
+        "{said}"
+    );
     let got: BTreeMap<String, Vec<f64>> = rows(&csv)
         .into_iter()
         .map(|r| {
@@ -71,13 +93,13 @@ fn paper_comparison_columns_match_independent_computations() {
         .collect();
     let col = |op: &str, i: usize| got[op][i];
 
-    // Measured: per operator, the tally's counts and seconds summed over the trials
-    // and divided by the number of trials.
+    // Measured: per operator, the tally's counts and seconds of the unmarked logs
+    // summed over the trials and divided by the number of trials.
     let report = dir.path().join("report");
     ok(&[
         "goms",
         "analyze",
-        logs.to_str().unwrap(),
+        whole.to_str().unwrap(),
         "-o",
         report.to_str().unwrap(),
         "--no-plots",

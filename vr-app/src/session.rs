@@ -20,7 +20,8 @@
 //!   `sculpt_core::oplog` format (header `source = "wandsculpt"`), appended and flushed
 //!   per event, read by `sculpt-tools goms`. A log left by an earlier run is kept as
 //!   `operator.N.log` (the first free `N`), since each run's clock starts at zero.
-//!   Desktop keys are logged as `key` events ([`Session::key`], a K operator). The
+//!   Desktop keys are logged as `key` events ([`Session::key`], a K operator), and so
+//!   are the mouse presses that are no wand button ([`Session::mouse`]). The
 //!   log is cut into segments, one per interaction mode
 //!   ([`sculpt_core::oplog::ModeSegments`], as `replay` does), so `sculpt-tools goms`
 //!   counts each operator under the mode it was made in. In study mode ([`Session::start_study`]) the
@@ -238,6 +239,39 @@ impl OperatorLog {
                 "operator log {} could not be written ({e}); it stops here, sculpting goes on",
                 self.path.display()
             );
+        }
+    }
+}
+
+/// A desktop mouse press that is an operator but no wand button, logged by
+/// [`Session::mouse`] as a `key` event (see `docs/formats/oplog.md`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MouseOperator {
+    /// The right button: orbits the view, or pans it with Shift.
+    Right {
+        /// Shift held (pan).
+        shift: bool,
+    },
+    /// The middle button: pans the view.
+    Middle,
+    /// One notch of the wheel (or the start of a touchpad scroll): the wand plane, or
+    /// with Ctrl the view's zoom.
+    Wheel {
+        /// Ctrl held (zoom).
+        ctrl: bool,
+    },
+}
+
+impl MouseOperator {
+    /// The `key` the log names it by: `MouseRight`, `Shift+MouseRight`,
+    /// `MouseMiddle`, `Wheel`, `Ctrl+Wheel` (modifiers as the keys write them).
+    pub fn key_name(self) -> &'static str {
+        match self {
+            Self::Right { shift: false } => "MouseRight",
+            Self::Right { shift: true } => "Shift+MouseRight",
+            Self::Middle => "MouseMiddle",
+            Self::Wheel { ctrl: false } => "Wheel",
+            Self::Wheel { ctrl: true } => "Ctrl+Wheel",
         }
     }
 }
@@ -536,6 +570,14 @@ impl Session {
         }
     }
 
+    /// Logs a desktop mouse press that is no wand button (the view's orbit and pan
+    /// buttons, a wheel notch) at `t` as a `key` event named
+    /// [`MouseOperator::key_name`]: a K for `sculpt-tools goms`, as a key is. The left
+    /// button is the wand's action button and is logged by the state machine (`button`).
+    pub fn mouse(&mut self, t: f64, press: MouseOperator) {
+        self.key(t, press.key_name());
+    }
+
     /// Study mode: the operator log starts again with a header naming the participant
     /// and the method (the study condition); the study's trials
     /// ([`Session::begin_trial`]) replace the per-mode segments. Call it before any
@@ -758,6 +800,54 @@ mod tests {
             .filter(|e| matches!(e.kind, EventKind::TrialStart { .. }))
             .count();
         assert_eq!(starts, 2, "{:?}", log.events);
+    }
+
+    /// Regression (issue 19): in desktop mode the right and middle buttons (orbit,
+    /// pan) and the wheel were no operator events, although every key and button of
+    /// the task is one. Each press is a `key` event now, in the open mode segment and
+    /// in order with the wand's own events; the left button (the wand's action
+    /// button) stays a `button` edge only.
+    #[test]
+    fn regression_mouse_buttons_and_wheel_are_logged_as_keys() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = Session::open(&config(dir.path())).unwrap();
+        stroke(&mut s, 0.0, 1.1);
+        s.mouse(0.2, MouseOperator::Right { shift: false });
+        s.mouse(0.4, MouseOperator::Right { shift: true });
+        s.mouse(0.6, MouseOperator::Middle);
+        s.mouse(0.8, MouseOperator::Wheel { ctrl: false });
+        s.mouse(0.9, MouseOperator::Wheel { ctrl: true });
+        stroke(&mut s, 1.0, 1.2);
+        let log = decode_bytes(&std::fs::read(dir.path().join(OPLOG_FILE)).unwrap()).unwrap();
+        let marks: Vec<(f64, String)> = log
+            .events
+            .iter()
+            .filter_map(|e| match &e.kind {
+                EventKind::Key { key } => Some((e.t, format!("key {key}"))),
+                EventKind::Button { down: true, .. } => Some((e.t, "press".into())),
+                EventKind::TrialStart { method, .. } => {
+                    Some((e.t, format!("start {}", method.as_deref().unwrap_or("-"))))
+                }
+                _ => None,
+            })
+            .collect();
+        let names: Vec<&str> = marks.iter().map(|m| m.1.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "start carve",
+                "press",
+                "key MouseRight",
+                "key Shift+MouseRight",
+                "key MouseMiddle",
+                "key Wheel",
+                "key Ctrl+Wheel",
+                "press"
+            ]
+        );
+        for (m, t) in marks[2..7].iter().zip([0.2, 0.4, 0.6, 0.8, 0.9]) {
+            sculpt_core::assert_near!(m.0, t, sculpt_core::tolerance::TIME_EPS, "{}", m.1);
+        }
     }
 
     /// Regression (issue 15, item 7): on a full disk a failed `operator.log` write

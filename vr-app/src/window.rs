@@ -14,7 +14,7 @@ use std::time::Instant;
 use sculpt_core::interaction::{Command, InteractionMode, Profile, WandEvent, WandSample};
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
-use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, TouchPhase, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::ModifiersState;
 use winit::keyboard::{Key, NamedKey};
@@ -25,6 +25,7 @@ use crate::desktop_wand::EmulatedWand;
 use crate::error::{AdapterError, GpuError, VrError, VrResult};
 use crate::output::OutputMode;
 use crate::render::{FrameInput, Gpu, OutputContent, OutputTarget, Renderer};
+use crate::session::MouseOperator;
 
 /// What a desktop key does.
 #[derive(Debug, Clone, PartialEq)]
@@ -186,6 +187,32 @@ pub const MOUSE: &[(&str, &str)] = &[
     ("middle drag, Shift+right drag", "pan the view"),
     ("Ctrl+wheel", "zoom the view"),
 ];
+
+/// The operator of a mouse button press (a `key` event, [`MouseOperator`]): the right
+/// and middle buttons. The left button is the wand's action button, logged by the state
+/// machine; the others do nothing and are no operator, as an unbound key is not.
+pub fn mouse_button_operator(button: MouseButton, shift: bool) -> Option<MouseOperator> {
+    match button {
+        MouseButton::Right => Some(MouseOperator::Right { shift }),
+        MouseButton::Middle => Some(MouseOperator::Middle),
+        _ => None,
+    }
+}
+
+/// The operator of a wheel event: each notch of a wheel (a line delta) is one, a
+/// touchpad's smooth scroll (pixel deltas) one per gesture, at its start.
+pub fn wheel_operator(
+    delta: &MouseScrollDelta,
+    phase: TouchPhase,
+    ctrl: bool,
+) -> Option<MouseOperator> {
+    match (delta, phase) {
+        (MouseScrollDelta::LineDelta(..), _) | (_, TouchPhase::Started) => {
+            Some(MouseOperator::Wheel { ctrl })
+        }
+        _ => None,
+    }
+}
 
 /// The action of `key` (a character or a named key, as in [`KeyBinding::key`]) with
 /// Ctrl held or not.
@@ -705,6 +732,12 @@ impl ApplicationHandler for WindowApp {
                 };
                 match state {
                     ElementState::Pressed => {
+                        // Every button of the task is an operator (K), as the keys are.
+                        if let Some(op) = mouse_button_operator(button, self.modifiers.shift_key())
+                        {
+                            let t = self.command_time();
+                            self.app.session.mouse(t, op);
+                        }
                         self.buttons |= bit;
                         if drag.is_some() {
                             self.drag = drag;
@@ -718,7 +751,11 @@ impl ApplicationHandler for WindowApp {
                     }
                 }
             }
-            WindowEvent::MouseWheel { delta, .. } => {
+            WindowEvent::MouseWheel { delta, phase, .. } => {
+                if let Some(op) = wheel_operator(&delta, phase, self.modifiers.control_key()) {
+                    let t = self.command_time();
+                    self.app.session.mouse(t, op);
+                }
                 let lines = match delta {
                     MouseScrollDelta::LineDelta(_, y) => f64::from(y),
                     MouseScrollDelta::PixelDelta(p) => p.y / 40.0,
@@ -787,6 +824,35 @@ mod tests {
         assert_eq!(key_action("g", false), Some(KeyAction::Quadtree));
         assert_eq!(key_action("q", false), None);
         assert_eq!(key_action("", false), None);
+    }
+
+    /// Issue 19: every button of the task is an operator; the left one is the wand's
+    /// (logged by the state machine), a wheel notch is one, a smooth scroll one per
+    /// gesture.
+    #[test]
+    fn mouse_buttons_and_the_wheel_are_operators_but_the_wands_button() {
+        assert_eq!(mouse_button_operator(MouseButton::Left, false), None);
+        assert_eq!(
+            mouse_button_operator(MouseButton::Right, true),
+            Some(MouseOperator::Right { shift: true })
+        );
+        assert_eq!(
+            mouse_button_operator(MouseButton::Middle, false),
+            Some(MouseOperator::Middle)
+        );
+        assert_eq!(mouse_button_operator(MouseButton::Back, false), None);
+        let notch = MouseScrollDelta::LineDelta(0.0, 1.0);
+        assert_eq!(
+            wheel_operator(&notch, TouchPhase::Moved, true),
+            Some(MouseOperator::Wheel { ctrl: true })
+        );
+        let pixels = MouseScrollDelta::PixelDelta(winit::dpi::PhysicalPosition::new(0.0, 3.0));
+        assert_eq!(
+            wheel_operator(&pixels, TouchPhase::Started, false),
+            Some(MouseOperator::Wheel { ctrl: false })
+        );
+        assert_eq!(wheel_operator(&pixels, TouchPhase::Moved, false), None);
+        assert_eq!(wheel_operator(&pixels, TouchPhase::Ended, false), None);
     }
 
     #[test]

@@ -56,7 +56,8 @@ enum GomsCmd {
 #[derive(Debug, Args)]
 struct PaperArgs {
     /// Directory of operator logs (a study, or any operator.log / *.oplog below it);
-    /// every trial in it is taken as a trial of the method.
+    /// every trial in it is taken as a trial of the method, a plain `wandsculpt` or
+    /// `replay` session as one trial (its mode segments joined).
     dir: PathBuf,
     /// The paper's row: multires, trimming or multi-surface.
     #[arg(long, default_value = "multires")]
@@ -350,7 +351,11 @@ fn paper_cmd(a: PaperArgs) -> Result<()> {
     let text = klm_text(&a.klm, Path::new("."))?;
     let m = klm::parse_method(&text).with_context(|| format!("KLM method {}", a.klm))?;
     let prediction = klm::predict(&m.steps, &a.constants.constants());
-    let input = g::read_study(&a.dir, None, false)?;
+    let mut input = g::read_study(&a.dir, None, false)?;
+    // A plain session is one trial of the task, its mode segments joined.
+    for l in &mut input.logs {
+        l.log = paper::whole_session(&l.log);
+    }
     let trials: Vec<_> = g::extract_all(&input.logs, &cfg)
         .into_iter()
         .filter(|t| a.method.as_ref().is_none_or(|m| *m == t.method))

@@ -8,8 +8,47 @@
 //! operator. It only does arithmetic: what the comparison means depends on what the
 //! trials are (see `docs/goms.md`: scripted sessions have no thinking pauses).
 
+use sculpt_core::oplog::{EventKind, OpLog};
+
 use super::extract::{OpKind, Trial};
 use super::klm::Prediction;
+
+/// The header `source`s of the programs that cut a plain session's log into one
+/// segment per interaction mode (`sculpt_core::oplog::ModeSegments`): the display
+/// server and `replay`.
+pub const SEGMENTING_SOURCES: [&str; 2] = ["wandsculpt", "replay"];
+
+/// Whether `log` is one plain session of `wandsculpt` or `replay` (not a study's): its
+/// source is one of [`SEGMENTING_SOURCES`] and its header names no participant (a
+/// study's logs always name theirs). Its `trial_start`/`trial_end` marks are then the
+/// mode segments, not trials.
+pub fn is_plain_session(log: &OpLog) -> bool {
+    log.header.participant.is_none()
+        && log
+            .header
+            .source
+            .as_deref()
+            .is_some_and(|s| SEGMENTING_SOURCES.contains(&s))
+}
+
+/// One plain session as one trial of the paper's task: the log without its mode
+/// segment marks, so that it extracts as a single trial from its first event to its
+/// last (the header's method, the start mode). The paper times the whole task, its
+/// mode switches included (their presses are among its K), so a switch does not cut
+/// the trial; `goms analyze` keeps the segments apart instead, each under its mode.
+/// Other logs come back as they are.
+pub fn whole_session(log: &OpLog) -> OpLog {
+    let mut out = log.clone();
+    if is_plain_session(log) {
+        out.events.retain(|e| {
+            !matches!(
+                e.kind,
+                EventKind::TrialStart { .. } | EventKind::TrialEnd { .. }
+            )
+        });
+    }
+    out
+}
 
 /// One row of the paper's Tables 1 and 2: a method's mean operator counts and seconds.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -253,5 +292,47 @@ mod tests {
         assert_eq!(row("multires").unwrap().count_total, 12.8);
         assert_eq!(row("Trimming modeling").unwrap().seconds_total, 30.53);
         assert!(row("nope").is_none());
+    }
+
+    /// Regression (issue 19, after `replay` began to cut its log at each mode switch):
+    /// `goms paper` took every mode segment of a recorded session as a trial of the
+    /// paper's task, so a session that switched mode counted as several short trials
+    /// and the means over trials shrank. A plain session is one trial, its segments
+    /// joined; a study's log (it names its participant) keeps its trials.
+    #[test]
+    fn regression_a_plain_sessions_mode_segments_are_one_trial_of_the_task() {
+        use crate::goms::extract::{ExtractConfig, extract};
+        let body = "{\"t\":0,\"ev\":\"trial_start\",\"trial\":1,\"method\":\"carve\"}\n\
+                    {\"t\":0,\"ev\":\"pose\",\"p\":[0,1,0],\"q\":[0,0,0,1]}\n\
+                    {\"t\":0.3,\"ev\":\"button\",\"id\":1,\"down\":true}\n\
+                    {\"t\":0.3,\"ev\":\"trial_end\",\"trial\":1}\n\
+                    {\"t\":0.3,\"ev\":\"trial_start\",\"trial\":1,\"method\":\"emboss\"}\n\
+                    {\"t\":0.3,\"ev\":\"mode\",\"mode\":\"emboss\"}\n\
+                    {\"t\":0.4,\"ev\":\"button\",\"id\":1,\"down\":false}\n\
+                    {\"t\":2,\"ev\":\"pose\",\"p\":[0,1,0],\"q\":[0,0,0,1]}\n";
+        let log = |header: &str| {
+            sculpt_core::oplog::decode(&format!(
+                "{{\"format\":\"wandsculpt-oplog\",\"version\":1,\"method\":\"carve\",{header}}}\n{body}"
+            ))
+            .unwrap()
+        };
+        let cfg = ExtractConfig::default();
+        let plain = log("\"source\":\"replay\"");
+        assert!(is_plain_session(&plain));
+        assert_eq!(extract(&plain, &cfg, "s", "m").len(), 2, "two segments");
+        let whole = extract(&whole_session(&plain), &cfg, "s", "m");
+        assert_eq!(whole.len(), 1);
+        assert_eq!((whole[0].t0, whole[0].t1), (0.0, 2.0));
+        assert_eq!(whole[0].method, "carve");
+        assert_eq!(whole[0].count(OpKind::K), 1);
+        // A study's log, or one no segmenting program wrote, keeps its trials.
+        for header in [
+            "\"source\":\"replay\",\"participant\":\"P1\"",
+            "\"source\":\"synthetic\"",
+        ] {
+            let l = log(header);
+            assert!(!is_plain_session(&l), "{header}");
+            assert_eq!(whole_session(&l), l, "{header}");
+        }
     }
 }
