@@ -17,7 +17,7 @@
 //! |---|---|---|
 //! | `pose` | `p: [x,y,z]` metres (display frame), `q: [x,y,z,w]` | a wand pose sample |
 //! | `button` | `id: u8`, `down: bool` | a button edge |
-//! | `key` | `key: string` (`Ctrl+Z`, `2`, `Tab`, ...) | a desktop key press (a keystroke; no release is logged) |
+//! | `key` | `key: string` (`Ctrl+Z`, `2`, `Tab`, `MouseRight`, `Wheel`, ...) | a desktop key press, or a press of a mouse button other than the wand's or a wheel notch (a keystroke; no release is logged) |
 //! | `mode` | `mode: string` (`sketch`, `carve`, `emboss`, ...) | interaction mode change |
 //! | `tool` | `tool: string` (`v-chisel`, `u-chisel`, ...) | tool change |
 //! | `stroke_start`, `stroke_end` | | a stroke begins / ends |
@@ -167,7 +167,8 @@ pub enum EventKind {
         /// True on press, false on release.
         down: bool,
     },
-    /// A desktop key press (a keystroke: the key's press; no release is logged).
+    /// A desktop key press, or a mouse button other than the wand's or a wheel notch
+    /// (a keystroke: the press; no release is logged).
     Key {
         /// The key as the key help shows it (`Ctrl+Z`, `2`, `Tab`, ...).
         key: String,
