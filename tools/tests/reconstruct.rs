@@ -89,6 +89,35 @@ const TORUS_E_AVG: f64 = 3e-4; // not a tolerance: an acceptance bound on a meas
 const TORUS_G1_DEGREES: f64 = 15.0;
 /// E_avg bound of the real scans: the 0.1 % of the bounding-box diagonal.
 const SCAN_E_AVG: f64 = 1e-3; // not a tolerance: an acceptance bound on a measured figure
+/// E_max bound of the kitten at K = 80 (measured 1.10 % of the diagonal).
+const KITTEN_E_MAX: f64 = 1.5e-2; // not a tolerance: an acceptance bound on a measured figure
+/// E_avg bound of the oni mask at K = 30 (measured 0.94 %: its open rim is not yet
+/// modelled, so it misses the 0.1 %).
+const ONI_E_AVG: f64 = 1.2e-2; // not a tolerance: an acceptance bound on a measured figure
+
+/// The document `reconstruct --out` wrote holds one target per patch, and carves: one
+/// stroke across its first target through the editor, the path the app and replay use.
+fn carve_one_stroke(doc: &Path, patches: usize) {
+    let mut document = Document::from_json(&std::fs::read(doc).unwrap()).unwrap();
+    assert_eq!(document.targets().len(), patches);
+    let surface = document.targets()[0].surface.clone();
+    let samples = (0..=20)
+        .map(|k| StrokeSample {
+            t: 0.01 * f64::from(k),
+            position: surface.point(0.2 + 0.03 * f64::from(k), 0.5),
+        })
+        .collect();
+    let tool = Tool {
+        width: 0.01,
+        ..Tool::default()
+    };
+    let edit = Edit::Stroke(StrokeEdit::new(document.targets()[0].id, tool, samples));
+    assert!(matches!(
+        editor::apply(&mut document, &edit),
+        Applied::Stroke { .. }
+    ));
+    assert_eq!(document.strokes().len(), 1);
+}
 
 #[test]
 fn torus_patches_cover_a_genus_one_surface() {
@@ -128,28 +157,8 @@ fn torus_patches_cover_a_genus_one_surface() {
     let back = read_points(&std::fs::read(&layout).unwrap(), PointFormat::Ply).unwrap();
     assert_eq!(back.points.len(), 4000);
     assert_eq!(back.normals.map(|n| n.len()), Some(4000));
-    // The document holds one target per patch, and carves (one stroke through the
-    // editor, the path the app and replay use).
     let patches = num(&r, "nurbs_patches");
-    let mut document = Document::from_json(&std::fs::read(&doc).unwrap()).unwrap();
-    assert_eq!(document.targets().len(), patches);
-    let surface = document.targets()[0].surface.clone();
-    let samples = (0..=20)
-        .map(|k| StrokeSample {
-            t: 0.01 * f64::from(k),
-            position: surface.point(0.2 + 0.03 * f64::from(k), 0.5),
-        })
-        .collect();
-    let tool = Tool {
-        width: 0.01,
-        ..Tool::default()
-    };
-    let edit = Edit::Stroke(StrokeEdit::new(document.targets()[0].id, tool, samples));
-    assert!(matches!(
-        editor::apply(&mut document, &edit),
-        Applied::Stroke { .. }
-    ));
-    assert_eq!(document.strokes().len(), 1);
+    carve_one_stroke(&doc, patches);
     // IGES: one type 128 surface per patch; OBJ: a mesh with triangles.
     let model = iges::read(&std::fs::read(&igs).unwrap()).unwrap();
     assert_eq!(model.surfaces.len(), patches);
@@ -163,16 +172,22 @@ fn kitten_scan_patches() {
         return;
     };
     // K = 80 (at K = 50 the model closes with Euler characteristic 1: docs/reconstruct.md).
+    let dir = tempfile::tempdir().unwrap();
+    let doc = dir.path().join("kitten.json");
     let r = report(&run(&[
         "reconstruct",
         path.to_str().unwrap(),
         "--patches",
         "80",
+        "--out",
+        doc.to_str().unwrap(),
     ]));
     assert_eq!(num(&r, "points"), 5210);
     assert_eq!(r["normals"], "file");
     check_closed_genus_one(&r);
     assert!(fig(&r, "e_avg") <= SCAN_E_AVG, "{r}");
+    assert!(fig(&r, "e_max") <= KITTEN_E_MAX, "{r}");
+    carve_one_stroke(&doc, num(&r, "nurbs_patches"));
 }
 
 #[test]
@@ -182,6 +197,7 @@ fn oni_scan_patches() {
     };
     let dir = tempfile::tempdir().unwrap();
     let report_path = dir.path().join("r.json");
+    let doc = dir.path().join("oni.json");
     let out = run(&[
         "reconstruct",
         path.to_str().unwrap(),
@@ -189,6 +205,8 @@ fn oni_scan_patches() {
         "30",
         "--report",
         report_path.to_str().unwrap(),
+        "--out",
+        doc.to_str().unwrap(),
     ]);
     assert!(
         out.status.success(),
@@ -202,6 +220,10 @@ fn oni_scan_patches() {
     // An open mask: every patch one piece and touching another.
     assert_eq!(num(&r, "patches_in_pieces"), 0);
     assert!(num(&r, "patch_degree_min") >= 1);
+    // The open rim is not yet modelled (docs/reconstruct.md): the bound guards what
+    // is reached, not the 0.1 %.
+    assert!(fig(&r, "e_avg") <= ONI_E_AVG, "{r}");
+    carve_one_stroke(&doc, num(&r, "nurbs_patches"));
 }
 
 /// One line on stderr, exit code 1, containing `needle`.

@@ -738,14 +738,17 @@ pub fn network_distances(network: &PatchNetwork, points: &[DVec3]) -> Vec<f64> {
 }
 
 /// Stage 6: a document whose targets are the patches (`patch 0`, `patch 1`, ...), as
-/// its base (undo never removes them).
-pub fn to_document(network: &PatchNetwork) -> Document {
+/// its base (undo never removes them). A network of more patches than a document
+/// holds ([`MAX_TARGETS`](crate::sculpt::document::MAX_TARGETS)) is refused with
+/// [`DocumentError::TooManyTargets`](crate::error::DocumentError::TooManyTargets):
+/// every document this writes, the reader takes back.
+pub fn to_document(network: &PatchNetwork) -> crate::Result<Document> {
     let mut doc = Document::new();
     for (i, s) in network.surfaces.iter().enumerate() {
-        doc.add_target(&format!("patch {i}"), s.clone());
+        doc.try_add_target(&format!("patch {i}"), s.clone())?;
     }
     doc.seal_history();
-    doc
+    Ok(doc)
 }
 
 #[cfg(test)]
@@ -1008,6 +1011,36 @@ mod tests {
         assert!(with.0 < without.0, "{with:?} {without:?}");
     }
 
+    /// Regression: `to_document` wrote a document of every patch however many there
+    /// were, and the reader refused any past the target cap (the kitten scan at K = 80
+    /// has 478 patches against the old cap of 256), so `reconstruct --out` wrote files
+    /// that did not load. A network past the cap is now refused when it is written.
+    #[test]
+    fn regression_to_document_refuses_more_patches_than_a_document_holds() {
+        use crate::error::DocumentError;
+        use crate::sculpt::document::MAX_TARGETS;
+        let at_cap = PatchNetwork {
+            quads: Vec::new(),
+            grids: Vec::new(),
+            surfaces: vec![crate::editor::default_surface(); MAX_TARGETS],
+        };
+        let doc = to_document(&at_cap).unwrap();
+        assert_eq!(
+            Document::from_json(&doc.to_json()).unwrap().targets().len(),
+            MAX_TARGETS
+        );
+        let past = PatchNetwork {
+            surfaces: vec![crate::editor::default_surface(); MAX_TARGETS + 1],
+            ..at_cap
+        };
+        assert!(matches!(
+            to_document(&past),
+            Err(crate::Error::Document(DocumentError::TooManyTargets {
+                max: MAX_TARGETS
+            }))
+        ));
+    }
+
     #[test]
     fn a_stroke_across_a_patch_boundary_stays_on_its_patch() {
         use crate::editor::{self, Applied};
@@ -1021,7 +1054,7 @@ mod tests {
             ..NetworkSettings::new()
         };
         let (_, net) = network(&seg, &settings);
-        let mut doc = Document::from_json(&to_document(&net).to_json()).unwrap();
+        let mut doc = Document::from_json(&to_document(&net).unwrap().to_json()).unwrap();
         assert_eq!(doc.targets().len(), net.surfaces.len());
         // From the middle of patch A to the middle of a side, then on into patch B.
         let [(qa, sa), (qb, sb)] = shared_sides(&net.quads, 1).swap_remove(0);

@@ -84,8 +84,9 @@ pub const VERSION: u32 = 1;
 pub const MAX_DOCUMENT_BYTES: usize = 256 << 20;
 /// Most targets a document holds: the reader refuses more, and an edit that would add
 /// one more (a sketch) is rejected ([`DocumentError::TooManyTargets`]). The paper's
-/// scenes and the demo have one.
-pub const MAX_TARGETS: usize = 256;
+/// scenes and the demo have one; a scanned object (`sculpt-tools reconstruct`) has one
+/// per quad of its patch network: the kitten scan at K = 80 has 478.
+pub const MAX_TARGETS: usize = 4096;
 /// Most strokes a document holds: the reader refuses more, and a stroke beyond it is
 /// rejected ([`DocumentError::TooManyStrokes`]). The paper's scenes have at most 7; a
 /// stroke every 5 s for 8 hours is 5,760.

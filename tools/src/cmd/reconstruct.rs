@@ -273,7 +273,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
         write(path, layout_ply(&r.segmentation).as_bytes())?;
     }
     if args.out.is_some() || args.igs.is_some() || args.obj.is_some() {
-        let doc = to_document(&r.network);
+        let doc = to_document(&r.network).context("the patch network as a document")?;
         if let Some(path) = &args.out {
             write(path, &doc.to_json())?;
         }
