@@ -256,25 +256,33 @@ fn bad_inputs_give_one_line() {
     );
 }
 
+/// Points as `.xyz` text, one `x y z` line each.
+fn xyz_text<'a>(points: impl IntoIterator<Item = &'a glam::DVec3>) -> String {
+    points
+        .into_iter()
+        .map(|p| format!("{} {} {}\n", p.x, p.y, p.z))
+        .collect()
+}
+
+/// Writes `text` to `file` and runs `reconstruct` on it with `patches` patches.
+fn reconstruct_xyz(file: &Path, text: &str, patches: usize) -> Output {
+    std::fs::write(file, text).unwrap();
+    run(&[
+        "reconstruct",
+        file.to_str().unwrap(),
+        "--patches",
+        &patches.to_string(),
+    ])
+}
+
 #[test]
 fn duplicates_and_outliers_are_accepted() {
     // The torus twice over plus far outliers: still clusters, every patch one piece
     // (an outlier alone is its own piece of the neighbour graph, so it joins a patch).
     let dir = tempfile::tempdir().unwrap();
     let pts = sculpt_core::reconstruct::sample::torus(1000, 0.2, 0.08, 5);
-    let mut text = String::new();
-    for p in pts.iter().chain(&pts) {
-        text += &format!("{} {} {}\n", p.x, p.y, p.z);
-    }
-    text += "5 5 5\n-5 0 0\n";
-    let file = dir.path().join("dup.xyz");
-    std::fs::write(&file, text).unwrap();
-    let r = report(&run(&[
-        "reconstruct",
-        file.to_str().unwrap(),
-        "--patches",
-        "12",
-    ]));
+    let text = xyz_text(pts.iter().chain(&pts)) + "5 5 5\n-5 0 0\n";
+    let r = report(&reconstruct_xyz(&dir.path().join("dup.xyz"), &text, 12));
     assert_eq!(num(&r, "points"), 2002);
     assert_eq!(num(&r, "patches_in_pieces"), 0);
 }
@@ -293,18 +301,11 @@ fn a_hole_in_the_data_is_bridged_and_the_rest_still_fits() {
     let centre = glam::DVec3::new(0.28, 0.0, 0.0);
     let kept: Vec<_> = pts.iter().filter(|p| p.distance(centre) > 0.05).collect();
     assert!(kept.len() < pts.len() - 50, "the hole removes points");
-    let text: String = kept
-        .iter()
-        .map(|p| format!("{} {} {}\n", p.x, p.y, p.z))
-        .collect();
-    let file = dir.path().join("holed.xyz");
-    std::fs::write(&file, text).unwrap();
-    let r = report(&run(&[
-        "reconstruct",
-        file.to_str().unwrap(),
-        "--patches",
-        "30",
-    ]));
+    let r = report(&reconstruct_xyz(
+        &dir.path().join("holed.xyz"),
+        &xyz_text(kept.iter().copied()),
+        30,
+    ));
     assert_eq!(num(&r, "points"), kept.len());
     check_closed_genus_one(&r);
     eprintln!(
@@ -329,9 +330,7 @@ fn a_thin_plate_gives_patches_or_one_clear_line() {
             text += &format!("{x} {y} 0\n{x} {y} 0.004\n");
         }
     }
-    let file = dir.path().join("plate.xyz");
-    std::fs::write(&file, text).unwrap();
-    let out = run(&["reconstruct", file.to_str().unwrap(), "--patches", "8"]);
+    let out = reconstruct_xyz(&dir.path().join("plate.xyz"), &text, 8);
     if out.status.success() {
         let r = report(&out);
         assert_eq!(num(&r, "points"), 2 * n * n);
