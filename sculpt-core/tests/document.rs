@@ -166,6 +166,35 @@ fn edits_rewrite_only_the_cells_of_the_affected_stroke() {
     assert_eq!(live, doc.mesh(Detail::Interactive));
 }
 
+/// Regression (issue 16): a windowed cluster node drew its document into the window's
+/// renderer, then wrote its pictures through a new one, which got only the patches
+/// changed since (none): `forget_sinks` makes the next tessellation write them all.
+#[test]
+fn after_forget_sinks_a_new_sink_gets_every_patch() {
+    let mut doc = Document::new();
+    let t = doc.add_target("plane", plane());
+    let mut first = PatchMesh::new();
+    doc.tessellate(Detail::Final, &mut first);
+    stroke(
+        &mut doc,
+        t,
+        DVec3::new(0.3, 0.3, 0.0),
+        DVec3::new(0.4, 0.3, 0.0),
+        Mode::Carve,
+    )
+    .unwrap();
+    doc.tessellate(Detail::Final, &mut first);
+    let mut second = PatchMesh::new();
+    let stale = doc.tessellate(Detail::Final, &mut second).patches_written;
+    assert_eq!(stale, 0, "without forgetting, nothing changed since");
+    doc.forget_sinks();
+    let mut third = PatchMesh::new();
+    let all = doc.tessellate(Detail::Final, &mut third).patches_written;
+    assert_eq!(all, doc.patch_count(Detail::Final));
+    assert_eq!(third, first);
+    assert_eq!(third, doc.mesh(Detail::Final));
+}
+
 #[test]
 fn a_preview_carves_only_the_interactive_mesh_and_leaves_no_trace() {
     let mut doc = Document::new();

@@ -328,28 +328,34 @@ fn edits(out: &Path) -> Vec<Edit> {
         .collect()
 }
 
-#[test]
-fn three_screens_build_the_offline_document_and_each_draws_its_own_view() {
-    let Some((bin, dir)) = rig() else {
-        return;
-    };
+/// The CAVE of the first two tests: front (the owner), left, right and a headless
+/// twin of the front screen follow `patch-overlaps` served at 3x; `start` starts each
+/// of the first three nodes. Checks that every document is the offline one and
+/// returns each node's session directory and report.
+fn run_cave(
+    bin: PathBuf,
+    dir: &Path,
+    start: &dyn Fn(&Path, &str, &Path) -> ChildGuard,
+) -> (Vec<PathBuf>, Vec<serde_json::Value>) {
     let name = "patch-overlaps";
-    let expected = replay_offline(name, &dir.path().join("offline"), &[]);
-    let nats = Nats::start(bin, dir.path());
+    let expected = replay_offline(name, &dir.join("offline"), &[]);
+    let nats = Nats::start(bin, dir);
     let (mut server, addr) = serve_tcp(name, 3.0, TIMEOUT);
-    // Three screens of a CAVE, and a twin of the front screen on a fourth node.
     let specs = [
         node("front", true, FRONT),
         node("left", false, LEFT),
         node("right", false, RIGHT),
         node("twin", false, FRONT),
     ];
-    let config = cave_config(dir.path(), &addr, &nats, "", &specs);
-    let outs: Vec<PathBuf> = specs.iter().map(|s| dir.path().join(s.name)).collect();
+    let config = cave_config(dir, &addr, &nats, "", &specs);
+    let outs: Vec<PathBuf> = specs.iter().map(|s| dir.join(s.name)).collect();
     let mut nodes: Vec<ChildGuard> = specs
         .iter()
         .zip(&outs)
-        .map(|(s, out)| start_node(&config, s.name, out))
+        .map(|(s, out)| match s.name {
+            "twin" => start_node(&config, s.name, out),
+            _ => start(&config, s.name, out),
+        })
         .collect();
     for (n, out) in nodes.iter_mut().zip(&outs) {
         wait_ready(n, out);
@@ -376,6 +382,15 @@ fn three_screens_build_the_offline_document_and_each_draws_its_own_view() {
         assert_eq!(r["applied"], reports[0]["committed"], "{r}");
     }
     assert!(reports[0]["committed"].as_u64().unwrap() > 0);
+    (outs, reports)
+}
+
+#[test]
+fn three_screens_build_the_offline_document_and_each_draws_its_own_view() {
+    let Some((bin, dir)) = rig() else {
+        return;
+    };
+    let (outs, _) = run_cave(bin, dir.path(), &start_node);
     // Each node draws its own screen: the twin of the front screen draws the front's
     // picture, every other screen a different one.
     let png = |out: &PathBuf| std::fs::read(out.join("frame.png")).unwrap();
@@ -521,6 +536,132 @@ fn a_stopped_node_is_dropped_from_the_barrier_readmitted_and_catches_up() {
         assert!(b["dropped"].as_u64().unwrap() >= 1, "{r}");
         assert!(b["readmitted"].as_u64().unwrap() >= 1, "{r}");
     }
+}
+
+/// A virtual X server for the windowed nodes, on the display number it picks itself
+/// (`-displayfd`): `None` where Xvfb is missing outside CI.
+fn xvfb() -> Option<(ChildGuard, String)> {
+    let found = Command::new("Xvfb").arg("-help").output().is_ok();
+    if !found {
+        assert!(
+            std::env::var_os("CI").is_none_or(|v| v.is_empty()),
+            "Xvfb is missing in CI (scripts/test installs the xvfb package)"
+        );
+        eprintln!("SKIPPED: Xvfb is not installed (apt-get install xvfb)");
+        return None;
+    }
+    let mut child = ChildGuard::spawn(
+        Command::new("Xvfb")
+            .args([
+                "-displayfd",
+                "1",
+                "-screen",
+                "0",
+                "1280x800x24",
+                "-nolisten",
+                "tcp",
+            ])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null()),
+    );
+    let mut stdout = child.0.stdout.take().unwrap();
+    let mut number = String::new();
+    let mut byte = [0u8; 1];
+    while std::io::Read::read(&mut stdout, &mut byte).unwrap_or(0) == 1 && byte[0] != b'\n' {
+        number.push(char::from(byte[0]));
+    }
+    assert!(!number.is_empty(), "Xvfb said no display number");
+    Some((child, format!(":{}", number.trim())))
+}
+
+/// A render node in a window on the X display `display`.
+fn start_windowed_node(config: &Path, name: &str, out: &Path, display: &str) -> ChildGuard {
+    ChildGuard::spawn(
+        Command::new(&bins().wandsculpt)
+            .arg("--config")
+            .arg(config)
+            .args(["--cluster", "node", "--node", name])
+            .arg("--out")
+            .arg(out)
+            .args(["--idle-exit", "2.0", "--duration", "200"])
+            .env("DISPLAY", display)
+            // X11 only: a developer's Wayland session must not be picked up.
+            .env_remove("WAYLAND_DISPLAY")
+            .env("WANDSCULPT_ADAPTER", "llvmpipe")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped()),
+    )
+}
+
+/// A CAVE of windowed nodes (one X display, three windows: three screens) and a
+/// headless twin of the front screen. Each windowed node presents frame N only after
+/// every live node has reported N ready: checked from the nodes' own barrier logs
+/// (each frame's pass on one node comes after the ready report of every member it
+/// counted as live). Every document is the offline one, and the windowed front node
+/// writes the same picture as its headless twin.
+#[test]
+fn windowed_nodes_present_each_frame_only_when_every_live_node_has_it_ready() {
+    let Some((bin, dir)) = rig() else {
+        return;
+    };
+    let Some((_x, display)) = xvfb() else {
+        return;
+    };
+    let (outs, reports) = run_cave(bin, dir.path(), &|config, name, out| {
+        start_windowed_node(config, name, out, &display)
+    });
+    let names = ["front", "left", "right", "twin"];
+    for (s, r) in names.iter().zip(&reports) {
+        assert_eq!(r["windowed"], *s != "twin", "{s}");
+        let presented = r["presented"].as_u64().unwrap();
+        assert!(presented > 0, "{s}: no frame presented");
+        assert_eq!(
+            r["barrier"]["frames"].as_u64(),
+            Some(presented),
+            "{s}: every frame presented passed the barrier"
+        );
+    }
+    // The swap lock, from the logs: (node, frame) -> when it was reported ready.
+    let logs: Vec<(&str, &Vec<serde_json::Value>)> = names
+        .iter()
+        .zip(&reports)
+        .map(|(s, r)| (*s, r["barrier"]["log"].as_array().unwrap()))
+        .collect();
+    let mut checked = 0;
+    for (a, log) in &logs {
+        for rec in log.iter() {
+            let frame = rec["frame"].as_u64().unwrap();
+            let pass = rec["pass_ns"].as_u64().unwrap();
+            for b in rec["waited_for"].as_array().unwrap() {
+                let b = b.as_str().unwrap();
+                let (_, b_log) = logs.iter().find(|(n, _)| *n == b).unwrap();
+                // The member's first report of this frame or a later one.
+                let Some(ready) = b_log
+                    .iter()
+                    .find(|r| r["frame"].as_u64().unwrap() >= frame)
+                    .map(|r| r["ready_ns"].as_u64().unwrap())
+                else {
+                    // Past the end of its log (capped), or it ended first.
+                    continue;
+                };
+                assert!(
+                    ready <= pass,
+                    "{a} passed frame {frame} before {b} had it ready ({ready} > {pass})"
+                );
+                checked += 1;
+            }
+        }
+    }
+    assert!(
+        checked > 100,
+        "only {checked} frame and member pairs checked"
+    );
+    let png = |out: &PathBuf| std::fs::read(out.join("frame.png")).unwrap();
+    assert!(
+        png(&outs[0]) == png(&outs[3]),
+        "the windowed front node and its headless twin draw the same picture"
+    );
+    assert!(png(&outs[0]) != png(&outs[1]));
 }
 
 /// The strokes of a document as inputs.

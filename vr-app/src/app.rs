@@ -94,6 +94,13 @@ impl AppState {
             .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
     }
 
+    /// Starts over with new, empty mesh sinks (a new renderer): the next
+    /// [`AppState::sync_meshes`] writes the whole document again.
+    pub fn new_sinks(&mut self) {
+        self.scene = SceneState::default();
+        self.session.draw_parts().0.forget_sinks();
+    }
+
     /// Frames the whole document again (desktop mode; no-op on a wall).
     pub fn reset_view(&mut self) {
         let bounds = self.document_bounds();

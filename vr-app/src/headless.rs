@@ -67,6 +67,9 @@ pub fn run_headless(
 ) -> VrResult<HeadlessReport> {
     let mut renderer =
         Renderer::with_samples(gpu, wgpu::TextureFormat::Rgba8Unorm, app.config.render.msaa);
+    // A new renderer: its meshes are empty, whatever `app` drew before (a windowed
+    // cluster node writes its pictures here at the end).
+    app.new_sinks();
     renderer.wireframe = app.config.display.wireframe;
     renderer.swap_eyes = app.config.display.swap_eyes;
     renderer.set_material(app.config.render.material);

@@ -193,6 +193,8 @@ pub struct LiveTracking {
     /// Sources fed from outside (the cluster's tracking feed), registered after the
     /// configured ones and the playback source.
     feeds: Vec<tracking::hub::SourceId>,
+    /// Receive times of the frames the last poll handed to the stage.
+    staged: Vec<Duration>,
     // Declared last so the transports are aborted before the runtime shuts down.
     runtime: tokio::runtime::Runtime,
 }
@@ -255,6 +257,7 @@ impl LiveTracking {
             state: None,
             events: Vec::new(),
             feeds: Vec::new(),
+            staged: Vec::new(),
             runtime,
         })
     }
@@ -309,6 +312,12 @@ impl LiveTracking {
         (self.hub.clone(), id)
     }
 
+    /// The receive times (hub clock) of the frames with poses that the last
+    /// [`LiveTracking::poll`] handed to the stage, in order.
+    pub fn staged(&self) -> &[Duration] {
+        &self.staged
+    }
+
     /// Everything new since the last poll, in order.
     pub fn poll(&mut self) -> Vec<Input> {
         let _guard = self.runtime.enter();
@@ -316,6 +325,7 @@ impl LiveTracking {
         let mut events = std::mem::take(&mut self.events);
         events.clear();
         let mut got = false;
+        self.staged.clear();
         while let Some(f) = self.frames.try_recv() {
             got = true;
             self.last_receive = Some(f.frame.receive_time);
@@ -328,6 +338,7 @@ impl LiveTracking {
                 }
                 continue;
             }
+            self.staged.push(f.frame.receive_time);
             self.stage.push(&f.frame, &mut events);
         }
         if got {

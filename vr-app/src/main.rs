@@ -86,7 +86,8 @@ struct Cli {
     #[arg(long, value_name = "N")]
     frames: Option<u64>,
     /// Cluster role (`[cluster]` in --config): `ingest` (publish the tracker's frames)
-    /// or `node` (a headless render node, with --node). See docs/cluster.md.
+    /// or `node` (a render node, with --node: windowed on its screen, or --headless).
+    /// See docs/cluster.md.
     #[arg(long, value_name = "ROLE")]
     cluster: Option<ClusterRole>,
     /// Cluster: this node's name (a `[[cluster.node]]`).
@@ -369,9 +370,6 @@ fn run_cluster(cli: &Cli, role: ClusterRole, config: Config) -> Result<()> {
             let Some(name) = &cli.node else {
                 bail!("--cluster node needs --node NAME");
             };
-            if !cli.headless {
-                bail!("--cluster node runs headless (add --headless)");
-            }
             let config = node::node_config(config, name, cli.out.clone())?;
             let opts = node::NodeOptions {
                 name: name.clone(),
@@ -385,8 +383,15 @@ fn run_cluster(cli: &Cli, role: ClusterRole, config: Config) -> Result<()> {
                     realtime: false,
                 },
             };
-            let gpu = Gpu::headless()?;
-            let report = node::run_node(config, &opts, &gpu)?;
+            let report = if cli.headless {
+                let gpu = Gpu::headless()?;
+                node::run_node(config, &opts, &gpu)?
+            } else {
+                // A window on the node's screen (its projector or monitor, as
+                // `[display]` says); frames present through the swap lock.
+                let (node, app) = node::NodeLoop::start(config, &opts)?;
+                vr_app::window::run_windowed_node(app, node, &opts.headless)?
+            };
             println!("{}", serde_json::to_string_pretty(&report)?);
         }
     }

@@ -21,8 +21,10 @@ use winit::keyboard::{Key, NamedKey};
 use winit::window::{Fullscreen, Window, WindowId};
 
 use crate::app::AppState;
+use crate::cluster::node::{NodeLoop, NodeReport};
 use crate::desktop_wand::EmulatedWand;
 use crate::error::{AdapterError, GpuError, VrError, VrResult};
+use crate::headless::HeadlessOptions;
 use crate::output::OutputMode;
 use crate::render::{FrameInput, Gpu, OutputContent, OutputTarget, Renderer};
 use crate::session::MouseOperator;
@@ -306,6 +308,9 @@ struct Running {
 struct WindowApp {
     app: AppState,
     input: WindowInput,
+    /// A cluster render node: its feed and the stream drive the app (not `input`),
+    /// and its frames present through the swap lock.
+    node: Option<Box<NodeLoop>>,
     scripted: VecDeque<WandEvent>,
     running: Option<Running>,
     error: Option<VrError>,
@@ -320,37 +325,15 @@ struct WindowApp {
     last_t: f64,
     /// Frames still to draw before exiting (`--frames`), if limited.
     frames_left: Option<u64>,
+    /// The session is over (a cluster node's): exit after this frame.
+    over: bool,
 }
 
 /// Opens the windows and runs until they close (or, with `frames`, until that many
 /// frames were drawn).
 pub fn run_windowed(app: AppState, input: WindowInput, frames: Option<u64>) -> VrResult<()> {
-    let event_loop = EventLoop::new().map_err(|e| VrError::Gpu(GpuError::NoDisplay(e)))?;
-    event_loop.set_control_flow(ControlFlow::Poll);
-    let scripted = match &input {
-        WindowInput::Scripted(ev) => ev.iter().cloned().collect(),
-        _ => VecDeque::new(),
-    };
-    let mut wa = WindowApp {
-        app,
-        input,
-        scripted,
-        running: None,
-        error: None,
-        start: Instant::now(),
-        last_frame: Instant::now(),
-        cursor: (0.0, 0.0),
-        buttons: 0,
-        modifiers: ModifiersState::empty(),
-        drag: None,
-        help: false,
-        wand: EmulatedWand::default(),
-        last_t: 0.0,
-        frames_left: frames,
-    };
-    event_loop
-        .run_app(&mut wa)
-        .map_err(|e| VrError::Gpu(GpuError::EventLoop(e)))?;
+    let mut wa = WindowApp::new(app, input, None, frames);
+    let result = wa.run();
     // A trial still being recorded ends with the session.
     if let Some(study) = &mut wa.app.study
         && let Err(e) = study.finish(&mut wa.app.session, None)
@@ -359,13 +342,79 @@ pub fn run_windowed(app: AppState, input: WindowInput, frames: Option<u64>) -> V
     }
     // Never lose work on a clean exit.
     wa.app.session.autosave()?;
-    match wa.error {
-        Some(e) => Err(e),
-        None => Ok(()),
-    }
+    result
+}
+
+/// A cluster render node in a window (its screen's projector or monitor): each frame
+/// runs the node's turn ([`NodeLoop::step`]), draws, then waits at the frame barrier
+/// ([`NodeLoop::swap_lock`]) and only then presents, so the nodes of a CAVE show frame
+/// N together. Runs until the session is over for the node (or its window closes),
+/// then writes the document and the screen's pictures as a headless node does.
+pub fn run_windowed_node(
+    app: AppState,
+    node: NodeLoop,
+    pictures: &HeadlessOptions,
+) -> VrResult<NodeReport> {
+    let mut wa = WindowApp::new(app, WindowInput::Desktop, Some(Box::new(node)), None);
+    wa.run()?;
+    let node = wa
+        .node
+        .take()
+        .ok_or(VrError::Gpu(GpuError::NoSurfaceFormat))?;
+    let gpu = match wa.running.take() {
+        Some(run) => run.gpu,
+        None => Gpu::headless()?,
+    };
+    let mut report = node.finish(&mut wa.app, &gpu, pictures)?;
+    report.windowed = true;
+    Ok(report)
 }
 
 impl WindowApp {
+    fn new(
+        app: AppState,
+        input: WindowInput,
+        node: Option<Box<NodeLoop>>,
+        frames: Option<u64>,
+    ) -> Self {
+        let scripted = match &input {
+            WindowInput::Scripted(ev) => ev.iter().cloned().collect(),
+            _ => VecDeque::new(),
+        };
+        Self {
+            app,
+            input,
+            node,
+            scripted,
+            running: None,
+            error: None,
+            start: Instant::now(),
+            last_frame: Instant::now(),
+            cursor: (0.0, 0.0),
+            buttons: 0,
+            modifiers: ModifiersState::empty(),
+            drag: None,
+            help: false,
+            wand: EmulatedWand::default(),
+            last_t: 0.0,
+            frames_left: frames,
+            over: false,
+        }
+    }
+
+    /// Runs the event loop until the windows close; the first error ends it.
+    fn run(&mut self) -> VrResult<()> {
+        let event_loop = EventLoop::new().map_err(|e| VrError::Gpu(GpuError::NoDisplay(e)))?;
+        event_loop.set_control_flow(ControlFlow::Poll);
+        event_loop
+            .run_app(self)
+            .map_err(|e| VrError::Gpu(GpuError::EventLoop(e)))?;
+        match self.error.take() {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+
     fn create(&mut self, event_loop: &ActiveEventLoop) -> VrResult<Running> {
         let d = &self.app.config.display;
         let monitors: Vec<_> = event_loop.available_monitors().collect();
@@ -461,6 +510,7 @@ impl WindowApp {
     /// this window's.
     fn command_time(&self) -> f64 {
         match self.input {
+            _ if self.node.is_some() => self.app.session.time(),
             WindowInput::Live(_) => self.app.session.time(),
             _ => self.last_t,
         }
@@ -468,7 +518,12 @@ impl WindowApp {
 
     fn command(&mut self, c: Command) {
         let ev = WandEvent::command(self.command_time(), c);
-        if let Err(e) = self.app.session.handle(&ev) {
+        let done = match &mut self.node {
+            // A cluster node's edits go through the stream.
+            Some(node) => node.command(&mut self.app, &ev),
+            None => self.app.session.handle(&ev).map(drop),
+        };
+        if let Err(e) = done {
             tracing::error!("{e}");
         }
     }
@@ -565,6 +620,16 @@ impl WindowApp {
 
     fn feed_input(&mut self, t: f64) {
         self.last_t = t;
+        if let Some(node) = &mut self.node {
+            match node.step(&mut self.app) {
+                Ok(over) => self.over |= over,
+                Err(e) => {
+                    self.error = Some(e);
+                    self.over = true;
+                }
+            }
+            return;
+        }
         match &mut self.input {
             WindowInput::Desktop => {
                 let size = self.window_size();
@@ -684,6 +749,13 @@ impl WindowApp {
             &targets,
         );
         tracing::debug!(cpu_us = stats.cpu.as_micros() as u64, "frame");
+        // Software swap lock: a cluster node presents once every live node is ready.
+        if let Some(node) = &mut self.node
+            && let Err(e) = node.swap_lock()
+        {
+            self.error = Some(e);
+            self.over = true;
+        }
         for f in frames.into_iter().flatten() {
             run.gpu.queue.present(f);
         }
@@ -784,6 +856,9 @@ impl ApplicationHandler for WindowApp {
                     .map(|o| o.window.id());
                 if first == Some(id) {
                     self.redraw();
+                    if self.over {
+                        event_loop.exit();
+                    }
                     if let Some(n) = &mut self.frames_left {
                         *n = n.saturating_sub(1);
                         if *n == 0 {

@@ -582,6 +582,14 @@ impl Document {
         stats
     }
 
+    /// Forgets what was written to the sinks so far: the next [`Document::tessellate`]
+    /// at each detail writes every patch again, as into new, empty sinks.
+    pub fn forget_sinks(&mut self) {
+        self.views.clear();
+        self.dirty.clear();
+        self.removed.clear();
+    }
+
     /// The number of patches a full tessellation at `detail` writes (for progress).
     pub fn patch_count(&self, detail: Detail) -> usize {
         self.targets

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
 
-use super::{ClusterError, Percentiles};
+use super::{ClusterError, Percentiles, unix_ns};
 
 /// One barrier report.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -47,6 +47,26 @@ pub struct BarrierStats {
     pub readmitted: u64,
     /// Reports that were not barrier reports (counted and ignored).
     pub garbage: u64,
+    /// The first [`LOCK_LOG_CAP`] frames: when each was ready here and passed, and
+    /// which members it waited for (to check the swap lock from outside).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub log: Vec<LockRecord>,
+}
+
+/// Frames a barrier keeps in [`BarrierStats::log`].
+pub const LOCK_LOG_CAP: usize = 2048;
+
+/// One frame through the barrier on one node.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LockRecord {
+    /// The frame.
+    pub frame: u64,
+    /// When this node reported it ready (Unix nanoseconds).
+    pub ready_ns: u64,
+    /// When it passed the barrier, to be presented (Unix nanoseconds).
+    pub pass_ns: u64,
+    /// The live members at the pass: each had reported this frame or a later one.
+    pub waited_for: Vec<String>,
 }
 
 /// The barrier's state on one node; reports arrive on a channel fed by the
@@ -59,6 +79,8 @@ pub struct Barrier {
     rx: mpsc::Receiver<Vec<u8>>,
     waits: Vec<f64>,
     stats: BarrierStats,
+    /// When the last report was made (Unix nanoseconds).
+    ready_ns: u64,
 }
 
 impl Barrier {
@@ -89,11 +111,13 @@ impl Barrier {
             rx,
             waits: Vec::new(),
             stats: BarrierStats::default(),
+            ready_ns: 0,
         }
     }
 
     /// The report to publish for `frame`.
-    pub fn report(&self, frame: u64) -> Result<Vec<u8>, ClusterError> {
+    pub fn report(&mut self, frame: u64) -> Result<Vec<u8>, ClusterError> {
+        self.ready_ns = unix_ns();
         serde_json::to_vec(&Ready {
             node: self.me.clone(),
             frame,
@@ -162,6 +186,19 @@ impl Barrier {
         }
         self.waits.push(start.elapsed().as_secs_f64() * 1e3);
         self.stats.frames += 1;
+        if self.stats.log.len() < LOCK_LOG_CAP {
+            self.stats.log.push(LockRecord {
+                frame,
+                ready_ns: self.ready_ns,
+                pass_ns: unix_ns(),
+                waited_for: self
+                    .members
+                    .iter()
+                    .filter(|(_, m)| !m.dropped)
+                    .map(|(n, _)| n.clone())
+                    .collect(),
+            });
+        }
         let ahead = self
             .members
             .values()

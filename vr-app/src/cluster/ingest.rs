@@ -8,12 +8,12 @@ use std::collections::BTreeSet;
 use std::time::{Duration, Instant};
 
 use async_nats::HeaderMap;
-use tracking::hub::Hub;
+use tracking::hub::{Hub, SourcedFrame};
 use tracking::transport;
 
 use super::{
-    ClusterError, ClusterSection, HDR_KIND, HDR_POSE, HDR_RECEIVED, HDR_SENT, KIND_END, KIND_FRAME,
-    unix_ns,
+    ClusterError, ClusterSection, HDR_KIND, HDR_POSE, HDR_RECEIVED, HDR_RECEIVED_UNIX, HDR_SENT,
+    KIND_END, KIND_FRAME, unix_ns,
 };
 use crate::config::TrackingSection;
 use crate::error::{VrError, VrResult};
@@ -55,6 +55,26 @@ pub fn run_ingest(
         .build()
         .map_err(ClusterError::Runtime)?;
     runtime.block_on(ingest(cluster, section, opts))
+}
+
+/// The headers of a published frame: its receive time on the ingest's hub clock (the
+/// nodes' stages use it) and as Unix time, and the send time (the latency figures).
+fn frame_headers(f: &SourcedFrame, hub: &Hub) -> HeaderMap {
+    let mut headers = HeaderMap::new();
+    headers.insert(HDR_KIND, KIND_FRAME);
+    headers.insert(
+        HDR_RECEIVED,
+        f.frame.receive_time.as_micros().to_string().as_str(),
+    );
+    let sent = unix_ns();
+    let ago = hub.now().saturating_sub(f.frame.receive_time).as_nanos();
+    let received = sent.saturating_sub(u64::try_from(ago).unwrap_or(u64::MAX));
+    headers.insert(HDR_RECEIVED_UNIX, received.to_string().as_str());
+    headers.insert(HDR_SENT, sent.to_string().as_str());
+    if !f.carries_pose {
+        headers.insert(HDR_POSE, "0");
+    }
+    headers
 }
 
 async fn ingest(
@@ -100,18 +120,12 @@ async fn ingest(
             Ok(Some(f)) => {
                 body.clear();
                 tracking::dtrack::encode_frame(&f.frame, &mut body);
-                let mut headers = HeaderMap::new();
-                headers.insert(HDR_KIND, KIND_FRAME);
-                headers.insert(
-                    HDR_RECEIVED,
-                    f.frame.receive_time.as_micros().to_string().as_str(),
-                );
-                headers.insert(HDR_SENT, unix_ns().to_string().as_str());
-                if !f.carries_pose {
-                    headers.insert(HDR_POSE, "0");
-                }
                 client
-                    .publish_with_headers(subject.clone(), headers, body.clone().into())
+                    .publish_with_headers(
+                        subject.clone(),
+                        frame_headers(&f, &hub),
+                        body.clone().into(),
+                    )
                     .await
                     .map_err(publish_err)?;
                 count += 1;
@@ -139,14 +153,12 @@ async fn ingest(
             while let Some(f) = frames.try_recv() {
                 body.clear();
                 tracking::dtrack::encode_frame(&f.frame, &mut body);
-                let mut headers = HeaderMap::new();
-                headers.insert(HDR_KIND, KIND_FRAME);
-                headers.insert(HDR_SENT, unix_ns().to_string().as_str());
-                if !f.carries_pose {
-                    headers.insert(HDR_POSE, "0");
-                }
                 client
-                    .publish_with_headers(subject.clone(), headers, body.clone().into())
+                    .publish_with_headers(
+                        subject.clone(),
+                        frame_headers(&f, &hub),
+                        body.clone().into(),
+                    )
                     .await
                     .map_err(publish_err)?;
                 drained += 1;

@@ -6,7 +6,7 @@
 //! - **ingest** ([`ingest::run_ingest`]): reads the tracker as a display server does
 //!   (the `[tracking]` sources) and publishes each raw DTrack2 frame it receives, with
 //!   its receive time, on `<session>.tracking.<feed>` (core NATS);
-//! - **node** ([`node::run_node`]): subscribes to its feed, runs its own
+//! - **node** ([`node::NodeLoop`], windowed or headless): subscribes to its feed, runs its own
 //!   [`tracking::stage::FrameStage`] and interaction; an *owner* node publishes the
 //!   edits its interaction proposes to the JetStream stream on `<session>.ops`; every
 //!   node (the proposer too) applies the stream in order, so every document is
@@ -39,6 +39,9 @@ pub const HDR_OWNER: &str = "Ws-Owner";
 pub const HDR_SENT: &str = "Ws-Sent-Unix-Ns";
 /// Header: the ingest's receive time of a tracking frame (its hub clock, microseconds).
 pub const HDR_RECEIVED: &str = "Ws-Receive-Us";
+/// Header: when the ingest received a tracking frame, Unix time in nanoseconds (the
+/// propagation figure only).
+pub const HDR_RECEIVED_UNIX: &str = "Ws-Receive-Unix-Ns";
 /// Header: `0` for a frame from a buttons-only source (no poses).
 pub const HDR_POSE: &str = "Ws-Pose";
 /// [`HDR_KIND`] of a tracking frame.
@@ -209,7 +212,7 @@ pub struct ClusterSection {
     /// Frame barrier: seconds to wait for a node before dropping it from the barrier.
     pub barrier_timeout: f64,
     /// Frame rate of a headless node's frame loop (frames per second); each frame
-    /// passes the barrier.
+    /// passes the barrier. A windowed node's frames come at its display's rate.
     pub frame_rate: f64,
     /// Whether nodes hold each frame at the barrier.
     pub barrier: bool,

@@ -1,5 +1,7 @@
-//! The node role: a render node of the cluster (headless here: it writes the document
-//! and its own screen's pictures when the session ends).
+//! The node role: a render node of the cluster, in a window on its screen
+//! ([`crate::window::run_windowed_node`]: each frame presents after the swap lock) or
+//! headless ([`run_node`]); either writes the document and its own screen's pictures
+//! when the session ends.
 //!
 //! The node follows its tracking feed through its own hub and
 //! [`tracking::stage::FrameStage`] (the [`LiveTracking`] of a display server, fed from
@@ -26,8 +28,9 @@ use super::barrier::{Barrier, BarrierStats};
 use super::snapshot::{self, SnapshotError, SnapshotRecord, StreamId};
 use super::wand::{PeerWandStats, PeerWands, WandPose, WandRate, show_peers};
 use super::{
-    ClusterConfigError, ClusterError, ClusterSection, HDR_KIND, HDR_OWNER, HDR_POSE, HDR_SENT,
-    KIND_EDIT, KIND_END, NatsFailure, Percentiles, Subjects, header, unix_ns,
+    ClusterConfigError, ClusterError, ClusterSection, HDR_KIND, HDR_OWNER, HDR_POSE, HDR_RECEIVED,
+    HDR_RECEIVED_UNIX, HDR_SENT, KIND_EDIT, KIND_END, NatsFailure, NodeSection, Percentiles,
+    Subjects, header, unix_ns,
 };
 use crate::app::AppState;
 use crate::config::Config;
@@ -52,6 +55,9 @@ const ACK_WAIT: Duration = Duration::from_secs(2);
 /// The base scene a node opens when it starts from a snapshot (the snapshot's
 /// document), in its session directory.
 pub const SNAPSHOT_SCENE_FILE: &str = "snapshot.scene.json";
+
+/// Positions a node keeps in [`NodeReport::apply_by_seq`].
+pub const APPLY_LOG_CAP: usize = 4096;
 
 /// One operation in the stream: the body of a `<session>.ops` message.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -104,13 +110,21 @@ pub struct NodeReport {
     pub garbage_frames: u64,
     /// Tracking frames received.
     pub frames: u64,
-    /// Ingest publish to this node's hub (stage input), milliseconds.
+    /// From the ingest receiving a tracker frame to this node's stage taking it
+    /// (the staged sample), milliseconds.
     pub propagation_ms: Percentiles,
     /// Owner: propose to applied here (acknowledged by JetStream and back through the
     /// stream), milliseconds.
     pub commit_ms: Percentiles,
     /// Proposer's publish to applied on this node, milliseconds.
     pub apply_ms: Percentiles,
+    /// The same per stream position (the first [`APPLY_LOG_CAP`]): the slowest node's
+    /// figure for a position is the operation's latency to applied on every node.
+    pub apply_by_seq: Vec<(u64, f64)>,
+    /// Frames presented (windowed) or passed (headless) after the swap lock.
+    pub presented: u64,
+    /// Whether the node drew into a window ([`crate::window::run_windowed_node`]).
+    pub windowed: bool,
     /// The frame barrier, when on.
     pub barrier: Option<BarrierStats>,
 }
@@ -147,7 +161,53 @@ struct OpMsg {
 struct FeedStats {
     frames: AtomicU64,
     garbage: AtomicU64,
-    propagation_ms: Mutex<Vec<f64>>,
+    /// [`FeedClock::base`]: to turn a staged frame's receive time into the Unix time
+    /// the ingest received it.
+    clock: Mutex<Option<(Duration, u64)>>,
+}
+
+/// The receive times a node gives the feed's frames: the ingest's (its hub clock,
+/// [`HDR_RECEIVED`]), moved onto this node's hub clock at the first frame. So every
+/// node's stage sees the same intervals between frames as the ingest's did (the stage
+/// reads them where frames carry no timestamp), whatever the network did to them.
+#[derive(Debug, Default)]
+struct FeedClock {
+    /// The ingest's receive time and this node's hub time at the first frame, and the
+    /// Unix time the ingest received it ([`HDR_RECEIVED_UNIX`]), if sent.
+    base: Option<(Duration, Duration, Option<u64>)>,
+    /// The ingest's receive time of the last frame.
+    last: Option<Duration>,
+}
+
+impl FeedClock {
+    /// The receive time of a frame that arrives at `now` (this node's hub clock) with
+    /// the ingest's receive time `ingest_us` and its Unix time `ingest_unix_ns`. A frame
+    /// without the ingest's time is stamped `now`; an ingest whose clock went back (a
+    /// new ingest process) starts a new base.
+    fn receive_time(
+        &mut self,
+        now: Duration,
+        ingest_us: Option<u64>,
+        ingest_unix_ns: Option<u64>,
+    ) -> Duration {
+        let Some(us) = ingest_us else {
+            return now;
+        };
+        let ingest = Duration::from_micros(us);
+        if self.last.is_some_and(|l| ingest < l) {
+            self.base = None;
+        }
+        self.last = Some(ingest);
+        let (ingest0, node0, _) = *self.base.get_or_insert((ingest, now, ingest_unix_ns));
+        node0 + ingest.saturating_sub(ingest0)
+    }
+
+    /// This node's hub time of the first frame and the Unix time the ingest received
+    /// it, when it said.
+    fn base(&self) -> Option<(Duration, u64)> {
+        let (_, node0, unix0) = self.base?;
+        Some((node0, unix0?))
+    }
 }
 
 /// Prepares a node's configuration: its screen and session directory from its
@@ -207,7 +267,9 @@ struct Node {
     ends: BTreeSet<String>,
     commit_ms: Vec<f64>,
     apply_ms: Vec<f64>,
-    app: AppState,
+    /// Stream position -> proposer's publish to applied here (ms), for the figure
+    /// "applied on every node" (the slowest node per operation).
+    apply_by_seq: Vec<(u64, f64)>,
     snap: Snapshots,
 }
 
@@ -234,7 +296,7 @@ struct Snapshots {
 impl Node {
     /// Applies one stream message (once: a message seen again after the consumer was
     /// recreated is skipped).
-    fn take(&mut self, m: OpMsg) -> VrResult<()> {
+    fn take(&mut self, app: &mut AppState, m: OpMsg) -> VrResult<()> {
         if m.seq <= self.applied_seq {
             return Ok(());
         }
@@ -252,17 +314,20 @@ impl Node {
                 Ok(rec) => {
                     if rec.edit == Edit::Undo
                         && self.snap.loaded.is_some()
-                        && !self.app.session.doc.can_undo()
+                        && !app.session.doc.can_undo()
                     {
                         // The step to undo is older than the snapshot, whose document
                         // has no history: rebuild from the whole stream first.
-                        self.rebuild(m.seq - 1)?;
+                        self.rebuild(app, m.seq - 1)?;
                     }
-                    self.app.session.apply_committed(rec.t, &rec.edit)?;
+                    app.session.apply_committed(rec.t, &rec.edit)?;
                     self.applied += 1;
                     if let Some(sent) = m.sent_ns {
-                        self.apply_ms
-                            .push(unix_ns().saturating_sub(sent) as f64 / 1e6);
+                        let ms = unix_ns().saturating_sub(sent) as f64 / 1e6;
+                        self.apply_ms.push(ms);
+                        if self.apply_by_seq.len() < APPLY_LOG_CAP {
+                            self.apply_by_seq.push((m.seq, ms));
+                        }
                     }
                 }
                 Err(e) => {
@@ -287,7 +352,7 @@ impl Node {
     /// Replaces the document (loaded from a snapshot, so without undo history) with
     /// the one the stream's positions `1..=upto` build from the base scene, as a node
     /// that replayed the whole stream has it.
-    fn rebuild(&mut self, upto: u64) -> VrResult<()> {
+    fn rebuild(&mut self, app: &mut AppState, upto: u64) -> VrResult<()> {
         let from = self.snap.loaded.take().unwrap_or_default();
         tracing::warn!(
             snapshot = from,
@@ -318,7 +383,7 @@ impl Node {
             }
         }
         task.abort();
-        *self.app.session.draw_parts().0 = doc;
+        *app.session.draw_parts().0 = doc;
         self.snap.report.rebuilt += 1;
         Ok(())
     }
@@ -327,7 +392,7 @@ impl Node {
     /// positions have passed since the last (or, at `end`, when any have), in the
     /// background. Only at a position whose document says everything the stream
     /// needs: no undone step waiting for a redo (the document's JSON has no history).
-    fn snapshot(&mut self, end: bool) {
+    fn snapshot(&mut self, app: &AppState, end: bool) {
         let Some(store) = self.snap.store.clone() else {
             return;
         };
@@ -351,7 +416,7 @@ impl Node {
         } else {
             self.snap.every > 0 && self.applied_seq >= last + self.snap.every
         };
-        if !due || self.app.session.doc.can_redo() {
+        if !due || app.session.doc.can_redo() {
             return;
         }
         let record = SnapshotRecord {
@@ -360,7 +425,7 @@ impl Node {
             seq: self.applied_seq,
             ends: self.ends.iter().cloned().collect(),
             writer: self.name.clone(),
-            document: self.app.session.doc.to_json(),
+            document: app.session.doc.to_json(),
         };
         let bytes = match record.encode() {
             Ok(b) => b,
@@ -395,22 +460,22 @@ impl Node {
     }
 
     /// Applies what the stream has delivered so far.
-    fn drain(&mut self) -> VrResult<()> {
+    fn drain(&mut self, app: &mut AppState) -> VrResult<()> {
         while let Ok(m) = self.ops.try_recv() {
-            self.take(m)?;
+            self.take(app, m)?;
         }
         Ok(())
     }
 
     /// Waits until the stream position `seq` is applied (or `deadline` passes).
-    fn wait_applied(&mut self, seq: u64, deadline: Instant) -> VrResult<()> {
+    fn wait_applied(&mut self, app: &mut AppState, seq: u64, deadline: Instant) -> VrResult<()> {
         while self.applied_seq < seq {
             let left = deadline.saturating_duration_since(Instant::now());
             if left.is_zero() {
                 return Err(ClusterError::CommitTimeout(self.commit_timeout).into());
             }
             match self.ops.recv_timeout(left) {
-                Ok(m) => self.take(m)?,
+                Ok(m) => self.take(app, m)?,
                 Err(mpsc::RecvTimeoutError::Timeout) => {}
                 Err(mpsc::RecvTimeoutError::Disconnected) => {
                     return Err(ClusterError::JetStream {
@@ -467,7 +532,7 @@ impl Node {
 
     /// Commits edits proposed by this (owner) node, one at a time: each is stored and
     /// applied (through the stream) before the next input, as a local edit would be.
-    fn commit(&mut self, t: f64, edits: Vec<Edit>) -> VrResult<()> {
+    fn commit(&mut self, app: &mut AppState, t: f64, edits: Vec<Edit>) -> VrResult<()> {
         for edit in edits {
             let started = Instant::now();
             let deadline = started + self.commit_timeout;
@@ -479,7 +544,7 @@ impl Node {
             })?;
             let seq = self.publish(KIND_EDIT, body, deadline)?;
             self.committed += 1;
-            self.wait_applied(seq, deadline)?;
+            self.wait_applied(app, seq, deadline)?;
             self.commit_ms.push(started.elapsed().as_secs_f64() * 1e3);
         }
         Ok(())
@@ -487,23 +552,23 @@ impl Node {
 
     /// Feeds one input: edits are committed by an owner and dropped by other nodes
     /// (whose documents follow the stream only).
-    fn input(&mut self, input: Input, last_t: &mut f64) -> VrResult<()> {
+    fn input(&mut self, app: &mut AppState, input: Input, last_t: &mut f64) -> VrResult<()> {
         match input {
             Input::Wand(ev) => {
-                let edits = self.app.session.propose(&ev)?;
+                let edits = app.session.propose(&ev)?;
                 if ev.t.is_finite() {
                     *last_t = last_t.max(ev.t);
                 }
                 if self.owner {
-                    self.commit(ev.t, edits)?;
+                    self.commit(app, ev.t, edits)?;
                 }
             }
-            Input::Head(h) => self.app.set_head(h),
-            Input::Tracking(t) => self.app.tracking = t,
+            Input::Head(h) => app.set_head(h),
+            Input::Tracking(t) => app.tracking = t,
             Input::Tick(t) => {
-                let edits = self.app.session.propose_tick(t)?;
+                let edits = app.session.propose_tick(t)?;
                 if self.owner {
-                    self.commit(t, edits)?;
+                    self.commit(app, t, edits)?;
                 }
             }
         }
@@ -511,372 +576,540 @@ impl Node {
     }
 }
 
+/// A running node, from its start (connected, subscribed, caught up with the stream)
+/// to its end. Its drivers call [`NodeLoop::step`] every turn and [`NodeLoop::swap_lock`]
+/// between drawing a frame and presenting it: the headless one ([`run_node`]) and the
+/// window's ([`crate::window::run_windowed_node`]), whose presentation of frame N
+/// waits until every live node has frame N ready.
+pub struct NodeLoop {
+    node: Node,
+    live: LiveTracking,
+    client: async_nats::Client,
+    cluster: ClusterSection,
+    me: NodeSection,
+    barrier: Option<Barrier>,
+    peers: PeerWands,
+    wand_rate: WandRate,
+    wand_subject: String,
+    wand_rx: mpsc::Receiver<(String, Vec<u8>)>,
+    feed: Arc<FeedStats>,
+    started: Instant,
+    idle_exit: f64,
+    duration: f64,
+    frame_dt: Duration,
+    next_frame: Instant,
+    frame_no: u64,
+    last_t: f64,
+    ended: bool,
+    backlog: u64,
+    catch_up_s: f64,
+    propagation_ms: Vec<f64>,
+    presented: u64,
+}
+
+impl std::fmt::Debug for NodeLoop {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("NodeLoop")
+            .field("node", &self.me.name)
+            .field("owner", &self.node.owner)
+            .field("frame", &self.frame_no)
+            .finish_non_exhaustive()
+    }
+}
+
 /// Runs a headless node until every owner's session has ended (or `duration`
 /// passes), then writes its document and its screen's pictures.
-pub fn run_node(mut config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeReport> {
-    let cluster: ClusterSection = config
-        .cluster
-        .clone()
-        .ok_or(ClusterError::Config(ClusterConfigError::NoSection))?;
-    cluster.validate()?;
-    let me = cluster.node(&opts.name)?.clone();
-    let subjects = cluster.subjects();
-    let mut section = config
-        .tracking
-        .clone()
-        .ok_or(ClusterError::Config(ClusterConfigError::NoTracking))?;
-    // The feed is the node's only source; the configured ones are the ingest's.
-    section.input.sources.clear();
-    section.playback = None;
-    let mut live = LiveTracking::start(&section, config.interaction.pause_timeout)?;
-    let (hub, feed_src) = live.add_feed(&format!("nats:{}", me.feed));
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(1)
-        .enable_all()
-        .thread_name("wandsculpt-cluster")
-        .build()
-        .map_err(ClusterError::Runtime)?;
-    let started = Instant::now();
-    let client = rt.block_on(cluster.connect(&format!("wandsculpt-{}", me.name)))?;
-    let js = jetstream::new(client.clone());
-    let jserr =
-        |what: &'static str| move |e: NatsFailure| ClusterError::JetStream { what, source: e };
-    // Nodes starting together race to create the stream, and a server just started
-    // may not have JetStream ready yet: retry for a while before giving up.
-    let stream_config = stream::Config {
-        name: subjects.stream.clone(),
-        subjects: vec![subjects.ops.clone()],
-        storage: stream::StorageType::File,
-        ..Default::default()
-    };
-    let mut attempt = 0;
-    let mut ops_stream = loop {
-        match rt.block_on(js.get_or_create_stream(stream_config.clone())) {
-            Ok(stream) => break stream,
-            Err(e) if attempt < STREAM_ATTEMPTS => {
-                attempt += 1;
-                tracing::warn!("creating the operation stream: {e}; retrying");
-                std::thread::sleep(STREAM_RETRY);
-            }
-            Err(e) => return Err(jserr("stream")(e.into()).into()),
-        }
-    };
-    let info = rt
-        .block_on(ops_stream.info())
-        .map_err(|e| jserr("stream info")(e.into()))?;
-    let stream_last = info.state.last_sequence;
-    let stream_id = StreamId {
-        created_unix_ns: i64::try_from(info.created.unix_timestamp_nanos()).unwrap_or(i64::MAX),
-    };
-
-    // The latest snapshot, when there is a good one: its document becomes the base
-    // scene and the stream is followed from the position after it.
-    let base_scene = config.files.scene.clone();
-    let mut snap_report = SnapshotReport::default();
-    let mut snap_store = None;
-    let mut loaded: Option<SnapshotRecord> = None;
-    if cluster.snapshots {
-        match rt.block_on(snapshot::bucket(&js, &subjects.snapshots)) {
-            Ok(store) => {
-                match rt.block_on(load_snapshot(
-                    &store,
-                    &cluster.session,
-                    stream_id,
-                    stream_last,
-                    &config.files.dir,
-                )) {
-                    Ok((rec, path)) => {
-                        tracing::info!(
-                            seq = rec.seq,
-                            writer = %rec.writer,
-                            "starting from the snapshot"
-                        );
-                        config.files.scene = Some(path);
-                        snap_report.loaded_seq = Some(rec.seq);
-                        loaded = Some(rec);
-                    }
-                    Err(reason) => {
-                        let text = reason.map_or_else(
-                            || "no snapshot stored".to_string(),
-                            |e| sculpt_core::error::Chain(&e).to_string(),
-                        );
-                        if text != "no snapshot stored" {
-                            tracing::warn!("snapshot not used, replaying the whole stream: {text}");
-                        }
-                        snap_report.fallback = Some(text);
-                    }
-                }
-                snap_store = Some(store);
-            }
-            Err(e) => {
-                let text = sculpt_core::error::Chain(&e).to_string();
-                tracing::warn!("no snapshot bucket, replaying the whole stream: {text}");
-                snap_report.fallback = Some(text);
-            }
-        }
-    }
-    let start_seq = loaded.as_ref().map_or(0, |r| r.seq);
-    let backlog = stream_last.saturating_sub(start_seq);
-    let app = AppState::new(config.clone())?;
-
-    // The operation stream, in order, from the position after the snapshot.
-    let (ops_tx, ops_rx) = mpsc::channel();
-    rt.spawn(follow_stream(
-        ops_stream.clone(),
-        subjects.ops.clone(),
-        start_seq + 1,
-        ops_tx,
-    ));
-
-    // The tracking feed into this node's hub.
-    let feed = Arc::new(FeedStats::default());
-    let mut tracking_sub = rt
-        .block_on(client.subscribe(subjects.tracking(&me.feed)))
-        .map_err(|e| jserr("tracking subscription")(e.into()))?;
-    let feed_stats = feed.clone();
-    rt.spawn(async move {
-        let mut opened = false;
-        while let Some(msg) = tracking_sub.next().await {
-            if header(&msg, HDR_KIND) == Some(KIND_END) {
-                if opened {
-                    hub.connection_closed(feed_src, hub.now());
-                }
+pub fn run_node(config: Config, opts: &NodeOptions, gpu: &Gpu) -> VrResult<NodeReport> {
+    let (mut node, mut app) = NodeLoop::start(config, opts)?;
+    while !node.step(&mut app)? {
+        if node.barrier.is_some() {
+            let now = Instant::now();
+            if now < node.next_frame {
+                std::thread::sleep((node.next_frame - now).min(Duration::from_millis(2)));
                 continue;
             }
-            match tracking::dtrack::parse_frame(&msg.payload) {
-                Ok(mut frame) => {
-                    if !opened {
-                        hub.connection_opened(feed_src);
-                        opened = true;
+            node.swap_lock()?;
+        } else {
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    }
+    node.finish(&mut app, gpu, &opts.headless)
+}
+
+impl NodeLoop {
+    /// Connects, finds (or creates) the operation stream, loads the latest good
+    /// snapshot, subscribes to the feed, the barrier and the wands, and applies the
+    /// stream's backlog; then writes [`READY_FILE`]. Returns the node and the display
+    /// state its documents live in.
+    pub fn start(mut config: Config, opts: &NodeOptions) -> VrResult<(Self, AppState)> {
+        let cluster: ClusterSection = config
+            .cluster
+            .clone()
+            .ok_or(ClusterError::Config(ClusterConfigError::NoSection))?;
+        cluster.validate()?;
+        let me = cluster.node(&opts.name)?.clone();
+        let subjects = cluster.subjects();
+        let mut section = config
+            .tracking
+            .clone()
+            .ok_or(ClusterError::Config(ClusterConfigError::NoTracking))?;
+        // The feed is the node's only source; the configured ones are the ingest's.
+        section.input.sources.clear();
+        section.playback = None;
+        let mut live = LiveTracking::start(&section, config.interaction.pause_timeout)?;
+        let (hub, feed_src) = live.add_feed(&format!("nats:{}", me.feed));
+        let rt = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(1)
+            .enable_all()
+            .thread_name("wandsculpt-cluster")
+            .build()
+            .map_err(ClusterError::Runtime)?;
+        let started = Instant::now();
+        let client = rt.block_on(cluster.connect(&format!("wandsculpt-{}", me.name)))?;
+        let js = jetstream::new(client.clone());
+        let jserr =
+            |what: &'static str| move |e: NatsFailure| ClusterError::JetStream { what, source: e };
+        // Nodes starting together race to create the stream, and a server just started
+        // may not have JetStream ready yet: retry for a while before giving up.
+        let stream_config = stream::Config {
+            name: subjects.stream.clone(),
+            subjects: vec![subjects.ops.clone()],
+            storage: stream::StorageType::File,
+            ..Default::default()
+        };
+        let mut attempt = 0;
+        let mut ops_stream = loop {
+            match rt.block_on(js.get_or_create_stream(stream_config.clone())) {
+                Ok(stream) => break stream,
+                Err(e) if attempt < STREAM_ATTEMPTS => {
+                    attempt += 1;
+                    tracing::warn!("creating the operation stream: {e}; retrying");
+                    std::thread::sleep(STREAM_RETRY);
+                }
+                Err(e) => return Err(jserr("stream")(e.into()).into()),
+            }
+        };
+        let info = rt
+            .block_on(ops_stream.info())
+            .map_err(|e| jserr("stream info")(e.into()))?;
+        let stream_last = info.state.last_sequence;
+        let stream_id = StreamId {
+            created_unix_ns: i64::try_from(info.created.unix_timestamp_nanos()).unwrap_or(i64::MAX),
+        };
+
+        // The latest snapshot, when there is a good one: its document becomes the base
+        // scene and the stream is followed from the position after it.
+        let base_scene = config.files.scene.clone();
+        let mut snap_report = SnapshotReport::default();
+        let mut snap_store = None;
+        let mut loaded: Option<SnapshotRecord> = None;
+        if cluster.snapshots {
+            match rt.block_on(snapshot::bucket(&js, &subjects.snapshots)) {
+                Ok(store) => {
+                    match rt.block_on(load_snapshot(
+                        &store,
+                        &cluster.session,
+                        stream_id,
+                        stream_last,
+                        &config.files.dir,
+                    )) {
+                        Ok((rec, path)) => {
+                            tracing::info!(
+                                seq = rec.seq,
+                                writer = %rec.writer,
+                                "starting from the snapshot"
+                            );
+                            config.files.scene = Some(path);
+                            snap_report.loaded_seq = Some(rec.seq);
+                            loaded = Some(rec);
+                        }
+                        Err(reason) => {
+                            let text = reason.map_or_else(
+                                || "no snapshot stored".to_string(),
+                                |e| sculpt_core::error::Chain(&e).to_string(),
+                            );
+                            if text != "no snapshot stored" {
+                                tracing::warn!(
+                                    "snapshot not used, replaying the whole stream: {text}"
+                                );
+                            }
+                            snap_report.fallback = Some(text);
+                        }
                     }
-                    frame.receive_time = hub.now();
-                    let pose = header(&msg, HDR_POSE) != Some("0");
-                    hub.apply(feed_src, &frame, pose);
-                    feed_stats.frames.fetch_add(1, Ordering::Relaxed);
-                    if let Some(sent) = header(&msg, HDR_SENT).and_then(|s| s.parse::<u64>().ok())
-                        && let Ok(mut v) = feed_stats.propagation_ms.lock()
-                    {
-                        v.push(unix_ns().saturating_sub(sent) as f64 / 1e6);
-                    }
+                    snap_store = Some(store);
                 }
                 Err(e) => {
-                    feed_stats.garbage.fetch_add(1, Ordering::Relaxed);
-                    tracing::debug!("ignoring a tracking message that is not a frame: {e}");
+                    let text = sculpt_core::error::Chain(&e).to_string();
+                    tracing::warn!("no snapshot bucket, replaying the whole stream: {text}");
+                    snap_report.fallback = Some(text);
                 }
             }
         }
-    });
+        let start_seq = loaded.as_ref().map_or(0, |r| r.seq);
+        let backlog = stream_last.saturating_sub(start_seq);
+        let mut app = AppState::new(config.clone())?;
 
-    // The frame barrier.
-    let mut barrier = if cluster.barrier {
-        let (tx, rx) = mpsc::channel();
-        let mut sub = rt
-            .block_on(client.subscribe(subjects.barrier.clone()))
-            .map_err(|e| jserr("barrier subscription")(e.into()))?;
+        // The operation stream, in order, from the position after the snapshot.
+        let (ops_tx, ops_rx) = mpsc::channel();
+        rt.spawn(follow_stream(
+            ops_stream.clone(),
+            subjects.ops.clone(),
+            start_seq + 1,
+            ops_tx,
+        ));
+
+        // The tracking feed into this node's hub.
+        let feed = Arc::new(FeedStats::default());
+        let mut tracking_sub = rt
+            .block_on(client.subscribe(subjects.tracking(&me.feed)))
+            .map_err(|e| jserr("tracking subscription")(e.into()))?;
+        let feed_stats = feed.clone();
         rt.spawn(async move {
-            while let Some(msg) = sub.next().await {
-                if tx.send(msg.payload.to_vec()).is_err() {
+            let mut opened = false;
+            let mut clock = FeedClock::default();
+            while let Some(msg) = tracking_sub.next().await {
+                if header(&msg, HDR_KIND) == Some(KIND_END) {
+                    if opened {
+                        hub.connection_closed(feed_src, hub.now());
+                    }
+                    continue;
+                }
+                match tracking::dtrack::parse_frame(&msg.payload) {
+                    Ok(mut frame) => {
+                        if !opened {
+                            hub.connection_opened(feed_src);
+                            opened = true;
+                        }
+                        let ingest_us = header(&msg, HDR_RECEIVED).and_then(|s| s.parse().ok());
+                        let ingest_unix =
+                            header(&msg, HDR_RECEIVED_UNIX).and_then(|s| s.parse().ok());
+                        frame.receive_time = clock.receive_time(hub.now(), ingest_us, ingest_unix);
+                        let pose = header(&msg, HDR_POSE) != Some("0");
+                        hub.apply(feed_src, &frame, pose);
+                        feed_stats.frames.fetch_add(1, Ordering::Relaxed);
+                        if let Ok(mut base) = feed_stats.clock.lock() {
+                            *base = clock.base();
+                        }
+                    }
+                    Err(e) => {
+                        feed_stats.garbage.fetch_add(1, Ordering::Relaxed);
+                        tracing::debug!("ignoring a tracking message that is not a frame: {e}");
+                    }
+                }
+            }
+        });
+
+        // The frame barrier.
+        let barrier = if cluster.barrier {
+            let (tx, rx) = mpsc::channel();
+            let mut sub = rt
+                .block_on(client.subscribe(subjects.barrier.clone()))
+                .map_err(|e| jserr("barrier subscription")(e.into()))?;
+            rt.spawn(async move {
+                while let Some(msg) = sub.next().await {
+                    if tx.send(msg.payload.to_vec()).is_err() {
+                        break;
+                    }
+                }
+            });
+            let names: Vec<String> = cluster.nodes.iter().map(|n| n.name.clone()).collect();
+            Some(Barrier::new(
+                &me.name,
+                &names,
+                Duration::from_secs_f64(cluster.barrier_timeout),
+                rx,
+            ))
+        } else {
+            None
+        };
+        // The other sculptors' wands.
+        let (wand_tx, wand_rx) = mpsc::channel::<(String, Vec<u8>)>();
+        let mut wand_sub = rt
+            .block_on(client.subscribe(subjects.wands.clone()))
+            .map_err(|e| jserr("wand subscription")(e.into()))?;
+        rt.spawn(async move {
+            while let Some(msg) = wand_sub.next().await {
+                let node = msg
+                    .subject
+                    .rsplit('.')
+                    .next()
+                    .unwrap_or_default()
+                    .to_string();
+                if wand_tx.send((node, msg.payload.to_vec())).is_err() {
                     break;
                 }
             }
         });
-        let names: Vec<String> = cluster.nodes.iter().map(|n| n.name.clone()).collect();
-        Some(Barrier::new(
-            &me.name,
-            &names,
-            Duration::from_secs_f64(cluster.barrier_timeout),
-            rx,
+        let (own_feed, other_feeds): (Vec<&super::NodeSection>, Vec<&super::NodeSection>) = cluster
+            .nodes
+            .iter()
+            .filter(|n| n.owner)
+            .partition(|n| n.feed == me.feed);
+        let peers = PeerWands::new(
+            other_feeds.iter().map(|n| n.name.clone()),
+            own_feed.iter().map(|n| n.name.clone()),
+            Duration::from_secs_f64(cluster.wand_stale),
+        );
+        let wand_rate = WandRate::new(cluster.wand_rate);
+        let wand_subject = subjects.wand(&me.name);
+
+        rt.block_on(client.flush())
+            .map_err(|e| jserr("flush")(e.into()))?;
+
+        let mut node = Node {
+            rt,
+            js,
+            subjects: subjects.clone(),
+            name: me.name.clone(),
+            owner: me.owner,
+            owners: cluster.owners().into_iter().collect(),
+            commit_timeout: Duration::from_secs_f64(cluster.commit_timeout),
+            run_id: unix_ns(),
+            proposed: 0,
+            ops: ops_rx,
+            applied_seq: start_seq,
+            applied: 0,
+            committed: 0,
+            garbage_ops: 0,
+            ends: loaded
+                .as_ref()
+                .map(|r| r.ends.iter().cloned().collect())
+                .unwrap_or_default(),
+            commit_ms: Vec::new(),
+            apply_ms: Vec::new(),
+            apply_by_seq: Vec::new(),
+            snap: Snapshots {
+                store: snap_store,
+                session: cluster.session.clone(),
+                stream: stream_id,
+                ops_stream,
+                every: cluster.snapshot_every,
+                loaded: loaded.as_ref().map(|r| r.seq),
+                base_scene,
+                writing: None,
+                report: snap_report,
+            },
+        };
+        drop(loaded);
+        // Catch up with the stream before following the feed.
+        node.wait_applied(
+            &mut app,
+            stream_last,
+            started + Duration::from_secs_f64(opts.duration),
+        )?;
+        let catch_up_s = started.elapsed().as_secs_f64();
+        tracing::info!(node = %me.name, backlog, catch_up_s, "caught up with the operation stream");
+        crate::session::write_atomic(
+            &app.session.dir().join(READY_FILE),
+            format!("{}\n", me.name).as_bytes(),
+        )?;
+
+        let frame_dt = Duration::from_secs_f64(1.0 / cluster.frame_rate);
+        let me_section = me.clone();
+        Ok((
+            Self {
+                node,
+                live,
+                client,
+                cluster,
+                me: me_section,
+                barrier,
+                peers,
+                wand_rate,
+                wand_subject,
+                wand_rx,
+                feed,
+                started,
+                idle_exit: opts.idle_exit,
+                duration: opts.duration,
+                frame_dt,
+                next_frame: Instant::now(),
+                frame_no: 0,
+                last_t: 0.0,
+                ended: false,
+                backlog,
+                catch_up_s,
+                propagation_ms: Vec::new(),
+                presented: 0,
+            },
+            app,
         ))
-    } else {
-        None
-    };
-    // The other sculptors' wands.
-    let (wand_tx, wand_rx) = mpsc::channel::<(String, Vec<u8>)>();
-    let mut wand_sub = rt
-        .block_on(client.subscribe(subjects.wands.clone()))
-        .map_err(|e| jserr("wand subscription")(e.into()))?;
-    rt.spawn(async move {
-        while let Some(msg) = wand_sub.next().await {
-            let node = msg
-                .subject
-                .rsplit('.')
-                .next()
-                .unwrap_or_default()
-                .to_string();
-            if wand_tx.send((node, msg.payload.to_vec())).is_err() {
-                break;
-            }
+    }
+
+    /// Whether this node's interaction proposes edits.
+    pub fn owner(&self) -> bool {
+        self.node.owner
+    }
+
+    /// One turn: the tracking feed's new samples through the interaction (an owner
+    /// commits the edits it proposes), the stream's new operations, the other
+    /// sculptors' wands, a snapshot when due, and the owner's end of session. Returns
+    /// `true` once the session is over for this node (every owner has ended, or the
+    /// duration passed).
+    pub fn step(&mut self, app: &mut AppState) -> VrResult<bool> {
+        for input in self.live.poll() {
+            self.node.input(app, input, &mut self.last_t)?;
         }
-    });
-    let (own_feed, other_feeds): (Vec<&super::NodeSection>, Vec<&super::NodeSection>) = cluster
-        .nodes
-        .iter()
-        .filter(|n| n.owner)
-        .partition(|n| n.feed == me.feed);
-    let mut peers = PeerWands::new(
-        other_feeds.iter().map(|n| n.name.clone()),
-        own_feed.iter().map(|n| n.name.clone()),
-        Duration::from_secs_f64(cluster.wand_stale),
-    );
-    let mut wand_rate = WandRate::new(cluster.wand_rate);
-    let wand_subject = subjects.wand(&me.name);
-
-    rt.block_on(client.flush())
-        .map_err(|e| jserr("flush")(e.into()))?;
-
-    let mut node = Node {
-        rt,
-        js,
-        subjects: subjects.clone(),
-        name: me.name.clone(),
-        owner: me.owner,
-        owners: cluster.owners().into_iter().collect(),
-        commit_timeout: Duration::from_secs_f64(cluster.commit_timeout),
-        run_id: unix_ns(),
-        proposed: 0,
-        ops: ops_rx,
-        applied_seq: start_seq,
-        applied: 0,
-        committed: 0,
-        garbage_ops: 0,
-        ends: loaded
-            .as_ref()
-            .map(|r| r.ends.iter().cloned().collect())
-            .unwrap_or_default(),
-        commit_ms: Vec::new(),
-        apply_ms: Vec::new(),
-        app,
-        snap: Snapshots {
-            store: snap_store,
-            session: cluster.session.clone(),
-            stream: stream_id,
-            ops_stream,
-            every: cluster.snapshot_every,
-            loaded: loaded.as_ref().map(|r| r.seq),
-            base_scene,
-            writing: None,
-            report: snap_report,
-        },
-    };
-    drop(loaded);
-    // Catch up with the stream before following the feed.
-    node.wait_applied(
-        stream_last,
-        started + Duration::from_secs_f64(opts.duration),
-    )?;
-    let catch_up_s = started.elapsed().as_secs_f64();
-    tracing::info!(node = %me.name, backlog, catch_up_s, "caught up with the operation stream");
-    crate::session::write_atomic(
-        &node.app.session.dir().join(READY_FILE),
-        format!("{}\n", me.name).as_bytes(),
-    )?;
-
-    let frame_dt = Duration::from_secs_f64(1.0 / cluster.frame_rate);
-    let mut next_frame = Instant::now();
-    let mut frame_no = 0u64;
-    let mut last_t = 0.0f64;
-    let mut ended = false;
-    loop {
-        for input in live.poll() {
-            node.input(input, &mut last_t)?;
-        }
-        node.drain()?;
+        self.note_propagation();
+        self.node.drain(app)?;
         let now = Instant::now();
-        show_peers(&mut node.app, &mut peers, wand_rx.try_iter(), now);
-        if node.owner
-            && !ended
-            && let Some((t, tip, q)) = node.app.session.interaction.wand()
-            && wand_rate.due(t, now)
+        show_peers(app, &mut self.peers, self.wand_rx.try_iter(), now);
+        if self.node.owner
+            && !self.ended
+            && let Some((t, tip, q)) = app.session.interaction.wand()
+            && self.wand_rate.due(t, now)
         {
-            let active = node.app.session.interaction.gesture_active();
+            let active = app.session.interaction.gesture_active();
             let body = WandPose::new(tip, q, active).encode()?;
             // Best effort, as tracking frames: a lost pose is followed by the next.
-            if let Err(e) = node
+            if let Err(e) = self
+                .node
                 .rt
-                .block_on(client.publish(wand_subject.clone(), body.into()))
+                .block_on(self.client.publish(self.wand_subject.clone(), body.into()))
             {
                 tracing::debug!("publishing the wand pose: {e}");
             } else {
-                peers.published();
+                self.peers.published();
             }
         }
-        if snapshot_writer(&node, &cluster, barrier.as_ref()) {
-            node.snapshot(false);
+        if snapshot_writer(&self.node, &self.cluster, self.barrier.as_ref()) {
+            self.node.snapshot(app, false);
         }
-        let idle = live
+        let idle = self
+            .live
             .last_report()
-            .is_some_and(|l| live.now().saturating_sub(l).as_secs_f64() > opts.idle_exit);
-        let timed_out = started.elapsed().as_secs_f64() > opts.duration;
-        if node.owner && !ended && (live.sources_done() || idle || timed_out) {
+            .is_some_and(|l| self.live.now().saturating_sub(l).as_secs_f64() > self.idle_exit);
+        let timed_out = self.started.elapsed().as_secs_f64() > self.duration;
+        if self.node.owner && !self.ended && (self.live.sources_done() || idle || timed_out) {
             // Past the last input: a stroke paused by tracking loss ends now.
-            let edits = node.app.session.propose_tick(last_t + 10.0)?;
-            node.commit(last_t + 10.0, edits)?;
-            let deadline = Instant::now() + node.commit_timeout;
-            let seq = node.publish(KIND_END, Vec::new(), deadline)?;
-            node.wait_applied(seq, deadline)?;
-            ended = true;
+            let t = self.last_t + 10.0;
+            let edits = app.session.propose_tick(t)?;
+            self.node.commit(app, t, edits)?;
+            let deadline = Instant::now() + self.node.commit_timeout;
+            let seq = self.node.publish(KIND_END, Vec::new(), deadline)?;
+            self.node.wait_applied(app, seq, deadline)?;
+            self.ended = true;
         }
-        if !node.owners.is_empty() && node.owners.is_subset(&node.ends) {
-            break;
+        if !self.node.owners.is_empty() && self.node.owners.is_subset(&self.node.ends) {
+            return Ok(true);
         }
         if timed_out {
-            tracing::warn!(node = %me.name, "duration passed before every owner ended");
-            break;
+            tracing::warn!(node = %self.me.name, "duration passed before every owner ended");
+            return Ok(true);
         }
-        match barrier.as_mut() {
-            Some(b) => {
-                let now = Instant::now();
-                if now < next_frame {
-                    std::thread::sleep((next_frame - now).min(Duration::from_millis(2)));
-                    continue;
-                }
-                let report = b.report(frame_no)?;
-                node.rt
-                    .block_on(client.publish(subjects.barrier.clone(), report.into()))
-                    .map_err(|e| ClusterError::Publish {
-                        subject: subjects.barrier.clone(),
-                        source: e.into(),
-                    })?;
-                frame_no = b.wait(frame_no);
-                next_frame = (next_frame + frame_dt).max(Instant::now());
-            }
-            None => std::thread::sleep(Duration::from_millis(2)),
+        Ok(false)
+    }
+
+    /// Propagation of the frames the last poll staged: from the ingest receiving each
+    /// frame from the tracker to this node's stage taking it.
+    fn note_propagation(&mut self) {
+        let Some((node_at, unix_at)) = self.feed.clock.lock().ok().and_then(|b| *b) else {
+            return;
+        };
+        let now = unix_ns();
+        for &received in self.live.staged() {
+            let since = received.saturating_sub(node_at).as_nanos();
+            let unix = unix_at.saturating_add(u64::try_from(since).unwrap_or(u64::MAX));
+            self.propagation_ms
+                .push(now.saturating_sub(unix) as f64 / 1e6);
         }
     }
-    // Not an owner: the interaction, too, ends a paused gesture (its edits are the
-    // owner's to commit, and are already in the stream).
-    if !node.owner {
-        node.app.session.propose_tick(last_t + 10.0)?;
+
+    /// Frame lock and software swap lock: reports this node's current frame ready
+    /// and waits until every live node has reported it (or the barrier's timeout drops
+    /// the late ones); the caller presents the frame after this returns. Without a
+    /// barrier it returns at once.
+    pub fn swap_lock(&mut self) -> VrResult<()> {
+        let Some(b) = self.barrier.as_mut() else {
+            self.presented += 1;
+            return Ok(());
+        };
+        let report = b.report(self.frame_no)?;
+        let subject = self.node.subjects.barrier.clone();
+        self.node
+            .rt
+            .block_on(self.client.publish(subject.clone(), report.into()))
+            .map_err(|e| ClusterError::Publish {
+                subject,
+                source: e.into(),
+            })?;
+        self.frame_no = b.wait(self.frame_no);
+        self.next_frame = (self.next_frame + self.frame_dt).max(Instant::now());
+        self.presented += 1;
+        Ok(())
     }
-    // The writer's last snapshot covers the whole session (a clean exit).
-    if snapshot_writer(&node, &cluster, barrier.as_ref()) {
-        node.snapshot(true);
+
+    /// A command from the node's own keys (undo, a mode, the tool): an owner commits
+    /// its edits through the stream like the wand's; on any other node it changes
+    /// nothing (its document follows the stream only).
+    pub fn command(
+        &mut self,
+        app: &mut AppState,
+        ev: &sculpt_core::interaction::WandEvent,
+    ) -> VrResult<()> {
+        if !self.node.owner {
+            tracing::info!(node = %self.me.name, "not an owner: edits come from the stream only");
+            return Ok(());
+        }
+        self.node
+            .input(app, Input::Wand(ev.clone()), &mut self.last_t)
     }
-    drop(live);
-    let headless = run_headless(&mut node.app, gpu, std::iter::empty(), &opts.headless)?;
-    let propagation = feed
-        .propagation_ms
-        .lock()
-        .map(|mut v| Percentiles::of(&mut v))
-        .unwrap_or_default();
-    Ok(NodeReport {
-        node: me.name.clone(),
-        owner: me.owner,
-        headless,
-        applied: node.applied,
-        committed: node.committed,
-        backlog,
-        catch_up_s,
-        snapshot: node.snap.report.clone(),
-        peer_wands: peers.stats(),
-        garbage_ops: node.garbage_ops,
-        garbage_frames: feed.garbage.load(Ordering::Relaxed),
-        frames: feed.frames.load(Ordering::Relaxed),
-        propagation_ms: propagation,
-        commit_ms: Percentiles::of(&mut node.commit_ms),
-        apply_ms: Percentiles::of(&mut node.apply_ms),
-        barrier: barrier.as_mut().map(Barrier::stats),
-    })
+
+    /// Ends the session: a non-owner's interaction ends a paused gesture, the
+    /// snapshot writer stores the last snapshot, and the document and this screen's
+    /// pictures are written (with `gpu`, as a headless run writes them).
+    pub fn finish(
+        mut self,
+        app: &mut AppState,
+        gpu: &Gpu,
+        pictures: &HeadlessOptions,
+    ) -> VrResult<NodeReport> {
+        // Not an owner: the interaction, too, ends a paused gesture (its edits are the
+        // owner's to commit, and are already in the stream).
+        if !self.node.owner {
+            app.session.propose_tick(self.last_t + 10.0)?;
+        }
+        // The writer's last snapshot covers the whole session (a clean exit).
+        if snapshot_writer(&self.node, &self.cluster, self.barrier.as_ref()) {
+            self.node.snapshot(app, true);
+        }
+        let Self {
+            mut node,
+            live,
+            barrier,
+            peers,
+            feed,
+            backlog,
+            catch_up_s,
+            mut propagation_ms,
+            presented,
+            me,
+            ..
+        } = self;
+        drop(live);
+        let headless = run_headless(app, gpu, std::iter::empty(), pictures)?;
+        Ok(NodeReport {
+            node: me.name.clone(),
+            owner: me.owner,
+            headless,
+            applied: node.applied,
+            committed: node.committed,
+            backlog,
+            catch_up_s,
+            snapshot: node.snap.report.clone(),
+            peer_wands: peers.stats(),
+            garbage_ops: node.garbage_ops,
+            garbage_frames: feed.garbage.load(Ordering::Relaxed),
+            frames: feed.frames.load(Ordering::Relaxed),
+            propagation_ms: Percentiles::of(&mut propagation_ms),
+            commit_ms: Percentiles::of(&mut node.commit_ms),
+            apply_ms: Percentiles::of(&mut node.apply_ms),
+            apply_by_seq: std::mem::take(&mut node.apply_by_seq),
+            presented,
+            windowed: false,
+            barrier: barrier.map(|mut b| b.stats()),
+        })
+    }
 }
 
 /// Whether this node writes the snapshots now: the lowest-named owner among those the
@@ -986,5 +1219,32 @@ async fn follow_stream(
             }
         }
         tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MS: Duration = Duration::from_millis(1);
+
+    #[test]
+    fn the_feed_keeps_the_ingests_intervals_on_the_nodes_clock() {
+        let mut c = FeedClock::default();
+        assert_eq!(c.base(), None);
+        // First frame: received by the ingest at 5 s, here at 1 s (node clock).
+        assert_eq!(
+            c.receive_time(1000 * MS, Some(5_000_000), Some(77)),
+            1000 * MS
+        );
+        assert_eq!(c.base(), Some((1000 * MS, 77)));
+        // 10 ms later at the ingest; the network delayed it by 7 ms more than the
+        // first: the stage still sees 10 ms.
+        assert_eq!(c.receive_time(1017 * MS, Some(5_010_000), None), 1010 * MS);
+        // A frame without the ingest's time is stamped on arrival.
+        assert_eq!(c.receive_time(1030 * MS, None, None), 1030 * MS);
+        // A new ingest (its clock went back): a new base.
+        assert_eq!(c.receive_time(2000 * MS, Some(1_000), Some(99)), 2000 * MS);
+        assert_eq!(c.base(), Some((2000 * MS, 99)));
     }
 }
