@@ -612,6 +612,11 @@ fn windowed_nodes_present_each_frame_only_when_every_live_node_has_it_ready() {
     });
     let names = ["front", "left", "right", "twin"];
     for (s, r) in names.iter().zip(&reports) {
+        // The swap lock's wait per frame (a figure, not a bound).
+        eprintln!(
+            "{s}: presented {}, barrier wait {}",
+            r["presented"], r["barrier"]["wait_ms"]
+        );
         assert_eq!(r["windowed"], *s != "twin", "{s}");
         let presented = r["presented"].as_u64().unwrap();
         assert!(presented > 0, "{s}: no frame presented");
