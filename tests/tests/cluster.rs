@@ -669,6 +669,68 @@ fn windowed_nodes_present_each_frame_only_when_every_live_node_has_it_ready() {
     assert!(png(&outs[0]) != png(&outs[1]));
 }
 
+/// An owner whose sculptor quits its window (Esc) before the tracker is done ends its
+/// session through the stream: the other node applies its end marker, stops (it does
+/// not wait for `--duration`) and holds the owner's document.
+#[test]
+fn an_owner_quitting_its_window_ends_the_session_for_every_node() {
+    let Some((bin, dir)) = rig() else {
+        return;
+    };
+    let Some((_x, display)) = xvfb() else {
+        return;
+    };
+    let have_xdotool = Command::new("xdotool").arg("version").output().is_ok();
+    if !have_xdotool {
+        assert!(
+            std::env::var_os("CI").is_none_or(|v| v.is_empty()),
+            "xdotool is missing in CI (scripts/test installs it)"
+        );
+        eprintln!("SKIPPED: xdotool is not installed (apt-get install xdotool)");
+        return;
+    }
+    let nats = Nats::start(bin, dir.path());
+    // Five strokes over 11 s at real time: the sculptor quits after the first.
+    let (_server, addr) = serve_tcp("patch-mask", 1.0, TIMEOUT);
+    let specs = [node("front", true, FRONT), node("left", false, LEFT)];
+    let config = cave_config(dir.path(), &addr, &nats, "", &specs);
+    let outs: Vec<PathBuf> = specs.iter().map(|s| dir.path().join(s.name)).collect();
+    let mut front = start_windowed_node(&config, "front", &outs[0], &display);
+    let mut left = start_node(&config, "left", &outs[1]);
+    wait_ready(&mut front, &outs[0]);
+    wait_ready(&mut left, &outs[1]);
+    let _ingest = start_ingest(&config, "main");
+    wait_for_journal(&outs[1], 1, &mut left);
+    let typed = Command::new("sh")
+        .args([
+            "-c",
+            "timeout 60 xdotool search --sync --name '^wandsculpt' windowfocus --sync \
+             && xdotool key Escape",
+        ])
+        .env("DISPLAY", &display)
+        .status()
+        .unwrap();
+    assert!(typed.success(), "xdotool");
+    let owner = finish(&mut front, "front");
+    let other = finish(&mut left, "left");
+    assert_eq!(
+        owner["ended_owners"],
+        serde_json::json!(["front"]),
+        "{owner}"
+    );
+    assert_eq!(
+        other["ended_owners"],
+        serde_json::json!(["front"]),
+        "{other}"
+    );
+    let committed = owner["committed"].as_u64().unwrap();
+    assert!(committed >= 1 && other["applied"] == committed, "{other}");
+    assert!(
+        scene(&outs[0]) == scene(&outs[1]),
+        "the other node holds the owner's document"
+    );
+}
+
 /// The strokes of a document as inputs.
 fn stroke_inputs(doc: &[u8]) -> Vec<StrokeInput> {
     let doc = Document::from_json(doc).unwrap();

@@ -125,6 +125,8 @@ pub struct NodeReport {
     pub presented: u64,
     /// Whether the node drew into a window ([`crate::window::run_windowed_node`]).
     pub windowed: bool,
+    /// The owners whose end of session this node applied from the stream.
+    pub ended_owners: Vec<String>,
     /// The frame barrier, when on.
     pub barrier: Option<BarrierStats>,
 }
@@ -980,15 +982,8 @@ impl NodeLoop {
             .last_report()
             .is_some_and(|l| self.live.now().saturating_sub(l).as_secs_f64() > self.idle_exit);
         let timed_out = self.started.elapsed().as_secs_f64() > self.duration;
-        if self.node.owner && !self.ended && (self.live.sources_done() || idle || timed_out) {
-            // Past the last input: a stroke paused by tracking loss ends now.
-            let t = self.last_t + 10.0;
-            let edits = app.session.propose_tick(t)?;
-            self.node.commit(app, t, edits)?;
-            let deadline = Instant::now() + self.node.commit_timeout;
-            let seq = self.node.publish(KIND_END, Vec::new(), deadline)?;
-            self.node.wait_applied(app, seq, deadline)?;
-            self.ended = true;
+        if self.live.sources_done() || idle || timed_out {
+            self.end_session(app)?;
         }
         if !self.node.owners.is_empty() && self.node.owners.is_subset(&self.node.ends) {
             return Ok(true);
@@ -998,6 +993,22 @@ impl NodeLoop {
             return Ok(true);
         }
         Ok(false)
+    }
+
+    /// An owner ends its session: past the last input a stroke paused by tracking loss
+    /// ends, then its end marker goes into the stream (once; other nodes do nothing).
+    fn end_session(&mut self, app: &mut AppState) -> VrResult<()> {
+        if !self.node.owner || self.ended {
+            return Ok(());
+        }
+        let t = self.last_t + 10.0;
+        let edits = app.session.propose_tick(t)?;
+        self.node.commit(app, t, edits)?;
+        let deadline = Instant::now() + self.node.commit_timeout;
+        let seq = self.node.publish(KIND_END, Vec::new(), deadline)?;
+        self.node.wait_applied(app, seq, deadline)?;
+        self.ended = true;
+        Ok(())
     }
 
     /// Propagation of the frames the last poll staged: from the ingest receiving each
@@ -1064,9 +1075,13 @@ impl NodeLoop {
         gpu: &Gpu,
         pictures: &HeadlessOptions,
     ) -> VrResult<NodeReport> {
-        // Not an owner: the interaction, too, ends a paused gesture (its edits are the
-        // owner's to commit, and are already in the stream).
-        if !self.node.owner {
+        // An owner whose window closed before its feed ended ends its session now,
+        // so the other nodes need not wait for `--duration`. Not an owner: the
+        // interaction, too, ends a paused gesture (its edits are the owner's to
+        // commit, and are already in the stream).
+        if self.node.owner {
+            self.end_session(app)?;
+        } else {
             app.session.propose_tick(self.last_t + 10.0)?;
         }
         // The writer's last snapshot covers the whole session (a clean exit).
@@ -1107,6 +1122,7 @@ impl NodeLoop {
             apply_by_seq: std::mem::take(&mut node.apply_by_seq),
             presented,
             windowed: false,
+            ended_owners: node.ends.iter().cloned().collect(),
             barrier: barrier.map(|mut b| b.stats()),
         })
     }
