@@ -14,8 +14,9 @@ use sculpt_core::reconstruct::segment::SegmentSettings;
 use sculpt_core::tolerance::LOOSE_COSINE_EPS;
 
 /// Mean over shared sides of each side's worst G1 angle on the kitten at K = 80,
-/// degrees: 16 before the corner condition, 6.7 after.
-const KITTEN_G1_MEAN_DEGREES: f64 = 8.0;
+/// degrees: 16 before the corner condition, 6.7 after, 4.2 with the fans that turned
+/// over at a corner spread again.
+const KITTEN_G1_MEAN_DEGREES: f64 = 5.0;
 
 fn kitten() -> Option<Reconstruction> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/scans/kitten.xyz");
@@ -94,7 +95,10 @@ fn kitten_normal_flips_are_reflex_corner_folds_not_orientation() {
     }
     let corners = at.len();
     eprintln!("corners {corners}, patches antiparallel at a corner {antiparallel}");
-    assert!(antiparallel * 20 < corners, "{antiparallel} of {corners}");
+    // Regression: 11 corners had antiparallel normals before the fans that turned over
+    // were spread (`network::unfold_corners`); 1 after (a patch with a fan of two
+    // quads, which no spreading can open).
+    assert!(antiparallel * 100 < corners, "{antiparallel} of {corners}");
     let angles: Vec<f64> = r.figures.angles.iter().map(|a| a.max_degrees).collect();
     let mean = angles.iter().sum::<f64>() / angles.len() as f64;
     eprintln!("G1 mean {mean} worst {}", r.figures.worst_angle());

@@ -576,6 +576,133 @@ fn corner_planes(
     }
 }
 
+/// One quad at a corner: the control net indices of the corner and of the second
+/// control points along its two sides leaving the corner (`next` with the quad's loop,
+/// `prev` against it), each with the side's corners.
+#[derive(Debug, Clone, Copy)]
+struct CornerUse {
+    quad: usize,
+    corner: (usize, usize),
+    next: ((QuadCorner, QuadCorner), (usize, usize)),
+    prev: ((QuadCorner, QuadCorner), (usize, usize)),
+}
+
+/// Every quad's four corners as [`CornerUse`]s, by corner.
+fn corner_uses(quads: &[[QuadCorner; 4]], m: usize) -> BTreeMap<QuadCorner, Vec<CornerUse>> {
+    let mut at: BTreeMap<QuadCorner, Vec<CornerUse>> = BTreeMap::new();
+    for (qi, q) in quads.iter().enumerate() {
+        let [s0, s1, s2, s3] = sides(q, m);
+        let first = |s: &Side| (s.key().0, s.on[1]);
+        let last = |s: &Side| (s.key().0, s.on[m - 1]);
+        let uses = [
+            ((0, 0), first(&s0), first(&s3)),
+            ((m, 0), first(&s1), last(&s0)),
+            ((m, m), last(&s2), last(&s1)),
+            ((0, m), last(&s3), first(&s2)),
+        ];
+        for (k, (corner, next, prev)) in uses.into_iter().enumerate() {
+            at.entry(q[k]).or_default().push(CornerUse {
+                quad: qi,
+                corner,
+                next,
+                prev,
+            });
+        }
+    }
+    at
+}
+
+/// Unfolds the corners where a patch turns over: after the vertex condition, a quad
+/// whose two sides leave its corner the wrong way round the corner's normal (more than
+/// 180 degrees apart) is a patch whose normal there is opposite to its neighbours'.
+/// At such a corner, the sides' second control points (in the tangent plane) are
+/// turned about the corner to equal angles (360 / n degrees for n sides, in the fan's
+/// order, the whole fan rotated to stay closest to where they were), keeping their
+/// distances: every quad then spans less than 180 degrees there. Corners whose quads do
+/// not form one closed fan are left. Returns the corners unfolded.
+fn unfold_corners(
+    quads: &[[QuadCorner; 4]],
+    corners: &BTreeMap<QuadCorner, (DVec3, DVec3)>,
+    nets: &mut [Grid],
+    m: usize,
+) -> usize {
+    let at = |nets: &[Grid], q: usize, (i, j): (usize, usize)| nets[q][i][j];
+    // How a quad turns at its corner about `n`: positive when its two sides leave the
+    // corner less than 180 degrees apart counter-clockwise.
+    let turn = |nets: &[Grid], u: &CornerUse, n: DVec3| {
+        let o = at(nets, u.quad, u.corner);
+        (at(nets, u.quad, u.next.1) - o)
+            .cross(at(nets, u.quad, u.prev.1) - o)
+            .dot(n)
+    };
+    let mut unfolded = 0;
+    for (c, uses) in corner_uses(quads, m) {
+        let Some(&(_, n)) = corners.get(&c) else {
+            continue;
+        };
+        // The fans: from a quad's `prev` side to the quad whose `next` side it is. A
+        // patch the model pinches at has two.
+        let mut taken = vec![false; uses.len()];
+        for start in 0..uses.len() {
+            if taken[start] {
+                continue;
+            }
+            let mut order = vec![start];
+            taken[start] = true;
+            let closed = loop {
+                let last = &uses[order[order.len() - 1]];
+                let Some(k) = uses.iter().position(|u| u.next.0 == last.prev.0) else {
+                    break false;
+                };
+                if k == start {
+                    break true;
+                }
+                if taken[k] {
+                    break false;
+                }
+                taken[k] = true;
+                order.push(k);
+            };
+            if !closed {
+                continue;
+            }
+            // The fan's own sense about `n` (a pinched patch's second sheet may face
+            // the other way), and whether one of its quads turns against it.
+            let sense: f64 = order.iter().map(|&k| turn(nets, &uses[k], n)).sum();
+            if sense == 0.0 || order.iter().all(|&k| turn(nets, &uses[k], n) * sense > 0.0) {
+                continue;
+            }
+            let count = order.len();
+            let (e1, e2) = n.any_orthonormal_pair();
+            let o = at(nets, uses[start].quad, uses[start].corner);
+            let angle = |p: DVec3| (p - o).dot(e2).atan2((p - o).dot(e1));
+            let step = std::f64::consts::TAU / count as f64 * sense.signum();
+            // The rotation of the equal fan closest to the sides' angles.
+            let (mut sx, mut sy) = (0.0, 0.0);
+            for (k, &ui) in order.iter().enumerate() {
+                let u = &uses[ui];
+                let a = angle(at(nets, u.quad, u.next.1)) - step * k as f64;
+                sx += a.cos();
+                sy += a.sin();
+            }
+            let phi = sy.atan2(sx);
+            for (k, &ui) in order.iter().enumerate() {
+                let u = uses[ui];
+                let r = (at(nets, u.quad, u.next.1) - o).length();
+                let a = phi + step * k as f64;
+                let target = o + (e1 * a.cos() + e2 * a.sin()) * r;
+                // The side's point in both of its quads: this one's `next`, and the
+                // quad before it in the fan, whose `prev` it is.
+                let before = uses[order[(k + count - 1) % count]];
+                nets[u.quad][u.next.1.0][u.next.1.1] = target;
+                nets[before.quad][before.prev.1.0][before.prev.1.1] = target;
+            }
+            unfolded += 1;
+        }
+    }
+    unfolded
+}
+
 /// Stage 5: fits every quad's grid (the kernel's least squares on uniform clamped
 /// knots, common to all patches, grid point `(i, j)` at parameter `(i, j) / 2^L`),
 /// averages the control points on shared sides and corners, then applies the G1
@@ -614,6 +741,7 @@ pub fn fit_network(
     average_boundaries(quads, &mut nets, m);
     if m >= 2 {
         corner_planes(quads, &mesh.corners, &mut nets, m);
+        unfold_corners(quads, &mesh.corners, &mut nets, m);
         let shared = shared_sides(quads, m);
         for _ in 0..settings.g1_rounds {
             enforce_g1(&shared, &mut nets);
@@ -754,6 +882,7 @@ pub fn to_document(network: &PatchNetwork) -> crate::Result<Document> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::assert_near;
     use crate::reconstruct::kmeans::tests::cube;
     use crate::reconstruct::polygon::polygon_model;
     use crate::reconstruct::read::PointCloud;
@@ -922,6 +1051,75 @@ mod tests {
             }
         }
         at
+    }
+
+    /// Four flat quads around a patch corner (quadrants of the xy-plane, turning about
+    /// +z); one shared side's second control point is moved past its neighbour side
+    /// (to 200 degrees), so two quads turn over at the corner. Unfolding puts the four
+    /// sides 90 degrees apart again, at their distances, in both quads of each side.
+    #[test]
+    fn a_fan_turned_over_at_its_corner_is_spread_to_equal_angles() {
+        let m = 3;
+        let dir = |k: usize| {
+            let a = std::f64::consts::FRAC_PI_2 * (k % 4) as f64;
+            DVec3::new(a.cos(), a.sin(), 0.0)
+        };
+        let edge = |k: usize| QuadCorner::Edge(0, k % 4 + 1);
+        let quads: Vec<[QuadCorner; 4]> = (0..4)
+            .map(|k| {
+                [
+                    QuadCorner::Patch(0),
+                    edge(k),
+                    QuadCorner::Face(k),
+                    edge(k + 1),
+                ]
+            })
+            .collect();
+        let mut nets: Vec<Grid> = (0..4)
+            .map(|k| {
+                (0..=m)
+                    .map(|i| {
+                        (0..=m)
+                            .map(|j| (dir(k) * i as f64 + dir(k + 1) * j as f64) / m as f64)
+                            .collect()
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut corners = BTreeMap::new();
+        for q in &quads {
+            for c in q {
+                corners.insert(*c, (DVec3::ZERO, DVec3::Z));
+            }
+        }
+        // The side along +y (quad 0's v side, quad 1's u side), 2 units out.
+        let a = 200f64.to_radians();
+        let moved = DVec3::new(a.cos(), a.sin(), 0.0) * 2.0 / m as f64;
+        nets[0][0][1] = moved;
+        nets[1][1][0] = moved;
+        let turn = |nets: &[Grid], q: usize| {
+            let (u, v) = match q {
+                0 => (nets[0][1][0], nets[0][0][1]),
+                _ => (nets[q][1][0], nets[q][0][1]),
+            };
+            u.cross(v).z
+        };
+        assert!(turn(&nets, 0) < 0.0 && turn(&nets, 1) < 0.0, "turned over");
+        assert_eq!(unfold_corners(&quads, &corners, &mut nets, m), 1);
+        for q in 0..4 {
+            assert!(turn(&nets, q) > 0.0, "quad {q} still turned over");
+            let next = (q + 1) % 4;
+            assert_near!(nets[q][0][1], nets[next][1][0], POINT_EPS);
+            let (u, v) = (nets[q][1][0], nets[q][0][1]);
+            // 90 degrees apart: the cosine is 0.
+            assert_near!(u.normalize().dot(v.normalize()), 0.0, LOOSE_COSINE_EPS);
+        }
+        assert_near!(nets[0][0][1].length(), 2.0 / m as f64, POINT_EPS);
+        assert_near!(nets[2][1][0].length(), 1.0 / m as f64, POINT_EPS);
+        // Nothing turned over: nothing moves.
+        let before = nets.clone();
+        assert_eq!(unfold_corners(&quads, &corners, &mut nets, m), 0);
+        assert_eq!(nets, before);
     }
 
     #[test]
