@@ -723,7 +723,7 @@ impl fmt::Display for GltfPart {
 ///
 /// Line numbers are 1-based; quoted input is an [`Excerpt`]. The underlying parse
 /// error, where there is one, is kept typed and printed as part of the message (the
-/// convention of [`Error`]).
+/// convention of [`Error`](enum@Error)).
 #[derive(Debug, Error, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum FormatError {
@@ -1243,7 +1243,7 @@ pub enum InteractionConfigError {
     ButtonIndex,
 }
 
-/// A JSON syntax or schema error with its position, shared so that [`Error`] stays
+/// A JSON syntax or schema error with its position, shared so that [`Error`](enum@Error) stays
 /// `Clone`; two are equal when they say the same thing at the same place.
 #[derive(Debug, Clone)]
 pub struct JsonError(Arc<serde_json::Error>);
@@ -1318,7 +1318,7 @@ impl fmt::Display for Chain<'_> {
     }
 }
 
-/// `Result` with [`Error`].
+/// `Result` with [`Error`](enum@Error).
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 #[cfg(test)]

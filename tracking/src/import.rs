@@ -1,6 +1,6 @@
 //! Open Brush strokes as a wand track: placement near a target surface and timing.
 //!
-//! [`wand_track`] turns a decoded [`Sketch`](crate::tilt::Sketch) into a list of
+//! [`wand_track`] turns a decoded [`Sketch`] into a list of
 //! [`TrackSample`]s at a fixed frame rate: for every stroke the action button goes down
 //! at the first control point, the wand sweeps through the points at their recorded
 //! millisecond timing, and the button comes up at the last point. Between strokes the

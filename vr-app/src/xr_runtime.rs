@@ -15,7 +15,7 @@
 //!   (`xrWaitFrame` / `xrBeginFrame` / `xrEndFrame`) submitting one projection layer
 //!   of two views, driven by the pure lifecycle [`crate::xr::state`]; the controllers
 //!   through the action set of [`crate::xr::actions`] as tracker frames into the same
-//!   [`FrameStage`], edit loop, journal and operator log as a tracked wand, written to
+//!   [`FrameStage`](tracking::stage::FrameStage), edit loop, journal and operator log as a tracked wand, written to
 //!   a pose log (`xr.poselog`, with `xr-replay.toml` for `replay --config`); a haptic
 //!   pulse when a stroke is applied or refused;
 //! * the depth layer (`XR_KHR_composition_layer_depth`) when the runtime offers it:

@@ -97,7 +97,7 @@ fn u32_at(b: &[u8], o: usize) -> Option<u32> {
     Some(u32::from_le_bytes(b.get(o..o + 4)?.try_into().ok()?))
 }
 
-/// Reads a `.glb` written by [`write`] or a compatible exporter.
+/// Reads a `.glb` written by [`write`](fn@write) or a compatible exporter.
 pub fn read(bytes: &[u8]) -> Result<WeldedMesh> {
     let missing = |part: GltfPart| err(FormatError::Missing(part));
     if u32_at(bytes, 0) != Some(MAGIC) {

@@ -203,7 +203,7 @@ struct ExtractArgs {
 struct AnalyzeArgs {
     /// Study directory (with study.toml, or any *.oplog files below it).
     dir: PathBuf,
-    /// Output directory (default: <dir>/report).
+    /// Output directory (default: `<dir>/report`).
     #[arg(short, long)]
     out: Option<PathBuf>,
     #[command(flatten)]
@@ -240,7 +240,7 @@ struct SummarizeArgs {
     /// Report title.
     #[arg(long)]
     title: Option<String>,
-    /// KLM prediction to show next to a method's measured time: METHOD=builtin:<id> or
+    /// KLM prediction to show next to a method's measured time: `METHOD=builtin:<id>` or
     /// METHOD=path/to/method.klm (repeatable).
     #[arg(long, value_name = "METHOD=SOURCE")]
     klm: Vec<String>,
@@ -252,7 +252,7 @@ struct SummarizeArgs {
 
 #[derive(Debug, Args)]
 struct KlmArgs {
-    /// Method files, or builtin:<id> (see `goms methods`).
+    /// Method files, or `builtin:<id>` (see `goms methods`).
     #[arg(required = true)]
     methods: Vec<String>,
     #[command(flatten)]

@@ -1,5 +1,5 @@
 //! The node role: a render node of the cluster, in a window on its screen
-//! ([`crate::window::run_windowed_node`]: each frame presents after the swap lock) or
+//! (`window::run_windowed_node` (feature `window`): each frame presents after the swap lock) or
 //! headless ([`run_node`]); either writes the document and its own screen's pictures
 //! when the session ends.
 //!
@@ -123,7 +123,7 @@ pub struct NodeReport {
     pub apply_by_seq: Vec<(u64, f64)>,
     /// Frames presented (windowed) or passed (headless) after the swap lock.
     pub presented: u64,
-    /// Whether the node drew into a window ([`crate::window::run_windowed_node`]).
+    /// Whether the node drew into a window (`window::run_windowed_node` (feature `window`)).
     pub windowed: bool,
     /// The owners whose end of session this node applied from the stream.
     pub ended_owners: Vec<String>,
@@ -581,7 +581,7 @@ impl Node {
 /// A running node, from its start (connected, subscribed, caught up with the stream)
 /// to its end. Its drivers call [`NodeLoop::step`] every turn and [`NodeLoop::swap_lock`]
 /// between drawing a frame and presenting it: the headless one ([`run_node`]) and the
-/// window's ([`crate::window::run_windowed_node`]), whose presentation of frame N
+/// window's (`window::run_windowed_node` (feature `window`)), whose presentation of frame N
 /// waits until every live node has frame N ready.
 pub struct NodeLoop {
     node: Node,

@@ -3,7 +3,7 @@
 //!
 //! A snapshot lives in the JetStream object store `WS_<session>_snap`, object
 //! [`OBJECT`], as one [`SnapshotRecord`] (see [`SnapshotRecord::encode`] for the
-//! bytes): the document ([`Document::to_json`] bytes) after the stream's positions
+//! bytes): the document ([`Document::to_json`](sculpt_core::sculpt::document::Document::to_json) bytes) after the stream's positions
 //! `1..=seq`, the owners whose end markers are among them, the stream's creation time
 //! and a checksum over everything. Who writes it and when: see `docs/cluster.md`
 //! ("Snapshots") and [`super::node`].
