@@ -538,16 +538,24 @@ fn a_stopped_node_is_dropped_from_the_barrier_readmitted_and_catches_up() {
     }
 }
 
+/// Whether `program` runs (`program arg`); when it does not, a failure in CI (where
+/// `scripts/test` installs the Debian `package`) and a skip elsewhere.
+fn have_program(program: &str, arg: &str, package: &str) -> bool {
+    if Command::new(program).arg(arg).output().is_ok() {
+        return true;
+    }
+    assert!(
+        std::env::var_os("CI").is_none_or(|v| v.is_empty()),
+        "{program} is missing in CI (scripts/test installs the {package} package)"
+    );
+    eprintln!("SKIPPED: {program} is not installed (apt-get install {package})");
+    false
+}
+
 /// A virtual X server for the windowed nodes, on the display number it picks itself
 /// (`-displayfd`): `None` where Xvfb is missing outside CI.
 fn xvfb() -> Option<(ChildGuard, String)> {
-    let found = Command::new("Xvfb").arg("-help").output().is_ok();
-    if !found {
-        assert!(
-            std::env::var_os("CI").is_none_or(|v| v.is_empty()),
-            "Xvfb is missing in CI (scripts/test installs the xvfb package)"
-        );
-        eprintln!("SKIPPED: Xvfb is not installed (apt-get install xvfb)");
+    if !have_program("Xvfb", "-help", "xvfb") {
         return None;
     }
     let mut child = ChildGuard::spawn(
@@ -680,13 +688,7 @@ fn an_owner_quitting_its_window_ends_the_session_for_every_node() {
     let Some((_x, display)) = xvfb() else {
         return;
     };
-    let have_xdotool = Command::new("xdotool").arg("version").output().is_ok();
-    if !have_xdotool {
-        assert!(
-            std::env::var_os("CI").is_none_or(|v| v.is_empty()),
-            "xdotool is missing in CI (scripts/test installs it)"
-        );
-        eprintln!("SKIPPED: xdotool is not installed (apt-get install xdotool)");
+    if !have_program("xdotool", "version", "xdotool") {
         return;
     }
     let nats = Nats::start(bin, dir.path());
