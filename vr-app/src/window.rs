@@ -305,12 +305,12 @@ struct Running {
     outputs: Vec<Output>,
 }
 
-struct WindowApp {
+struct WindowApp<'n> {
     app: AppState,
     input: WindowInput,
     /// A cluster render node: its feed and the stream drive the app (not `input`),
     /// and its frames present through the swap lock.
-    node: Option<Box<NodeLoop>>,
+    node: Option<&'n mut NodeLoop>,
     scripted: VecDeque<WandEvent>,
     running: Option<Running>,
     error: Option<VrError>,
@@ -352,29 +352,28 @@ pub fn run_windowed(app: AppState, input: WindowInput, frames: Option<u64>) -> V
 /// then writes the document and the screen's pictures as a headless node does.
 pub fn run_windowed_node(
     app: AppState,
-    node: NodeLoop,
+    mut node: NodeLoop,
     pictures: &HeadlessOptions,
 ) -> VrResult<NodeReport> {
-    let mut wa = WindowApp::new(app, WindowInput::Desktop, Some(Box::new(node)), None);
+    let mut wa = WindowApp::new(app, WindowInput::Desktop, Some(&mut node), None);
     wa.run()?;
-    let node = wa
-        .node
-        .take()
-        .ok_or(VrError::Gpu(GpuError::NoSurfaceFormat))?;
-    let gpu = match wa.running.take() {
+    let WindowApp {
+        mut app, running, ..
+    } = wa;
+    let gpu = match running {
         Some(run) => run.gpu,
         None => Gpu::headless()?,
     };
-    let mut report = node.finish(&mut wa.app, &gpu, pictures)?;
+    let mut report = node.finish(&mut app, &gpu, pictures)?;
     report.windowed = true;
     Ok(report)
 }
 
-impl WindowApp {
+impl<'n> WindowApp<'n> {
     fn new(
         app: AppState,
         input: WindowInput,
-        node: Option<Box<NodeLoop>>,
+        node: Option<&'n mut NodeLoop>,
         frames: Option<u64>,
     ) -> Self {
         let scripted = match &input {
@@ -762,7 +761,7 @@ impl WindowApp {
     }
 }
 
-impl ApplicationHandler for WindowApp {
+impl ApplicationHandler for WindowApp<'_> {
     fn resumed(&mut self, event_loop: &ActiveEventLoop) {
         if self.running.is_some() {
             return;
