@@ -168,6 +168,12 @@ struct FeedStats {
     clock: Mutex<Option<(Duration, u64)>>,
 }
 
+/// How far ahead of this node's clock a feed frame's receive time may be before
+/// [`FeedClock`] starts a new base.
+const FEED_CLOCK_AHEAD: Duration = Duration::from_secs(1);
+/// How far behind (a node held up, then catching up on buffered frames).
+const FEED_CLOCK_BEHIND: Duration = Duration::from_secs(30);
+
 /// The receive times a node gives the feed's frames: the ingest's (its hub clock,
 /// [`HDR_RECEIVED`]), moved onto this node's hub clock at the first frame. So every
 /// node's stage sees the same intervals between frames as the ingest's did (the stage
@@ -201,7 +207,14 @@ impl FeedClock {
         }
         self.last = Some(ingest);
         let (ingest0, node0, _) = *self.base.get_or_insert((ingest, now, ingest_unix_ns));
-        node0 + ingest.saturating_sub(ingest0)
+        let t = node0 + ingest.saturating_sub(ingest0);
+        // A time far from this node's own clock (a hostile or broken peer, a new
+        // ingest whose clock happens to be ahead): start a new base at this frame.
+        if t > now + FEED_CLOCK_AHEAD || t + FEED_CLOCK_BEHIND < now {
+            self.base = Some((ingest, now, ingest_unix_ns));
+            return now;
+        }
+        t
     }
 
     /// This node's hub time of the first frame and the Unix time the ingest received
@@ -1262,5 +1275,18 @@ mod tests {
         // A new ingest (its clock went back): a new base.
         assert_eq!(c.receive_time(2000 * MS, Some(1_000), Some(99)), 2000 * MS);
         assert_eq!(c.base(), Some((2000 * MS, 99)));
+        // A time an hour ahead of the node's clock (a hostile peer): a new base, and
+        // the frame is stamped on arrival.
+        assert_eq!(
+            c.receive_time(2010 * MS, Some(3_600_000_000), Some(5)),
+            2010 * MS
+        );
+        assert_eq!(c.base(), Some((2010 * MS, 5)));
+        assert_eq!(
+            c.receive_time(2030 * MS, Some(3_600_010_000), None),
+            2020 * MS
+        );
+        // The largest time the header can carry: no overflow, a new base.
+        assert_eq!(c.receive_time(2040 * MS, Some(u64::MAX), None), 2040 * MS);
     }
 }
