@@ -582,6 +582,13 @@ fn xvfb() -> Option<(ChildGuard, String)> {
     Some((child, format!(":{}", number.trim())))
 }
 
+/// [`rig`] and a virtual X server with its display name, for the windowed nodes.
+fn windowed_rig() -> Option<(PathBuf, tempfile::TempDir, ChildGuard, String)> {
+    let (bin, dir) = rig()?;
+    let (x, display) = xvfb()?;
+    Some((bin, dir, x, display))
+}
+
 /// A render node in a window on the X display `display`.
 fn start_windowed_node(config: &Path, name: &str, out: &Path, display: &str) -> ChildGuard {
     ChildGuard::spawn(
@@ -609,10 +616,7 @@ fn start_windowed_node(config: &Path, name: &str, out: &Path, display: &str) -> 
 /// writes the same picture as its headless twin.
 #[test]
 fn windowed_nodes_present_each_frame_only_when_every_live_node_has_it_ready() {
-    let Some((bin, dir)) = rig() else {
-        return;
-    };
-    let Some((_x, display)) = xvfb() else {
+    let Some((bin, dir, _x, display)) = windowed_rig() else {
         return;
     };
     let (outs, reports) = run_cave(bin, dir.path(), &|config, name, out| {
@@ -682,10 +686,7 @@ fn windowed_nodes_present_each_frame_only_when_every_live_node_has_it_ready() {
 /// not wait for `--duration`) and holds the owner's document.
 #[test]
 fn an_owner_quitting_its_window_ends_the_session_for_every_node() {
-    let Some((bin, dir)) = rig() else {
-        return;
-    };
-    let Some((_x, display)) = xvfb() else {
+    let Some((bin, dir, _x, display)) = windowed_rig() else {
         return;
     };
     if !have_program("xdotool", "version", "xdotool") {

@@ -48,12 +48,7 @@ pub fn run_ingest(
     opts: &IngestOptions,
 ) -> VrResult<IngestReport> {
     cluster.validate()?;
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(1)
-        .enable_all()
-        .thread_name("wandsculpt-ingest")
-        .build()
-        .map_err(ClusterError::Runtime)?;
+    let runtime = super::runtime("wandsculpt-ingest")?;
     runtime.block_on(ingest(cluster, section, opts))
 }
 

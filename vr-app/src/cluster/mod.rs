@@ -404,6 +404,17 @@ impl ClusterSection {
     }
 }
 
+/// The one-worker tokio runtime a cluster role runs its NATS client on, its thread
+/// named `thread`.
+pub fn runtime(thread: &str) -> Result<tokio::runtime::Runtime, ClusterError> {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .thread_name(thread)
+        .build()
+        .map_err(ClusterError::Runtime)
+}
+
 /// Nanoseconds since the Unix epoch (the latency figures' shared clock between
 /// processes on one machine).
 pub fn unix_ns() -> u64 {

@@ -673,12 +673,7 @@ impl NodeLoop {
         section.playback = None;
         let mut live = LiveTracking::start(&section, config.interaction.pause_timeout)?;
         let (hub, feed_src) = live.add_feed(&format!("nats:{}", me.feed));
-        let rt = tokio::runtime::Builder::new_multi_thread()
-            .worker_threads(1)
-            .enable_all()
-            .thread_name("wandsculpt-cluster")
-            .build()
-            .map_err(ClusterError::Runtime)?;
+        let rt = super::runtime("wandsculpt-cluster")?;
         let started = Instant::now();
         let client = rt.block_on(cluster.connect(&format!("wandsculpt-{}", me.name)))?;
         let js = jetstream::new(client.clone());
