@@ -220,6 +220,10 @@ pub const SUM_EPS: f64 = 1e-13;
 pub const CONVERSION_REL: f64 = 1e-11;
 /// Least-squares fits and interpolations reproduce their data to this (metres).
 pub const FIT_EPS: f64 = 1e-10;
+/// Relative residual at which the conjugate gradients of a joint network fit stop.
+pub const CG_REL_TOL: f64 = 1e-5;
+/// The most conjugate gradient iterations of a joint network fit.
+pub const CG_MAX_ITERATIONS: usize = 2000;
 /// Distances found by a point inversion agree with a brute-force reference to this
 /// (metres); converged answers farther apart are distinct minima.
 pub const INVERSION_EPS: f64 = 1e-8;

@@ -628,15 +628,29 @@ impl NurbsSurface {
     pub fn inverter(&self) -> SurfaceInverter {
         SurfaceInverter::new(self)
     }
+
+    /// [`SurfaceInverter::newton_from`] without building the inverter's hierarchy and
+    /// certificate nets: a local closest point (P&T eq. 6.6 with its stopping
+    /// criteria), for a caller that asks one surface only a few local questions.
+    pub fn newton_closest(&self, p: DVec3, seed_uv: DVec2) -> Projection {
+        SurfaceInverter::unbuilt(self).newton_from(p, seed_uv)
+    }
 }
 
 impl SurfaceInverter {
     /// Builds the bounding hierarchy (see the module docs). Cost: one knot refinement
     /// and a de Casteljau subdivision; a few microseconds for a bicubic 6x6 patch.
     pub fn new(surface: &NurbsSurface) -> Self {
+        let mut inv = Self::unbuilt(surface);
+        inv.build();
+        inv
+    }
+
+    /// The inverter's fields without the hierarchy: enough for local Newton only.
+    fn unbuilt(surface: &NurbsSurface) -> Self {
         let (u0, u1) = surface.domain_u();
         let (v0, v1) = surface.domain_v();
-        let mut inv = Self {
+        Self {
             surface: surface.clone(),
             nodes: Vec::new(),
             root: LEAF,
@@ -650,9 +664,7 @@ impl SurfaceInverter {
             power: None,
             nets: None,
             no_nets: Certificate::NoBezierForm,
-        };
-        inv.build();
-        inv
+        }
     }
 
     /// The surface this inverter answers for.
@@ -1931,7 +1943,7 @@ impl super::curve::NurbsCurve {
 mod tests {
     use super::*;
     use crate::nurbs::NurbsSurface;
-    use crate::tolerance::{EXACT_EPS, INVERSION_EPS, POINT_EPS, within};
+    use crate::tolerance::{EXACT_EPS, FIT_EPS, INVERSION_EPS, POINT_EPS, within};
 
     /// SplitMix64, so the stress test needs no extra crates.
     struct Rng(u64);
@@ -2127,6 +2139,12 @@ mod tests {
         assert_eq!(seeded.certificate, Certificate::Certified);
         let local = inv.newton_from(p, DVec2::new(0.9, 0.1));
         assert_eq!(local.certificate, Certificate::Local);
+        // The surface's own Newton, without the hierarchy, lands on the same point
+        // (the built inverter evaluates through its power form: last bits differ).
+        let own = s.newton_closest(p, DVec2::new(0.9, 0.1));
+        assert_eq!(own.certificate, Certificate::Local);
+        assert!(own.uv.distance(local.uv) < FIT_EPS, "{own:?} {local:?}");
+        assert!((own.distance - local.distance).abs() < FIT_EPS);
         let bad = inv.closest_point(DVec3::new(f64::NAN, 0.0, 0.0));
         assert_eq!(bad.certificate, Certificate::InvalidQuery);
         // Degree 6 along u: nets of side 13 exceed MAX_SIDE.

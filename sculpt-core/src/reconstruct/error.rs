@@ -103,6 +103,14 @@ pub enum ReconstructError {
         /// The most the local grids allow.
         max: usize,
     },
+    /// A refit weight is negative or not finite (the grid weight must be positive).
+    #[error("the refit weight {name} is {value} (expected a finite number, above 0 for the grid)")]
+    Weight {
+        /// The setting's name.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
     /// The polygonal model has no quads to fit.
     #[error(
         "the patches never meet three at a time, so there are no quads to fit (try more patches)"

@@ -8,12 +8,14 @@
 //!    [`segment`] runs stages 1 and 2 together.
 //! 3. [`polygon`]: the polygonal model (faces where patches meet) and its quads;
 //!    [`network`]: their corners on the data, then stages 4 to 6 (local grids,
-//!    the NURBS patch network with G1 across sides, errors, the document);
+//!    the NURBS patch network with G1 across sides, refitted to the data as one
+//!    least-squares system by `joint`, errors, the document);
 //!    [`pipeline`] runs everything.
 //!
 //! [`sample`] makes seeded point sets with known surfaces (the paper's torus).
 
 pub mod error;
+mod joint;
 pub mod kmeans;
 pub mod network;
 pub mod normals;

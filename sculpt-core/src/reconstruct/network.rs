@@ -26,13 +26,14 @@ use rstar::RTree;
 use rstar::primitives::GeomWithData;
 
 use super::error::ReconstructError;
+use super::joint;
 use super::normals::{IndexedPoint, point_tree};
 use super::polygon::{PolygonModel, QuadCorner};
-use crate::nurbs::{KnotVector, NurbsSurface, SurfaceInverter};
+use crate::nurbs::{KnotVector, NurbsSurface, Projection, SurfaceInverter};
 use crate::sculpt::document::Document;
 
 /// Maps `f` over `items`, on the rayon pool when the `parallel` feature is on.
-fn par_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync + Send) -> Vec<R> {
+pub(super) fn par_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync + Send) -> Vec<R> {
     #[cfg(feature = "parallel")]
     {
         use rayon::prelude::*;
@@ -404,6 +405,18 @@ pub struct NetworkSettings {
     pub snap_neighbours: usize,
     /// Rounds of the G1 adjustment over all shared sides.
     pub g1_rounds: usize,
+    /// Rounds of parameter correction against the data in [`fit_network`] (0: the
+    /// patches are fitted to their grids only).
+    pub refit_rounds: usize,
+    /// Weight of each grid point against a data point's 1 in the refit.
+    pub grid_weight: f64,
+    /// Weight of the smoothness condition across each shared side in the refit: the
+    /// inner control points on either side of a boundary point and twice the point
+    /// summing to zero (`A + C - 2B`, parametric continuity of the first derivative).
+    pub smooth_weight: f64,
+    /// Weight of the tangent conditions (the vertex condition at corners, the G1
+    /// condition along sides, each linearised at the previous round) in the refit.
+    pub tangent_weight: f64,
 }
 
 impl NetworkSettings {
@@ -415,10 +428,15 @@ impl NetworkSettings {
             levels: 4,
             snap_neighbours: 16,
             g1_rounds: 3,
+            refit_rounds: 3,
+            grid_weight: 0.01,
+            smooth_weight: 0.1,
+            tangent_weight: 1.0,
         }
     }
 
-    /// Checks degree (2 or 3) and control count (`degree < control <= 2^levels + 1`).
+    /// Checks degree (2 or 3), control count (`degree < control <= 2^levels + 1`) and
+    /// the refit weights (finite, not negative, the grid's above 0).
     pub fn validate(&self) -> Result<(), ReconstructError> {
         if !(2..=3).contains(&self.degree) {
             return Err(ReconstructError::Degree {
@@ -432,6 +450,15 @@ impl NetworkSettings {
                 degree: self.degree,
                 max,
             });
+        }
+        for (name, value, positive) in [
+            ("grid_weight", self.grid_weight, true),
+            ("smooth_weight", self.smooth_weight, false),
+            ("tangent_weight", self.tangent_weight, false),
+        ] {
+            if !value.is_finite() || value < 0.0 || (positive && value == 0.0) {
+                return Err(ReconstructError::Weight { name, value });
+            }
         }
         Ok(())
     }
@@ -513,6 +540,24 @@ fn average_boundaries(quads: &[[QuadCorner; 4]], nets: &mut [Grid], m: usize) {
     }
 }
 
+/// The normal of the averaged tangent plane at boundary point `k` of a shared side
+/// (run by quad `qa` as `sa` and by `qb` as `sb`, in the same direction): the plane
+/// holds the side's tangent `B_{k+1} - B_{k-1}` and the average of the two patches'
+/// normals there. `None` where either patch is degenerate at the point.
+fn side_plane_normal(
+    nets: &[Grid],
+    (qa, sa): (usize, &Side),
+    (qb, sb): (usize, &Side),
+    k: usize,
+) -> Option<DVec3> {
+    let at = |q: usize, (i, j): (usize, usize)| nets[q][i][j];
+    let b = at(qa, sa.on[k]);
+    let tangent = at(qa, sa.on[k + 1]) - at(qa, sa.on[k - 1]);
+    let na = tangent.cross(at(qa, sa.inner[k]) - b).try_normalize()?;
+    let nc = (at(qb, sb.inner[k]) - b).cross(tangent).try_normalize()?;
+    (na + nc).try_normalize()
+}
+
 /// One round of the G1 condition over the shared sides: for each boundary control
 /// point `B_k` (corners excepted) with inner neighbours `A_k` and `C_k` on either side,
 /// both are projected onto the plane through `B_k` that holds the side's tangent
@@ -526,20 +571,12 @@ fn enforce_g1(shared: &[[(usize, Side); 2]], nets: &mut [Grid]) {
     for [(qa, sa), (qb, sb)] in shared {
         let last = sa.on.len() - 1;
         for k in 1..last {
-            let at = |q: usize, (i, j): (usize, usize), nets: &[Grid]| nets[q][i][j];
-            let b = at(*qa, sa.on[k], nets);
-            let tangent = at(*qa, sa.on[k + 1], nets) - at(*qa, sa.on[k - 1], nets);
-            let a = at(*qa, sa.inner[k], nets) - b;
-            let c = at(*qb, sb.inner[k], nets) - b;
-            let (Some(na), Some(nc)) = (
-                tangent.cross(a).try_normalize(),
-                c.cross(tangent).try_normalize(),
-            ) else {
+            let Some(n) = side_plane_normal(nets, (*qa, sa), (*qb, sb), k) else {
                 continue;
             };
-            let Some(n) = (na + nc).try_normalize() else {
-                continue;
-            };
+            let b = nets[*qa][sa.on[k].0][sa.on[k].1];
+            let a = nets[*qa][sa.inner[k].0][sa.inner[k].1] - b;
+            let c = nets[*qb][sb.inner[k].0][sb.inner[k].1] - b;
             let (ai, aj) = sa.inner[k];
             let (ci, cj) = sb.inner[k];
             nets[*qa][ai][aj] = b + a - n * a.dot(n);
@@ -703,13 +740,23 @@ fn unfold_corners(
     unfolded
 }
 
-/// Stage 5: fits every quad's grid (the kernel's least squares on uniform clamped
-/// knots, common to all patches, grid point `(i, j)` at parameter `(i, j) / 2^L`),
-/// averages the control points on shared sides and corners, then applies the G1
-/// condition (see [`NetworkSettings::g1_rounds`]).
+/// Stage 5: fits the network. First each quad's grid alone (the kernel's least
+/// squares on uniform clamped knots, common to all patches, grid point `(i, j)` at
+/// parameter `(i, j) / 2^L`), the control points on shared sides and corners averaged
+/// over the patches that hold them, and the tangent conditions applied (the vertex
+/// condition at corners, unfolding, then [`NetworkSettings::g1_rounds`] of the G1
+/// condition along sides). Then [`NetworkSettings::refit_rounds`] of parameter
+/// correction against the data `points` (Park, Yun and Lee 2000, sec. 4): every
+/// point's closest point on the network ([`network_feet`]) gives it a patch and a
+/// parameter, and all patches are refitted together (the joint least squares of
+/// `joint`: every control point one unknown, however many patches hold it) to
+/// their data points (weight 1) and their grids (weight
+/// [`NetworkSettings::grid_weight`], which holds a patch where it has few points),
+/// after which the tangent conditions are applied again.
 pub fn fit_network(
     mesh: &QuadMesh,
     grids: Vec<Grid>,
+    points: &[DVec3],
     settings: &NetworkSettings,
 ) -> Result<PatchNetwork, ReconstructError> {
     let quads = &mesh.quads[..];
@@ -718,41 +765,186 @@ pub fn fit_network(
         return Err(ReconstructError::NoQuads);
     }
     let (p, c) = (settings.degree, settings.control);
-    let fits: Vec<Result<Grid, ReconstructError>> =
-        par_map(&grids.iter().enumerate().collect::<Vec<_>>(), |(qi, g)| {
-            let n = g.len() - 1;
-            let mut pts = Vec::with_capacity(g.len() * g.len());
-            let mut params = Vec::with_capacity(pts.capacity());
-            for (i, row) in g.iter().enumerate() {
-                for (j, pt) in row.iter().enumerate() {
-                    pts.push(*pt);
-                    params.push(DVec2::new(i as f64, j as f64) / n as f64);
-                }
+    let grid_rows: Vec<Vec<joint::Row>> = par_map(&grids, |g| {
+        let n = g.len() - 1;
+        let mut rows = Vec::with_capacity(g.len() * g.len());
+        for (i, row) in g.iter().enumerate() {
+            for (j, pt) in row.iter().enumerate() {
+                rows.push((*pt, DVec2::new(i as f64, j as f64) / n as f64, 1.0));
             }
+        }
+        rows
+    });
+    let fits: Vec<Result<Grid, ReconstructError>> = par_map(
+        &grid_rows.iter().enumerate().collect::<Vec<_>>(),
+        |(qi, rows)| {
+            let pts: Vec<DVec3> = rows.iter().map(|r| r.0).collect();
+            let params: Vec<DVec2> = rows.iter().map(|r| r.1).collect();
             NurbsSurface::approximate_scattered(&pts, &params, c, c, p, p)
                 .map(|s| s.control_points())
                 .map_err(|cause| ReconstructError::Fit {
                     quad: *qi,
                     cause: Box::new(cause),
                 })
-        });
+        },
+    );
     let mut nets: Vec<Grid> = fits.into_iter().collect::<Result<_, _>>()?;
     let m = c - 1;
     average_boundaries(quads, &mut nets, m);
-    if m >= 2 {
-        corner_planes(quads, &mesh.corners, &mut nets, m);
-        unfold_corners(quads, &mesh.corners, &mut nets, m);
-        let shared = shared_sides(quads, m);
-        for _ in 0..settings.g1_rounds {
-            enforce_g1(&shared, &mut nets);
+    let shared = shared_sides(quads, m);
+    let tangents = |nets: &mut [Grid]| {
+        if m >= 2 {
+            corner_planes(quads, &mesh.corners, nets, m);
+            unfold_corners(quads, &mesh.corners, nets, m);
+            for _ in 0..settings.g1_rounds {
+                enforce_g1(&shared, nets);
+            }
         }
-    }
+    };
+    tangents(&mut nets);
     let knots = KnotVector::uniform_clamped(p, c).map_err(|cause| ReconstructError::Fit {
         quad: 0,
         cause: Box::new(cause),
     })?;
-    let surfaces = nets
-        .into_iter()
+    let mut network = PatchNetwork {
+        quads: quads.to_vec(),
+        grids,
+        surfaces: surfaces_from(&nets, p, &knots)?,
+    };
+    if settings.refit_rounds > 0 && !points.is_empty() {
+        let unknowns = joint::Unknowns::new(quads, c);
+        let mut feet: Option<Vec<Foot>> = None;
+        let base: Vec<joint::Normal> = par_map(&grid_rows, |g| {
+            let weighted: Vec<joint::Row> = g
+                .iter()
+                .map(|&(p, uv, _)| (p, uv, settings.grid_weight))
+                .collect();
+            joint::Normal::new(&weighted, &knots, c)
+        });
+        let tree = sample_tree(&network);
+        for _ in 0..settings.refit_rounds {
+            let mut rows: Vec<Vec<joint::Row>> = vec![Vec::new(); quads.len()];
+            feet = match feet {
+                None => Some(par_map(points, |p| grid_foot(&network, &tree, *p))),
+                Some(before) => Some(follow_feet(&network, &tree, points, &before)),
+            };
+            for (pt, f) in points.iter().zip(feet.iter().flatten()) {
+                if f.distance.is_finite() {
+                    rows[f.quad].push((*pt, f.uv, 1.0));
+                }
+            }
+            let mut penalties = Vec::new();
+            for [(qa, sa), (qb, sb)] in &shared {
+                for k in 1..m {
+                    for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
+                        penalties.push(joint::Penalty {
+                            terms: vec![
+                                (unknowns.of(*qa, sa.inner[k]), axis),
+                                (unknowns.of(*qb, sb.inner[k]), axis),
+                                (unknowns.of(*qa, sa.on[k]), -2.0 * axis),
+                            ],
+                            value: 0.0,
+                            weight: settings.smooth_weight,
+                        });
+                    }
+                }
+            }
+            tangent_penalties(
+                quads,
+                &mesh.corners,
+                &shared,
+                &nets,
+                &unknowns,
+                settings.tangent_weight,
+                &mut penalties,
+            );
+            joint::solve(&unknowns, &mut nets, &base, &rows, &penalties, &knots, c);
+            tangents(&mut nets);
+            network.surfaces = surfaces_from(&nets, p, &knots)?;
+        }
+    }
+    Ok(network)
+}
+
+/// The tangent conditions as least-squares conditions on the unknowns, linearised at
+/// `nets`: at every quad corner the second control point of each side leaving it in
+/// the plane across the corner's data normal (the vertex condition of
+/// `corner_planes`), and along every shared side the inner control points on either
+/// side of each boundary point in the averaged tangent plane of `enforce_g1`.
+fn tangent_penalties(
+    quads: &[[QuadCorner; 4]],
+    corners: &BTreeMap<QuadCorner, (DVec3, DVec3)>,
+    shared: &[[(usize, Side); 2]],
+    nets: &[Grid],
+    unknowns: &joint::Unknowns,
+    weight: f64,
+    out: &mut Vec<joint::Penalty>,
+) {
+    let m = nets.first().map_or(0, |n| n.len().saturating_sub(1));
+    if m < 2 {
+        return;
+    }
+    for (qi, q) in quads.iter().enumerate() {
+        for s in sides(q, m) {
+            for (end, next, corner) in [(s.on[0], s.on[1], s.from), (s.on[m], s.on[m - 1], s.to)] {
+                let Some(&(_, n)) = corners.get(&corner) else {
+                    continue;
+                };
+                let terms = |axis: DVec3| {
+                    vec![(unknowns.of(qi, next), axis), (unknowns.of(qi, end), -axis)]
+                };
+                out.push(joint::Penalty {
+                    terms: terms(n),
+                    value: 0.0,
+                    weight,
+                });
+                // The side keeps the direction it leaves the corner in: the data may
+                // stretch it but not turn it round the corner (which folds the fan).
+                let d = nets[qi][next.0][next.1] - nets[qi][end.0][end.1];
+                if let Some(across) = n.cross(d).try_normalize() {
+                    out.push(joint::Penalty {
+                        terms: terms(across),
+                        value: 0.0,
+                        weight,
+                    });
+                }
+                // Nor shrink it to nothing: its length is held too (a side whose first
+                // control point reaches the corner leaves the patch without a tangent
+                // plane there).
+                if let Some(along) = d.try_normalize() {
+                    out.push(joint::Penalty {
+                        terms: terms(along),
+                        value: d.length(),
+                        weight,
+                    });
+                }
+            }
+        }
+    }
+    for [(qa, sa), (qb, sb)] in shared {
+        for k in 1..m {
+            let Some(n) = side_plane_normal(nets, (*qa, sa), (*qb, sb), k) else {
+                continue;
+            };
+            let on = unknowns.of(*qa, sa.on[k]);
+            for inner in [unknowns.of(*qa, sa.inner[k]), unknowns.of(*qb, sb.inner[k])] {
+                out.push(joint::Penalty {
+                    terms: vec![(inner, n), (on, -n)],
+                    value: 0.0,
+                    weight,
+                });
+            }
+        }
+    }
+}
+
+/// Degree-`p` non-rational patches on `knots` in both directions from control nets.
+fn surfaces_from(
+    nets: &[Grid],
+    p: usize,
+    knots: &KnotVector,
+) -> Result<Vec<NurbsSurface>, ReconstructError> {
+    nets.iter()
         .enumerate()
         .map(|(qi, net)| {
             NurbsSurface::new(
@@ -760,7 +952,7 @@ pub fn fit_network(
                 p,
                 knots.knots().to_vec(),
                 knots.knots().to_vec(),
-                net,
+                net.clone(),
                 None,
             )
             .map_err(|cause| ReconstructError::Fit {
@@ -768,12 +960,7 @@ pub fn fit_network(
                 cause: Box::new(cause),
             })
         })
-        .collect::<Result<_, _>>()?;
-    Ok(PatchNetwork {
-        quads: quads.to_vec(),
-        grids,
-        surfaces,
-    })
+        .collect()
 }
 
 /// The largest angle between the two patches' normals along one shared side.
@@ -809,12 +996,119 @@ pub fn g1_angles(network: &PatchNetwork, samples: usize) -> Vec<SideAngle> {
         .collect()
 }
 
-/// The distance from each point to the network: the certified closest point
+/// Where a point's closest point on the network lies.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Foot {
+    /// The patch (quad) holding the closest point.
+    pub quad: usize,
+    /// Its parameter on that patch.
+    pub uv: DVec2,
+    /// The distance from the point, metres.
+    pub distance: f64,
+    /// True when the foot lies on the patch's boundary.
+    pub on_boundary: bool,
+}
+
+/// The distance from each point to the network: [`network_feet`]'s distances.
+pub fn network_distances(network: &PatchNetwork, points: &[DVec3]) -> Vec<f64> {
+    network_feet(network, points)
+        .iter()
+        .map(|f| f.distance)
+        .collect()
+}
+
+/// A grid sample with its quad and grid parameter.
+type Sample = GeomWithData<[f64; 3], (usize, [f64; 2])>;
+
+/// Every grid sample of the network with its quad and grid parameter.
+fn sample_tree(network: &PatchNetwork) -> RTree<Sample> {
+    let mut samples = Vec::new();
+    for (qi, g) in network.grids.iter().enumerate() {
+        let n = g.len() - 1;
+        for (i, row) in g.iter().enumerate() {
+            for (j, p) in row.iter().enumerate() {
+                let uv = [i as f64 / n as f64, j as f64 / n as f64];
+                samples.push(GeomWithData::new(p.to_array(), (qi, uv)));
+            }
+        }
+    }
+    RTree::bulk_load(samples)
+}
+
+/// Grid samples whose patches [`grid_feet`] tries for each point.
+pub const FOOT_SAMPLES: usize = 8;
+
+/// A local foot for each point: on each patch among those of its
+/// [`FOOT_SAMPLES`] nearest grid samples, Newton's method from that sample's
+/// parameter ([`NurbsSurface::newton_closest`]), the nearest answer kept. A local
+/// closest point, not certified: what parameter correction needs (the patch a point
+/// lies on and its parameter there), at a fraction of [`network_feet`]'s cost.
+pub fn grid_feet(network: &PatchNetwork, points: &[DVec3]) -> Vec<Foot> {
+    let tree = sample_tree(network);
+    par_map(points, |p| grid_foot(network, &tree, *p))
+}
+
+/// [`grid_feet`] again after the patches have moved a little: Newton's method on each
+/// point's patch from its previous foot, and [`grid_feet`]'s search only for the
+/// points whose foot reaches the patch's boundary (they may have crossed to a
+/// neighbour).
+fn follow_feet(
+    network: &PatchNetwork,
+    tree: &RTree<Sample>,
+    points: &[DVec3],
+    feet: &[Foot],
+) -> Vec<Foot> {
+    let pairs: Vec<(DVec3, Foot)> = points.iter().copied().zip(feet.iter().copied()).collect();
+    par_map(&pairs, |&(p, before)| {
+        if before.distance.is_finite() && before.quad < network.surfaces.len() {
+            let f = network.surfaces[before.quad].newton_closest(p, before.uv);
+            if !f.on_boundary && f.distance.is_finite() {
+                return Foot {
+                    quad: before.quad,
+                    uv: f.uv,
+                    distance: f.distance,
+                    on_boundary: false,
+                };
+            }
+        }
+        grid_foot(network, tree, p)
+    })
+}
+
+/// One point's foot for [`grid_feet`].
+fn grid_foot(network: &PatchNetwork, tree: &RTree<Sample>, p: DVec3) -> Foot {
+    let mut best = Foot {
+        quad: 0,
+        uv: DVec2::ZERO,
+        distance: f64::INFINITY,
+        on_boundary: false,
+    };
+    let mut tried: Vec<usize> = Vec::with_capacity(FOOT_SAMPLES);
+    for s in tree.nearest_neighbor_iter(&p.to_array()).take(FOOT_SAMPLES) {
+        let (quad, uv) = s.data;
+        if tried.contains(&quad) {
+            continue;
+        }
+        tried.push(quad);
+        let f = network.surfaces[quad].newton_closest(p, DVec2::from(uv));
+        if f.distance < best.distance {
+            best = Foot {
+                quad,
+                uv: f.uv,
+                distance: f.distance,
+                on_boundary: f.on_boundary,
+            };
+        }
+    }
+    best
+}
+
+/// The closest point of the network to each point: the certified closest point
 /// ([`SurfaceInverter::closest_point_from`]) on the patch owning the point's nearest
 /// grid sample (seeded there), then on every other patch whose control points' box
 /// (which holds the patch) is nearer than the best distance so far, nearest box
-/// first: the smallest distance to any patch of the network.
-pub fn network_distances(network: &PatchNetwork, points: &[DVec3]) -> Vec<f64> {
+/// first: the nearest of all patches (the lower-numbered patch on a tie).
+pub fn network_feet(network: &PatchNetwork, points: &[DVec3]) -> Vec<Foot> {
     let inverters: Vec<SurfaceInverter> = par_map(&network.surfaces, NurbsSurface::inverter);
     let boxes: Vec<(DVec3, DVec3)> = network
         .surfaces
@@ -828,38 +1122,40 @@ pub fn network_distances(network: &PatchNetwork, points: &[DVec3]) -> Vec<f64> {
                 })
         })
         .collect();
-    let mut samples = Vec::new();
-    for (qi, g) in network.grids.iter().enumerate() {
-        let n = g.len() - 1;
-        for (i, row) in g.iter().enumerate() {
-            for (j, p) in row.iter().enumerate() {
-                let uv = [i as f64 / n as f64, j as f64 / n as f64];
-                samples.push(GeomWithData::new(p.to_array(), (qi, uv)));
-            }
-        }
-    }
-    let tree = RTree::bulk_load(samples);
+    let tree = sample_tree(network);
+    let foot = |quad: usize, p: Projection| Foot {
+        quad,
+        uv: p.uv,
+        distance: p.distance,
+        on_boundary: p.on_boundary,
+    };
     par_map(points, |p| {
         let Some(first) = tree.nearest_neighbor(&p.to_array()) else {
-            return f64::INFINITY;
+            return Foot {
+                quad: 0,
+                uv: DVec2::ZERO,
+                distance: f64::INFINITY,
+                on_boundary: false,
+            };
         };
         let (q0, uv) = first.data;
-        let mut best = inverters[q0]
-            .closest_point_from(*p, DVec2::from(uv))
-            .distance;
+        let mut best = foot(q0, inverters[q0].closest_point_from(*p, DVec2::from(uv)));
         let mut others: Vec<(f64, usize)> = boxes
             .iter()
             .enumerate()
             .filter(|&(qi, _)| qi != q0)
             .map(|(qi, (lo, hi))| ((*p - p.clamp(*lo, *hi)).length(), qi))
-            .filter(|&(d, _)| d < best)
+            .filter(|&(d, _)| d < best.distance)
             .collect();
         others.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         for (d, qi) in others {
-            if d >= best {
+            if d >= best.distance {
                 break;
             }
-            best = best.min(inverters[qi].closest_point(*p).distance);
+            let f = foot(qi, inverters[qi].closest_point(*p));
+            if f.distance < best.distance {
+                best = f;
+            }
         }
         best
     })
@@ -905,8 +1201,11 @@ mod tests {
     /// the E_avg target of 0.03 % of the bounding-box diagonal, and 0.5 %.
     const TORUS_E_AVG: f64 = 0.03 / 100.0;
     const TORUS_E_MAX: f64 = 0.5 / 100.0;
-    /// Worst G1 angle of the small torus, degrees.
+    /// Worst G1 angle of the small torus, degrees: fitted to its grids only (measured
+    /// 7.7), and refitted to the data (measured 10.3, one sample from the corner where
+    /// eight quads meet, one of them spanning 14 degrees there).
     const TORUS_G1_DEGREES: f64 = 10.0;
+    const TORUS_REFIT_G1_DEGREES: f64 = 12.0;
 
     fn seg_of(points: Vec<DVec3>, k: usize) -> Segmentation {
         let cloud = PointCloud {
@@ -921,7 +1220,7 @@ mod tests {
         let snap = DataSnap::new(&seg.points, &seg.normals, settings.snap_neighbours);
         let mesh = place_corners(&model, &seg.clusters.centres, &snap);
         let grids = quad_grids(&mesh, settings.levels, &snap);
-        let net = fit_network(&mesh, grids, settings).unwrap();
+        let net = fit_network(&mesh, grids, &seg.points, settings).unwrap();
         (mesh, net)
     }
 
@@ -1030,13 +1329,60 @@ mod tests {
             .map(|a| a.max_degrees)
             .fold(0.0, f64::max);
         eprintln!("G1 {worst}");
-        assert!(worst < TORUS_G1_DEGREES, "G1 {worst} degrees");
+        assert!(worst < TORUS_REFIT_G1_DEGREES, "G1 {worst} degrees");
         // Normals point outward (away from the tube's core circle).
         for s in &net.surfaces {
             let p = s.point(0.5, 0.5);
             let core = DVec3::new(p.x, p.y, 0.0).normalize() * major;
             assert!(s.normal(0.5, 0.5).dot(p - core) > 0.0);
         }
+    }
+
+    /// The refit to the data lowers E_avg on the small torus, and the tangent
+    /// conditions it keeps leave the normals agreeing within the stated bound; fitted
+    /// to its grids only, the network is smoother but further from the data.
+    #[test]
+    fn refitting_to_the_data_brings_the_network_closer() {
+        let seg = seg_of(torus(4000, 0.2, 0.08, 7), 30);
+        let diag = bbox_diagonal(&seg.points);
+        let figures = |rounds: usize| {
+            let settings = NetworkSettings {
+                levels: 3,
+                control: 6,
+                refit_rounds: rounds,
+                ..NetworkSettings::new()
+            };
+            let (_, net) = network(&seg, &settings);
+            let d = network_distances(&net, &seg.points);
+            let worst = g1_angles(&net, 8)
+                .iter()
+                .map(|a| a.max_degrees)
+                .fold(0.0, f64::max);
+            (d.iter().sum::<f64>() / d.len() as f64 / diag, worst, net)
+        };
+        let (grid_only, grid_g1, _) = figures(0);
+        let (refitted, refit_g1, net) = figures(3);
+        eprintln!("E_avg {grid_only} -> {refitted}, G1 {grid_g1} -> {refit_g1}");
+        assert!(refitted < 0.8 * grid_only, "{grid_only} -> {refitted}");
+        assert!(grid_g1 < TORUS_G1_DEGREES, "{grid_g1}");
+        assert!(refit_g1 < TORUS_REFIT_G1_DEGREES, "{refit_g1}");
+        // The local feet the refit uses find the certified distance for nearly every
+        // point (a point whose nearest patch is not among those of its nearest grid
+        // samples gets a larger local distance, never a smaller one).
+        let certified = network_feet(&net, &seg.points);
+        let local = grid_feet(&net, &seg.points);
+        let mut same = 0;
+        for (c, l) in certified.iter().zip(&local) {
+            assert!(l.distance >= c.distance - POINT_EPS, "{c:?} {l:?}");
+            if l.distance - c.distance < POINT_EPS {
+                same += 1;
+            }
+        }
+        assert!(
+            same * 100 >= 99 * seg.points.len(),
+            "{same} of {}",
+            seg.points.len()
+        );
     }
 
     /// The normals of every patch at each of its corners, by corner.
@@ -1331,9 +1677,37 @@ mod tests {
                     quads: Vec::new(),
                 },
                 Vec::new(),
+                &[],
                 &NetworkSettings::new()
             ),
             Err(ReconstructError::NoQuads)
         );
+        for (name, bad) in [
+            (
+                "grid_weight",
+                NetworkSettings {
+                    grid_weight: 0.0,
+                    ..NetworkSettings::new()
+                },
+            ),
+            (
+                "smooth_weight",
+                NetworkSettings {
+                    smooth_weight: -1.0,
+                    ..NetworkSettings::new()
+                },
+            ),
+            (
+                "tangent_weight",
+                NetworkSettings {
+                    tangent_weight: f64::NAN,
+                    ..NetworkSettings::new()
+                },
+            ),
+        ] {
+            assert!(
+                matches!(bad.validate(), Err(ReconstructError::Weight { name: n, .. }) if n == name)
+            );
+        }
     }
 }

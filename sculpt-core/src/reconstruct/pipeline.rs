@@ -84,7 +84,7 @@ pub fn reconstruct(
     progress("local grids");
     let grids = quad_grids(&mesh, settings.levels, &snap);
     progress("fitting");
-    let network = fit_network(&mesh, grids, settings)?;
+    let network = fit_network(&mesh, grids, &seg.points, settings)?;
     progress("errors");
     let figures = figures(&network, &seg);
     Ok(Reconstruction {

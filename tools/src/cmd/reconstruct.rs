@@ -46,6 +46,9 @@ pub struct ReconstructArgs {
     /// Control points per direction of each patch (degree < N <= 17).
     #[arg(long, default_value_t = 8)]
     pub control: usize,
+    /// Rounds of refitting the patches to the data points (0: to their grids only).
+    #[arg(long, default_value_t = 3)]
+    pub refit: usize,
     /// Write the patches here as a `wandsculpt-document` (one target per patch).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -107,6 +110,8 @@ pub struct Report {
     pub control: usize,
     /// Points per direction of each quad's local grid.
     pub grid: usize,
+    /// Rounds of refitting to the data points.
+    pub refit_rounds: usize,
     /// NURBS patches fitted (one per quad).
     pub nurbs_patches: usize,
     /// Patch sides shared by two patches.
@@ -168,6 +173,7 @@ pub fn reconstruct(args: &ReconstructArgs) -> Result<(Reconstruction, Report)> {
     let network_settings = NetworkSettings {
         degree: args.degree,
         control: args.control,
+        refit_rounds: args.refit,
         ..NetworkSettings::new()
     };
     let r = run_method(&cloud, &settings, &network_settings, |stage| {
@@ -213,6 +219,7 @@ pub fn reconstruct(args: &ReconstructArgs) -> Result<(Reconstruction, Report)> {
         degree: args.degree,
         control: args.control,
         grid: (1 << network_settings.levels) + 1,
+        refit_rounds: network_settings.refit_rounds,
         nurbs_patches: r.network.surfaces.len(),
         shared_sides: shared_sides(&r.network.quads, 1).len(),
         e_avg: r.figures.e_avg,
