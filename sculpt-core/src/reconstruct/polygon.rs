@@ -100,7 +100,49 @@ pub fn polygon_model(
             ]);
         }
     }
+    merge_two_quad_fans(&mut quads);
     PolygonModel { faces, quads }
+}
+
+/// Removes the corners that only two quads surround (a fan of two quads: both hold the
+/// two sides leaving the corner, which happens where two faces share two edges at a
+/// patch, a pocket). Two quads round a point cannot both span less than 180 degrees
+/// there, so one of them turns over; merged into one quad without that corner
+/// (`[v, a, x, b]` and `[v, b, y, a]` become `[a, x, b, y]`), the fold is gone. The
+/// merge leaves every other side as it was and the Euler characteristic unchanged
+/// (one corner, two sides and one quad fewer).
+fn merge_two_quad_fans(quads: &mut Vec<[QuadCorner; 4]>) {
+    loop {
+        // For each corner, the quads at it with the two corners beside it.
+        let mut at: BTreeMap<QuadCorner, Vec<(usize, [QuadCorner; 2])>> = BTreeMap::new();
+        for (qi, q) in quads.iter().enumerate() {
+            for k in 0..4 {
+                let mut beside = [q[(k + 1) % 4], q[(k + 3) % 4]];
+                beside.sort();
+                at.entry(q[k]).or_default().push((qi, beside));
+            }
+        }
+        let turn = |q: [QuadCorner; 4], v: QuadCorner| {
+            let k = q.iter().position(|c| *c == v).unwrap_or(0);
+            [q[k], q[(k + 1) % 4], q[(k + 2) % 4], q[(k + 3) % 4]]
+        };
+        // The first such pair whose far corners differ (two quads closing on each
+        // other, a pillow, have nothing to merge into).
+        let pair = at.iter().find_map(|(v, uses)| {
+            uses.iter().enumerate().find_map(|(i, (qa, sides))| {
+                uses[i + 1..].iter().find_map(|(qb, other)| {
+                    let [_, a, x, b] = turn(quads[*qa], *v);
+                    let [_, _, y, _] = turn(quads[*qb], *v);
+                    (other == sides && x != y).then_some((*qa, *qb, [a, x, b, y]))
+                })
+            })
+        });
+        let Some((qa, qb, merged)) = pair else {
+            return;
+        };
+        quads[qa] = merged;
+        quads.remove(qb);
+    }
 }
 
 /// Splits the open `edges` (each `(a, b)` with `a < b`) into loops, each edge in at
@@ -192,6 +234,37 @@ mod tests {
     use crate::reconstruct::read::PointCloud;
     use crate::reconstruct::sample::torus;
     use crate::reconstruct::segment::{SegmentSettings, segment};
+
+    /// Regression (the kitten's patch 24, a pocket where two faces share two edges):
+    /// the two quads round the patch's corner there turned over, a 180-degree fold.
+    #[test]
+    fn a_fan_of_two_quads_is_merged_into_one_quad() {
+        use QuadCorner::{Edge as E, Face as F, Patch as P};
+        // Faces 0 = [0, 1, 2, 3] and 1 = [0, 3, 4, 1] share the edges (0, 1) and
+        // (0, 3) at patch 0; four quads round patch 2 (an ordinary corner) stay.
+        let fan = vec![
+            [P(0), E(0, 1), F(0), E(0, 3)],
+            [P(0), E(0, 3), F(1), E(0, 1)],
+            [P(2), E(2, 3), F(0), E(1, 2)],
+            [P(2), E(1, 2), F(2), E(2, 5)],
+            [P(2), E(2, 5), F(3), E(2, 6)],
+            [P(2), E(2, 6), F(4), E(2, 3)],
+        ];
+        let mut quads = fan.clone();
+        merge_two_quad_fans(&mut quads);
+        assert_eq!(quads.len(), fan.len() - 1);
+        assert_eq!(quads[0], [E(0, 1), F(0), E(0, 3), F(1)]);
+        assert_eq!(&quads[1..], &fan[2..]);
+        assert!(quads.iter().flatten().all(|c| *c != P(0)));
+        // Two quads closing on each other (the same far corner) are left.
+        let pillow = vec![
+            [P(0), E(0, 1), F(0), E(0, 3)],
+            [P(0), E(0, 3), F(0), E(0, 1)],
+        ];
+        let mut same = pillow.clone();
+        merge_two_quad_fans(&mut same);
+        assert_eq!(same, pillow);
+    }
 
     fn model_of(points: Vec<glam::DVec3>, k: usize) -> (PolygonModel, usize) {
         let cloud = PointCloud {
