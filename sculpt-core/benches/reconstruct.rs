@@ -1,6 +1,7 @@
 //! Scan reconstruction on the paper's torus (16,200 points): stages 1 and 2 alone
 //! (neighbours, PCA normals with orientation, K-means and adjacency, K = 80), and the
-//! whole method (K = 30, bicubic 8x8 patches on 17x17 grids, G1, the error figures).
+//! whole method (K = 30, bicubic 8x8 patches on 17x17 grids, G1, the error figures),
+//! with its three rounds of refitting to the data and without them (`refit0`).
 //!
 //! `cargo bench -p sculpt-core --bench reconstruct`
 
@@ -24,17 +25,23 @@ fn bench(c: &mut Criterion) {
     g.bench_function("segment_k80", |b| {
         b.iter(|| segment(black_box(&cloud), &SegmentSettings::new(80), |_| {}).unwrap())
     });
-    g.bench_function("network_k30_n8", |b| {
-        b.iter(|| {
-            reconstruct(
-                black_box(&cloud),
-                &SegmentSettings::new(30),
-                &NetworkSettings::new(),
-                |_| {},
-            )
-            .unwrap()
-        })
-    });
+    for (name, refit_rounds) in [("network_k30_n8", 3), ("network_k30_n8_refit0", 0)] {
+        let settings = NetworkSettings {
+            refit_rounds,
+            ..NetworkSettings::new()
+        };
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                reconstruct(
+                    black_box(&cloud),
+                    &SegmentSettings::new(30),
+                    &settings,
+                    |_| {},
+                )
+                .unwrap()
+            })
+        });
+    }
     g.finish();
 }
 
