@@ -161,7 +161,9 @@ impl From<Normal> for Local {
 /// once, for the rows that do not change between calls, such as its grid) plus its
 /// `rows[q]`, on the common `knots` with `c` control points per direction, together
 /// with the `penalties`. Every control point must be reached by some row (each
-/// patch's grid does that). Returns the conjugate gradient iterations taken.
+/// patch's grid does that). Returns the conjugate gradient iterations taken, or
+/// `None`, leaving `nets` as they were, when the solution is not finite (a row or
+/// condition that is: the caller keeps its previous nets).
 pub(super) fn solve(
     unknowns: &Unknowns,
     nets: &mut [Grid],
@@ -170,7 +172,7 @@ pub(super) fn solve(
     penalties: &[Penalty],
     knots: &KnotVector,
     c: usize,
-) -> usize {
+) -> Option<usize> {
     let pairs: Vec<(&Normal, &Vec<Row>)> = base.iter().zip(rows).collect();
     let locals: Vec<Local> = super::network::par_map(&pairs, |(base, rows)| {
         let mut n = (*base).clone();
@@ -228,6 +230,9 @@ pub(super) fn solve(
             .map(|(r, d)| DVec3::select(d.cmpgt(DVec3::ZERO), *r / *d, *r))
             .collect()
     };
+    if !b.iter().chain(&diag).all(|v| v.is_finite()) {
+        return None;
+    }
     let dot = |a: &[DVec3], b: &[DVec3]| -> f64 { a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum() };
     let ax = product(&x);
     let mut r: Vec<DVec3> = b.iter().zip(&ax).map(|(b, a)| *b - *a).collect();
@@ -243,7 +248,7 @@ pub(super) fn solve(
         iterations += 1;
         let ap = product(&p);
         let pap = dot(&p, &ap);
-        if pap <= 0.0 {
+        if pap.is_nan() || pap <= 0.0 {
             break;
         }
         let alpha = rz / pap;
@@ -259,12 +264,15 @@ pub(super) fn solve(
             *p = *z + beta * *p;
         }
     }
+    if !x.iter().all(|p| p.is_finite()) {
+        return None;
+    }
     for (q, net) in nets.iter_mut().enumerate() {
         for (r, &g) in unknowns.index[q].iter().enumerate() {
             net[r / c][r % c] = x[g];
         }
     }
-    iterations
+    Some(iterations)
 }
 
 #[cfg(test)]
@@ -329,7 +337,7 @@ mod tests {
             &knots,
             c,
         );
-        assert!(iterations > 0);
+        assert!(iterations.is_some_and(|i| i > 0));
         let check = |nets: &[Grid]| {
             for (q, net) in nets.iter().enumerate() {
                 let s = crate::nurbs::NurbsSurface::new(
@@ -400,5 +408,23 @@ mod tests {
             "{}",
             pinned[0][2][2]
         );
+    }
+
+    #[test]
+    fn a_solution_that_is_not_finite_leaves_the_nets_alone() {
+        let c = 6;
+        let quads = two_quads();
+        let knots = KnotVector::uniform_clamped(3, c).unwrap();
+        let unknowns = Unknowns::new(&quads, c);
+        let start = vec![vec![vec![DVec3::ONE; c]; c]; 2];
+        let mut nets = start.clone();
+        let mut rows = rows_on_surface(1.0);
+        rows[1][5].0 = DVec3::new(f64::NAN, 0.0, 0.0);
+        let none = vec![Normal::new(&[], &knots, c); 2];
+        assert_eq!(
+            solve(&unknowns, &mut nets, &none, &rows, &[], &knots, c),
+            None
+        );
+        assert_eq!(nets, start);
     }
 }

@@ -858,7 +858,11 @@ pub fn fit_network(
                 settings.tangent_weight,
                 &mut penalties,
             );
-            joint::solve(&unknowns, &mut nets, &base, &rows, &penalties, &knots, c);
+            if joint::solve(&unknowns, &mut nets, &base, &rows, &penalties, &knots, c).is_none() {
+                // Not finite (cannot happen with finite points and weights): keep the
+                // network of the previous round.
+                break;
+            }
             tangents(&mut nets);
             network.surfaces = surfaces_from(&nets, p, &knots)?;
         }
