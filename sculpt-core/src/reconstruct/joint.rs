@@ -320,14 +320,24 @@ mod tests {
         assert_ne!(u.of(0, (0, 0)), u.of(1, (c - 1, 0)));
     }
 
+    /// Control points per direction of the two test patches.
+    const C: usize = 6;
+
+    /// The two quads, their common bicubic knots, the unknowns, and empty base
+    /// equations.
+    fn fixture() -> (Vec<[QuadCorner; 4]>, KnotVector, Unknowns, Vec<Normal>) {
+        let quads = two_quads();
+        let knots = KnotVector::uniform_clamped(3, C).unwrap();
+        let unknowns = Unknowns::new(&quads, C);
+        let none = vec![Normal::new(&[], &knots, C); 2];
+        (quads, knots, unknowns, none)
+    }
+
     #[test]
     fn the_joint_fit_reproduces_a_surface_it_can_hold() {
-        let c = 6;
-        let quads = two_quads();
-        let knots = KnotVector::uniform_clamped(3, c).unwrap();
-        let unknowns = Unknowns::new(&quads, c);
+        let c = C;
+        let (quads, knots, unknowns, none) = fixture();
         let mut nets = vec![vec![vec![DVec3::ZERO; c]; c]; 2];
-        let none = vec![Normal::new(&[], &knots, c); 2];
         let iterations = solve(
             &unknowns,
             &mut nets,
@@ -412,15 +422,12 @@ mod tests {
 
     #[test]
     fn a_solution_that_is_not_finite_leaves_the_nets_alone() {
-        let c = 6;
-        let quads = two_quads();
-        let knots = KnotVector::uniform_clamped(3, c).unwrap();
-        let unknowns = Unknowns::new(&quads, c);
+        let c = C;
+        let (_, knots, unknowns, none) = fixture();
         let start = vec![vec![vec![DVec3::ONE; c]; c]; 2];
         let mut nets = start.clone();
         let mut rows = rows_on_surface(1.0);
         rows[1][5].0 = DVec3::new(f64::NAN, 0.0, 0.0);
-        let none = vec![Normal::new(&[], &knots, c); 2];
         assert_eq!(
             solve(&unknowns, &mut nets, &none, &rows, &[], &knots, c),
             None
