@@ -792,16 +792,7 @@ pub fn fit_network(
     let m = c - 1;
     average_boundaries(quads, &mut nets, m);
     let shared = shared_sides(quads, m);
-    let tangents = |nets: &mut [Grid]| {
-        if m >= 2 {
-            corner_planes(quads, &mesh.corners, nets, m);
-            unfold_corners(quads, &mesh.corners, nets, m);
-            for _ in 0..settings.g1_rounds {
-                enforce_g1(&shared, nets);
-            }
-        }
-    };
-    tangents(&mut nets);
+    apply_tangents(mesh, &shared, &mut nets, settings.g1_rounds);
     let knots = KnotVector::uniform_clamped(p, c).map_err(|cause| ReconstructError::Fit {
         quad: 0,
         cause: Box::new(cause),
@@ -812,62 +803,114 @@ pub fn fit_network(
         surfaces: surfaces_from(&nets, p, &knots)?,
     };
     if settings.refit_rounds > 0 && !points.is_empty() {
-        let unknowns = joint::Unknowns::new(quads, c);
-        let mut feet: Option<Vec<Foot>> = None;
-        let base: Vec<joint::Normal> = par_map(&grid_rows, |g| {
-            let weighted: Vec<joint::Row> = g
-                .iter()
-                .map(|&(p, uv, _)| (p, uv, settings.grid_weight))
-                .collect();
-            joint::Normal::new(&weighted, &knots, c)
-        });
-        let tree = sample_tree(&network);
-        for _ in 0..settings.refit_rounds {
-            let mut rows: Vec<Vec<joint::Row>> = vec![Vec::new(); quads.len()];
-            feet = match feet {
-                None => Some(par_map(points, |p| grid_foot(&network, &tree, *p))),
-                Some(before) => Some(follow_feet(&network, &tree, points, &before)),
-            };
-            for (pt, f) in points.iter().zip(feet.iter().flatten()) {
-                if f.distance.is_finite() {
-                    rows[f.quad].push((*pt, f.uv, 1.0));
-                }
-            }
-            let mut penalties = Vec::new();
-            for [(qa, sa), (qb, sb)] in &shared {
-                for k in 1..m {
-                    for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
-                        penalties.push(joint::Penalty {
-                            terms: vec![
-                                (unknowns.of(*qa, sa.inner[k]), axis),
-                                (unknowns.of(*qb, sb.inner[k]), axis),
-                                (unknowns.of(*qa, sa.on[k]), -2.0 * axis),
-                            ],
-                            value: 0.0,
-                            weight: settings.smooth_weight,
-                        });
-                    }
-                }
-            }
-            tangent_penalties(
-                quads,
-                &mesh.corners,
-                &shared,
-                &nets,
-                &unknowns,
-                settings.tangent_weight,
-                &mut penalties,
-            );
-            if joint::solve(&unknowns, &mut nets, &base, &rows, &penalties, &knots, c).is_none() {
-                // Not finite (cannot happen with finite points and weights): keep the
-                // network of the previous round.
-                break;
-            }
-            tangents(&mut nets);
-            network.surfaces = surfaces_from(&nets, p, &knots)?;
-        }
+        refit_to_data(
+            mesh,
+            &shared,
+            &grid_rows,
+            points,
+            settings,
+            &knots,
+            &mut network,
+        )?;
     }
     Ok(network)
+}
+
+/// The tangent conditions, exactly: the vertex condition at every corner, the fans
+/// that turned over spread, then `g1_rounds` of the G1 condition along the sides.
+fn apply_tangents(
+    mesh: &QuadMesh,
+    shared: &[[(usize, Side); 2]],
+    nets: &mut [Grid],
+    g1_rounds: usize,
+) {
+    let m = nets.first().map_or(0, |n| n.len().saturating_sub(1));
+    if m >= 2 {
+        corner_planes(&mesh.quads, &mesh.corners, nets, m);
+        unfold_corners(&mesh.quads, &mesh.corners, nets, m);
+        for _ in 0..g1_rounds {
+            enforce_g1(shared, nets);
+        }
+    }
+}
+
+/// The refit rounds of [`fit_network`]: `network`'s patches move from the grid fit to
+/// the joint fit of data, grids and conditions, round by round.
+fn refit_to_data(
+    mesh: &QuadMesh,
+    shared: &[[(usize, Side); 2]],
+    grid_rows: &[Vec<joint::Row>],
+    points: &[DVec3],
+    settings: &NetworkSettings,
+    knots: &KnotVector,
+    network: &mut PatchNetwork,
+) -> Result<(), ReconstructError> {
+    let (p, c) = (settings.degree, settings.control);
+    let mut nets: Vec<Grid> = network
+        .surfaces
+        .iter()
+        .map(|s| s.control_points())
+        .collect();
+    let nets = &mut nets[..];
+    let m = c - 1;
+    let unknowns = joint::Unknowns::new(&mesh.quads, c);
+    let base: Vec<joint::Normal> = par_map(grid_rows, |g| {
+        let weighted: Vec<joint::Row> = g
+            .iter()
+            .map(|&(p, uv, _)| (p, uv, settings.grid_weight))
+            .collect();
+        joint::Normal::new(&weighted, knots, c)
+    });
+    // `A + C - 2B = 0` across every shared side: the same in every round.
+    let mut smooth = Vec::new();
+    for [(qa, sa), (qb, sb)] in shared {
+        for k in 1..m {
+            for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
+                smooth.push(joint::Penalty {
+                    terms: vec![
+                        (unknowns.of(*qa, sa.inner[k]), axis),
+                        (unknowns.of(*qb, sb.inner[k]), axis),
+                        (unknowns.of(*qa, sa.on[k]), -2.0 * axis),
+                    ],
+                    value: 0.0,
+                    weight: settings.smooth_weight,
+                });
+            }
+        }
+    }
+    let tree = sample_tree(network);
+    let mut feet: Option<Vec<Foot>> = None;
+    for _ in 0..settings.refit_rounds {
+        let next = match &feet {
+            None => feet_near_samples(network, &tree, points),
+            Some(before) => follow_feet(network, &tree, points, before),
+        };
+        let mut rows: Vec<Vec<joint::Row>> = vec![Vec::new(); mesh.quads.len()];
+        for (pt, f) in points.iter().zip(&next) {
+            if f.distance.is_finite() {
+                rows[f.quad].push((*pt, f.uv, 1.0));
+            }
+        }
+        feet = Some(next);
+        let mut penalties = smooth.clone();
+        tangent_penalties(
+            &mesh.quads,
+            &mesh.corners,
+            shared,
+            nets,
+            &unknowns,
+            settings.tangent_weight,
+            &mut penalties,
+        );
+        if joint::solve(&unknowns, nets, &base, &rows, &penalties, knots, c).is_none() {
+            // Not finite (cannot happen with finite points and weights): keep the
+            // network of the previous round.
+            break;
+        }
+        apply_tangents(mesh, shared, nets, settings.g1_rounds);
+        network.surfaces = surfaces_from(nets, p, knots)?;
+    }
+    Ok(())
 }
 
 /// The tangent conditions as least-squares conditions on the unknowns, linearised at
@@ -1048,8 +1091,12 @@ pub const FOOT_SAMPLES: usize = 8;
 /// closest point, not certified: what parameter correction needs (the patch a point
 /// lies on and its parameter there), at a fraction of [`network_feet`]'s cost.
 pub fn grid_feet(network: &PatchNetwork, points: &[DVec3]) -> Vec<Foot> {
-    let tree = sample_tree(network);
-    par_map(points, |p| grid_foot(network, &tree, *p))
+    feet_near_samples(network, &sample_tree(network), points)
+}
+
+/// [`grid_feet`] with the network's sample tree already built.
+fn feet_near_samples(network: &PatchNetwork, tree: &RTree<Sample>, points: &[DVec3]) -> Vec<Foot> {
+    par_map(points, |p| grid_foot(network, tree, *p))
 }
 
 /// [`grid_feet`] again after the patches have moved a little: Newton's method on each
