@@ -16,7 +16,7 @@ use std::collections::BTreeMap;
 use glam::{DVec2, DVec3};
 use nalgebra::DMatrix;
 
-use super::network::{Grid, Side, sides};
+use super::network::{BoundaryKey, Grid, Side, boundary_key, sides};
 use super::polygon::QuadCorner;
 use crate::nurbs::KnotVector;
 use crate::tolerance::{CG_MAX_ITERATIONS, CG_REL_TOL};
@@ -30,6 +30,8 @@ pub(super) struct Unknowns {
     /// `index[q][i * c + j]`: the unknown of control point `(i, j)` of patch `q`.
     index: Vec<Vec<usize>>,
     count: usize,
+    /// Control points per direction of every patch.
+    c: usize,
 }
 
 impl Unknowns {
@@ -38,7 +40,7 @@ impl Unknowns {
     /// run it the same way), a corner's by every quad at it.
     pub(super) fn new(quads: &[[QuadCorner; 4]], c: usize) -> Self {
         let m = c - 1;
-        let mut shared: BTreeMap<(QuadCorner, QuadCorner, usize), usize> = BTreeMap::new();
+        let mut shared: BTreeMap<BoundaryKey, usize> = BTreeMap::new();
         let mut count = 0;
         let mut index = vec![vec![usize::MAX; c * c]; quads.len()];
         for (qi, q) in quads.iter().enumerate() {
@@ -46,14 +48,7 @@ impl Unknowns {
                 let s: Side = s.canonical();
                 let key = s.key().0;
                 for (k, &(i, j)) in s.on.iter().enumerate() {
-                    let id = if k == 0 {
-                        (key.0, key.0, 0)
-                    } else if k == m {
-                        (key.1, key.1, 0)
-                    } else {
-                        (key.0, key.1, k)
-                    };
-                    let n = *shared.entry(id).or_insert_with(|| {
+                    let n = *shared.entry(boundary_key(key, k, m)).or_insert_with(|| {
                         count += 1;
                         count - 1
                     });
@@ -65,13 +60,12 @@ impl Unknowns {
                 count += 1;
             }
         }
-        Self { index, count }
+        Self { index, count, c }
     }
 
     /// The unknown of control point `(i, j)` of patch `q`.
     pub(super) fn of(&self, q: usize, (i, j): (usize, usize)) -> usize {
-        let c = (self.index[q].len() as f64).sqrt() as usize;
-        self.index[q][i * c + j]
+        self.index[q][i * self.c + j]
     }
 
     /// The number of unknowns.

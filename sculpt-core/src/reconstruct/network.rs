@@ -484,9 +484,9 @@ pub struct PatchNetwork {
 
 /// Key of a boundary control point: a corner `(c, c, 0)` or the `k`-th point of a side
 /// in its key's direction.
-type BoundaryKey = (QuadCorner, QuadCorner, usize);
+pub(super) type BoundaryKey = (QuadCorner, QuadCorner, usize);
 
-fn boundary_key(key: (QuadCorner, QuadCorner), k: usize, last: usize) -> BoundaryKey {
+pub(super) fn boundary_key(key: (QuadCorner, QuadCorner), k: usize, last: usize) -> BoundaryKey {
     if k == 0 {
         (key.0, key.0, 0)
     } else if k == last {
