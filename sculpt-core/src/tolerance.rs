@@ -404,6 +404,21 @@ pub const SNAP_REL_TOL: f64 = 1e-4;
 /// Largest cosine deficit between a snap's line and the true normal.
 pub const SNAP_NORMAL_COS_TOL: f64 = 1e-3;
 
+// ---------------------------------------------------------------------------------
+// Ray casting (the desktop pointer on the document, `sculpt::ray`).
+// ---------------------------------------------------------------------------------
+
+/// Sphere tracing hands over to Newton's method once the ray is this close to the
+/// target, as a fraction of the target's size (a micrometre on a 1 m sheet).
+pub const RAY_POLISH_REL: f64 = 1e-6;
+/// A ray hit agrees with an analytic one (plane, sphere, quadratic sheet) to this
+/// (metres along the ray): Newton stops at a residual of [`POINT_EPS`], seen along a
+/// ray at a slant.
+pub const RAY_HIT_TOL: f64 = 1e-7;
+/// A ray hit agrees with the first hit on a fine (512 x 512) triangle grid of the
+/// surface to this (metres along the ray): the grid's chord error at a slant.
+pub const RAY_MESH_TOL: f64 = 1e-4;
+
 /// True when `a` and `b` differ by at most `tol`, counting NaN as never near.
 #[inline]
 pub fn near(a: f64, b: f64, tol: f64) -> bool {

@@ -3,13 +3,13 @@
 //! preview, through [`SceneState`]), the wand cursor overlay and the HUD. No GPU and no
 //! window here.
 
-use glam::DVec3;
-use sculpt_core::interaction::{Profile, StrokeMode};
+use glam::{DQuat, DVec3};
+use sculpt_core::interaction::{InteractionMode, Profile, StrokeMode, TargetIndex, WandSample};
 use sculpt_core::sculpt::tessellate::Detail;
 
 use crate::config::Config;
 use crate::desktop_view::DesktopView;
-use crate::desktop_wand::EmulatedWand;
+use crate::desktop_wand::{Aim, DesktopPointer, EmulatedWand, PointerRig};
 use crate::error::VrResult;
 pub use crate::input::TrackingState;
 use crate::projection::{HeadPose, Screen, StereoRig};
@@ -39,6 +39,8 @@ pub struct AppState {
     pub view: Option<DesktopView>,
     /// Study mode (`--study`): the participant's trials, shown on the HUD.
     pub study: Option<crate::study::StudyRun>,
+    /// The desktop pointer (the mouse as the wand, [`AppState::desktop_sample`]).
+    pub pointer: DesktopPointer,
     fixed_head: HeadPose,
     scene: SceneState,
     /// The quadtree overlay's lines and the strokes they were drawn for.
@@ -73,6 +75,7 @@ impl AppState {
             fps: 0.0,
             view,
             study: None,
+            pointer: DesktopPointer::default(),
             fixed_head: head,
             scene: SceneState::default(),
             quadtree: None,
@@ -99,6 +102,47 @@ impl AppState {
     pub fn new_sinks(&mut self) {
         self.scene = SceneState::default();
         self.session.draw_parts().0.forget_sinks();
+    }
+
+    /// Whether the desktop wand tip follows the surface under the pointer: in the
+    /// stroke modes; sketching draws in the air, on the wand plane.
+    pub fn pointer_follows_surface(&self) -> bool {
+        self.session.interaction.mode() != InteractionMode::Sketch
+    }
+
+    /// Desktop mode: aims the emulated wand at the pointer `pixel` of a window of
+    /// `size` pixels ([`DesktopPointer::aim`]: the tip on the surface under the
+    /// pointer, through the desktop view) and gives the wand sample with `buttons`,
+    /// oriented as the view. A pointer with no tip gives a lost sample.
+    pub fn desktop_sample(
+        &mut self,
+        pixel: (f64, f64),
+        size: (u32, u32),
+        buttons: u32,
+    ) -> WandSample {
+        let follow = self.pointer_follows_surface();
+        let rig = PointerRig {
+            screen: &self.screen,
+            eye: self.head.position,
+            view: self.view.as_ref(),
+        };
+        let aim = self
+            .pointer
+            .aim(&self.session.doc, rig, pixel, size, follow);
+        let q = self.view.map_or(DQuat::IDENTITY, |v| v.rotation());
+        match aim.tip() {
+            Some(p) => WandSample::tracked(p, q, buttons),
+            None => WandSample::lost(buttons),
+        }
+    }
+
+    /// Desktop mode: the target under the pointer's last aim when it is not the
+    /// selected one (a press there selects it first), as its position.
+    pub fn pointer_target_to_select(&self) -> Option<TargetIndex> {
+        let id = self.pointer.last.as_ref().and_then(Aim::target)?;
+        let position = self.session.doc.targets().iter().position(|t| t.id == id)?;
+        let index = TargetIndex(u32::try_from(position).ok()?);
+        (index != self.session.interaction.target_position()).then_some(index)
     }
 
     /// Frames the whole document again (desktop mode; no-op on a wall).
@@ -215,7 +259,9 @@ impl AppState {
     }
 
     /// HUD text: mode, tool, target, tracking, fps, operations; in study mode the
-    /// participant, method and trial.
+    /// participant, method and trial; in desktop mode where the pointer is (on which
+    /// target, how high, or off the surface); and the latest refusal, in words, for
+    /// [`REFUSAL_SHOWN_S`](crate::session::REFUSAL_SHOWN_S) seconds.
     pub fn hud_lines(&self) -> Vec<String> {
         let i = &self.session.interaction;
         let mode = i.mode().name();
@@ -251,6 +297,13 @@ impl AppState {
             ),
         ];
         lines.extend(self.study.as_ref().map(crate::study::StudyRun::hud_line));
+        if self.view.is_some() {
+            let follow = self.pointer_follows_surface();
+            lines.extend(self.pointer.hud_line(&self.session.doc, t, follow));
+        }
+        if let Some(r) = self.session.refusal_at(self.session.time()) {
+            lines.push(format!("REFUSED  {}", r.words));
+        }
         lines
     }
 
@@ -275,8 +328,11 @@ mod tests {
     use sculpt_core::editor::default_surface_point;
     use sculpt_core::interaction::{Command, WandEvent, WandSample};
     use sculpt_core::mesh::PatchMesh;
+    use sculpt_core::sculpt::document::snap_distance;
     use sculpt_core::sculpt::tessellate::Detail;
-    use sculpt_core::tolerance::{COSINE_EPS, CURSOR_RING_TOL, CURSOR_RING_Z_TOL, POINT_EPS};
+    use sculpt_core::tolerance::{
+        COSINE_EPS, CURSOR_RING_TOL, CURSOR_RING_Z_TOL, POINT_EPS, RAY_HIT_TOL,
+    };
 
     struct Meshes {
         final_detail: PatchMesh,
@@ -438,5 +494,185 @@ mod tests {
             assert_near!(p.z, default_surface_point(p.x, p.y).z, CURSOR_RING_Z_TOL);
         }
         assert!(app.project_on_target(on + DVec3::Z * 2.0).is_none());
+    }
+
+    fn desktop_app(dir: &std::path::Path) -> AppState {
+        let mut cfg = Config::default();
+        cfg.files.dir = dir.to_path_buf();
+        AppState::new(cfg).unwrap()
+    }
+
+    /// A left drag of the desktop pointer from `from` to `to` (pixels of a `size`
+    /// window), `steps` frames apart by 1/60 s from `t0`, as the window feeds it.
+    fn drag(
+        app: &mut AppState,
+        size: (u32, u32),
+        from: (f64, f64),
+        to: (f64, f64),
+        t0: f64,
+    ) -> f64 {
+        let steps = 30;
+        let mut t = t0;
+        for k in 0..=steps + 1 {
+            let s = f64::from(k.min(steps)) / f64::from(steps);
+            let pixel = (from.0 + (to.0 - from.0) * s, from.1 + (to.1 - from.1) * s);
+            let buttons = u32::from(k <= steps);
+            let sample = app.desktop_sample(pixel, size, buttons);
+            app.session.handle(&WandEvent::sample(t, sample)).unwrap();
+            t += 1.0 / 60.0;
+        }
+        t
+    }
+
+    /// Issue 30: the desktop wand tip lay on a plane at a fixed depth, which meets the
+    /// curved default sheet along one line only, so every drag across it was refused
+    /// ("the stroke does not lie on the surface"). Now the tip follows the surface
+    /// under the pointer: the issue's three drags (across the centre, near the left
+    /// edge, diagonally over the bulge) each carve a stroke.
+    #[test]
+    fn desktop_drags_across_the_default_sheet_carve() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut app = desktop_app(dir.path());
+        let size = (1280, 720);
+        let (w, h) = (f64::from(size.0), f64::from(size.1));
+        let drags = [
+            ((0.35 * w, 0.5 * h), (0.65 * w, 0.5 * h)),
+            ((0.2 * w, 0.3 * h), (0.22 * w, 0.7 * h)),
+            ((0.35 * w, 0.3 * h), (0.6 * w, 0.65 * h)),
+        ];
+        let mut t = 0.0;
+        for (k, (from, to)) in drags.into_iter().enumerate() {
+            t = drag(&mut app, size, from, to, t) + 0.5;
+            assert_eq!(
+                app.session.doc.strokes().len(),
+                k + 1,
+                "drag {k}: {:?} {:?}",
+                app.session.last_refusal,
+                app.pointer.last
+            );
+            // Every sample of the stroke lies on the sheet.
+            let record = app.session.doc.strokes().last().unwrap();
+            for (_, p) in &record.input.samples {
+                let on = default_surface_point(p.x, p.y);
+                assert_near!(p.z, on.z, RAY_HIT_TOL);
+            }
+        }
+        assert_eq!(app.session.rejected, 0);
+        assert!(app.session.refusal_at(t).is_none());
+        let hud = app.hud_lines().join("\n");
+        assert!(hud.contains("pointer on target 1, touching"), "{hud}");
+        // The old wand, a plane through the front of the sheet's control box, is what
+        // sketch mode still uses: along the same centre drag it stays farther from the
+        // sheet than a stroke's samples may be (so the core refused the stroke).
+        let mut plane = desktop_app(tempfile::tempdir().unwrap().path());
+        let doc = plane.session.doc.clone();
+        let snap = snap_distance(
+            plane.session.interaction.tool(),
+            doc.targets()[0].surface.size(),
+        );
+        let nearest = (0..=10)
+            .map(|k| {
+                let rig = PointerRig {
+                    screen: &plane.screen,
+                    eye: plane.head.position,
+                    view: plane.view.as_ref(),
+                };
+                let x = (0.35 + 0.03 * f64::from(k)) * w;
+                let p = plane.pointer.aim(&doc, rig, (x, 0.5 * h), size, false);
+                let p = p.tip().unwrap();
+                (p.z - default_surface_point(p.x, p.y).z).abs()
+            })
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            nearest > snap,
+            "the plane comes within {nearest} m of the sheet"
+        );
+    }
+
+    #[test]
+    fn the_wheel_lifts_the_tip_off_the_surface_along_the_ray() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut app = desktop_app(dir.path());
+        let size = (800, 600);
+        let pixel = (420.0, 280.0);
+        let on = app.desktop_sample(pixel, size, 0).position;
+        assert_near!(on.z, default_surface_point(on.x, on.y).z, RAY_HIT_TOL);
+        // Three notches up: 15 mm towards the eye, on the same ray (so the pointer
+        // still shows it at the same pixel).
+        app.pointer.scroll(3.0, app.pointer_follows_surface());
+        let up = app.desktop_sample(pixel, size, 0).position;
+        assert_near!(up.distance(on), 0.015, RAY_HIT_TOL);
+        let views = app.views().unwrap();
+        assert_near!(
+            views.center.project(up).unwrap().to_array(),
+            views.center.project(on).unwrap().to_array(),
+            RAY_HIT_TOL
+        );
+        assert!(app.hud_lines().join(" ").contains("hovering 15 mm"));
+        // Far above the snap distance the HUD says the wand will not carve.
+        app.pointer.scroll(1000.0, true);
+        assert!(app.hud_lines().join(" ").contains("too high to carve"));
+        app.pointer.scroll(-1000.0, true);
+        app.desktop_sample(pixel, size, 0);
+        assert!(app.hud_lines().join(" ").contains("pressing 50 mm"));
+        // Off the sheet (the window's corner) the tip stays on the plane through the
+        // last hit, facing the viewer.
+        let air = app.desktop_sample((2.0, 2.0), size, 0).position;
+        assert!(matches!(app.pointer.last, Some(Aim::Air { .. })));
+        let facing = app.facing();
+        let last_hit = {
+            app.pointer.wand.offset = 0.0;
+            app.desktop_sample(pixel, size, 0).position
+        };
+        app.desktop_sample((2.0, 2.0), size, 0);
+        assert_near!((air - last_hit).dot(facing), 0.0, RAY_HIT_TOL);
+        assert!(
+            app.hud_lines()
+                .join(" ")
+                .contains("pointer off the surface")
+        );
+    }
+
+    /// Issue 30: a refusal showed only in the log. The HUD now says it in words, for
+    /// a while: an off-surface stroke, and a stroke too short to count.
+    #[test]
+    fn refusals_are_shown_on_the_hud_in_words() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut app = desktop_app(dir.path());
+        let far = DVec3::new(0.0, 1.17, 0.5);
+        for (k, x) in [0.0, 0.05, 0.1, 0.0].into_iter().enumerate() {
+            let buttons = u32::from(k < 3);
+            let p = far + DVec3::X * x;
+            app.session
+                .handle(&WandEvent::sample(
+                    0.1 * k as f64,
+                    WandSample::tracked(p, DQuat::IDENTITY, buttons),
+                ))
+                .unwrap();
+        }
+        assert_eq!(app.session.rejected, 1);
+        let hud = app.hud_lines().join("\n");
+        assert!(
+            hud.contains("REFUSED  stroke rejected: the stroke does not lie on the surface"),
+            "{hud}"
+        );
+        // It goes away after a while.
+        app.session.tick(10.0).unwrap();
+        assert!(!app.hud_lines().join(" ").contains("REFUSED"));
+        // A 2 mm drag is dropped by the interaction, and says so with its length.
+        let p = default_surface_point(0.0, 1.17);
+        for (k, x) in [0.0, 0.002, 0.002].into_iter().enumerate() {
+            app.session
+                .handle(&WandEvent::sample(
+                    11.0 + 0.1 * k as f64,
+                    WandSample::tracked(p + DVec3::X * x, DQuat::IDENTITY, u32::from(k < 2)),
+                ))
+                .unwrap();
+        }
+        let hud = app.hud_lines().join("\n");
+        assert!(
+            hud.contains("REFUSED  stroke dropped: 2.0 mm long, at least 5.0 mm needed"),
+            "{hud}"
+        );
     }
 }

@@ -45,7 +45,7 @@ use std::path::{Path, PathBuf};
 
 use sculpt_core::edit_loop::{EditHooks, EditLoop, LoopError, NoHooks, Step};
 use sculpt_core::editor::{self, Applied};
-use sculpt_core::error::Chain;
+use sculpt_core::error::{Chain, StrokeRejection};
 use sculpt_core::interaction::{Command, Edit, Interaction, OperatorEvent, TargetIndex, WandEvent};
 use sculpt_core::oplog::{EventKind, ModeSegments, OpEvent, OpLogHeader, OpLogWriter};
 use sculpt_core::sculpt::document::Document;
@@ -243,6 +243,31 @@ impl OperatorLog {
     }
 }
 
+/// How long (session seconds) the HUD shows a refusal.
+pub const REFUSAL_SHOWN_S: f64 = 6.0;
+
+/// Something the session refused, in words for the HUD.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Refusal {
+    /// When (session seconds).
+    pub t: f64,
+    /// What and why (`stroke rejected: the stroke does not lie on the surface`).
+    pub words: String,
+}
+
+/// A gesture the interaction dropped, in words: a too-short stroke says how long it
+/// was and how long it must be.
+fn dropped_words(why: &StrokeRejection) -> String {
+    match why {
+        StrokeRejection::TooShort { length_m, min_m } => format!(
+            "stroke dropped: {:.1} mm long, at least {:.1} mm needed",
+            length_m * 1000.0,
+            min_m * 1000.0
+        ),
+        other => format!("gesture dropped: {other}"),
+    }
+}
+
 /// A desktop mouse press that is an operator but no wand button, logged by
 /// [`Session::mouse`] as a `key` event (see `docs/formats/oplog.md`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -358,6 +383,9 @@ pub struct Session {
     pub recovered: usize,
     /// Edits the sculpting layer refused (the document stayed as it was).
     pub rejected: usize,
+    /// The latest thing refused (an edit, a gesture too short to count, an input), in
+    /// words, for the HUD ([`Session::refusal_at`]).
+    pub last_refusal: Option<Refusal>,
     /// The latest event or tick time accepted.
     time: f64,
 }
@@ -453,6 +481,7 @@ impl Session {
             },
             recovered: entries.len(),
             rejected: 0,
+            last_refusal: None,
             time: 0.0,
         })
     }
@@ -480,6 +509,7 @@ impl Session {
             Ok(step) => step,
             Err(LoopError::Refused(e)) => {
                 tracing::warn!("dropped an input: {}", Chain(&e));
+                self.refuse(ev.t, format!("input dropped: {}", Chain(&e)));
                 return Ok(Vec::new());
             }
             Err(LoopError::Hook(e)) => {
@@ -509,6 +539,7 @@ impl Session {
             Ok(edits) => edits,
             Err(LoopError::Refused(e)) => {
                 tracing::warn!("dropped an input: {}", Chain(&e));
+                self.refuse(ev.t, format!("input dropped: {}", Chain(&e)));
                 Vec::new()
             }
             Err(LoopError::Hook(e)) => return Err(e),
@@ -531,18 +562,44 @@ impl Session {
     pub fn apply_committed(&mut self, t: f64, edit: &Edit) -> VrResult<Applied> {
         self.files.before_apply(t, edit)?;
         let applied = self.edit_loop.apply(edit);
-        if matches!(applied, Applied::Rejected(_)) {
+        if let Applied::Rejected(e) = &applied {
             self.rejected += 1;
+            self.refuse(t, Chain(e).to_string());
         }
         self.files
             .after_apply(t, edit, &applied, &self.edit_loop.doc)?;
         Ok(applied)
     }
 
-    /// The step's edits, counting the refused ones.
+    /// The step's edits, counting the refused ones and keeping the last refusal (a
+    /// refused edit, or a gesture dropped as too short) for the HUD.
     fn applied(&mut self, step: &Step) -> Vec<Edit> {
         self.rejected += step.rejections().count();
+        for (t, event) in step.operator_events() {
+            if let OperatorEvent::GestureEnd {
+                dropped: Some(why), ..
+            } = event
+            {
+                tracing::info!("gesture dropped: {why}");
+                self.refuse(t, dropped_words(why));
+            }
+        }
+        if let Some((_, e)) = step.rejections().last() {
+            self.refuse(step.t, Chain(e).to_string());
+        }
         step.edits().map(|(edit, _)| edit.clone()).collect()
+    }
+
+    fn refuse(&mut self, t: f64, words: String) {
+        self.last_refusal = Some(Refusal { t, words });
+    }
+
+    /// The latest refusal if it happened at most [`REFUSAL_SHOWN_S`] seconds before
+    /// `t` (session seconds): what the HUD shows.
+    pub fn refusal_at(&self, t: f64) -> Option<&Refusal> {
+        self.last_refusal
+            .as_ref()
+            .filter(|r| t - r.t <= REFUSAL_SHOWN_S)
     }
 
     /// Writes the autosave document ([`AUTOSAVE_FILE`]).

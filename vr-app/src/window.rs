@@ -4,14 +4,17 @@
 //! The desktop keys and mouse ([`KEYS`], [`MOUSE`]) are one table, which also gives
 //! the on-screen help (`F1`, `H` or `?`) and `wandsculpt --help` ([`key_help`]). In
 //! desktop mode the right button orbits the view, the middle button (or Shift with the
-//! right) pans it and Ctrl with the wheel zooms ([`DesktopView`](crate::desktop_view::DesktopView));
-//! the plain wheel moves the wand plane.
+//! right) pans it and Ctrl with the wheel zooms ([`DesktopView`](crate::desktop_view::DesktopView)).
+//! The wand tip follows the surface under the pointer ([`crate::desktop_wand`]); the
+//! plain wheel sets how high it hovers above it (or how deep it presses), and, when
+//! sketching, moves the wand plane. A left press on a target other than the selected
+//! one selects it first (a select command, as `Tab` gives).
 
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Instant;
 
-use sculpt_core::interaction::{Command, InteractionMode, Profile, WandEvent, WandSample};
+use sculpt_core::interaction::{Command, InteractionMode, Profile, WandEvent};
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, TouchPhase, WindowEvent};
@@ -22,7 +25,6 @@ use winit::window::{Fullscreen, Window, WindowId};
 
 use crate::app::AppState;
 use crate::cluster::node::{NodeLoop, NodeReport};
-use crate::desktop_wand::EmulatedWand;
 use crate::error::{AdapterError, GpuError, VrError, VrResult};
 use crate::headless::HeadlessOptions;
 use crate::output::OutputMode;
@@ -182,9 +184,18 @@ pub const KEYS: &[KeyBinding] = &[
 
 /// The mouse in desktop mode: (what, what it does).
 pub const MOUSE: &[(&str, &str)] = &[
-    ("move", "aim the wand"),
-    ("left button", "carve, emboss or sketch"),
-    ("wheel", "wand plane nearer or farther"),
+    (
+        "move",
+        "aim the wand: its tip follows the surface under the pointer",
+    ),
+    (
+        "left button",
+        "carve, emboss or sketch (a press selects the target under it)",
+    ),
+    (
+        "wheel",
+        "hover above / press into the surface (sketch: wand plane)",
+    ),
     ("right drag", "orbit the view"),
     ("middle drag, Shift+right drag", "pan the view"),
     ("Ctrl+wheel", "zoom the view"),
@@ -321,7 +332,6 @@ struct WindowApp<'n> {
     modifiers: ModifiersState,
     drag: Option<Drag>,
     help: bool,
-    wand: EmulatedWand,
     last_t: f64,
     /// Frames still to draw before exiting (`--frames`), if limited.
     frames_left: Option<u64>,
@@ -394,7 +404,6 @@ impl<'n> WindowApp<'n> {
             modifiers: ModifiersState::empty(),
             drag: None,
             help: false,
-            wand: EmulatedWand::default(),
             last_t: 0.0,
             frames_left: frames,
             over: false,
@@ -617,6 +626,26 @@ impl<'n> WindowApp<'n> {
         }
     }
 
+    /// Desktop input: the wand sample of the pointer at `t` (window seconds).
+    fn sample_pointer(&mut self, t: f64) {
+        self.last_t = t;
+        let size = self.window_size();
+        let sample = self.app.desktop_sample(self.cursor, size, self.buttons);
+        if let Err(e) = self.app.session.handle(&WandEvent::sample(t, sample)) {
+            tracing::error!("{e}");
+        }
+    }
+
+    /// Desktop input: a wand sample now, for a press or release of the wand's button,
+    /// so that a stroke starts and ends where the button went down and up however
+    /// slowly frames are drawn (between frames the pointer is sampled once a frame).
+    fn sample_pointer_now(&mut self) {
+        if self.node.is_none() && matches!(self.input, WindowInput::Desktop) {
+            let t = self.start.elapsed().as_secs_f64().max(self.last_t);
+            self.sample_pointer(t);
+        }
+    }
+
     fn feed_input(&mut self, t: f64) {
         self.last_t = t;
         if let Some(node) = &mut self.node {
@@ -630,23 +659,7 @@ impl<'n> WindowApp<'n> {
             return;
         }
         match &mut self.input {
-            WindowInput::Desktop => {
-                let size = self.window_size();
-                let eye = self.app.head.position;
-                // The tip in the rig, then through the desktop view into the display.
-                let tip = self.wand.tip(&self.app.screen, eye, self.cursor, size);
-                let (tip, q) = match &self.app.view {
-                    Some(v) => (tip.map(|p| v.display_from_rig(p)), v.rotation()),
-                    None => (tip, glam::DQuat::IDENTITY),
-                };
-                let sample = match tip {
-                    Some(p) => WandSample::tracked(p, q, self.buttons),
-                    None => WandSample::lost(self.buttons),
-                };
-                if let Err(e) = self.app.session.handle(&WandEvent::sample(t, sample)) {
-                    tracing::error!("{e}");
-                }
-            }
+            WindowInput::Desktop => self.sample_pointer(t),
             WindowInput::Scripted(_) => {
                 while self.scripted.front().is_some_and(|e| e.t <= t) {
                     if let Some(ev) = self.scripted.pop_front()
@@ -809,13 +822,29 @@ impl ApplicationHandler for WindowApp<'_> {
                             let t = self.command_time();
                             self.app.session.mouse(t, op);
                         }
+                        // The wand's button: aim now; on another target than the
+                        // selected one, select it first; then press (desktop input).
+                        let desktop =
+                            self.node.is_none() && matches!(self.input, WindowInput::Desktop);
+                        if bit != 0 && desktop {
+                            self.sample_pointer_now();
+                            if let Some(index) = self.app.pointer_target_to_select() {
+                                self.command(Command::SelectTarget { index });
+                            }
+                        }
                         self.buttons |= bit;
+                        if bit != 0 {
+                            self.sample_pointer_now();
+                        }
                         if drag.is_some() {
                             self.drag = drag;
                         }
                     }
                     ElementState::Released => {
                         self.buttons &= !bit;
+                        if bit != 0 {
+                            self.sample_pointer_now();
+                        }
                         if drag.is_some() {
                             self.drag = None;
                         }
@@ -831,9 +860,10 @@ impl ApplicationHandler for WindowApp<'_> {
                     MouseScrollDelta::LineDelta(_, y) => f64::from(y),
                     MouseScrollDelta::PixelDelta(p) => p.y / 40.0,
                 };
+                let follow = self.app.pointer_follows_surface();
                 match &mut self.app.view {
                     Some(view) if self.modifiers.control_key() => view.zoom(lines),
-                    _ => self.wand.scroll(lines),
+                    _ => self.app.pointer.scroll(lines, follow),
                 }
             }
             WindowEvent::ModifiersChanged(m) => self.modifiers = m.state(),

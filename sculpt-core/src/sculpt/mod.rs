@@ -2,6 +2,7 @@
 //! classification, trimming, overlaps and tessellation.
 pub mod document;
 pub mod jordan;
+pub mod ray;
 pub mod stroke;
 pub mod stroke_surface;
 pub mod surface;
