@@ -3,7 +3,10 @@
 //!   interactive depth, including the incremental re-tessellation (target <= 2 ms);
 //! - `scene4_final`: final-depth tessellation of the mask-face scene (target <= 100 ms);
 //! - `scene4_stroke_surfaces`: building the 7 stroke surfaces of the mask-face scene
-//!   (fit, trim against the overlapping strokes, UV maps), as the first export does.
+//!   (fit, trim against the overlapping strokes, UV maps), as the first export does;
+//! - `ray_default_sheet_100`: 100 pointer rays from the desktop eye across the default
+//!   sheet and past its edges (`sculpt::ray::cast_document`, once per frame in the
+//!   desktop window).
 //!
 //! Run: `cargo bench -p sculpt-core --bench sculpt`. Triangle counts and memory per
 //! stroke are printed once at start-up.
@@ -13,6 +16,7 @@ use glam::DVec3;
 use sculpt_core::mesh::PatchMesh;
 use sculpt_core::nurbs::NurbsSurface;
 use sculpt_core::sculpt::document::Document;
+use sculpt_core::sculpt::ray::{Ray, cast_document};
 use sculpt_core::sculpt::stroke::{Mode, Profile, StrokeInput, Tool};
 use sculpt_core::sculpt::tessellate::Detail;
 use std::hint::black_box;
@@ -134,6 +138,22 @@ fn benches(c: &mut Criterion) {
             },
             BatchSize::LargeInput,
         )
+    });
+    let sheet = sculpt_core::editor::default_document();
+    let eye = DVec3::new(0.0, 1.17, 0.6);
+    let rays: Vec<Ray> = (0..100)
+        .filter_map(|k| {
+            let (i, j) = (f64::from(k % 10), f64::from(k / 10));
+            let through = DVec3::new(-0.6 + 0.13 * i, 0.8 + 0.08 * j, -0.2);
+            Ray::through(eye, through)
+        })
+        .collect();
+    c.bench_function("ray_default_sheet_100", |b| {
+        b.iter(|| {
+            rays.iter()
+                .filter(|r| cast_document(&sheet, r).is_some())
+                .count()
+        })
     });
     let doc = scene4();
     c.bench_function("scene4_final", |b| {
