@@ -48,7 +48,6 @@ use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Test support: a full disk on demand ([`testing::SmallDisk`]).
 pub mod testing;
 
 /// Why a file could not be written (the destination is as it was before) or read.
