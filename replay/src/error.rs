@@ -70,7 +70,12 @@ pub enum Error {
         flat: Box<toml::de::Error>,
     },
     /// The requested image size is out of range.
-    #[error("render: image size {width}x{height} must be 1..=8192 each way")]
+    #[error(
+        "render: image size {width}x{height} is out of range: each side 1 to {} and at \
+         most {} pixels (3840x2160) per image, which bounds the memory taken",
+        vr_app::render::MAX_OFFSCREEN_SIDE,
+        vr_app::render::MAX_OFFSCREEN_PIXELS
+    )]
     ImageSize {
         /// Width asked for.
         width: u32,
@@ -107,6 +112,11 @@ pub enum Error {
     /// An output could not be encoded as JSON.
     #[error("encoding JSON")]
     Encode(#[source] serde_json::Error),
+    /// An output file could not be written (a full disk; nothing new was left:
+    /// `fsio` writes temporary files, fsyncs and renames them), or an input was
+    /// larger than its cap (checked before it was read).
+    #[error(transparent)]
+    File(#[from] fsio::FsError),
     /// A file could not be read or written.
     #[error("{path}")]
     Io {

@@ -156,9 +156,10 @@ fn replay_inputs(cli: &Cli) -> Result<(ReplayConfig, Document, String)> {
         None => ReplayConfig::default(),
     };
     let base = match &cli.scene {
-        Some(p) => Document::from_json(
-            &std::fs::read(p).with_context(|| format!("reading {}", p.display()))?,
-        )
+        Some(p) => Document::from_json(&fsio::read_capped(
+            p,
+            sculpt_core::sculpt::document::MAX_DOCUMENT_BYTES as u64,
+        )?)
         .with_context(|| format!("loading the scene {}", p.display()))?,
         None => replay::pipeline::default_document(),
     };
@@ -170,8 +171,8 @@ fn replay_inputs(cli: &Cli) -> Result<(ReplayConfig, Document, String)> {
 }
 
 fn run(cli: Cli) -> Result<ExitCode> {
-    let bytes = std::fs::read(&cli.session)
-        .with_context(|| format!("reading {}", cli.session.display()))?;
+    // Refused from its size before it is read: memory stays bounded by the cap.
+    let bytes = fsio::read_capped(&cli.session, tracking::poselog::MAX_LOG_BYTES)?;
     if let Some(target) = cli
         .serve
         .as_deref()
@@ -294,10 +295,8 @@ fn study_trial(
         std::fs::create_dir_all(parent)
             .with_context(|| format!("creating {}", parent.display()))?;
     }
-    // Write beside, then rename: a crash never leaves half a log.
-    let tmp = log.with_extension("oplog.tmp");
-    std::fs::write(&tmp, &all).with_context(|| format!("writing {}", tmp.display()))?;
-    std::fs::rename(&tmp, &log).with_context(|| format!("writing {}", log.display()))?;
+    // Written atomically (fsio): a crash or a full disk never leaves half a log.
+    fsio::write_atomic(&log, &all)?;
     if let Some(out) = &cli.out {
         replay::output::write_outputs(&outcome, out)?;
     }

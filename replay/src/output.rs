@@ -31,33 +31,29 @@ pub const DETERMINISTIC_FILES: &[&str] = &[
 /// Vertices closer than this (metres) are welded in the exported meshes.
 pub const WELD_TOLERANCE: f32 = sculpt_core::tolerance::EXPORT_WELD_EPS;
 
-fn write(dir: &Path, name: &str, bytes: &[u8], out: &mut Vec<PathBuf>) -> Result<()> {
-    let path = dir.join(name);
-    std::fs::write(&path, bytes).map_err(|source| Error::Io {
-        path: path.display().to_string(),
-        source,
-    })?;
-    out.push(path);
-    Ok(())
-}
-
 /// Writes every output file into `dir` (created if needed); returns the paths.
+///
+/// Every file is built in memory first and the set is then written atomically
+/// ([`fsio::write_all_atomic`]: temporary files in `dir`, fsync, rename), so a failure
+/// (a full disk, an export error) leaves no new or partial file. The one exception
+/// keeps the work: when the sculpting layer fails to tessellate the final mesh,
+/// `scene.json` alone is written (atomically) and the error names it.
 pub fn write_outputs(outcome: &Outcome, dir: &Path) -> Result<Vec<PathBuf>> {
     vr_app::session::create_output_dir(dir).map_err(|source| Error::Io {
         path: dir.display().to_string(),
         source,
     })?;
-    let mut files = Vec::new();
     let doc = &outcome.document;
-    write(dir, "scene.json", &doc.to_json(), &mut files)?;
-    // scene.json is already on disk: a failure in the sculpting layer's tessellation
-    // loses no work and is reported as an error, not a crash.
+    let scene = doc.to_json();
     let welded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         doc.mesh(Detail::Final).welded(WELD_TOLERANCE)
-    }))
-    .map_err(|_| Error::Tessellation {
-        written: dir.join("scene.json"),
-    })?;
+    }));
+    let Ok(welded) = welded else {
+        let written = dir.join("scene.json");
+        fsio::write_atomic(&written, &scene)?;
+        return Err(Error::Tessellation { written });
+    };
+    let mut files: Vec<(&str, Vec<u8>)> = vec![("scene.json", scene)];
     for (name, format) in [
         ("scene.obj", MeshFormat::Obj),
         ("scene.stl", MeshFormat::Stl),
@@ -66,27 +62,22 @@ pub fn write_outputs(outcome: &Outcome, dir: &Path) -> Result<Vec<PathBuf>> {
         let bytes = format
             .write(&welded)
             .map_err(|source| Error::Export { file: name, source })?;
-        write(dir, name, &bytes, &mut files)?;
+        files.push((name, bytes));
     }
     let iges = iges::write(&doc.iges_surfaces()).map_err(|source| Error::Export {
         file: "scene.igs",
         source,
     })?;
-    write(dir, "scene.igs", &iges, &mut files)?;
-    write(dir, "operator.log", &outcome.oplog, &mut files)?;
-    write(
-        dir,
-        "metrics.json",
-        pretty(&outcome.metrics)?.as_bytes(),
-        &mut files,
-    )?;
-    write(
-        dir,
-        "timing.json",
-        pretty(&outcome.timing)?.as_bytes(),
-        &mut files,
-    )?;
-    Ok(files)
+    files.push(("scene.igs", iges));
+    files.push(("operator.log", outcome.oplog.clone()));
+    files.push(("metrics.json", pretty(&outcome.metrics)?.into_bytes()));
+    files.push(("timing.json", pretty(&outcome.timing)?.into_bytes()));
+    let files: Vec<(PathBuf, Vec<u8>)> = files
+        .into_iter()
+        .map(|(name, bytes)| (dir.join(name), bytes))
+        .collect();
+    fsio::write_all_atomic(&files)?;
+    Ok(files.into_iter().map(|(path, _)| path).collect())
 }
 
 /// Pretty JSON with a final newline.

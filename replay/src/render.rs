@@ -89,12 +89,18 @@ impl StereoShot {
     pub fn save(&self, dir: &Path, t: f64) -> Result<[PathBuf; 2]> {
         let name = |eye: &str| dir.join(format!("render-{t:.3}-{eye}.png"));
         let paths = [name("left"), name("right")];
+        // Encoded in memory, then written as a pair (fsio): a full disk leaves neither.
+        let mut pngs = Vec::with_capacity(2);
         for (img, path) in [(&self.left, &paths[0]), (&self.right, &paths[1])] {
-            img.save(path).map_err(|source| Error::SaveImage {
-                path: path.clone(),
-                source,
-            })?;
+            let mut png = std::io::Cursor::new(Vec::new());
+            img.write_to(&mut png, image::ImageFormat::Png)
+                .map_err(|source| Error::SaveImage {
+                    path: path.clone(),
+                    source,
+                })?;
+            pngs.push((path.clone(), png.into_inner()));
         }
+        fsio::write_all_atomic(&pngs)?;
         Ok(paths)
     }
 }
@@ -115,7 +121,7 @@ impl SceneRenderer {
     /// rig and fixed head (its other settings are not used: no HUD, no session). The
     /// GPU, the pipelines and the mesh stores are made once, here.
     pub fn new(display: &Config, width: u32, height: u32) -> Result<Self> {
-        if width == 0 || height == 0 || width > 8192 || height > 8192 {
+        if vr_app::render::check_offscreen_size(width, height).is_err() {
             return Err(Error::ImageSize { width, height });
         }
         let err = Error::Render;

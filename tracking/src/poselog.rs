@@ -48,6 +48,10 @@ pub const MAGIC: &str = "wandsculpt-poselog";
 pub const VERSION: u32 = 1;
 /// Longest line the reader accepts (longer lines are reported as corrupt).
 pub const MAX_LINE: usize = 4 * 1024 * 1024;
+/// Largest pose log the programs read (bytes, 1 GiB: over an hour of two 120 Hz bodies
+/// with room to spare). A larger file is refused from its size before it is read, so
+/// memory is bounded by this cap, not by the file.
+pub const MAX_LOG_BYTES: u64 = 1 << 30;
 
 /// The log header: where the data came from and the calibration and config in force.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]

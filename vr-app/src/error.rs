@@ -83,6 +83,11 @@ pub enum VrError {
         /// What went wrong.
         reason: JournalError,
     },
+    /// An output file could not be written (a full disk; nothing new was left:
+    /// `fsio` writes a temporary file, fsyncs and renames it), or an input was larger
+    /// than its cap (checked before it was read).
+    #[error(transparent)]
+    File(#[from] fsio::FsError),
     /// A file could not be read or written.
     #[error("{path}")]
     Io {
@@ -142,7 +147,13 @@ pub enum GpuError {
         cause: wgpu::RequestDeviceError,
     },
     /// An offscreen image size is out of range.
-    #[error("offscreen size {width}x{height} is outside 1..=8192")]
+    #[error(
+        "image size {width}x{height} is out of range: each side 1 to {} and at most {} \
+         pixels (3840x2160) per image, which bounds the memory a headless run takes; \
+         give a smaller --size",
+        crate::render::MAX_OFFSCREEN_SIDE,
+        crate::render::MAX_OFFSCREEN_PIXELS
+    )]
     OffscreenSize {
         /// Width asked for.
         width: u32,
@@ -438,6 +449,46 @@ pub enum JournalError {
     /// An entry could not be encoded.
     #[error("encoding an entry: {0}")]
     Encode(sculpt_core::error::JsonError),
+    /// The journal names another document than this run's base scene. The file is
+    /// left as it is.
+    #[error(
+        "belongs to another document (journal {found}, this run's base scene {expected}); \
+         the file was left as it is: give the --scene it was recorded with, or another --out"
+    )]
+    OtherDocument {
+        /// The document id in the journal's header.
+        found: String,
+        /// The id of this run's base scene.
+        expected: String,
+    },
+    /// An entry names a target the base scene does not have: the journal was recorded
+    /// on another document. The file is left as it is.
+    #[error(
+        "line {line} names target {target}, which this run's base scene does not have \
+         ({targets} targets): the journal was recorded on another document; the file was \
+         left as it is: give the --scene it was recorded with, or another --out"
+    )]
+    UnknownTarget {
+        /// 1-based line.
+        line: usize,
+        /// The target as the entry names it (a position in a version 1 journal, an id
+        /// in version 2).
+        target: u64,
+        /// The base scene's target count.
+        targets: usize,
+    },
+    /// The last line is neither a whole line nor the start of one cut off by a crash
+    /// (binary data, NUL bytes). The file is left as it is.
+    #[error(
+        "line {line}: {bytes} bytes that are not a journal line (nor one cut off by a crash); \
+         the file was left as it is"
+    )]
+    Garbage {
+        /// 1-based line.
+        line: usize,
+        /// Its length.
+        bytes: usize,
+    },
 }
 
 /// `Result` with [`VrError`].

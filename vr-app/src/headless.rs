@@ -52,6 +52,10 @@ pub struct HeadlessReport {
     pub frame_cpu_median_us: f64,
     /// Files written.
     pub files: Vec<PathBuf>,
+    /// Files that could not be written in full, each with why (the operator log on a
+    /// full disk): the run lost data, and `wandsculpt` exits non-zero.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub failed: Vec<String>,
 }
 
 /// Runs `inputs` through the session in `app`, rendering with `gpu`, and writes
@@ -107,7 +111,12 @@ pub fn run_headless(
     let frame = render_still(app, &mut renderer, opts.mode, opts.width, opts.height)?;
     frame_times.push(renderer.last_frame().cpu);
     let dir = app.session.dir().to_path_buf();
-    let mut files = vec![doc_path, dir.join(JOURNAL_FILE), dir.join(OPLOG_FILE)];
+    let mut files = vec![doc_path, dir.join(JOURNAL_FILE)];
+    let mut failed = Vec::new();
+    match app.session.oplog_failure() {
+        None => files.push(dir.join(OPLOG_FILE)),
+        Some(e) => failed.push(format!("{}: {e}", dir.join(OPLOG_FILE).display())),
+    }
     let mut images = vec![("frame.png", &frame.composite)];
     if opts.mode != OutputMode::Mono {
         images.extend([("left.png", &frame.left), ("right.png", &frame.right)]);
@@ -142,6 +151,7 @@ pub fn run_headless(
         frames: frame_times.len(),
         frame_cpu_median_us: median.as_secs_f64() * 1e6,
         files,
+        failed,
     })
 }
 

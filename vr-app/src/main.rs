@@ -230,6 +230,30 @@ fn run(cli: Cli) -> Result<()> {
     if let Some(role) = cli.cluster {
         return run_cluster(&cli, role, config);
     }
+    // Every argument is checked, and the study manifest and the GPU are opened, before
+    // the session touches a file (journal, operator log): a usage error changes nothing.
+    if cli.headless && !cli.demo && config.tracking.is_none() && config.files.scene.is_none() {
+        bail!(
+            "--headless needs an input: --demo, a [tracking] section in --config, or \
+             --scene (rendered as it is)"
+        );
+    }
+    let study = match (&cli.study, &cli.participant) {
+        (Some(manifest), Some(participant)) => Some(vr_app::study::StudyRun::open(
+            manifest,
+            participant,
+            cli.task.clone(),
+        )?),
+        _ => None,
+    };
+    if cli.headless {
+        vr_app::render::check_offscreen_size(config.display.width, config.display.height)?;
+    }
+    let gpu = if cli.headless {
+        Some(Gpu::headless()?)
+    } else {
+        None
+    };
     let mut app = AppState::new(config).context("opening the session")?;
     let bounds = app.document_bounds();
     if let (Some((yaw, pitch)), Some(view)) = (cli.view, &mut app.view) {
@@ -254,27 +278,20 @@ fn run(cli: Cli) -> Result<()> {
                 .display()
         );
     }
-    if let (Some(manifest), Some(participant)) = (&cli.study, &cli.participant) {
-        let study = vr_app::study::StudyRun::open(manifest, participant, cli.task.clone())?;
+    if let Some(study) = study {
         app.start_study(study)?;
     }
     let demo = || demo_events(&app.screen);
-    if cli.headless {
+    if let Some(gpu) = gpu {
         let events: Box<dyn Iterator<Item = Input>> = if cli.demo {
             Box::new(demo().into_iter().map(Input::Wand))
         } else if let Some(section) = &app.config.tracking {
             let live = start_live(section, &app, cli.addr_file.as_deref())?;
             Box::new(live_inputs(live, cli.idle_exit, cli.duration))
-        } else if app.config.files.scene.is_some() {
-            // A scene and no input: render the scene as it is.
-            Box::new(std::iter::empty())
         } else {
-            bail!(
-                "--headless needs an input: --demo, a [tracking] section in --config, or \
-                 --scene (rendered as it is)"
-            );
+            // A scene and no input (checked above): render the scene as it is.
+            Box::new(std::iter::empty())
         };
-        let gpu = Gpu::headless()?;
         let opts = HeadlessOptions {
             width: app.config.display.width,
             height: app.config.display.height,
@@ -293,6 +310,12 @@ fn run(cli: Cli) -> Result<()> {
             }
         }
         println!("{}", serde_json::to_string_pretty(&report)?);
+        if !report.failed.is_empty() {
+            bail!(
+                "the run lost data: {} could not be written",
+                report.failed.join("; ")
+            );
+        }
         return Ok(());
     }
     let input = if cli.demo {
@@ -415,12 +438,9 @@ fn start_live(
         eprintln!("wandsculpt: listening on {a}");
     }
     if let Some(path) = addr_file {
-        // Written whole, then renamed: a reader never sees half a file.
-        let tmp = path.with_extension("tmp");
+        // Written whole, then renamed (fsio): a reader never sees half a file.
         let text: String = bound.iter().map(|a| format!("{a}\n")).collect();
-        std::fs::write(&tmp, text)
-            .and_then(|()| std::fs::rename(&tmp, path))
-            .with_context(|| format!("writing {}", path.display()))?;
+        fsio::write_atomic(path, text.as_bytes())?;
     }
     Ok(live)
 }

@@ -51,8 +51,8 @@ use sculpt_core::oplog::{EventKind, ModeSegments, OpEvent, OpLogHeader, OpLogWri
 use sculpt_core::sculpt::document::Document;
 
 use crate::config::Config;
-use crate::error::{VrError, VrResult};
-use crate::journal::Journal;
+use crate::error::{JournalError, VrError, VrResult};
+use crate::journal::{self, Journal};
 
 /// The journal's file name inside the session directory.
 pub const JOURNAL_FILE: &str = "session.journal";
@@ -87,28 +87,74 @@ pub fn create_output_dir(dir: &Path) -> std::io::Result<()> {
     std::fs::create_dir_all(dir)
 }
 
-/// Reads a base scene in the [`Document::to_json`] format.
+/// Fails when `dir` exists and is not a directory (as [`create_output_dir`] would),
+/// without creating anything.
+fn check_output_dir(dir: &Path) -> std::io::Result<()> {
+    match std::fs::metadata(dir) {
+        Ok(meta) if !meta.is_dir() => Err(std::io::Error::new(
+            std::io::ErrorKind::NotADirectory,
+            "exists and is not a directory; give an output directory",
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Checks that every target a journal's entries name exists in the base document,
+/// for journals whose header names no document (version 1, which names targets by
+/// position, and the first version 2 journals): a target the document lacks means the
+/// journal was recorded on another document ([`JournalError::UnknownTarget`]), and
+/// re-applying it would lose its strokes.
+fn check_journal_targets(stored: &journal::Stored, doc: &Document, path: &Path) -> VrResult<()> {
+    if stored.document.is_some() {
+        // The header names the document, and `Journal::recover` checked it.
+        return Ok(());
+    }
+    let targets = doc.targets();
+    for (i, entry) in stored.entries.iter().enumerate() {
+        let named = match &entry.edit {
+            Edit::Stroke(s) => s.target,
+            Edit::SelectTarget { target } => *target,
+            Edit::Sketch { .. } | Edit::Undo | Edit::Redo | Edit::Save => continue,
+        };
+        let known = if stored.version == 1 {
+            usize::try_from(named).is_ok_and(|p| p < targets.len())
+        } else {
+            targets.iter().any(|t| t.id == named)
+        };
+        if !known {
+            return Err(VrError::Journal {
+                path: path.display().to_string(),
+                reason: JournalError::UnknownTarget {
+                    line: i + 2,
+                    target: named,
+                    targets: targets.len(),
+                },
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Reads a base scene in the [`Document::to_json`] format. A file larger than
+/// [`MAX_DOCUMENT_BYTES`](sculpt_core::sculpt::document::MAX_DOCUMENT_BYTES) is
+/// refused from its size, before it is read.
 pub fn load_scene(path: &Path) -> VrResult<Document> {
-    let bytes = std::fs::read(path).map_err(|e| io_err(path, e))?;
+    let bytes = fsio::read_capped(
+        path,
+        sculpt_core::sculpt::document::MAX_DOCUMENT_BYTES as u64,
+    )?;
     Document::from_json(&bytes).map_err(|reason| VrError::Scene {
         path: path.to_path_buf(),
         reason: Box::new(reason),
     })
 }
 
-/// Writes bytes atomically: a temporary file beside `path`, fsync, rename. On any
-/// failure (a full disk) the temporary file is removed and `path` keeps its old
-/// content, so no partial file is ever left behind.
+/// Writes bytes atomically with the one output writer, [`fsio::write_atomic`]: a
+/// temporary file beside `path`, fsync, rename. On any failure (a full disk) the
+/// temporary file is removed and `path` keeps its old content, so no partial file is
+/// ever left behind.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> VrResult<()> {
-    let tmp = path.with_extension("tmp");
-    let written = File::create(&tmp)
-        .and_then(|mut f| f.write_all(bytes).and_then(|()| f.sync_all()))
-        .map_err(|e| io_err(&tmp, e))
-        .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| io_err(path, e)));
-    if written.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    written
+    Ok(fsio::write_atomic(path, bytes)?)
 }
 
 /// The operator log file: one event per line, written and flushed as it happens.
@@ -120,8 +166,8 @@ struct OperatorLog {
     path: PathBuf,
     file: File,
     writer: OpLogWriter,
-    /// Set by the first failed write: nothing more is written.
-    failed: bool,
+    /// Set by the first failed write (its error): nothing more is written.
+    failed: Option<String>,
     /// Plain sessions: one segment per mode; `None` in study mode, whose trials are
     /// the segments.
     segments: Option<ModeSegments>,
@@ -160,7 +206,7 @@ impl OperatorLog {
             path,
             file,
             writer,
-            failed: false,
+            failed: None,
             segments: Some(ModeSegments::new(method)),
             capture: None,
             pending: None,
@@ -230,11 +276,11 @@ impl OperatorLog {
     /// Writes what is pending; after a failure, warns once and writes nothing more.
     fn flush(&mut self) {
         let bytes = self.writer.take();
-        if self.failed {
+        if self.failed.is_some() {
             return;
         }
         if let Err(e) = self.file.write_all(&bytes).and_then(|()| self.file.flush()) {
-            self.failed = true;
+            self.failed = Some(e.to_string());
             tracing::warn!(
                 "operator log {} could not be written ({e}); it stops here, sculpting goes on",
                 self.path.display()
@@ -407,26 +453,31 @@ impl Session {
         (&mut edits.doc, &edits.interaction)
     }
 
-    /// Opens the session in `config.files.dir`: creates the directory, loads the base
-    /// scene (`config.files.scene`, or the default document), re-applies the journal
-    /// (recovering after a crash) and starts the operator log.
+    /// Opens the session in `config.files.dir`: loads the base scene
+    /// (`config.files.scene`, or the default document), reads the journal and checks
+    /// that it belongs to that document, re-applies it (recovering after a crash), and
+    /// only then creates the directory, opens the journal for appending and starts the
+    /// operator log. A run that cannot use the journal (another document's, a corrupt
+    /// one, a bad scene) fails before any file is touched.
     pub fn open(config: &Config) -> VrResult<Self> {
         let dir = config.files.dir.clone();
-        create_output_dir(&dir).map_err(|e| io_err(&dir, e))?;
         let doc = match &config.files.scene {
             Some(p) => load_scene(p)?,
             None => editor::default_document(),
         };
+        check_output_dir(&dir).map_err(|e| io_err(&dir, e))?;
+        let journal_path = dir.join(JOURNAL_FILE);
+        let stored = Journal::recover(&journal_path, &journal::document_id(&doc))?;
+        check_journal_targets(&stored, &doc, &journal_path)?;
         let interaction =
             Interaction::new(config.interaction, config.tool.mode, config.tool.tool());
         let mut edit_loop = EditLoop::new(interaction, doc);
-        let (mut journal, stored) = Journal::open(dir.join(JOURNAL_FILE))?;
         // A version 1 journal names targets by position: each becomes the id of the
         // target there when the entry is re-applied, and the file is rewritten so.
-        let positions = journal.version() == 1;
-        let mut entries = Vec::with_capacity(stored.len());
+        let positions = stored.version == 1;
+        let mut entries = Vec::with_capacity(stored.entries.len());
         let mut selected = None;
-        for mut e in stored {
+        for mut e in stored.entries.iter().cloned() {
             if positions {
                 e.edit = e.edit.with_positions_resolved(&edit_loop.doc);
             }
@@ -444,6 +495,9 @@ impl Session {
             }
             entries.push(e);
         }
+        // Everything checked: from here on files are written.
+        create_output_dir(&dir).map_err(|e| io_err(&dir, e))?;
+        let mut journal = Journal::resume(&stored)?;
         if positions {
             journal.upgrade(&entries)?;
             tracing::info!("journal upgraded to version {}", crate::journal::VERSION);
@@ -600,6 +654,13 @@ impl Session {
         self.last_refusal
             .as_ref()
             .filter(|r| t - r.t <= REFUSAL_SHOWN_S)
+    }
+
+    /// Why the operator log stopped being written (a full disk), if it did: the run
+    /// lost operator events, so it must not report the log as written nor end as a
+    /// success.
+    pub fn oplog_failure(&self) -> Option<&str> {
+        self.files.oplog.failed.as_deref()
     }
 
     /// Writes the autosave document ([`AUTOSAVE_FILE`]).
@@ -921,7 +982,7 @@ mod tests {
         stroke(&mut s, 1.0, 1.2);
         assert_eq!(s.doc.strokes().len(), 2);
         assert_eq!(s.operations(), 2);
-        assert!(s.files.oplog.failed);
+        assert!(s.oplog_failure().is_some_and(|e| e.contains("No space")));
         assert_eq!(
             Journal::read(dir.path().join(JOURNAL_FILE)).unwrap().len(),
             2
@@ -929,7 +990,8 @@ mod tests {
     }
 
     /// Regression (issue 15, item 7): a failed write left a partial `scene.tmp` behind.
-    /// A write that fails now removes its temporary file and keeps the old content.
+    /// A write that fails now removes its temporary file and keeps the old content
+    /// (the full-disk case is `fsio`'s `tests/full_disk.rs`).
     #[test]
     fn a_failed_atomic_write_leaves_no_temporary_file() {
         let dir = tempfile::tempdir().unwrap();
@@ -940,18 +1002,14 @@ mod tests {
         let blocked = dir.path().join("blocked.json");
         std::fs::create_dir(&blocked).unwrap();
         std::fs::write(blocked.join("inside"), b"x").unwrap();
-        assert!(write_atomic(&blocked, b"new").is_err());
-        assert!(
-            !dir.path().join("blocked.tmp").exists(),
-            "temporary file left"
-        );
-        // A full disk: the temporary file is `/dev/full`, where writes fail.
-        let full = dir.path().join("full.json");
-        std::os::unix::fs::symlink("/dev/full", dir.path().join("full.tmp")).unwrap();
-        let e = write_atomic(&full, &vec![7u8; 1 << 16]).unwrap_err();
-        assert!(e.to_string().contains("full.tmp"), "{e}");
-        assert!(!dir.path().join("full.tmp").exists(), "temporary file left");
-        assert!(!full.exists());
+        let e = write_atomic(&blocked, b"new").unwrap_err();
+        assert!(e.to_string().contains("blocked.json"), "{e}");
+        let mut left: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        left.sort();
+        assert_eq!(left, ["blocked.json", "scene.json"], "temporary file left");
         assert!(write_atomic(&path, b"new").is_ok());
         assert_eq!(std::fs::read(&path).unwrap(), b"new");
     }
@@ -976,7 +1034,7 @@ mod tests {
     /// and is rewritten as version 2, with ids, before anything is appended.
     #[test]
     fn a_version_1_journal_is_recovered_by_position_and_upgraded() {
-        use crate::journal::{HEADER, HEADER_V1};
+        use crate::journal::HEADER_V1;
         let dir = tempfile::tempdir().unwrap();
         let mut base = editor::default_document();
         let second = base.add_target("second", editor::default_surface());
@@ -1015,7 +1073,8 @@ mod tests {
         assert_eq!(s.doc.strokes()[0].target, second, "position 1 is `second`");
         assert_eq!(s.interaction.target(), second, "and so is the selection");
         let text = std::fs::read_to_string(run.join(JOURNAL_FILE)).unwrap();
-        assert_eq!(text.lines().next(), Some(HEADER));
+        let header = crate::journal::header_line(&crate::journal::document_id(&base));
+        assert_eq!(text.lines().next(), Some(header.as_str()));
         let entries = Journal::read(run.join(JOURNAL_FILE)).unwrap();
         assert!(
             matches!(&entries[0].edit, Edit::Stroke(e) if e.target == second),

@@ -47,7 +47,7 @@ fn run() -> Result<()> {
                 stale.push(name);
             }
         } else {
-            std::fs::write(&path, &bytes).with_context(|| format!("writing {}", path.display()))?;
+            fsio::write_atomic(&path, &bytes)?;
             println!("{} ({} bytes)", path.display(), bytes.len());
         }
     }

@@ -28,7 +28,7 @@ pub fn run(args: &Args) -> Result<()> {
     let mut out = io::open_output(args.out.as_ref())?;
     for [u, v] in rows {
         let p = surface.point(u, v);
-        io::write_row(&mut *out, &p.to_array()).context("cannot write output")?;
+        io::write_row(&mut out, &p.to_array()).context("cannot write output")?;
     }
     io::finish_output(out, args.out.as_ref())
 }

@@ -35,7 +35,7 @@ pub fn run(args: ExportArgs) -> Result<()> {
     bar.set_message("writing IGES");
     let bytes = iges::write(&surfaces).context("writing IGES")?;
     bar.finish_and_clear();
-    std::fs::write(&args.out, &bytes).with_context(|| format!("writing {}", args.out.display()))?;
+    super::io::write_file(&args.out, &bytes)?;
     let trimmed = surfaces.iter().filter(|s| s.faces.is_some()).count();
     println!(
         "{}: {} surfaces ({} trimmed), {} bytes",

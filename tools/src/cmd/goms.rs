@@ -419,7 +419,7 @@ fn extract(a: ExtractArgs) -> Result<()> {
 }
 
 fn write(path: &Path, text: &str) -> Result<()> {
-    std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
+    super::io::write_file(path, text.as_bytes())
 }
 
 /// Writes the files every report has; returns the plot files (relative names).
@@ -837,8 +837,7 @@ fn study_cmd(s: StudyCmd) -> Result<()> {
                     std::fs::create_dir_all(parent)
                         .with_context(|| format!("cannot create {}", parent.display()))?;
                 }
-                std::fs::write(&path, script.finish().0)
-                    .with_context(|| format!("cannot write {}", path.display()))?;
+                super::io::write_file(&path, &script.finish().0)?;
                 written += 1;
             }
             say!("{written} synthetic sessions written");

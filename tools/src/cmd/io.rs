@@ -1,25 +1,34 @@
 //! Shared input and output: files or stdin (`-`), surface JSON, numeric CSV lines.
+//! Every output file is written atomically through [`fsio`]: a failed run (a full
+//! disk) leaves no partial or new file.
 
-use std::fs::File;
 use std::io::{self, BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use sculpt_core::nurbs::NurbsSurface;
 
-/// Reads a whole input: the file at `path`, or stdin when `path` is `-`.
+/// Largest input `read_input` reads (bytes, 1 GiB). A larger file is refused from its
+/// size before it is read, and stdin is cut there, so memory is bounded by this cap.
+pub const MAX_INPUT_BYTES: u64 = 1 << 30;
+
+/// Reads a whole input: the file at `path`, or stdin when `path` is `-`, at most
+/// [`MAX_INPUT_BYTES`].
 pub fn read_input(path: &Path) -> Result<String> {
-    let mut text = String::new();
-    if path == Path::new("-") {
+    let bytes = if path == Path::new("-") {
+        let mut bytes = Vec::new();
         io::stdin()
-            .read_to_string(&mut text)
+            .take(MAX_INPUT_BYTES + 1)
+            .read_to_end(&mut bytes)
             .context("<stdin>: cannot read")?;
+        if bytes.len() as u64 > MAX_INPUT_BYTES {
+            bail!("<stdin>: more than the {MAX_INPUT_BYTES} bytes an input may have");
+        }
+        bytes
     } else {
-        File::open(path)
-            .and_then(|mut f| f.read_to_string(&mut text))
-            .with_context(|| format!("{}: cannot read", path.display()))?;
-    }
-    Ok(text)
+        fsio::read_capped(path, MAX_INPUT_BYTES)?
+    };
+    String::from_utf8(bytes).with_context(|| format!("{}: not UTF-8 text", display_name(path)))
 }
 
 /// Fails when more than one input is stdin (`-`): stdin can be read only once.
@@ -111,14 +120,44 @@ pub fn quote(text: &str) -> String {
     }
 }
 
-/// The output: the file `out`, or stdout.
-pub fn open_output(out: Option<&PathBuf>) -> Result<Box<dyn Write>> {
+/// An output: a file written atomically ([`fsio::AtomicFile`]: it appears whole when
+/// [`finish_output`] commits it, and not at all if the run fails first), or stdout.
+#[derive(Debug)]
+pub enum Output {
+    /// A file, committed by [`finish_output`].
+    File(fsio::AtomicFile),
+    /// Standard output.
+    Stdout(BufWriter<io::StdoutLock<'static>>),
+}
+
+impl Write for Output {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        match self {
+            Self::File(f) => f.write(buf),
+            Self::Stdout(w) => w.write(buf),
+        }
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        match self {
+            Self::File(f) => f.flush(),
+            Self::Stdout(w) => w.flush(),
+        }
+    }
+}
+
+/// The output: the file `out` (written atomically), or stdout.
+pub fn open_output(out: Option<&PathBuf>) -> Result<Output> {
     Ok(match out {
-        Some(path) => Box::new(BufWriter::new(
-            File::create(path).with_context(|| format!("{}: cannot create", path.display()))?,
-        )),
-        None => Box::new(BufWriter::new(io::stdout().lock())),
+        Some(path) => Output::File(fsio::AtomicFile::create(path)?),
+        None => Output::Stdout(BufWriter::new(io::stdout().lock())),
     })
+}
+
+/// Writes a whole output file atomically (temporary file, fsync, rename): on failure
+/// (a full disk) nothing new is left and the error names the file.
+pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+    Ok(fsio::write_atomic(path, bytes)?)
 }
 
 /// Writes one CSV line of numbers (shortest round-trip formatting).
@@ -132,12 +171,16 @@ pub fn write_row(out: &mut dyn Write, values: &[f64]) -> io::Result<()> {
     out.write_all(b"\n")
 }
 
-/// Flushes the output, naming it on failure.
-pub fn finish_output(mut out: Box<dyn Write>, name: Option<&PathBuf>) -> Result<()> {
-    out.flush().with_context(|| match name {
-        Some(p) => format!("{}: cannot write", p.display()),
-        None => "<stdout>: cannot write".to_string(),
-    })
+/// Finishes the output: a file is synced and renamed into place, stdout flushed;
+/// errors name the output.
+pub fn finish_output(out: Output, name: Option<&PathBuf>) -> Result<()> {
+    match out {
+        Output::File(f) => Ok(f.commit()?),
+        Output::Stdout(mut w) => w.flush().with_context(|| match name {
+            Some(p) => format!("{}: cannot write", p.display()),
+            None => "<stdout>: cannot write".to_string(),
+        }),
+    }
 }
 
 #[cfg(test)]

@@ -62,7 +62,11 @@ impl From<DepthArg> for Detail {
 
 /// Reads a scene file.
 pub fn load_scene(path: &Path) -> Result<Document> {
-    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    // Refused from its size before it is read: memory stays bounded by the cap.
+    let bytes = fsio::read_capped(
+        path,
+        sculpt_core::sculpt::document::MAX_DOCUMENT_BYTES as u64,
+    )?;
     Document::from_json(&bytes).with_context(|| format!("loading {}", path.display()))
 }
 
@@ -140,7 +144,7 @@ pub fn run(args: MeshArgs) -> Result<()> {
             as f32,
     );
     let bytes = format.write(&welded).context("writing the mesh")?;
-    std::fs::write(&args.out, &bytes).with_context(|| format!("writing {}", args.out.display()))?;
+    super::io::write_file(&args.out, &bytes)?;
     let report = welded.edge_report();
     println!(
         "{}: {} triangles, {} vertices, {} bytes; open edges {}, watertight {}",

@@ -31,7 +31,7 @@ pub fn run(args: &Args) -> Result<()> {
     let mut out = io::open_output(args.out.as_ref())?;
     for a in answers {
         let row = [a.uv.x, a.uv.y, a.point.x, a.point.y, a.point.z, a.distance];
-        io::write_row(&mut *out, &row).context("cannot write output")?;
+        io::write_row(&mut out, &row).context("cannot write output")?;
     }
     io::finish_output(out, args.out.as_ref())
 }

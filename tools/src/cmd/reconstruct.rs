@@ -15,11 +15,13 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use sculpt_core::formats::{iges, obj};
+use sculpt_core::nurbs::surface::MAX_JSON_COORDINATE_M;
 use sculpt_core::reconstruct::network::{NetworkSettings, shared_sides, to_document};
 use sculpt_core::reconstruct::pipeline::{Reconstruction, STAGES, reconstruct as run_method};
 use sculpt_core::reconstruct::read::{PointCloud, PointFormat, read_points};
 use sculpt_core::reconstruct::sample::torus;
 use sculpt_core::reconstruct::segment::{SegmentSettings, Segmentation};
+use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::tessellate::Detail;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -28,6 +30,11 @@ use std::time::Instant;
 
 /// The torus of `torus:N`: major and tube radius, metres.
 pub const TORUS_RADII: (f64, f64) = (0.2, 0.08);
+
+/// Largest point file `reconstruct` reads (bytes, 1 GiB: over 10 million points with
+/// normals as text). A larger file is refused from its size before it is read, so
+/// memory is bounded by this cap, not by the file.
+pub const MAX_POINT_FILE_BYTES: u64 = 1 << 30;
 
 /// Arguments of `reconstruct`.
 #[derive(Debug, Args)]
@@ -154,8 +161,31 @@ fn load(spec: &str) -> Result<PointCloud> {
         .extension()
         .map_or(String::new(), |e| e.to_string_lossy().into_owned());
     let format = PointFormat::from_extension(&ext).with_context(|| spec.to_string())?;
-    let bytes = std::fs::read(path).with_context(|| format!("reading {spec}"))?;
+    // Refused from its size before it is read: memory stays bounded by the cap.
+    let bytes = fsio::read_capped(path, MAX_POINT_FILE_BYTES)?;
     read_points(&bytes, format).with_context(|| spec.to_string())
+}
+
+/// Refuses, before any work, points that a document cannot hold: every control point
+/// of a `wandsculpt-document` lies within [`MAX_JSON_COORDINATE_M`] of the origin on
+/// each axis (the reader `mesh` and `wandsculpt --scene` use refuses others), and the
+/// fitted patches lie on the points. A scan in a geographic frame (UTM, coordinates
+/// near 5e6 m) must be moved near the origin first.
+fn check_extent(cloud: &PointCloud, spec: &str) -> Result<()> {
+    // The patches may bulge a little past the points; keep a margin inside the cap.
+    let limit = MAX_JSON_COORDINATE_M * 0.5;
+    if let Some(far) = cloud.points.iter().find(|p| p.abs().max_element() > limit) {
+        bail!(
+            "{spec}: the point ({}, {}, {}) lies more than {limit} m from the origin; \
+             a wandsculpt document holds coordinates up to {MAX_JSON_COORDINATE_M} m, so \
+             move the scan near the origin first (subtract its centre, e.g. a UTM \
+             easting and northing)",
+            far.x,
+            far.y,
+            far.z
+        );
+    }
+    Ok(())
 }
 
 /// Reads the points and runs the method, with a progress bar on a terminal.
@@ -168,6 +198,7 @@ pub fn reconstruct(args: &ReconstructArgs) -> Result<(Reconstruction, Report)> {
     );
     bar.set_message("reading");
     let cloud = load(&args.points)?;
+    check_extent(&cloud, &args.points)?;
     let mut settings = SegmentSettings::new(args.patches);
     settings.neighbours = args.neighbours.max(3);
     let network_settings = NetworkSettings {
@@ -269,24 +300,29 @@ pub fn layout_ply(seg: &Segmentation) -> String {
     out
 }
 
-fn write(path: &Path, bytes: &[u8]) -> Result<()> {
-    std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))
-}
-
-/// Runs `reconstruct`.
-pub fn run(args: ReconstructArgs) -> Result<()> {
-    let (r, report) = reconstruct(&args)?;
+/// Every output of a run, built in memory before any is written.
+fn outputs(
+    args: &ReconstructArgs,
+    r: &Reconstruction,
+    report: &Report,
+) -> Result<Vec<(PathBuf, Vec<u8>)>> {
+    let mut files = Vec::new();
     if let Some(path) = &args.layout {
-        write(path, layout_ply(&r.segmentation).as_bytes())?;
+        files.push((path.clone(), layout_ply(&r.segmentation).into_bytes()));
     }
     if args.out.is_some() || args.igs.is_some() || args.obj.is_some() {
         let doc = to_document(&r.network).context("the patch network as a document")?;
         if let Some(path) = &args.out {
-            write(path, &doc.to_json())?;
+            let json = doc.to_json();
+            // Read back with the reader `mesh` and `wandsculpt --scene` use: never
+            // write a document the tools refuse.
+            Document::from_json(&json)
+                .context("the reconstructed document would not load (no file was written)")?;
+            files.push((path.clone(), json));
         }
         if let Some(path) = &args.igs {
             let bytes = iges::write(&doc.iges_surfaces()).context("writing IGES")?;
-            write(path, &bytes)?;
+            files.push((path.clone(), bytes));
         }
         if let Some(path) = &args.obj {
             let size = r.figures.bbox_diagonal;
@@ -294,13 +330,24 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
                 .max(sculpt_core::tolerance::MESH_WELD_MIN);
             let bytes =
                 obj::write(&doc.mesh(Detail::Final).welded(tol as f32)).context("writing OBJ")?;
-            write(path, &bytes)?;
+            files.push((path.clone(), bytes));
         }
     }
-    let json = serde_json::to_string_pretty(&report)?;
-    match &args.report {
-        Some(path) => write(path, (json + "\n").as_bytes())?,
-        None => println!("{json}"),
+    if let Some(path) = &args.report {
+        let json = serde_json::to_string_pretty(report)? + "\n";
+        files.push((path.clone(), json.into_bytes()));
+    }
+    Ok(files)
+}
+
+/// Runs `reconstruct`. Every output is built first and then written as one set
+/// (fsio): a run that fails (bad input, an export error, a full disk) writes no file.
+pub fn run(args: ReconstructArgs) -> Result<()> {
+    let (r, report) = reconstruct(&args)?;
+    let files = outputs(&args, &r, &report)?;
+    fsio::write_all_atomic(&files)?;
+    if args.report.is_none() {
+        println!("{}", serde_json::to_string_pretty(&report)?);
     }
     Ok(())
 }

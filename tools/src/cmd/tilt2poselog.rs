@@ -114,9 +114,10 @@ pub fn run(args: Tilt2PoselogArgs) -> Result<()> {
         bail!("the sketch gave no samples");
     }
     let source = format!("tilt2poselog {}", args.input.display());
-    let out = std::fs::File::create(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    track.write_pose_log(std::io::BufWriter::new(out), &source, &options)?;
+    // Written atomically: a failure part-way (a full disk) leaves no partial log.
+    let mut out = fsio::AtomicFile::create(&args.out)?;
+    track.write_pose_log(&mut out, &source, &options)?;
+    out.commit()?;
     let dur = track.samples.last().map_or(0.0, |s| s.t);
     println!(
         "{}: {} strokes ({} empty skipped), {} frames, {:.1} s, scale {:.4} m per unit",

@@ -65,21 +65,38 @@ fn colour(op: OpKind) -> RGBColor {
     }
 }
 
+/// Encodes an RGB buffer as PNG.
+fn png_bytes(rgb: &[u8], (w, h): (u32, u32)) -> Result<Vec<u8>> {
+    use image::ImageEncoder as _;
+    let mut png = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut png)
+        .write_image(rgb, w, h, image::ExtendedColorType::Rgb8)
+        .map_err(|e| anyhow!("encoding the PNG: {e}"))?;
+    Ok(png)
+}
+
+/// Draws a plot as SVG and PNG in memory, then writes both atomically as a pair
+/// (fsio): a failure (a full disk) leaves neither.
 macro_rules! both {
     ($stem:expr, $size:expr, $draw:ident ( $($arg:expr),* )) => {{
         register_font();
         let svg = $stem.with_extension("svg");
         let png = $stem.with_extension("png");
+        let size: (u32, u32) = $size;
+        let mut svg_text = String::new();
         {
-            let root = SVGBackend::new(&svg, $size).into_drawing_area();
+            let root = SVGBackend::with_string(&mut svg_text, size).into_drawing_area();
             $draw(&root, $($arg),*)?;
             root.present().p()?;
         }
+        let mut rgb = vec![0u8; size.0 as usize * size.1 as usize * 3];
         {
-            let root = Kerned(BitMapBackend::new(&png, $size)).into_drawing_area();
+            let root = Kerned(BitMapBackend::with_buffer(&mut rgb, size)).into_drawing_area();
             $draw(&root, $($arg),*)?;
             root.present().p()?;
         }
+        let png_data = png_bytes(&rgb, size)?;
+        fsio::write_all_atomic(&[(&svg, svg_text.as_bytes()), (&png, &png_data[..])])?;
         Ok::<Vec<PathBuf>, anyhow::Error>(vec![svg, png])
     }};
 }

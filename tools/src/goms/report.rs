@@ -118,15 +118,19 @@ pub fn parse_csv<T: for<'de> Deserialize<'de>>(input: impl std::io::Read) -> Res
 
 /// Writes serde rows as CSV.
 pub fn write_csv<T: Serialize>(path: &Path, rows: &[T], header: &[&str]) -> Result<()> {
-    let mut w =
-        csv::Writer::from_path(path).with_context(|| format!("cannot write {}", path.display()))?;
+    // Written atomically (fsio): a failure part-way leaves no partial file.
+    let file = fsio::AtomicFile::create(path)?;
+    let mut w = csv::Writer::from_writer(file);
     if rows.is_empty() {
         w.write_record(header)?;
     }
     for r in rows {
         w.serialize(r)?;
     }
-    w.flush()?;
+    let file = w
+        .into_inner()
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {}", path.display(), e.error()))?;
+    file.commit()?;
     Ok(())
 }
 

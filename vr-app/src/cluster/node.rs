@@ -243,6 +243,9 @@ pub fn node_config(mut config: Config, name: &str, out: Option<PathBuf>) -> VrRe
     if config.tracking.is_none() {
         return Err(ClusterError::Config(ClusterConfigError::NoTracking).into());
     }
+    // Checked before any file is touched (issue 31: a run that cannot go on changes
+    // nothing).
+    config.validate()?;
     let journal = config.files.dir.join(JOURNAL_FILE);
     if journal.exists() {
         let kept = (1..)
@@ -259,7 +262,6 @@ pub fn node_config(mut config: Config, name: &str, out: Option<PathBuf>) -> VrRe
         );
     }
     let _ = std::fs::remove_file(config.files.dir.join(READY_FILE));
-    config.validate()?;
     Ok(config)
 }
 

@@ -129,6 +129,28 @@ struct ComposeUniform {
     pad: f32,
 }
 
+/// Longest side of an offscreen image (pixels).
+pub const MAX_OFFSCREEN_SIDE: u32 = 8192;
+/// Most pixels of one offscreen image: 4K UHD, 3840 x 2160. A headless run's peak
+/// memory grows with its pixels (multisampled colour and depth targets, both eyes and
+/// the composite, their readbacks and the encoded PNGs), so this caps it: 8192 x 8192
+/// in dual mode peaked at 12.7 GB.
+pub const MAX_OFFSCREEN_PIXELS: u64 = 3840 * 2160;
+
+/// Checks an offscreen image size against [`MAX_OFFSCREEN_SIDE`] and
+/// [`MAX_OFFSCREEN_PIXELS`] ([`GpuError::OffscreenSize`] otherwise), before anything is
+/// allocated.
+pub fn check_offscreen_size(width: u32, height: u32) -> VrResult<()> {
+    let side = 1..=MAX_OFFSCREEN_SIDE;
+    if !side.contains(&width)
+        || !side.contains(&height)
+        || u64::from(width) * u64::from(height) > MAX_OFFSCREEN_PIXELS
+    {
+        return Err(VrError::Gpu(GpuError::OffscreenSize { width, height }));
+    }
+    Ok(())
+}
+
 /// The eye images' colour format: sRGB, so the shaders write linear light.
 pub const EYE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 /// The geometry image (view depth as a half-float pair, coverage, surface class).
@@ -1040,9 +1062,7 @@ impl Renderer {
         width: u32,
         height: u32,
     ) -> VrResult<OffscreenFrame> {
-        if width == 0 || height == 0 || width > 8192 || height > 8192 {
-            return Err(VrError::Gpu(GpuError::OffscreenSize { width, height }));
-        }
+        check_offscreen_size(width, height)?;
         let contents: &[OutputContent] = match mode {
             OutputMode::Dual => &[OutputContent::LeftEye, OutputContent::RightEye],
             OutputMode::SideBySide => &[OutputContent::SideBySide],
