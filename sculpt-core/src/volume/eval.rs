@@ -272,16 +272,32 @@ impl Volume {
             });
         }
         if n == 3 {
-            match self.dim {
-                2 => self.d1_trivariate::<2>(u, out),
-                3 => self.d1_trivariate::<3>(u, out),
-                4 => self.d1_trivariate::<4>(u, out),
-                5 => self.d1_trivariate::<5>(u, out),
-                6 => self.d1_trivariate::<6>(u, out),
-                7 => self.d1_trivariate::<7>(u, out),
-                8 => self.d1_trivariate::<8>(u, out),
-                9 => self.d1_trivariate::<9>(u, out),
-                _ => self.d1_general(u, out),
+            let degrees = [
+                self.knots[0].degree(),
+                self.knots[1].degree(),
+                self.knots[2].degree(),
+            ];
+            // Constant widths and (for all-cubic or all-quadratic volumes) constant
+            // degrees let the compiler unroll the contraction.
+            macro_rules! widths {
+                ($p:literal) => {
+                    match self.dim {
+                        2 => self.d1_trivariate::<2, $p>(u, out),
+                        3 => self.d1_trivariate::<3, $p>(u, out),
+                        4 => self.d1_trivariate::<4, $p>(u, out),
+                        5 => self.d1_trivariate::<5, $p>(u, out),
+                        6 => self.d1_trivariate::<6, $p>(u, out),
+                        7 => self.d1_trivariate::<7, $p>(u, out),
+                        8 => self.d1_trivariate::<8, $p>(u, out),
+                        9 => self.d1_trivariate::<9, $p>(u, out),
+                        _ => self.d1_general(u, out),
+                    }
+                };
+            }
+            match degrees {
+                [3, 3, 3] => widths!(3),
+                [2, 2, 2] => widths!(2),
+                _ => widths!(0),
             }
         } else {
             self.d1_general(u, out);
@@ -339,15 +355,19 @@ impl Volume {
     }
 
     /// The trivariate fast path of [`Self::eval_d1_into`] with `D = k + 1` known at
-    /// compile time.
+    /// compile time, and the degrees too when `P > 0` (all three equal to `P`).
     #[inline(always)]
-    fn d1_trivariate<const D: usize>(&self, u: &[f64], out: &mut [f64]) {
+    fn d1_trivariate<const D: usize, const P: usize>(&self, u: &[f64], out: &mut [f64]) {
         let (spans, ders) = self.bases(u, 1);
-        let [p0, p1, p2] = [
-            self.knots[0].degree(),
-            self.knots[1].degree(),
-            self.knots[2].degree(),
-        ];
+        let [p0, p1, p2] = if P > 0 {
+            [P; 3]
+        } else {
+            [
+                self.knots[0].degree(),
+                self.knots[1].degree(),
+                self.knots[2].degree(),
+            ]
+        };
         let (st0, st1) = (self.strides[0], self.strides[1]);
         let start = (spans[0] - p0) * st0 + (spans[1] - p1) * st1 + spans[2] - p2;
         // a[0] = A^w, a[1..4] = d/du_1, d/du_2, d/du_3 of A^w.
