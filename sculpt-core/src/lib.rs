@@ -20,5 +20,6 @@ pub mod reconstruct;
 pub mod sculpt;
 pub mod study;
 pub mod tolerance;
+pub mod volume;
 
 pub use error::{Error, Result};

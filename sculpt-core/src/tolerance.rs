@@ -535,6 +535,36 @@ impl<T: Near + ?Sized> Near for &T {
     }
 }
 
+// ---------------------------------------------------------------------------------
+// Volumes (VNURBS, Park 2005): sculpt_core::volume.
+// ---------------------------------------------------------------------------------
+
+/// Exact volume geometry (the rational quarter cylindrical shell's volume and mass)
+/// agrees with the analytic value to this fraction (the bound).
+pub const VOLUME_EXACT_REL: f64 = 1e-12;
+/// Volume evaluation agrees with a slow direct Cox-de Boor sum to this, relative to
+/// the size of the values (a few hundred flops of rounding).
+pub const VOLUME_EVAL_REL: f64 = 1e-12;
+/// Relative residual `|N^T P - N^T N A| / |N^T P|` at which the conjugate gradients of
+/// a volume's least-squares fit stop (per attribute).
+pub const VOLUME_CG_REL: f64 = 1e-12;
+/// The inverse map (physical point to parameters) stops when the mapped point is this
+/// fraction of the volume's size from the query; farther, the point is outside.
+pub const VOLUME_INVERT_REL: f64 = 1e-12;
+/// A Jacobian `sqrt(g)` below this fraction of `|B_u| |B_v| |B_w|` is singular.
+pub const VOLUME_SINGULAR_REL: f64 = 1e-12;
+/// The divergence theorem on a curved volume holds to this (relative) with a 12-point
+/// Gauss rule per knot span: the quadrature's accuracy on rational integrands.
+pub const VOLUME_QUADRATURE_REL: f64 = 1e-10;
+/// Parameters recovered by the inverse map agree with the true ones to this.
+pub const VOLUME_INVERSE_PARAM_EPS: f64 = 1e-10;
+/// A cubic interpolation of a 9 x 6 x 5 curvilinear grid reproduces its smooth field
+/// between the nodes to this (absolute, field values of order one).
+pub const VOLUME_GRID_INTERP_EPS: f64 = 1e-2;
+/// Refinement and degree elevation leave the map unchanged to this, relative to the
+/// size of the values.
+pub const VOLUME_REFINE_REL: f64 = 1e-12;
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -66,6 +66,8 @@ enum Command {
     /// Scan reconstruction: points to a network of NURBS patches (a document, IGES,
     /// OBJ), with a report and a patch-layout PLY.
     Reconstruct(cmd::reconstruct::ReconstructArgs),
+    /// Volumetric NURBS (Park 2005): evaluate, fit, analyse, grids (docs/volumes.md).
+    Volume(cmd::volume::VolumeArgs),
 }
 
 fn main() -> ExitCode {
@@ -77,6 +79,7 @@ fn main() -> ExitCode {
         Command::Goms(args) => cmd::goms::run(args),
         Command::Tilt2poselog(args) => cmd::tilt2poselog::run(args),
         Command::Reconstruct(args) => cmd::reconstruct::run(args),
+        Command::Volume(args) => cmd::volume::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

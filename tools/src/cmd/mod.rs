@@ -8,3 +8,4 @@ pub mod mesh;
 pub mod project;
 pub mod reconstruct;
 pub mod tilt2poselog;
+pub mod volume;

@@ -1,0 +1,99 @@
+//! Criterion benches of volume evaluation (`sculpt_core::volume`): a trivariate cubic
+//! rational volume with 5 attributes (`x, y, z`, a density and a temperature) on a
+//! 7 x 7 x 7 net, evaluated with all first derivatives.
+//!
+//! `cargo bench -p sculpt-core --bench volume`
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use sculpt_core::volume::Volume;
+
+/// The bench volume: a wavy cubic 7^3 net on knots with three interior spans per
+/// direction, weights from 0.5 to 2 (so every point divides by a non-constant weight).
+pub fn bench_volume() -> Volume {
+    let c = 7;
+    let k = vec![0., 0., 0., 0., 0.25, 0.5, 0.75, 1., 1., 1., 1.];
+    let mut values = Vec::new();
+    let mut weights = Vec::new();
+    for i in 0..c {
+        for j in 0..c {
+            for l in 0..c {
+                let (x, y, z) = (i as f64 / 6.0, j as f64 / 6.0, l as f64 / 6.0);
+                let wobble = 0.05 * (5.0 * x).sin() * (4.0 * y).cos() * (3.0 * z).sin();
+                values.extend([x + wobble, y - wobble, z + 0.5 * wobble, 1.0 + z, x * y]);
+                weights
+                    .push(1.25 + 0.75 * (1.3 * i as f64 - 0.9 * j as f64 + 0.7 * l as f64).sin());
+            }
+        }
+    }
+    Volume::new(
+        vec![3, 3, 3],
+        vec![k.clone(), k.clone(), k],
+        ["x", "y", "z", "rho", "t"].map(String::from).to_vec(),
+        values,
+        Some(weights),
+    )
+    .expect("valid bench volume")
+}
+
+/// Deterministic parameters in the unit cube.
+pub fn params(n: usize) -> Vec<[f64; 3]> {
+    let mut state = 0x9E37_79B9_7F4A_7C15_u64;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    (0..n).map(|_| [next(), next(), next()]).collect()
+}
+
+fn eval(c: &mut Criterion) {
+    let vol = bench_volume();
+    let pts = params(1024);
+    let mut group = c.benchmark_group("volume");
+    group.throughput(Throughput::Elements(pts.len() as u64));
+    group.measurement_time(Duration::from_secs(4));
+    let mut row = [0.0; 5 * 4];
+    group.bench_function("eval_d1_1024", |b| {
+        b.iter(|| {
+            let mut acc = 0.0;
+            for u in &pts {
+                vol.eval_d1_into(black_box(u), &mut row)
+                    .expect("valid parameters");
+                acc += row[0] + row[19];
+            }
+            acc
+        })
+    });
+    let mut value = [0.0; 5];
+    group.bench_function("eval_1024", |b| {
+        b.iter(|| {
+            let mut acc = 0.0;
+            for u in &pts {
+                vol.eval_into(black_box(u), &mut value)
+                    .expect("valid parameters");
+                acc += value[0];
+            }
+            acc
+        })
+    });
+    group.bench_function("derivatives2_1024", |b| {
+        b.iter(|| {
+            let mut acc = 0.0;
+            for u in &pts {
+                acc += vol
+                    .derivatives(black_box(u), 2)
+                    .expect("valid parameters")
+                    .value()[0];
+            }
+            acc
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, eval);
+criterion_main!(benches);

@@ -1,0 +1,442 @@
+//! Evaluation and partial derivatives of a volume.
+//!
+//! The basis functions of each direction are computed once per point
+//! ([`crate::nurbs::KnotVector::basis_ders2`]: P&T A2.2 with eq. 2.7), then the tensor
+//! product is contracted over the `(p_1 + 1) .. (p_n + 1)` homogeneous control points of
+//! the point's knot spans (P&T A3.6 / A4.3 extended to `n` directions). Rational
+//! derivatives follow from the homogeneous ones by the quotient rule (P&T eq. 4.20,
+//! A4.4, here for multi-indices of order up to 2).
+
+// The book's algorithms index arrays by span offsets; keeping its loops keeps the
+// code checkable against the book.
+#![allow(clippy::needless_range_loop)]
+
+use super::{MAX_COMPONENTS, MAX_DIRECTIONS, Volume, VolumeError, VolumeResult, odometer_next};
+use crate::nurbs::knots::{BasisDers, MAX_ORDER};
+
+/// Values per homogeneous point at most.
+const MAX_DIM: usize = MAX_COMPONENTS + 1;
+/// Multi-indices of order <= 2 in 4 directions: 1 + 4 + 10.
+const MAX_MULTI: usize = 1 + MAX_DIRECTIONS + MAX_DIRECTIONS * (MAX_DIRECTIONS + 1) / 2;
+
+/// The value and partial derivatives of every attribute at one parameter.
+///
+/// Layout: position 0 is the value, positions `1..=n` the first derivatives
+/// `d/du_d`, then the second derivatives `d^2/du_a du_b` for `a <= b` in order
+/// `(0,0), (0,1), .., (0,n-1), (1,1), ..`. Each position holds `k` values.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Derivatives {
+    n: usize,
+    k: usize,
+    order: usize,
+    values: Vec<f64>,
+}
+
+/// The position of the second derivative `(a, b)`, `a <= b`, among `n` directions.
+fn second_slot(n: usize, a: usize, b: usize) -> usize {
+    let (a, b) = if a <= b { (a, b) } else { (b, a) };
+    // Rows before `a` hold n, n - 1, .. entries.
+    1 + n + a * n - a * a.saturating_sub(1) / 2 + (b - a)
+}
+
+/// The multi-indices (orders per direction) of every slot up to `order`.
+fn multi_indices(n: usize, order: usize) -> ([[u8; MAX_DIRECTIONS]; MAX_MULTI], usize) {
+    let mut out = [[0u8; MAX_DIRECTIONS]; MAX_MULTI];
+    let mut m = 1;
+    if order >= 1 {
+        for d in 0..n {
+            out[m][d] = 1;
+            m += 1;
+        }
+    }
+    if order >= 2 {
+        for a in 0..n {
+            for b in a..n {
+                out[m][a] += 1;
+                out[m][b] += 1;
+                m += 1;
+            }
+        }
+    }
+    (out, m)
+}
+
+impl Derivatives {
+    /// The number of directions.
+    pub fn directions(&self) -> usize {
+        self.n
+    }
+    /// The highest order computed.
+    pub fn order(&self) -> usize {
+        self.order
+    }
+    /// The attribute values `A(u)`.
+    pub fn value(&self) -> &[f64] {
+        &self.values[..self.k]
+    }
+    /// `dA/du_d` (empty when the order is 0).
+    pub fn d1(&self, d: usize) -> &[f64] {
+        if self.order < 1 || d >= self.n {
+            return &[];
+        }
+        let s = 1 + d;
+        &self.values[s * self.k..(s + 1) * self.k]
+    }
+    /// `d^2 A / du_a du_b` (empty when the order is below 2).
+    pub fn d2(&self, a: usize, b: usize) -> &[f64] {
+        if self.order < 2 || a >= self.n || b >= self.n {
+            return &[];
+        }
+        let s = second_slot(self.n, a, b);
+        &self.values[s * self.k..(s + 1) * self.k]
+    }
+    /// All values in the layout of the type docs.
+    pub fn as_slice(&self) -> &[f64] {
+        &self.values
+    }
+}
+
+impl Volume {
+    /// The knot spans and basis functions (with first and second derivatives when
+    /// `order > 0`) of every direction at `u` (clamped into the domain).
+    #[inline]
+    fn bases(
+        &self,
+        u: &[f64],
+        order: usize,
+    ) -> ([usize; MAX_DIRECTIONS], [BasisDers; MAX_DIRECTIONS]) {
+        let mut spans = [0; MAX_DIRECTIONS];
+        let mut ders = [[[0.0; MAX_ORDER]; 3]; MAX_DIRECTIONS];
+        for (d, kv) in self.knots.iter().enumerate() {
+            let t = kv.clamp(u[d]);
+            let s = kv.find_span(t);
+            spans[d] = s;
+            if order == 0 {
+                ders[d][0] = kv.basis(s, t);
+            } else {
+                ders[d] = kv.basis_ders2(s, t);
+            }
+        }
+        (spans, ders)
+    }
+
+    /// The attribute values and partial derivatives up to `order <= 2` at `u`
+    /// (clamped into the domain), any number of directions (P&T A3.6 on the
+    /// homogeneous net, then the quotient rule of A4.4 per multi-index).
+    pub fn derivatives(&self, u: &[f64], order: usize) -> VolumeResult<Derivatives> {
+        self.check_params(u)?;
+        if order > 2 {
+            return Err(VolumeError::DerivativeOrder { got: order, max: 2 });
+        }
+        let n = self.directions();
+        let dim = self.dim;
+        let (spans, ders) = self.bases(u, order);
+        let (alphas, slots) = multi_indices(n, order);
+        // aw[m][c]: the homogeneous derivative of multi-index m.
+        let mut aw = [[0.0; MAX_DIM]; MAX_MULTI];
+        let degrees: Vec<usize> = self.knots.iter().map(|kv| kv.degree()).collect();
+        let mut offs = [0usize; MAX_DIRECTIONS];
+        loop {
+            let mut flat = 0;
+            for d in 0..n {
+                flat += (spans[d] - degrees[d] + offs[d]) * self.strides[d];
+            }
+            let pt = &self.cw[flat * dim..(flat + 1) * dim];
+            for m in 0..slots {
+                let mut coef = 1.0;
+                for d in 0..n {
+                    coef *= ders[d][alphas[m][d] as usize][offs[d]];
+                }
+                if coef != 0.0 {
+                    for (acc, v) in aw[m][..dim].iter_mut().zip(pt) {
+                        *acc += coef * v;
+                    }
+                }
+            }
+            // Odometer over the local control points, last direction fastest.
+            if !odometer_next(&mut offs[..n], |d| degrees[d] + 1) {
+                return Ok(self.quotient(&aw, &alphas, slots, order));
+            }
+        }
+    }
+
+    /// The rational quotient rule (P&T eq. 4.20 for multi-indices, order <= 2):
+    /// `A_a = (Aw_a - sum_{0 < b <= a} C(a, b) w_b A_{a - b}) / w`.
+    fn quotient(
+        &self,
+        aw: &[[f64; MAX_DIM]; MAX_MULTI],
+        alphas: &[[u8; MAX_DIRECTIONS]; MAX_MULTI],
+        slots: usize,
+        order: usize,
+    ) -> Derivatives {
+        let n = self.directions();
+        let k = self.dim - 1;
+        let mut values = vec![0.0; slots * k];
+        let w = aw[0][k];
+        let inv_w = 1.0 / w;
+        for c in 0..k {
+            values[c] = aw[0][c] * inv_w;
+        }
+        for m in 1..slots {
+            let alpha = alphas[m];
+            // The directions of this multi-index: one (first order) or two.
+            let mut dirs = (0..n).filter(|&d| alpha[d] > 0);
+            let a = dirs.next().unwrap_or(0);
+            let second = if alpha[a] == 2 { Some(a) } else { dirs.next() };
+            let pair = if alpha.iter().map(|&x| x as usize).sum::<usize>() == 2 {
+                second.map(|b| (a, b))
+            } else {
+                None
+            };
+            for c in 0..k {
+                let mut v = aw[m][c] - aw[m][k] * values[c];
+                if let Some((a, b)) = pair {
+                    // Second order: subtract w_a A_b + w_b A_a.
+                    v -= aw[1 + a][k] * values[(1 + b) * k + c]
+                        + aw[1 + b][k] * values[(1 + a) * k + c];
+                }
+                values[m * k + c] = v * inv_w;
+            }
+        }
+        Derivatives {
+            n,
+            k,
+            order,
+            values,
+        }
+    }
+
+    /// The attribute values at `u` (clamped into the domain) into `out` (`k` values).
+    /// Never allocates.
+    pub fn eval_into(&self, u: &[f64], out: &mut [f64]) -> VolumeResult<()> {
+        self.check_params(u)?;
+        let k = self.components();
+        if out.len() != k {
+            return Err(VolumeError::OutputLength {
+                got: out.len(),
+                need: k,
+            });
+        }
+        let n = self.directions();
+        let dim = self.dim;
+        let (spans, ders) = self.bases(u, 0);
+        let mut acc = [0.0; MAX_DIM];
+        let mut offs = [0usize; MAX_DIRECTIONS];
+        loop {
+            let mut flat = 0;
+            let mut coef = 1.0;
+            for d in 0..n {
+                let p = self.knots[d].degree();
+                flat += (spans[d] - p + offs[d]) * self.strides[d];
+                coef *= ders[d][0][offs[d]];
+            }
+            for (a, v) in acc[..dim]
+                .iter_mut()
+                .zip(&self.cw[flat * dim..(flat + 1) * dim])
+            {
+                *a += coef * v;
+            }
+            if !odometer_next(&mut offs[..n], |d| self.knots[d].degree() + 1) {
+                let inv_w = 1.0 / acc[k];
+                for c in 0..k {
+                    out[c] = acc[c] * inv_w;
+                }
+                return Ok(());
+            }
+        }
+    }
+
+    /// The attribute values at `u`.
+    pub fn point(&self, u: &[f64]) -> VolumeResult<Vec<f64>> {
+        let mut out = vec![0.0; self.components()];
+        self.eval_into(u, &mut out)?;
+        Ok(out)
+    }
+
+    /// The values and all first partial derivatives at `u` (clamped into the domain)
+    /// into `out`: `k` values, then `dA/du_1` (`k` values), `dA/du_2`, .. : `k (n + 1)`
+    /// in all, the order `sculpt-tools volume eval --derivatives 1` prints.
+    ///
+    /// Never allocates. Trivariate volumes take the fast path: the basis functions of
+    /// each direction once (P&T A2.2, eq. 2.7), then the tensor contracted one
+    /// direction at a time (last direction innermost, over contiguous memory), with
+    /// the homogeneous width a compile-time constant for up to 8 attributes.
+    pub fn eval_d1_into(&self, u: &[f64], out: &mut [f64]) -> VolumeResult<()> {
+        self.check_params(u)?;
+        let n = self.directions();
+        let k = self.components();
+        if out.len() != k * (n + 1) {
+            return Err(VolumeError::OutputLength {
+                got: out.len(),
+                need: k * (n + 1),
+            });
+        }
+        if n == 3 {
+            let degrees = [
+                self.knots[0].degree(),
+                self.knots[1].degree(),
+                self.knots[2].degree(),
+            ];
+            // Constant widths and (for all-cubic or all-quadratic volumes) constant
+            // degrees let the compiler unroll the contraction.
+            macro_rules! widths {
+                ($p:literal) => {
+                    match self.dim {
+                        2 => self.d1_trivariate::<2, $p>(u, out),
+                        3 => self.d1_trivariate::<3, $p>(u, out),
+                        4 => self.d1_trivariate::<4, $p>(u, out),
+                        5 => self.d1_trivariate::<5, $p>(u, out),
+                        6 => self.d1_trivariate::<6, $p>(u, out),
+                        7 => self.d1_trivariate::<7, $p>(u, out),
+                        8 => self.d1_trivariate::<8, $p>(u, out),
+                        9 => self.d1_trivariate::<9, $p>(u, out),
+                        _ => self.d1_general(u, out),
+                    }
+                };
+            }
+            match degrees {
+                [3, 3, 3] => widths!(3),
+                [2, 2, 2] => widths!(2),
+                _ => widths!(0),
+            }
+        } else {
+            self.d1_general(u, out);
+        }
+        Ok(())
+    }
+
+    /// The generic first-derivative path: [`Self::derivatives`] without its
+    /// allocation, for any `n`.
+    fn d1_general(&self, u: &[f64], out: &mut [f64]) {
+        let n = self.directions();
+        let dim = self.dim;
+        let k = dim - 1;
+        let (spans, ders) = self.bases(u, 1);
+        let mut aw = [[0.0; MAX_DIM]; 1 + MAX_DIRECTIONS];
+        let mut offs = [0usize; MAX_DIRECTIONS];
+        loop {
+            let mut flat = 0;
+            let mut n0 = [0.0; MAX_DIRECTIONS];
+            let mut n1 = [0.0; MAX_DIRECTIONS];
+            for d in 0..n {
+                let p = self.knots[d].degree();
+                flat += (spans[d] - p + offs[d]) * self.strides[d];
+                n0[d] = ders[d][0][offs[d]];
+                n1[d] = ders[d][1][offs[d]];
+            }
+            let pt = &self.cw[flat * dim..(flat + 1) * dim];
+            let all: f64 = n0[..n].iter().product();
+            for (a, v) in aw[0][..dim].iter_mut().zip(pt) {
+                *a += all * v;
+            }
+            for d in 0..n {
+                let mut coef = n1[d];
+                for e in (0..n).filter(|&e| e != d) {
+                    coef *= n0[e];
+                }
+                for (a, v) in aw[1 + d][..dim].iter_mut().zip(pt) {
+                    *a += coef * v;
+                }
+            }
+            if !odometer_next(&mut offs[..n], |d| self.knots[d].degree() + 1) {
+                break;
+            }
+        }
+        let inv_w = 1.0 / aw[0][k];
+        for c in 0..k {
+            out[c] = aw[0][c] * inv_w;
+        }
+        for d in 0..n {
+            let wd = aw[1 + d][k];
+            for c in 0..k {
+                out[(1 + d) * k + c] = (aw[1 + d][c] - wd * out[c]) * inv_w;
+            }
+        }
+    }
+
+    /// The trivariate fast path of [`Self::eval_d1_into`] with `D = k + 1` known at
+    /// compile time, and the degrees too when `P > 0` (all three equal to `P`).
+    #[inline(always)]
+    fn d1_trivariate<const D: usize, const P: usize>(&self, u: &[f64], out: &mut [f64]) {
+        let (spans, ders) = self.bases(u, 1);
+        let [p0, p1, p2] = if P > 0 {
+            [P; 3]
+        } else {
+            [
+                self.knots[0].degree(),
+                self.knots[1].degree(),
+                self.knots[2].degree(),
+            ]
+        };
+        let (st0, st1) = (self.strides[0], self.strides[1]);
+        let start = (spans[0] - p0) * st0 + (spans[1] - p1) * st1 + spans[2] - p2;
+        // a[0] = A^w, a[1..4] = d/du_1, d/du_2, d/du_3 of A^w.
+        let mut a = [[0.0; D]; 4];
+        for i in 0..=p0 {
+            // b[0] = sum_j N1 c0, b[1] = sum_j N1' c0, b[2] = sum_j N1 c1.
+            let mut b = [[0.0; D]; 3];
+            for j in 0..=p1 {
+                let base = (start + i * st0 + j * st1) * D;
+                let row = &self.cw[base..base + (p2 + 1) * D];
+                let mut c0 = [0.0; D];
+                let mut c1 = [0.0; D];
+                for (l, pt) in row.chunks_exact(D).enumerate() {
+                    let (n, dn) = (ders[2][0][l], ders[2][1][l]);
+                    for e in 0..D {
+                        c0[e] += n * pt[e];
+                        c1[e] += dn * pt[e];
+                    }
+                }
+                let (n, dn) = (ders[1][0][j], ders[1][1][j]);
+                for e in 0..D {
+                    b[0][e] += n * c0[e];
+                    b[1][e] += dn * c0[e];
+                    b[2][e] += n * c1[e];
+                }
+            }
+            let (n, dn) = (ders[0][0][i], ders[0][1][i]);
+            for e in 0..D {
+                a[0][e] += n * b[0][e];
+                a[1][e] += dn * b[0][e];
+                a[2][e] += n * b[1][e];
+                a[3][e] += n * b[2][e];
+            }
+        }
+        let k = D - 1;
+        let inv_w = 1.0 / a[0][k];
+        for c in 0..k {
+            out[c] = a[0][c] * inv_w;
+        }
+        for d in 1..4 {
+            let wd = a[d][k];
+            for c in 0..k {
+                out[d * k + c] = (a[d][c] - wd * out[c]) * inv_w;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn second_slots_follow_the_documented_order() {
+        for n in 1..=4 {
+            let (alphas, slots) = multi_indices(n, 2);
+            let mut m = 1 + n;
+            for a in 0..n {
+                for b in a..n {
+                    assert_eq!(second_slot(n, a, b), m, "n {n} ({a},{b})");
+                    assert_eq!(second_slot(n, b, a), m);
+                    let mut want = [0u8; MAX_DIRECTIONS];
+                    want[a] += 1;
+                    want[b] += 1;
+                    assert_eq!(alphas[m], want);
+                    m += 1;
+                }
+            }
+            assert_eq!(m, slots);
+        }
+    }
+}
