@@ -12,6 +12,7 @@ pub mod edit_loop;
 pub mod editor;
 pub mod error;
 pub mod formats;
+pub mod implicit;
 pub mod interaction;
 pub mod mesh;
 pub mod nurbs;

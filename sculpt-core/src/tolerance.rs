@@ -418,6 +418,28 @@ pub const RAY_HIT_TOL: f64 = 1e-7;
 /// A ray hit agrees with the first hit on a fine (512 x 512) triangle grid of the
 /// surface to this (metres along the ray): the grid's chord error at a slant.
 pub const RAY_MESH_TOL: f64 = 1e-4;
+// Implicit solids (sculpt_core::implicit).
+// ---------------------------------------------------------------------------------
+
+/// Two f64 evaluations of the same implicit function by different routes (a tree walk
+/// and a folded graph) agree to this (absolute, function units near 1).
+pub const IMPLICIT_F64_EPS: f64 = 1e-12;
+/// An f32 tape agrees with an f64 tree walk to this fraction of the largest
+/// intermediate magnitude (plus one): f32 rounding over tapes of tens of ops.
+pub const IMPLICIT_F32_REL: f64 = 1e-4;
+/// Step of the central differences that check derivatives (function units).
+pub const IMPLICIT_FD_STEP: f64 = 1e-6;
+/// A symbolic derivative agrees with a central difference to this.
+pub const IMPLICIT_FD_EPS: f64 = 1e-6;
+/// A normalised (distance-like) primitive has |grad| = 1 on its boundary to this
+/// (Shin et al. 2007, eq. 1), evaluated in f64.
+pub const IMPLICIT_UNIT_GRAD_EPS: f64 = 1e-9;
+/// Forward-mode f32 gradients agree with f64 symbolic ones to this fraction of the
+/// gradient's size (plus one).
+pub const IMPLICIT_GRAD_F32_REL: f64 = 1e-3;
+/// Contour vertices stay at least this fraction of a grid edge from its ends, so two
+/// edges never give coincident vertices (a weld would then pinch the mesh).
+pub const CONTOUR_EDGE_T_MIN: f64 = 1e-3;
 
 /// True when `a` and `b` differ by at most `tol`, counting NaN as never near.
 #[inline]

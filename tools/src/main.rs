@@ -16,6 +16,9 @@
 //! - `sculpt-tools reconstruct POINTS --patches K [--degree 2|3] [--control N] [--out
 //!   scan.json] [--igs X.igs] [--obj X.obj] [--report R.json] [--layout L.ply]`: scan
 //!   points into a network of NURBS patches to sculpt on (docs/reconstruct.md).
+//! - `sculpt-tools implicit eval MODEL (--points P.csv | --grid NxM[xK] --bounds LO,HI
+//!   --out V.f32)` and `implicit mesh MODEL --res N --bounds LO,HI --out M.stl`:
+//!   implicit solids (docs/implicit.md).
 //!
 //! Pure: the tools link only `sculpt-core` and the pure layer of `tracking` (the
 //! `.tilt` codec, the importer and pose logs, `default-features = false`), never a GPU,
@@ -68,6 +71,9 @@ enum Command {
     Reconstruct(cmd::reconstruct::ReconstructArgs),
     /// Volumetric NURBS (Park 2005): evaluate, fit, analyse, grids (docs/volumes.md).
     Volume(cmd::volume::VolumeArgs),
+    /// Implicit solids (`.vm` or solid documents): evaluate at points or on a grid,
+    /// or mesh them.
+    Implicit(cmd::implicit::ImplicitArgs),
 }
 
 fn main() -> ExitCode {
@@ -80,6 +86,7 @@ fn main() -> ExitCode {
         Command::Tilt2poselog(args) => cmd::tilt2poselog::run(args),
         Command::Reconstruct(args) => cmd::reconstruct::run(args),
         Command::Volume(args) => cmd::volume::run(args),
+        Command::Implicit(args) => cmd::implicit::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

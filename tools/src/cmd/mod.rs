@@ -3,6 +3,7 @@
 pub mod eval;
 pub mod export;
 pub mod goms;
+pub mod implicit;
 pub mod io;
 pub mod mesh;
 pub mod project;

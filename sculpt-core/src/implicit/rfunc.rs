@@ -1,0 +1,302 @@
+//! R-functions: Boolean operations on implicit solids by arithmetic (Shin, Kim and
+//! Sheen 2007, sec. 2.2; Rvachev's systems).
+//!
+//! In the paper's convention (omega >= 0 inside), an R-function's sign depends only on
+//! the signs of its arguments, the way the Boolean operation's truth value depends on
+//! its operands' (sec. 2.2.1). The systems of sec. 2.2.2 ('-' is AND, '+' is OR):
+//!
+//! - `R_alpha = (x + y -/+ sqrt(x^2 + y^2 - 2 alpha x y)) / (1 + alpha)`, `-1 < alpha <= 1`
+//!   (`alpha = 1` is min / max);
+//! - `R_0^m = (x + y -/+ sqrt(x^2 + y^2)) (x^2 + y^2)^(m/2)`;
+//! - `R_p = x + y -/+ (x^p + y^p)^(1/p)`, p even;
+//!
+//! and negation is `-x` in all of them. `R_alpha` and `R_0^0` keep a first-order
+//! normalised argument normalised on the boundary away from the other's zero set.
+//! [`normalize`] is the first-order normaliser `f / sqrt(f^2 + |grad f|^2)` (sec.
+//! 2.1.4).
+
+use serde::{Deserialize, Serialize};
+
+use super::ImplicitError;
+use super::expr::{Binary, Graph, NodeId, Unary, Var};
+
+/// The largest `m` of `R_0^m` and `p` of `R_p` accepted.
+pub const MAX_R_EXPONENT: u32 = 16;
+
+/// An R-function system, with its parameter.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum RSystem {
+    /// `R_alpha`, `-1 < alpha <= 1`.
+    RAlpha {
+        /// The parameter alpha.
+        alpha: f64,
+    },
+    /// `R_0^m`, `m >= 0` (m = 0 is the paper's benchmark conjunction, Fig. 12).
+    R0 {
+        /// The exponent m.
+        m: u32,
+    },
+    /// `R_p`, p even, `2 <= p <= 16`.
+    Rp {
+        /// The exponent p.
+        p: u32,
+    },
+    /// min / max (`R_1`).
+    MinMax,
+}
+
+impl Default for RSystem {
+    fn default() -> Self {
+        RSystem::R0 { m: 0 }
+    }
+}
+
+impl RSystem {
+    /// Checks the parameter's range; `at` names the place in a document.
+    pub fn check(self, at: &str) -> Result<Self, ImplicitError> {
+        let bad = |name, value, expected| ImplicitError::Parameter {
+            at: at.to_owned(),
+            name,
+            value,
+            expected,
+        };
+        match self {
+            RSystem::RAlpha { alpha } if !(alpha > -1.0 && alpha <= 1.0) => {
+                Err(bad("alpha", alpha, "in (-1, 1]"))
+            }
+            RSystem::R0 { m } if m > MAX_R_EXPONENT => Err(bad("m", f64::from(m), "at most 16")),
+            RSystem::Rp { p } if !(2..=MAX_R_EXPONENT).contains(&p) || p % 2 == 1 => {
+                Err(bad("p", f64::from(p), "even, 2 to 16"))
+            }
+            ok => Ok(ok),
+        }
+    }
+
+    /// `x AND y` in f64 (`sign = -1`) or `x OR y` (`sign = +1`), written directly from
+    /// the formulas of sec. 2.2.2.
+    fn combine_f64(self, x: f64, y: f64, sign: f64) -> f64 {
+        match self {
+            RSystem::RAlpha { alpha } => {
+                (x + y + sign * (x * x + y * y - 2.0 * alpha * x * y).sqrt()) / (1.0 + alpha)
+            }
+            RSystem::R0 { m } => {
+                let s = x * x + y * y;
+                (x + y + sign * s.sqrt()) * s.powf(f64::from(m) / 2.0)
+            }
+            RSystem::Rp { p } => {
+                // Scaled by m = max(|x|, |y|): a zero argument gives exactly m.
+                let p = f64::from(p);
+                let m = x.abs().max(y.abs());
+                let norm = if m > 0.0 {
+                    m * ((x / m).abs().powf(p) + (y / m).abs().powf(p)).powf(1.0 / p)
+                } else {
+                    0.0
+                };
+                x + y + sign * norm
+            }
+            RSystem::MinMax => {
+                if sign < 0.0 {
+                    x.min(y)
+                } else {
+                    x.max(y)
+                }
+            }
+        }
+    }
+
+    /// Conjunction (AND) in f64.
+    pub fn and_f64(self, x: f64, y: f64) -> f64 {
+        self.combine_f64(x, y, -1.0)
+    }
+
+    /// Disjunction (OR) in f64.
+    pub fn or_f64(self, x: f64, y: f64) -> f64 {
+        self.combine_f64(x, y, 1.0)
+    }
+
+    /// Conjunction (AND) as graph nodes.
+    pub fn and(self, g: &mut Graph, a: NodeId, b: NodeId) -> NodeId {
+        self.combine(g, a, b, -1.0)
+    }
+
+    /// Disjunction (OR) as graph nodes.
+    pub fn or(self, g: &mut Graph, a: NodeId, b: NodeId) -> NodeId {
+        self.combine(g, a, b, 1.0)
+    }
+
+    fn combine(self, g: &mut Graph, x: NodeId, y: NodeId, sign: f64) -> NodeId {
+        let sum = g.add(x, y);
+        match self {
+            RSystem::MinMax => {
+                let op = if sign < 0.0 { Binary::Min } else { Binary::Max };
+                g.binary(op, x, y)
+            }
+            RSystem::RAlpha { alpha } => {
+                let s = g.norm2(&[x, y]);
+                let xy = g.mul(x, y);
+                let cross = g.scale(xy, -2.0 * alpha);
+                let inner = g.add(s, cross);
+                let root = g.sqrt(inner);
+                let signed = g.scale(root, sign);
+                let total = g.add(sum, signed);
+                g.scale(total, 1.0 / (1.0 + alpha))
+            }
+            RSystem::R0 { m } => {
+                let s = g.norm2(&[x, y]);
+                let root = g.sqrt(s);
+                let signed = g.scale(root, sign);
+                let base = g.add(sum, signed);
+                // (x^2 + y^2)^(m/2) = s^(m div 2) * sqrt(s)^(m mod 2).
+                let mut factor = g.constant(1.0);
+                for _ in 0..m / 2 {
+                    factor = g.mul(factor, s);
+                }
+                if m % 2 == 1 {
+                    factor = g.mul(factor, root);
+                }
+                g.mul(base, factor)
+            }
+            RSystem::Rp { p } => {
+                // (x^p + y^p)^(1/p) for even p: by square roots when p is a power of
+                // two (exact when one argument is 0); otherwise as
+                // m ((x/m)^p + (y/m)^p)^(1/p), m = max(|x|, |y|), so that a zero
+                // argument gives exactly m (the sign at the boundary is kept) and
+                // nothing overflows.
+                let powp = |g: &mut Graph, v: NodeId| {
+                    let sq = g.square(v);
+                    (1..p / 2).fold(sq, |acc, _| g.mul(acc, sq))
+                };
+                let root = if p.is_power_of_two() {
+                    let (xp, yp) = (powp(g, x), powp(g, y));
+                    let s = g.add(xp, yp);
+                    (0..p.trailing_zeros()).fold(s, |acc, _| g.sqrt(acc))
+                } else {
+                    let (ax, ay) = (g.unary(Unary::Abs, x), g.unary(Unary::Abs, y));
+                    let m = g.binary(Binary::Max, ax, ay);
+                    let tiny = g.constant(f64::from(f32::MIN_POSITIVE));
+                    let safe = g.binary(Binary::Max, m, tiny);
+                    let (xs, ys) = (g.div(x, safe), g.div(y, safe));
+                    let (xp, yp) = (powp(g, xs), powp(g, ys));
+                    let s = g.add(xp, yp);
+                    let l = g.unary(Unary::Ln, s);
+                    let l = g.scale(l, 1.0 / f64::from(p));
+                    let r = g.unary(Unary::Exp, l);
+                    g.mul(m, r)
+                };
+                let signed = g.scale(root, sign);
+                g.add(sum, signed)
+            }
+        }
+    }
+}
+
+/// Negation (NOT): `-x` in every system.
+pub fn not(g: &mut Graph, a: NodeId) -> NodeId {
+    g.neg(a)
+}
+
+/// The first-order normaliser `f / sqrt(f^2 + |grad f|^2)` of sec. 2.1.4 (eq. after
+/// eq. 1): zero where `f` is, with |grad| = 1 there.
+pub fn normalize(g: &mut Graph, f: NodeId) -> NodeId {
+    let grads: Vec<NodeId> = [Var::X, Var::Y, Var::Z].map(|v| g.deriv(f, v)).to_vec();
+    let mut all = grads;
+    all.push(f);
+    let s = g.norm2(&all);
+    let r = g.sqrt(s);
+    g.div(f, r)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::assert_near;
+    use crate::tolerance::{IMPLICIT_F32_REL, IMPLICIT_F64_EPS, IMPLICIT_UNIT_GRAD_EPS};
+    use proptest::prelude::*;
+
+    fn system() -> impl Strategy<Value = RSystem> {
+        prop_oneof![
+            (-0.99f64..=1.0).prop_map(|alpha| RSystem::RAlpha { alpha }),
+            (0u32..=4).prop_map(|m| RSystem::R0 { m }),
+            (1u32..=4).prop_map(|h| RSystem::Rp { p: 2 * h }),
+            Just(RSystem::MinMax),
+        ]
+    }
+
+    /// A value away from zero by more than rounding can blur, or exactly zero.
+    fn value() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            1 => Just(0.0),
+            8 => (0.01f64..10.0, any::<bool>()).prop_map(|(v, neg)| if neg { -v } else { v }),
+        ]
+    }
+
+    fn sign(v: f64) -> i8 {
+        if v > 0.0 {
+            1
+        } else if v < 0.0 {
+            -1
+        } else {
+            0
+        }
+    }
+
+    proptest! {
+        /// The signs of AND, OR and NOT agree with min, max and negation (sec. 2.2.1),
+        /// for the formulas in f64 and for the graphs the tapes run.
+        #[test]
+        fn signs_agree_with_min_max(sys in system(), x in value(), y in value()) {
+            prop_assert_eq!(sign(sys.and_f64(x, y)), sign(x.min(y)));
+            prop_assert_eq!(sign(sys.or_f64(x, y)), sign(x.max(y)));
+            let mut g = Graph::new();
+            let [vx, vy, _] = g.xyz();
+            let and = sys.and(&mut g, vx, vy);
+            let or = sys.or(&mut g, vx, vy);
+            let nx = not(&mut g, vx);
+            let p = [x, y, 0.0];
+            prop_assert_eq!(sign(g.eval_f64(and, p)), sign(x.min(y)));
+            prop_assert_eq!(sign(g.eval_f64(or, p)), sign(x.max(y)));
+            prop_assert_eq!(sign(g.eval_f64(nx, p)), sign(-x));
+            let tol = IMPLICIT_F32_REL * (1.0 + sys.and_f64(x, y).abs());
+            prop_assert!((g.eval_f64(and, p) - sys.and_f64(x, y)).abs() <= tol);
+        }
+    }
+
+    #[test]
+    fn r_alpha_one_is_min_max() {
+        let sys = RSystem::RAlpha { alpha: 1.0 };
+        assert_near!(sys.and_f64(0.3, -1.2), -1.2, IMPLICIT_F64_EPS);
+        assert_near!(sys.or_f64(0.3, -1.2), 0.3, IMPLICIT_F64_EPS);
+    }
+
+    #[test]
+    fn parameters_out_of_range_are_refused() {
+        assert!(RSystem::RAlpha { alpha: -1.0 }.check("t").is_err());
+        assert!(RSystem::RAlpha { alpha: f64::NAN }.check("t").is_err());
+        assert!(RSystem::Rp { p: 3 }.check("t").is_err());
+        assert!(RSystem::R0 { m: 17 }.check("t").is_err());
+        assert!(RSystem::Rp { p: 6 }.check("t").is_ok());
+    }
+
+    /// The normaliser makes an ellipse's |grad| 1 on its boundary (eq. 1, condition 2).
+    #[test]
+    fn normaliser_has_unit_gradient_on_the_boundary() {
+        let mut g = Graph::new();
+        let [x, y, _] = g.xyz();
+        // 1 - x^2 / 4 - y^2: an ellipse with semi-axes 2 and 1, positive inside.
+        let x2 = g.square(x);
+        let x2 = g.scale(x2, -0.25);
+        let y2 = g.square(y);
+        let s = g.sub(x2, y2);
+        let f = g.offset(s, 1.0);
+        let n = normalize(&mut g, f);
+        let (dx, dy) = (g.deriv(n, Var::X), g.deriv(n, Var::Y));
+        for k in 0..12 {
+            let t = f64::from(k) * 0.5;
+            let p = [2.0 * t.cos(), t.sin(), 0.0];
+            assert_near!(g.eval_f64(n, p), 0.0, IMPLICIT_UNIT_GRAD_EPS);
+            let norm = g.eval_f64(dx, p).hypot(g.eval_f64(dy, p));
+            assert_near!(norm, 1.0, IMPLICIT_UNIT_GRAD_EPS);
+        }
+    }
+}

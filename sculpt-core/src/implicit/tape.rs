@@ -1,0 +1,601 @@
+//! Flat tapes: the part of a graph reachable from a root, as straight-line code.
+//!
+//! Slot `i` of a [`Tape`] holds the result of instruction `i`, whose arguments are
+//! earlier slots; the last instruction is the value. Tapes evaluate
+//!
+//! - one point in f32 ([`Tape::eval_point`]);
+//! - many points and grids ([`Tape::eval_points`], [`Tape::eval_grid`]): instruction
+//!   by instruction over blocks of [`LANES`] points, so each op is a tight loop the
+//!   compiler vectorises; rows of a grid run on the rayon pool with the `parallel`
+//!   feature;
+//! - intervals ([`Tape::eval_interval`]);
+//! - gradients by forward-mode automatic differentiation ([`Tape::eval_grad`]);
+//!
+//! and simplify themselves for a region ([`Tape::simplify`]): where interval
+//! arithmetic shows one side of a `min`, `max`, `and` or `or` always wins, the op
+//! becomes that side and what only the other side used is dropped (Fidget's interval
+//! pruning; Keeter, *Massively Parallel Rendering of Complex Closed-Form Implicit
+//! Surfaces*, 2020, sec. 3).
+
+use super::expr::{Binary, Graph, Node, NodeId, Unary, Var};
+use super::interval::Interval;
+use super::{GridProblem, ImplicitError, MAX_GRID_CELLS};
+
+/// Points per block of the batch evaluator.
+pub const LANES: usize = 64;
+
+/// One tape instruction; arguments are slots of earlier instructions.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Instr {
+    /// A coordinate.
+    Var(Var),
+    /// A constant.
+    Const(f32),
+    /// A one-argument op.
+    Unary(Unary, u32),
+    /// A two-argument op.
+    Binary(Binary, u32, u32),
+}
+
+/// Straight-line code for one expression.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tape {
+    instrs: Vec<Instr>,
+}
+
+/// Which nodes of `graph` the node `root` depends on (itself included).
+pub fn reachable(graph: &Graph, root: NodeId) -> Vec<bool> {
+    let mut live = vec![false; root.index() + 1];
+    live[root.index()] = true;
+    for i in (0..=root.index()).rev() {
+        if !live[i] {
+            continue;
+        }
+        match graph.node(NodeId(i as u32)) {
+            Node::Unary(_, a) => live[a.index()] = true,
+            Node::Binary(_, a, b) => {
+                live[a.index()] = true;
+                live[b.index()] = true;
+            }
+            Node::Var(_) | Node::Const(_) => {}
+        }
+    }
+    live
+}
+
+/// Which way an interval evaluation decided a choice op.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Choice {
+    Left,
+    Right,
+    Both,
+}
+
+/// A regular grid of cell centres: cell `(i, j, k)` is at
+/// `lo + (i + 0.5) (hi - lo) / n` per axis, x varying fastest.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Grid {
+    /// Cells per axis (1 on unused axes).
+    pub n: [usize; 3],
+    /// Lower corner.
+    pub lo: [f64; 3],
+    /// Upper corner.
+    pub hi: [f64; 3],
+}
+
+impl Grid {
+    /// A grid, checked: every axis has cells, bounds are finite with `lo < hi`, and
+    /// there are at most [`MAX_GRID_CELLS`] cells.
+    pub fn new(n: [usize; 3], lo: [f64; 3], hi: [f64; 3]) -> Result<Self, ImplicitError> {
+        let err = |reason| ImplicitError::Grid { n, lo, hi, reason };
+        if n.contains(&0) {
+            return Err(err(GridProblem::NoCells));
+        }
+        if (0..3).any(|a| !(lo[a].is_finite() && hi[a].is_finite() && lo[a] < hi[a])) {
+            return Err(err(GridProblem::Bounds));
+        }
+        let cells = n.iter().try_fold(1u64, |acc, &k| acc.checked_mul(k as u64));
+        if cells.is_none_or(|c| c > MAX_GRID_CELLS) {
+            return Err(err(GridProblem::TooMany));
+        }
+        Ok(Self { n, lo, hi })
+    }
+
+    /// The number of cells.
+    pub fn len(&self) -> usize {
+        self.n.iter().product()
+    }
+
+    /// Whether the grid has no cells (never, once checked).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The centre of cell `i` along `axis`.
+    pub fn centre(&self, axis: usize, i: usize) -> f64 {
+        self.lo[axis] + (i as f64 + 0.5) * (self.hi[axis] - self.lo[axis]) / self.n[axis] as f64
+    }
+}
+
+impl Tape {
+    /// Compiles the part of `graph` that `root` depends on.
+    pub fn compile(graph: &Graph, root: NodeId) -> Self {
+        let live = reachable(graph, root);
+        let mut slot = vec![u32::MAX; live.len()];
+        let mut instrs = Vec::new();
+        for (i, &alive) in live.iter().enumerate() {
+            if !alive {
+                continue;
+            }
+            let ins = match graph.node(NodeId(i as u32)) {
+                Node::Var(v) => Instr::Var(v),
+                Node::Const(bits) => Instr::Const(f64::from_bits(bits) as f32),
+                Node::Unary(op, a) => Instr::Unary(op, slot[a.index()]),
+                Node::Binary(op, a, b) => Instr::Binary(op, slot[a.index()], slot[b.index()]),
+            };
+            slot[i] = instrs.len() as u32;
+            instrs.push(ins);
+        }
+        Self { instrs }
+    }
+
+    /// The instructions.
+    pub fn instrs(&self) -> &[Instr] {
+        &self.instrs
+    }
+
+    /// The number of instructions.
+    pub fn len(&self) -> usize {
+        self.instrs.len()
+    }
+
+    /// Whether the tape is empty (never: a tape has at least its root).
+    pub fn is_empty(&self) -> bool {
+        self.instrs.is_empty()
+    }
+
+    /// Whether the value depends on `var`.
+    pub fn uses(&self, var: Var) -> bool {
+        self.instrs.contains(&Instr::Var(var))
+    }
+
+    /// The value at one point, in f32.
+    pub fn eval_point(&self, p: [f32; 3]) -> f32 {
+        let mut scratch = Vec::with_capacity(self.instrs.len());
+        self.eval_point_with(p, &mut scratch)
+    }
+
+    /// [`eval_point`](Self::eval_point) with a reusable scratch buffer.
+    pub fn eval_point_with(&self, p: [f32; 3], scratch: &mut Vec<f32>) -> f32 {
+        scratch.clear();
+        for ins in &self.instrs {
+            let v = match *ins {
+                Instr::Var(v) => p[v.index()],
+                Instr::Const(c) => c,
+                Instr::Unary(op, a) => op.apply(scratch[a as usize]),
+                Instr::Binary(op, a, b) => op.apply(scratch[a as usize], scratch[b as usize]),
+            };
+            scratch.push(v);
+        }
+        *scratch.last().expect("a tape has a root")
+    }
+
+    /// Evaluates one block of up to [`LANES`] points (unused lanes are ignored).
+    fn eval_block(&self, xyz: &[[f32; LANES]; 3], scratch: &mut Vec<[f32; LANES]>) -> [f32; LANES] {
+        scratch.clear();
+        for ins in &self.instrs {
+            let r = match *ins {
+                Instr::Var(v) => xyz[v.index()],
+                Instr::Const(c) => [c; LANES],
+                Instr::Unary(op, a) => unary_block(op, &scratch[a as usize]),
+                Instr::Binary(op, a, b) => {
+                    binary_block(op, &scratch[a as usize], &scratch[b as usize])
+                }
+            };
+            scratch.push(r);
+        }
+        *scratch.last().expect("a tape has a root")
+    }
+
+    /// Values at many points, written into `out` (one per point).
+    ///
+    /// # Panics
+    /// When `out` and `points` differ in length.
+    pub fn eval_points(&self, points: &[[f32; 3]], out: &mut [f32]) {
+        assert_eq!(points.len(), out.len(), "one output per point");
+        let mut scratch = Vec::with_capacity(self.instrs.len());
+        for (pts, vals) in points.chunks(LANES).zip(out.chunks_mut(LANES)) {
+            let mut xyz = [[0.0f32; LANES]; 3];
+            for (l, p) in pts.iter().enumerate() {
+                for a in 0..3 {
+                    xyz[a][l] = p[a];
+                }
+            }
+            let r = self.eval_block(&xyz, &mut scratch);
+            vals.copy_from_slice(&r[..vals.len()]);
+        }
+    }
+
+    /// Values at the cell centres of `grid`, x fastest, then y, then z.
+    pub fn eval_grid(&self, grid: &Grid) -> Vec<f32> {
+        let nx = grid.n[0];
+        let mut out = vec![0.0f32; grid.len()];
+        let xs: Vec<f32> = (0..nx).map(|i| grid.centre(0, i) as f32).collect();
+        let row = |(r, vals): (usize, &mut [f32])| {
+            let (j, k) = (r % grid.n[1], r / grid.n[1]);
+            let (y, z) = (grid.centre(1, j) as f32, grid.centre(2, k) as f32);
+            let mut scratch = Vec::with_capacity(self.instrs.len());
+            for (xc, vc) in xs.chunks(LANES).zip(vals.chunks_mut(LANES)) {
+                let mut xyz = [[0.0f32; LANES], [y; LANES], [z; LANES]];
+                xyz[0][..xc.len()].copy_from_slice(xc);
+                let r = self.eval_block(&xyz, &mut scratch);
+                vc.copy_from_slice(&r[..vc.len()]);
+            }
+        };
+        #[cfg(feature = "parallel")]
+        {
+            use rayon::prelude::*;
+            out.par_chunks_mut(nx).enumerate().for_each(row);
+        }
+        #[cfg(not(feature = "parallel"))]
+        out.chunks_mut(nx).enumerate().for_each(row);
+        out
+    }
+
+    /// The range of values over the box `region` (one interval per axis).
+    pub fn eval_interval(&self, region: [Interval; 3]) -> Interval {
+        self.interval_pass(region).0
+    }
+
+    fn interval_pass(&self, region: [Interval; 3]) -> (Interval, Vec<Choice>) {
+        let mut v: Vec<Interval> = Vec::with_capacity(self.instrs.len());
+        let mut choices = vec![Choice::Both; self.instrs.len()];
+        for (i, ins) in self.instrs.iter().enumerate() {
+            let r = match *ins {
+                Instr::Var(var) => region[var.index()],
+                Instr::Const(c) => Interval::point(c),
+                Instr::Unary(op, a) => v[a as usize].unary(op),
+                Instr::Binary(op, a, b) => {
+                    let (ia, ib) = (v[a as usize], v[b as usize]);
+                    choices[i] = choose(op, ia, ib);
+                    ia.binary(op, ib)
+                }
+            };
+            v.push(r);
+        }
+        (*v.last().expect("a tape has a root"), choices)
+    }
+
+    /// The range over `region` and a tape that equals this one everywhere in it, with
+    /// the choices interval arithmetic decided removed (and what only the losing
+    /// sides used).
+    pub fn simplify(&self, region: [Interval; 3]) -> (Interval, Tape) {
+        let (range, choices) = self.interval_pass(region);
+        // alias[i]: the slot whose value slot i takes.
+        let mut alias: Vec<u32> = (0..self.instrs.len() as u32).collect();
+        for (i, ins) in self.instrs.iter().enumerate() {
+            if let Instr::Binary(_, a, b) = *ins {
+                match choices[i] {
+                    Choice::Left => alias[i] = alias[a as usize],
+                    Choice::Right => alias[i] = alias[b as usize],
+                    Choice::Both => {}
+                }
+            }
+        }
+        let n = self.instrs.len();
+        let mut live = vec![false; n];
+        live[alias[n - 1] as usize] = true;
+        for i in (0..n).rev() {
+            if !live[i] || alias[i] != i as u32 {
+                continue;
+            }
+            match self.instrs[i] {
+                Instr::Unary(_, a) => live[alias[a as usize] as usize] = true,
+                Instr::Binary(_, a, b) => {
+                    live[alias[a as usize] as usize] = true;
+                    live[alias[b as usize] as usize] = true;
+                }
+                Instr::Var(_) | Instr::Const(_) => {}
+            }
+        }
+        let mut slot = vec![u32::MAX; n];
+        let mut instrs = Vec::new();
+        for i in 0..n {
+            if !live[i] || alias[i] != i as u32 {
+                continue;
+            }
+            let s = |a: u32| slot[alias[a as usize] as usize];
+            let ins = match self.instrs[i] {
+                Instr::Unary(op, a) => Instr::Unary(op, s(a)),
+                Instr::Binary(op, a, b) => Instr::Binary(op, s(a), s(b)),
+                other => other,
+            };
+            slot[i] = instrs.len() as u32;
+            instrs.push(ins);
+        }
+        (range, Tape { instrs })
+    }
+
+    /// The value and gradient at `p`, by forward-mode automatic differentiation in
+    /// f32 (dual numbers carrying d/dx, d/dy, d/dz). Where the function has a kink,
+    /// the same one-sided or averaged rule as [`Graph::deriv`] applies.
+    pub fn eval_grad(&self, p: [f32; 3]) -> (f32, [f32; 3]) {
+        let mut v: Vec<Dual> = Vec::with_capacity(self.instrs.len());
+        for ins in &self.instrs {
+            let r = match *ins {
+                Instr::Var(var) => {
+                    let mut d = [0.0; 3];
+                    d[var.index()] = 1.0;
+                    Dual {
+                        v: p[var.index()],
+                        d,
+                    }
+                }
+                Instr::Const(c) => Dual { v: c, d: [0.0; 3] },
+                Instr::Unary(op, a) => dual_unary(op, v[a as usize]),
+                Instr::Binary(op, a, b) => dual_binary(op, v[a as usize], v[b as usize]),
+            };
+            v.push(r);
+        }
+        let r = v.last().expect("a tape has a root");
+        (r.v, r.d)
+    }
+}
+
+fn choose(op: Binary, a: Interval, b: Interval) -> Choice {
+    if a.nan || b.nan {
+        return Choice::Both;
+    }
+    match op {
+        Binary::Min if a.hi < b.lo => Choice::Left,
+        Binary::Min if b.hi < a.lo => Choice::Right,
+        Binary::Max if a.lo > b.hi => Choice::Left,
+        Binary::Max if b.lo > a.hi => Choice::Right,
+        // and(a, b): b where a is never 0; or(a, b): a where a is never 0.
+        Binary::And if !a.contains(0.0) => Choice::Right,
+        Binary::And if a.lo == 0.0 && a.hi == 0.0 => Choice::Left,
+        Binary::Or if !a.contains(0.0) => Choice::Left,
+        Binary::Or if a.lo == 0.0 && a.hi == 0.0 => Choice::Right,
+        _ => Choice::Both,
+    }
+}
+
+fn unary_block(op: Unary, a: &[f32; LANES]) -> [f32; LANES] {
+    let mut r = [0.0f32; LANES];
+    match op {
+        Unary::Neg => (0..LANES).for_each(|k| r[k] = -a[k]),
+        Unary::Abs => (0..LANES).for_each(|k| r[k] = a[k].abs()),
+        Unary::Square => (0..LANES).for_each(|k| r[k] = a[k] * a[k]),
+        Unary::Sqrt => (0..LANES).for_each(|k| r[k] = a[k].sqrt()),
+        _ => (0..LANES).for_each(|k| r[k] = op.apply(a[k])),
+    }
+    r
+}
+
+fn binary_block(op: Binary, a: &[f32; LANES], b: &[f32; LANES]) -> [f32; LANES] {
+    let mut r = [0.0f32; LANES];
+    match op {
+        Binary::Add => (0..LANES).for_each(|k| r[k] = a[k] + b[k]),
+        Binary::Sub => (0..LANES).for_each(|k| r[k] = a[k] - b[k]),
+        Binary::Mul => (0..LANES).for_each(|k| r[k] = a[k] * b[k]),
+        Binary::Div => (0..LANES).for_each(|k| r[k] = a[k] / b[k]),
+        _ => (0..LANES).for_each(|k| r[k] = op.apply(a[k], b[k])),
+    }
+    r
+}
+
+/// A value with its gradient.
+#[derive(Debug, Clone, Copy)]
+struct Dual {
+    v: f32,
+    d: [f32; 3],
+}
+
+impl Dual {
+    fn chain(v: f32, f: f32, a: Dual) -> Dual {
+        Dual {
+            v,
+            d: a.d.map(|x| f * x),
+        }
+    }
+    fn combine(v: f32, fa: f32, a: Dual, fb: f32, b: Dual) -> Dual {
+        Dual {
+            v,
+            d: [0, 1, 2].map(|k| fa * a.d[k] + fb * b.d[k]),
+        }
+    }
+}
+
+fn dual_unary(op: Unary, a: Dual) -> Dual {
+    let v = op.apply(a.v);
+    let x = a.v;
+    let f = match op {
+        Unary::Neg => -1.0,
+        Unary::Abs => Binary::Compare.apply(x, 0.0),
+        Unary::Recip => -1.0 / (x * x),
+        Unary::Sqrt => 1.0 / (2.0 * v),
+        Unary::Square => 2.0 * x,
+        Unary::Floor | Unary::Ceil | Unary::Round | Unary::Not => 0.0,
+        Unary::Sin => x.cos(),
+        Unary::Cos => -x.sin(),
+        Unary::Tan => 1.0 / (x.cos() * x.cos()),
+        Unary::Asin => 1.0 / (1.0 - x * x).sqrt(),
+        Unary::Acos => -1.0 / (1.0 - x * x).sqrt(),
+        Unary::Atan => 1.0 / (1.0 + x * x),
+        Unary::Exp => v,
+        Unary::Ln => 1.0 / x,
+    };
+    Dual::chain(v, f, a)
+}
+
+fn dual_binary(op: Binary, a: Dual, b: Dual) -> Dual {
+    let v = op.apply(a.v, b.v);
+    let (x, y) = (a.v, b.v);
+    let (fa, fb) = match op {
+        Binary::Add => (1.0, 1.0),
+        Binary::Sub => (1.0, -1.0),
+        Binary::Mul => (y, x),
+        Binary::Div => (1.0 / y, -x / (y * y)),
+        Binary::Min | Binary::Max => {
+            let c = Binary::Compare.apply(x, y) * 0.5;
+            if op == Binary::Min {
+                (0.5 - c, 0.5 + c)
+            } else {
+                (0.5 + c, 0.5 - c)
+            }
+        }
+        Binary::Atan2 => {
+            let s = x * x + y * y;
+            (y / s, -x / s)
+        }
+        Binary::Compare => (0.0, 0.0),
+        Binary::Mod => (1.0, -(x / y).floor()),
+        Binary::And => {
+            if x == 0.0 {
+                (1.0, 0.0)
+            } else {
+                (0.0, 1.0)
+            }
+        }
+        Binary::Or => {
+            if x != 0.0 {
+                (1.0, 0.0)
+            } else {
+                (0.0, 1.0)
+            }
+        }
+    };
+    Dual::combine(v, fa, a, fb, b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::implicit::vm;
+    use crate::tolerance::{IMPLICIT_F32_REL, IMPLICIT_GRAD_F32_REL};
+    use proptest::prelude::*;
+
+    /// A random program over the smooth-ish ops, so f32 and f64 stay comparable.
+    fn program() -> impl Strategy<Value = String> {
+        let ops = [
+            "add", "sub", "mul", "min", "max", "neg", "abs", "square", "sin", "cos", "atan", "and",
+            "or",
+        ];
+        let clause = (
+            0usize..ops.len() + 1,
+            0usize..1000,
+            0usize..1000,
+            -2.0f64..2.0,
+        );
+        proptest::collection::vec(clause, 1..30).prop_map(move |cs| {
+            let mut text = String::from("v0 var-x\nv1 var-y\nv2 var-z\n");
+            for (k, (kind, a, b, c)) in cs.into_iter().enumerate() {
+                let n = k + 3;
+                let (a, b) = (a % n, b % n);
+                let line = match ops.get(kind).copied() {
+                    None => format!("v{n} const {c}"),
+                    Some(op @ ("neg" | "abs" | "square" | "sin" | "cos" | "atan")) => {
+                        format!("v{n} {op} v{a}")
+                    }
+                    Some(op) => format!("v{n} {op} v{a} v{b}"),
+                };
+                text.push_str(&line);
+                text.push('\n');
+            }
+            // Keep magnitudes bounded: the value is the atan of the last clause.
+            let last = text.lines().count() - 1;
+            text.push_str(&format!("out atan v{last}\n"));
+            text
+        })
+    }
+
+    fn point() -> impl Strategy<Value = [f32; 3]> {
+        [-2.0f32..2.0, -2.0f32..2.0, -2.0f32..2.0]
+    }
+
+    proptest! {
+        /// The f32 tape agrees with a direct f64 walk of the clauses as written.
+        #[test]
+        fn tape_agrees_with_the_clause_walk(text in program(), pts in proptest::collection::vec(point(), 1..20)) {
+            let prog = vm::parse(&text).unwrap();
+            let (g, root) = prog.to_graph();
+            let tape = Tape::compile(&g, root);
+            prop_assert!(tape.len() <= prog.clauses.len());
+            let mut batch = vec![0.0f32; pts.len()];
+            tape.eval_points(&pts, &mut batch);
+            for (p, b) in pts.iter().zip(&batch) {
+                let (want, scale) = prog.eval_f64_with_scale(p.map(f64::from));
+                let got = tape.eval_point(*p);
+                prop_assert_eq!(got.to_bits(), b.to_bits(), "batch differs from point");
+                if scale > 1e30 {
+                    continue; // beyond f32's range: the tape overflows where f64 does not
+                }
+                prop_assert!((f64::from(got) - want).abs() <= IMPLICIT_F32_REL * (1.0 + scale), "{got} vs {want}");
+            }
+        }
+
+        /// A tape simplified for a box equals the full tape everywhere in the box, and
+        /// the interval holds every value there.
+        #[test]
+        fn simplified_tape_agrees_inside_its_region(text in program(), c in point(), w in 0.01f32..1.0,
+                pts in proptest::collection::vec([0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0], 1..20)) {
+            let (g, root) = vm::parse(&text).unwrap().to_graph();
+            let tape = Tape::compile(&g, root);
+            let region = [0, 1, 2].map(|a| Interval::new(c[a] - w, c[a] + w));
+            let (range, small) = tape.simplify(region);
+            prop_assert!(small.len() <= tape.len());
+            for s in pts {
+                let p = [0, 1, 2].map(|a| (region[a].lo + s[a] * (region[a].hi - region[a].lo)).clamp(region[a].lo, region[a].hi));
+                let (full, simple) = (tape.eval_point(p), small.eval_point(p));
+                prop_assert_eq!(full.to_bits(), simple.to_bits(), "at {:?}", p);
+                prop_assert!(if full.is_nan() { range.nan } else { range.contains(full) }, "{} not in {:?}", full, range);
+            }
+        }
+
+        /// Forward-mode gradients agree with the symbolic derivative walked in f64.
+        #[test]
+        fn gradients_agree_with_symbolic_derivatives(text in program(), p in point()) {
+            let prog = vm::parse(&text).unwrap();
+            let (mut g, root) = prog.to_graph();
+            let tape = Tape::compile(&g, root);
+            let (_, grad) = tape.eval_grad(p);
+            let (_, scale) = prog.eval_f64_with_scale(p.map(f64::from));
+            prop_assume!(scale < 1e6, "f32 rounding of large intermediates swamps the gradient");
+            for v in [Var::X, Var::Y, Var::Z] {
+                let d = g.deriv(root, v);
+                let want = g.eval_f64(d, p.map(f64::from));
+                let got = f64::from(grad[v.index()]);
+                if want.is_finite() {
+                    prop_assert!((got - want).abs() <= IMPLICIT_GRAD_F32_REL * (1.0 + want.abs()), "{v:?}: {got} vs {want}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn grid_values_are_at_cell_centres_x_fastest() {
+        let mut g = Graph::new();
+        let [x, y, z] = g.xyz();
+        let ty = g.scale(y, 10.0);
+        let tz = g.scale(z, 100.0);
+        let s = g.add(x, ty);
+        let root = g.add(s, tz);
+        let tape = Tape::compile(&g, root);
+        let grid = Grid::new([70, 3, 2], [0.0, 0.0, 0.0], [70.0, 3.0, 2.0]).unwrap();
+        let v = tape.eval_grid(&grid);
+        assert_eq!(v.len(), 70 * 3 * 2);
+        for (idx, got) in v.iter().enumerate() {
+            let (i, j, k) = (idx % 70, (idx / 70) % 3, idx / 210);
+            let want = (i as f64 + 0.5) + 10.0 * (j as f64 + 0.5) + 100.0 * (k as f64 + 0.5);
+            crate::assert_near!(f64::from(*got), want, IMPLICIT_F32_REL * want);
+        }
+    }
+
+    #[test]
+    fn bad_grids_are_refused() {
+        assert!(Grid::new([0, 1, 1], [0.0; 3], [1.0; 3]).is_err());
+        assert!(Grid::new([1, 1, 1], [0.0; 3], [0.0, 1.0, 1.0]).is_err());
+        assert!(Grid::new([1, 1, 1], [f64::NAN, 0.0, 0.0], [1.0; 3]).is_err());
+        assert!(Grid::new([1 << 20, 1 << 20, 1 << 20], [0.0; 3], [1.0; 3]).is_err());
+    }
+}

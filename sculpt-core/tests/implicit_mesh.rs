@@ -1,0 +1,235 @@
+//! Meshes of implicit solids are closed, 2-manifold and consistently oriented, with
+//! the Euler characteristic of their topology, and lie within half a cell of the
+//! surface. Checked by an independent half-edge walk written here, not the crate's
+//! own edge report.
+
+use std::collections::{HashMap, HashSet};
+
+use sculpt_core::assert_near;
+use sculpt_core::implicit::Model;
+use sculpt_core::implicit::contour::contour;
+use sculpt_core::mesh::WeldedMesh;
+
+/// What the half-edge walk found.
+#[derive(Debug)]
+struct Topology {
+    vertices: usize,
+    edges: usize,
+    faces: usize,
+    /// Connected components (by shared edges).
+    components: usize,
+}
+
+/// Builds half-edges and checks: every directed edge appears once, its twin once
+/// (closed, edge-manifold, consistently oriented); the faces around each vertex form
+/// one cycle (vertex-manifold); no triangle repeats a vertex.
+fn half_edge_check(mesh: &WeldedMesh) -> Topology {
+    let mut next: HashMap<(u32, u32), u32> = HashMap::new();
+    for t in &mesh.triangles {
+        assert!(
+            t[0] != t[1] && t[1] != t[2] && t[0] != t[2],
+            "degenerate triangle {t:?}"
+        );
+        for e in 0..3 {
+            let (a, b, c) = (t[e], t[(e + 1) % 3], t[(e + 2) % 3]);
+            assert!(
+                next.insert((a, b), c).is_none(),
+                "directed edge {a}->{b} used twice"
+            );
+        }
+    }
+    for &(a, b) in next.keys() {
+        assert!(
+            next.contains_key(&(b, a)),
+            "edge {a}->{b} has no twin: a hole or a flipped triangle"
+        );
+    }
+    // Vertex-manifold: walking a -> b, then around a by twins, visits every outgoing
+    // half-edge of a in one cycle.
+    let mut outgoing: HashMap<u32, Vec<u32>> = HashMap::new();
+    for &(a, b) in next.keys() {
+        outgoing.entry(a).or_default().push(b);
+    }
+    for (&a, outs) in &outgoing {
+        let start = outs[0];
+        let mut b = start;
+        let mut seen = 0;
+        loop {
+            // The triangle (a, b, c): the next outgoing edge around a is a -> c.
+            let c = next[&(a, b)];
+            seen += 1;
+            b = c;
+            if b == start || seen > outs.len() {
+                break;
+            }
+        }
+        assert_eq!(
+            seen,
+            outs.len(),
+            "vertex {a}: its faces form more than one fan"
+        );
+    }
+    let used: HashSet<u32> = mesh.triangles.iter().flatten().copied().collect();
+    // Components by union-find over edges.
+    let mut parent: HashMap<u32, u32> = used.iter().map(|&v| (v, v)).collect();
+    fn find(p: &mut HashMap<u32, u32>, v: u32) -> u32 {
+        let mut r = v;
+        while p[&r] != r {
+            r = p[&r];
+        }
+        p.insert(v, r);
+        r
+    }
+    for &(a, b) in next.keys() {
+        let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+        parent.insert(ra, rb);
+    }
+    let roots: HashSet<u32> = used.iter().map(|&v| find(&mut parent, v)).collect();
+    Topology {
+        vertices: used.len(),
+        edges: next.len() / 2,
+        faces: mesh.triangles.len(),
+        components: roots.len(),
+    }
+}
+
+fn euler(t: &Topology) -> i64 {
+    t.vertices as i64 - t.edges as i64 + t.faces as i64
+}
+
+/// Signed volume by the divergence theorem (positive for outward orientation).
+fn volume(mesh: &WeldedMesh) -> f64 {
+    mesh.triangles
+        .iter()
+        .map(|t| {
+            let p = t.map(|i| mesh.vertices[i as usize].position.map(f64::from));
+            let c = [
+                p[1][1] * p[2][2] - p[1][2] * p[2][1],
+                p[1][2] * p[2][0] - p[1][0] * p[2][2],
+                p[1][0] * p[2][1] - p[1][1] * p[2][0],
+            ];
+            (p[0][0] * c[0] + p[0][1] * c[1] + p[0][2] * c[2]) / 6.0
+        })
+        .sum()
+}
+
+/// Closed, manifold, oriented, one component, Euler characteristic `chi`.
+fn assert_closed(mesh: &WeldedMesh, chi: i64) {
+    let t = half_edge_check(mesh);
+    assert_eq!((euler(&t), t.components), (chi, 1), "{t:?}");
+}
+
+fn mesh_of(json: &str, res: usize, lo: f64, hi: f64) -> (Model, WeldedMesh) {
+    let model = Model::from_solid_json(json).unwrap();
+    let mesh = contour(&model.tape_negative_inside(), [res; 3], [lo; 3], [hi; 3]).unwrap();
+    (model, mesh)
+}
+
+#[test]
+fn sphere_is_a_closed_sphere_near_the_surface() {
+    let (_, mesh) = mesh_of(
+        r#"{"solid": {"sphere": {"center": [0.1, 0.0, -0.05], "radius": 0.8}}}"#,
+        24,
+        -1.0,
+        1.0,
+    );
+    assert_closed(&mesh, 2);
+    let half_cell = 0.5 * 2.0 / 24.0;
+    for v in &mesh.vertices {
+        let p = v.position.map(f64::from);
+        let d = ((p[0] - 0.1).powi(2) + p[1].powi(2) + (p[2] + 0.05).powi(2)).sqrt() - 0.8;
+        assert!(d.abs() <= half_cell, "vertex {p:?} is {d} from the sphere");
+    }
+    let exact = 4.0 / 3.0 * std::f64::consts::PI * 0.8f64.powi(3);
+    assert_near!(volume(&mesh), exact, 0.05 * exact);
+}
+
+#[test]
+fn torus_has_euler_characteristic_zero() {
+    let (_, mesh) = mesh_of(
+        r#"{"solid": {"torus": {"center": [0, 0, 0], "axis": [0.2, 0.1, 1], "major": 0.6, "minor": 0.25}}}"#,
+        32,
+        -1.0,
+        1.0,
+    );
+    assert_closed(&mesh, 0);
+    let half_cell = 0.5 * 2.0 / 32.0;
+    let n = {
+        let a = [0.2f64, 0.1, 1.0];
+        let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+        a.map(|c| c / l)
+    };
+    for v in &mesh.vertices {
+        let p = v.position.map(f64::from);
+        let t = p[0] * n[0] + p[1] * n[1] + p[2] * n[2];
+        let rho = ((p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) - t * t)
+            .max(0.0)
+            .sqrt();
+        let d = ((rho - 0.6).powi(2) + t * t).sqrt() - 0.25;
+        assert!(d.abs() <= half_cell, "vertex {p:?} is {d} from the torus");
+    }
+    assert!(
+        volume(&mesh) > 0.0,
+        "outward orientation gives a positive volume"
+    );
+}
+
+/// A CSG part: a box with a cylindrical hole through it and a spherical bite out of a
+/// corner (genus 1), R_0 conjunctions throughout.
+#[test]
+fn csg_part_with_a_hole_is_a_closed_torus_topologically() {
+    let json = r#"{"solid": {"and": {"solids": [
+        {"box": {"min": [-0.7, -0.5, -0.3], "max": [0.7, 0.5, 0.3]}},
+        {"not": {"solid": {"cylinder": {"base": [0, 0, -1], "axis": [0, 0, 1], "radius": 0.25, "height": 2}}}},
+        {"not": {"solid": {"sphere": {"center": [0.7, 0.5, 0.3], "radius": 0.3}}}}
+    ]}}}"#;
+    let (model, mesh) = mesh_of(json, 40, -1.0, 1.0);
+    assert_closed(&mesh, 0);
+    // The function is distance-like (|grad| near 1) away from the edges; its value
+    // at each vertex is within half a cell of 0.
+    let tape = model.tape_positive_inside();
+    let half_cell = 0.5 * 2.0 / 40.0;
+    for v in &mesh.vertices {
+        let w = f64::from(tape.eval_point(v.position));
+        assert!(w.abs() <= half_cell, "omega {w} at vertex {:?}", v.position);
+    }
+    assert!(volume(&mesh) > 0.0);
+}
+
+/// A solid that leaves the sampling box is closed off at the box's faces.
+#[test]
+fn solids_cut_by_the_box_are_closed() {
+    let (_, mesh) = mesh_of(
+        r#"{"solid": {"sphere": {"center": [0, 0, 0], "radius": 1.5}}}"#,
+        10,
+        -1.0,
+        1.0,
+    );
+    assert_closed(&mesh, 2);
+    // Nearly the whole box: the outer layer of corners is outside.
+    assert_near!(volume(&mesh), 8.0, 0.7 * 8.0);
+}
+
+/// A Fidget-style `.vm` model (negative inside) meshes the same as the equivalent
+/// solid document; the STL round trip keeps it closed.
+#[test]
+fn vm_model_meshes_and_survives_stl() {
+    let text = "x var-x\ny var-y\nz var-z\nxx square x\nyy square y\nzz square z\n\
+                s add xx yy\ns2 add s zz\nr sqrt s2\nc const 0.7\nd sub r c\n";
+    let model = Model::from_vm(text).unwrap();
+    let mesh = contour(&model.tape_negative_inside(), [16; 3], [-1.0; 3], [1.0; 3]).unwrap();
+    let t = half_edge_check(&mesh);
+    assert_eq!(euler(&t), 2);
+    let bytes = sculpt_core::formats::stl::write(&mesh).unwrap();
+    let back = sculpt_core::formats::stl::read(&bytes).unwrap();
+    let welded = sculpt_core::mesh::weld(
+        &back.vertices,
+        &back.triangles,
+        sculpt_core::tolerance::POINT_WELD_EPS,
+    );
+    let t2 = half_edge_check(&welded);
+    assert_eq!(
+        (t2.vertices, t2.faces, euler(&t2)),
+        (t.vertices, t.faces, 2)
+    );
+}

@@ -1,0 +1,222 @@
+//! `sculpt-tools implicit`: evaluate and mesh implicit solids (docs/implicit.md).
+//!
+//! - `implicit eval MODEL --points P.csv [--out V.txt]`: one value per CSV row (`x,y`
+//!   or `x,y,z`; a missing z is 0), one per line.
+//! - `implicit eval MODEL --grid NxM[xK] --bounds LO,HI --out V.f32`: little-endian
+//!   f32 at the cell centres `LO + (i + 0.5) (HI - LO) / N` on every axis, x fastest;
+//!   a 2D grid (`NxM`) samples the plane z = 0.
+//! - `implicit mesh MODEL --res N --bounds LO,HI --out M.{stl,obj,glb}`: a closed,
+//!   manifold, outward-oriented mesh of the solid by marching tetrahedra on the
+//!   corners of an N^3 grid.
+//!
+//! MODEL is a `.vm` file (Fidget's SSA text, negative inside) or a solid document
+//! (JSON, omega >= 0 inside, recognised by its leading `{`). Values written are
+//! always negative inside (Fidget's convention): a solid document's omega is negated.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Subcommand};
+use sculpt_core::formats::MeshFormat;
+use sculpt_core::implicit::Model;
+use sculpt_core::implicit::contour::contour;
+use sculpt_core::implicit::tape::Grid;
+
+use super::io;
+
+/// Arguments of `implicit`.
+#[derive(Debug, Args)]
+pub struct ImplicitArgs {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: ImplicitCommand,
+}
+
+/// The `implicit` subcommands.
+#[derive(Debug, Subcommand)]
+pub enum ImplicitCommand {
+    /// Values of a model at points or on a grid (negative inside).
+    Eval(EvalArgs),
+    /// A closed triangle mesh of a model's solid.
+    Mesh(MeshArgs),
+}
+
+/// Arguments of `implicit eval`.
+#[derive(Debug, Args)]
+pub struct EvalArgs {
+    /// The model: `.vm` text or a solid document (JSON); `-` for stdin.
+    pub model: PathBuf,
+    /// CSV of points, `x,y` or `x,y,z` per line.
+    #[arg(long, conflicts_with_all = ["grid", "bounds"], required_unless_present = "grid")]
+    pub points: Option<PathBuf>,
+    /// Grid cells per axis: `NxM` (the plane z = 0) or `NxMxK`.
+    #[arg(long, requires_all = ["bounds", "out"])]
+    pub grid: Option<String>,
+    /// The grid's bounds on every axis: `LO,HI`.
+    #[arg(long, allow_hyphen_values = true)]
+    pub bounds: Option<String>,
+    /// Output file (required with `--grid`; text to stdout otherwise).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// Arguments of `implicit mesh`.
+#[derive(Debug, Args)]
+pub struct MeshArgs {
+    /// The model: `.vm` text or a solid document (JSON); `-` for stdin.
+    pub model: PathBuf,
+    /// Grid cells per axis.
+    #[arg(long)]
+    pub res: usize,
+    /// The grid's bounds on every axis: `LO,HI`.
+    #[arg(long, allow_hyphen_values = true)]
+    pub bounds: String,
+    /// Output mesh: `.stl`, `.obj` or `.glb`.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Runs `implicit`.
+pub fn run(args: ImplicitArgs) -> Result<()> {
+    match args.command {
+        ImplicitCommand::Eval(a) => eval(&a),
+        ImplicitCommand::Mesh(a) => mesh(&a),
+    }
+}
+
+fn read_model(path: &Path) -> Result<Model> {
+    let text = io::read_input(path)?;
+    Model::from_text(&text).with_context(|| format!("{}: invalid model", io::display_name(path)))
+}
+
+/// `LO,HI` with finite `LO < HI`.
+fn parse_bounds(text: &str) -> Result<(f64, f64)> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let [lo, hi] = parts.as_slice() else {
+        bail!("--bounds {text:?}: expected LO,HI");
+    };
+    let lo: f64 = lo
+        .parse()
+        .with_context(|| format!("--bounds {text:?}: LO is not a number"))?;
+    let hi: f64 = hi
+        .parse()
+        .with_context(|| format!("--bounds {text:?}: HI is not a number"))?;
+    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+        bail!("--bounds {text:?}: expected finite LO < HI");
+    }
+    Ok((lo, hi))
+}
+
+/// `NxM` or `NxMxK`, each a positive count; 2D grids get one layer.
+fn parse_grid(text: &str) -> Result<([usize; 3], bool)> {
+    let parts: Vec<&str> = text.split(['x', 'X']).collect();
+    if !(2..=3).contains(&parts.len()) {
+        bail!("--grid {text:?}: expected NxM or NxMxK");
+    }
+    let mut n = [1usize; 3];
+    for (slot, p) in n.iter_mut().zip(&parts) {
+        *slot = p
+            .trim()
+            .parse()
+            .ok()
+            .filter(|&k: &usize| k > 0)
+            .with_context(|| format!("--grid {text:?}: {p:?} is not a positive count"))?;
+    }
+    Ok((n, parts.len() == 2))
+}
+
+/// Points `x,y[,z]` per line; blank and `#` lines skipped, a header `x,y[,z]` too.
+fn read_points(path: &Path) -> Result<Vec<[f32; 3]>> {
+    let text = io::read_input(path)?;
+    let name = io::display_name(path);
+    let mut points = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let compact = line.replace(' ', "").to_ascii_lowercase();
+        if points.is_empty() && (compact == "x,y" || compact == "x,y,z") {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        if !(2..=3).contains(&fields.len()) {
+            bail!(
+                "{name}:{}: expected 2 or 3 numbers, found {}",
+                i + 1,
+                fields.len()
+            );
+        }
+        let mut p = [0.0f32; 3];
+        for (c, f) in p.iter_mut().zip(&fields) {
+            let v: f64 = f
+                .parse()
+                .ok()
+                .filter(|v: &f64| v.is_finite())
+                .with_context(|| format!("{name}:{}: {f:?} is not a finite number", i + 1))?;
+            *c = v as f32;
+        }
+        points.push(p);
+    }
+    Ok(points)
+}
+
+fn eval(args: &EvalArgs) -> Result<()> {
+    let model = read_model(&args.model)?;
+    let tape = model.tape_negative_inside();
+    if let Some(points) = &args.points {
+        io::check_one_stdin(&[&args.model, points])?;
+        let pts = read_points(points)?;
+        let mut values = vec![0.0f32; pts.len()];
+        tape.eval_points(&pts, &mut values);
+        let mut out = io::open_output(args.out.as_ref())?;
+        for v in values {
+            writeln!(out, "{v}").context("cannot write output")?;
+        }
+        return io::finish_output(out, args.out.as_ref());
+    }
+    let (Some(grid), Some(bounds), Some(out)) = (&args.grid, &args.bounds, &args.out) else {
+        bail!("give --points, or --grid with --bounds and --out");
+    };
+    let (n, flat) = parse_grid(grid)?;
+    let (lo, hi) = parse_bounds(bounds)?;
+    // A 2D grid is one layer whose centre is z = 0.
+    let (zlo, zhi) = if flat { (-0.5, 0.5) } else { (lo, hi) };
+    let grid = Grid::new(n, [lo, lo, zlo], [hi, hi, zhi])?;
+    let values = tape.eval_grid(&grid);
+    let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+    std::fs::write(out, bytes).with_context(|| format!("{}: cannot write", out.display()))
+}
+
+fn mesh(args: &MeshArgs) -> Result<()> {
+    let format = MeshFormat::from_extension(&args.out.to_string_lossy()).with_context(|| {
+        format!(
+            "{}: the output must end in .stl, .obj or .glb",
+            args.out.display()
+        )
+    })?;
+    let model = read_model(&args.model)?;
+    let (lo, hi) = parse_bounds(&args.bounds)?;
+    let mesh = contour(
+        &model.tape_negative_inside(),
+        [args.res; 3],
+        [lo; 3],
+        [hi; 3],
+    )?;
+    if mesh.triangles.is_empty() {
+        bail!(
+            "{}: the model's surface does not cross the box [{lo}, {hi}]^3",
+            io::display_name(&args.model)
+        );
+    }
+    let bytes = format.write(&mesh)?;
+    std::fs::write(&args.out, bytes)
+        .with_context(|| format!("{}: cannot write", args.out.display()))?;
+    println!(
+        "{{\"vertices\": {}, \"triangles\": {}}}",
+        mesh.vertices.len(),
+        mesh.triangles.len()
+    );
+    Ok(())
+}
