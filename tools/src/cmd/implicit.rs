@@ -186,7 +186,7 @@ fn eval(args: &EvalArgs) -> Result<()> {
     let grid = Grid::new(n, [lo, lo, zlo], [hi, hi, zhi])?;
     let values = tape.eval_grid(&grid);
     let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
-    std::fs::write(out, bytes).with_context(|| format!("{}: cannot write", out.display()))
+    io::write_file(out, &bytes)
 }
 
 fn mesh(args: &MeshArgs) -> Result<()> {
@@ -211,8 +211,7 @@ fn mesh(args: &MeshArgs) -> Result<()> {
         );
     }
     let bytes = format.write(&mesh)?;
-    std::fs::write(&args.out, bytes)
-        .with_context(|| format!("{}: cannot write", args.out.display()))?;
+    io::write_file(&args.out, &bytes)?;
     println!(
         "{{\"vertices\": {}, \"triangles\": {}}}",
         mesh.vertices.len(),

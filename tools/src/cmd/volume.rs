@@ -197,7 +197,7 @@ fn eval(args: &EvalArgs) -> Result<()> {
             vol.eval_into(u, &mut values)
         };
         r.with_context(|| format!("{}: row {}", io::display_name(&args.params), i + 1))?;
-        io::write_row(&mut *out, &values).context("cannot write output")?;
+        io::write_row(&mut out, &values).context("cannot write output")?;
     }
     io::finish_output(out, args.out.as_ref())
 }
@@ -282,8 +282,7 @@ fn fit(args: &FitArgs) -> Result<()> {
     }
     let vol = Volume::fit_scattered(&params, &values, attributes, &args.degrees, &args.counts)
         .with_context(|| format!("{name}: cannot fit"))?;
-    std::fs::write(&args.out, vol.to_json())
-        .with_context(|| format!("{}: cannot write", args.out.display()))
+    io::write_file(&args.out, vol.to_json().as_bytes())
 }
 
 fn grid(args: &GridArgs) -> Result<()> {
@@ -362,6 +361,5 @@ fn grid(args: &GridArgs) -> Result<()> {
         "wandsculpt volume grid of {}",
         io::display_name(&args.volume)
     );
-    std::fs::write(&args.out, g.to_vtk(&title, args.binary))
-        .with_context(|| format!("{}: cannot write", args.out.display()))
+    io::write_file(&args.out, &g.to_vtk(&title, args.binary))
 }
