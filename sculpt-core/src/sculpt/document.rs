@@ -389,7 +389,7 @@ impl Document {
     }
 
     /// Projects and applies a stroke to a target (undoable). A stroke the rules reject
-    /// (see [`Stroke::build`]) or beyond the caps ([`Self::check_stroke_caps`]) leaves
+    /// (see [`StrokePieces::build`]) or beyond the caps ([`Self::check_stroke_caps`]) leaves
     /// the document unchanged and says why.
     pub fn apply_stroke(&mut self, target: TargetId, input: StrokeInput) -> Result<StrokeId> {
         let record = StrokeRecord {
