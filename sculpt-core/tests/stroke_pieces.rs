@@ -343,6 +343,13 @@ fn a_stroke_in_pieces_is_one_operation() {
         assert_eq!(without.len(), pieces - 1);
         assert_ne!(mesh_of(&without), carved, "piece {key} carves nothing");
     }
+    // Each piece has its own stroke surface, named after the stroke in the export.
+    let names: Vec<String> = doc.iges_surfaces().into_iter().map(|s| s.name).collect();
+    let own = |n: &String| {
+        *n == format!("stroke{id}") || (2..=pieces).any(|k| *n == format!("stroke{id}-{k}"))
+    };
+    assert!(names.iter().skip(1).all(own), "{names:?}");
+    assert!(names.len() > 2, "{names:?}");
     // One undo removes all the pieces, one redo restores them all.
     assert_eq!(editor::apply(&mut doc, &Edit::Undo), Applied::Undone);
     assert!(doc.strokes().is_empty() && doc.strokes_on(target).is_empty());
