@@ -96,6 +96,10 @@ pub struct StrokeMetrics {
     pub end_s: f64,
     /// Path length, metres.
     pub length_m: f64,
+    /// Pieces carved (more than one where the stroke passed over basin jumps).
+    pub pieces: usize,
+    /// Pieces left uncarved, no longer than the minimum stroke length.
+    pub dropped_pieces: usize,
     /// Apply latency on the session clock: from the stroke's last sample to the
     /// moment the edit was applied (milliseconds; the pause timeout when tracking loss
     /// ended it).
@@ -397,8 +401,23 @@ impl Replayer {
 
     /// Counts one applied edit, caused at time `t`.
     fn applied(&mut self, edit: &Edit, applied: &Applied, t: f64) {
-        if let (Edit::Stroke(s), Applied::Stroke { id, target }) = (edit, applied) {
-            self.stroke_applied(s, *id, *target, t);
+        if let (
+            Edit::Stroke(s),
+            Applied::Stroke {
+                id,
+                target,
+                pieces,
+                dropped,
+            },
+        ) = (edit, applied)
+        {
+            self.stroke_applied(s, (*id, *target), (*pieces, *dropped), t);
+        }
+        if let Some(kind) = editor::oplog_applied(applied) {
+            for mark in self.segments.before(t, &kind) {
+                let _ = self.oplog.push(t, mark);
+            }
+            let _ = self.oplog.push(t, kind);
         }
         let g = &mut self.metrics.gestures;
         match applied {
@@ -422,7 +441,13 @@ impl Replayer {
         }
     }
 
-    fn stroke_applied(&mut self, s: &StrokeEdit, id: StrokeId, target: TargetId, t: f64) {
+    fn stroke_applied(
+        &mut self,
+        s: &StrokeEdit,
+        (id, target): (StrokeId, TargetId),
+        (pieces, dropped_pieces): (usize, usize),
+        t: f64,
+    ) {
         let n = s.samples.len();
         let (start_s, end_s) = (s.samples[0].t, s.samples[n - 1].t);
         self.metrics.per_stroke.push(StrokeMetrics {
@@ -445,6 +470,8 @@ impl Replayer {
                 .windows(2)
                 .map(|w| (w[1].position - w[0].position).length())
                 .sum(),
+            pieces,
+            dropped_pieces,
             apply_latency_ms: (t - end_s) * 1000.0,
         });
     }

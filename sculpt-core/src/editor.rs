@@ -158,12 +158,18 @@ pub fn stroke_input(edit: &StrokeEdit) -> StrokeInput {
 /// strokes by their document ids.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Applied {
-    /// A stroke was added.
+    /// A stroke was added: one operation, carved in one or more pieces (see
+    /// [`StrokePieces`](crate::sculpt::stroke::StrokePieces)).
     Stroke {
         /// The new stroke.
         id: StrokeId,
         /// The target it was applied to.
         target: TargetId,
+        /// The pieces carved: more than one where the stroke passed over basin jumps
+        /// or left the surface between pieces.
+        pieces: usize,
+        /// Pieces left uncarved, no longer than the minimum stroke length.
+        dropped: usize,
     },
     /// A sketch was fitted and added as a new target.
     Sketch {
@@ -207,7 +213,17 @@ pub fn apply(doc: &mut Document, edit: &Edit) -> Applied {
                 });
             };
             match doc.apply_stroke(target, stroke_input(s)) {
-                Ok(id) => Applied::Stroke { id, target },
+                Ok(id) => {
+                    let (pieces, dropped) = doc
+                        .stroke(id)
+                        .map_or((0, 0), |b| (b.pieces.len(), b.dropped));
+                    Applied::Stroke {
+                        id,
+                        target,
+                        pieces,
+                        dropped,
+                    }
+                }
                 Err(e) => Applied::Rejected(e),
             }
         }
@@ -254,6 +270,25 @@ pub fn tool_name(tool: &Tool) -> &'static str {
         Profile::V => "v-chisel",
         Profile::U => "u-chisel",
         Profile::Custom(_) => "custom-chisel",
+    }
+}
+
+/// The operator-log event for what an edit did, when it says more than the operator
+/// events around it: a stroke carved in several pieces, or with pieces dropped, is a
+/// `marker` labelled `stroke <id>: <n> pieces, <m> dropped` (the GOMS harness reads no
+/// markers, so its operators are unchanged). `None` for everything else, a stroke
+/// carved in one piece included.
+pub fn oplog_applied(applied: &Applied) -> Option<EventKind> {
+    match applied {
+        Applied::Stroke {
+            id,
+            pieces,
+            dropped,
+            ..
+        } if *pieces > 1 || *dropped > 0 => Some(EventKind::Marker {
+            label: format!("stroke {id}: {pieces} pieces, {dropped} dropped"),
+        }),
+        _ => None,
     }
 }
 

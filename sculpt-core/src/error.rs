@@ -589,6 +589,16 @@ pub enum StrokeRejection {
     /// The footprint is empty after clipping.
     #[error("the stroke's footprint is empty")]
     EmptyFootprint,
+    /// The stroke's projection falls into several pieces (it passes over basin jumps or
+    /// leaves the surface between them) where one continuous piece was asked for
+    /// ([`Stroke::build`](crate::sculpt::stroke::Stroke::build));
+    /// [`StrokePieces::build`](crate::sculpt::stroke::StrokePieces::build) carves them
+    /// all.
+    #[error("the stroke falls into {pieces} pieces, where one was asked for")]
+    Pieces {
+        /// The pieces it falls into.
+        pieces: usize,
+    },
 }
 
 /// The most characters of bad input an error quotes: longer input is cut to this many

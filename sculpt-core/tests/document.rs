@@ -287,7 +287,10 @@ fn no_preview_triangle_lies_outside_the_footprint_plus_the_tolerance() {
         };
         doc.set_preview(t, &partial).unwrap();
         doc.tessellate(Detail::Interactive, &mut live);
-        let (_, stroke) = doc.preview().unwrap();
+        let (_, pieces) = doc.preview().unwrap();
+        let [stroke] = pieces.pieces.as_slice() else {
+            panic!("the preview falls into pieces");
+        };
         let outline = stroke.footprint.segments();
         let within = |p: DVec2| {
             stroke.footprint.locate(p) != Location::Outside

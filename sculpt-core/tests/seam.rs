@@ -78,6 +78,14 @@ fn carve(surface: NurbsSurface, samples: Vec<(f64, DVec3)>, tool: Tool) -> (Docu
     (doc, id)
 }
 
+/// The one piece of stroke `id` (these strokes never pass over a basin jump).
+fn only_piece(doc: &Document, id: u64) -> &Stroke {
+    let [s] = doc.stroke(id).expect("stroke").pieces.as_slice() else {
+        panic!("stroke {id} falls into pieces");
+    };
+    s
+}
+
 fn tol(doc: &Document, tool: &Tool) -> f64 {
     (CENTRELINE_TOL_REL * doc.targets()[0].surface.size()).min(0.1 * tool.depth)
 }
@@ -115,7 +123,7 @@ fn assert_watertight(doc: &Document) {
 /// is the stroke's depth field. Returns how many samples were checked.
 fn assert_groove(doc: &Document, id: u64, which: impl Fn(DVec2) -> bool) -> usize {
     let surface = &doc.targets()[0].surface;
-    let s = doc.stroke(id).expect("stroke");
+    let s = only_piece(doc, id);
     let strokes = doc.strokes_on(doc.targets()[0].id);
     let mesh = doc.mesh(Detail::Final);
     let tol = tol(doc, &s.tool);
@@ -173,7 +181,7 @@ fn carve_across_the_sphere_seam_is_one_groove() {
         })
     };
     let (doc, id) = carve(sphere(), arc(0.0), tool(0.01));
-    let s = doc.stroke(id).expect("stroke");
+    let s = only_piece(&doc, id);
     // One unwrapped run across u = 1 (or 0): no jump between samples.
     assert!(
         s.centre_uv
@@ -190,7 +198,7 @@ fn carve_across_the_sphere_seam_is_one_groove() {
     // tolerance, 0.1 %, covers the polygon boolean's grid and the Newton stopping test.
     let (away, away_id) = carve(sphere(), arc(std::f64::consts::PI), tool(0.01));
     let a = s.footprint.area();
-    let b = away.stroke(away_id).expect("stroke").footprint.area();
+    let b = only_piece(&away, away_id).footprint.area();
     assert_near!(a, b, AREA_SYMMETRY_REL * b);
     assert!(
         s.footprint
@@ -236,7 +244,7 @@ fn stroke_around_the_torus_across_both_seams() {
         }),
         tool(0.01),
     );
-    let s = doc.stroke(id).expect("stroke");
+    let s = only_piece(&doc, id);
     assert!(!s.is_loop());
     assert!(
         s.centre_uv
@@ -264,7 +272,7 @@ fn loop_around_the_torus_closes_on_itself() {
         samples(400, |t| on_torus(TAU * (t + 0.05), TAU * (t + 0.05), 0.002)),
         tool(0.01),
     );
-    let s = doc.stroke(id).expect("stroke");
+    let s = only_piece(&doc, id);
     assert!(s.is_loop());
     let n = s.centre_uv.len();
     // Closed up to whole periods: the last point is the first, one turn on both ways.
@@ -307,7 +315,7 @@ fn regression_clipping_at_the_seam_lost_the_short_side() {
         }),
         tool(0.005),
     );
-    let s = doc.stroke(id).expect("stroke");
+    let s = only_piece(&doc, id);
     let arc_len = (SPHERE_R * 0.2f64.cos()) * 50f64.to_radians();
     assert_near!(length(s), arc_len, ARC_LEN_REL * arc_len);
     // The short side, 1 to 7 degrees past the seam (before the taper), at the tool
@@ -373,7 +381,7 @@ fn regression_pole_evaluated_per_parameter_left_cracks() {
         }),
         tool(0.01),
     );
-    let s = doc.stroke(id).expect("stroke");
+    let s = only_piece(&doc, id);
     assert!(s.footprint.area() > 0.0);
     // The centreline reaches the pole and leaves it half a turn round, along the side.
     assert!(
@@ -454,7 +462,7 @@ fn check_random(surface: NurbsSurface, input: StrokeInput) -> Result<bool, TestC
     let Ok(id) = doc.apply_stroke(target, input) else {
         return Ok(false);
     };
-    let s: &Stroke = doc.stroke(id).expect("stroke");
+    let s: &Stroke = only_piece(&doc, id);
     prop_assert!(
         s.footprint
             .contours()

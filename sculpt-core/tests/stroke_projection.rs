@@ -7,14 +7,15 @@
 //! but the seeded Newton run kept following the slope it started on (a local minimum
 //! of the distance), silently, so the groove lay under samples it was not closest to.
 //! Now every sample goes through the target's certified inverter, and the stroke is
-//! split into runs at such basin jumps, the longest run kept (see
-//! `sculpt_core::sculpt::stroke`). The true closest points here come from a dense
-//! parameter grid refined locally, never from the inverter.
+//! split into runs at such basin jumps, each carved as a piece (see
+//! `sculpt_core::sculpt::stroke`; `stroke_pieces.rs` checks that no part is lost). The
+//! true closest points here come from a dense parameter grid refined locally, never
+//! from the inverter.
 
 use glam::DVec3;
 use sculpt_core::assert_near;
 use sculpt_core::nurbs::NurbsSurface;
-use sculpt_core::sculpt::stroke::{Mode, Profile, Stroke, StrokeInput, Tool, resample};
+use sculpt_core::sculpt::stroke::{Mode, Profile, StrokeInput, StrokePieces, Tool, resample};
 use sculpt_core::sculpt::surface::TargetSurface;
 use sculpt_core::tolerance::{
     BASIN_JUMP_RATIO, INVERSION_EPS, LOST_TRACK_EPS, STATIONARY_FOOT_EPS,
@@ -55,9 +56,9 @@ fn brute_force(s: &NurbsSurface, p: DVec3) -> (f64, DVec3) {
 }
 
 /// A stroke along `x` over the waves, hovering 2.5 to 4.5 cm above the sheet's mean
-/// plane: every centreline point is the true closest point of its sample, the feet
-/// never jump inside the kept run, and the samples' true feet do jump (the case the
-/// test is about).
+/// plane: every centreline point of every piece is the true closest point of its
+/// sample, the feet never jump inside a piece, and the samples' true feet do jump (the
+/// case the test is about).
 #[test]
 fn strokes_over_a_waved_sheet_follow_the_true_closest_points_and_split_at_basin_jumps() {
     let sheet = waved_sheet();
@@ -80,7 +81,7 @@ fn strokes_over_a_waved_sheet_follow_the_true_closest_points_and_split_at_basin_
         samples: raw.clone(),
         tool: tool.clone(),
     };
-    let stroke = Stroke::build(&target, &input, 0.1).expect("a stroke");
+    let stroke = StrokePieces::build(&target, &input, 0.1).expect("a stroke");
     // The samples the stroke projected (the same resampling).
     let points: Vec<DVec3> = raw.iter().map(|s| s.1).collect();
     let samples = resample(&points, tool.width * 0.25);
@@ -95,10 +96,12 @@ fn strokes_over_a_waved_sheet_follow_the_true_closest_points_and_split_at_basin_
         .filter(|w| w[0].1.distance(w[1].1) > BASIN_JUMP_RATIO * spacing)
         .count();
     assert!(jumps >= 5, "{jumps} basin jumps");
+    let kept: usize = stroke.pieces.iter().map(|p| p.centre.len()).sum();
     println!(
-        "{} samples, {jumps} basin jumps, {} samples kept",
+        "{} samples, {jumps} basin jumps, {} pieces ({} dropped), {kept} samples kept",
         samples.len(),
-        stroke.centre.len()
+        stroke.pieces.len(),
+        stroke.dropped,
     );
     // The old projection, local Newton seeded from the previous foot (here the
     // inverter's local run), follows a slope past the jump: farther than the truth.
@@ -113,20 +116,25 @@ fn strokes_over_a_waved_sheet_follow_the_true_closest_points_and_split_at_basin_
         }
     }
     assert!(lost > 0, "local Newton never left the true closest point");
-    // The kept run is consecutive samples: find where it starts.
-    let centre = &stroke.centre;
-    assert!(centre.len() >= 5, "{} samples kept", centre.len());
-    let start = (0..samples.len())
-        .find(|&k| truth[k].1.distance(centre[0]) <= STATIONARY_FOOT_EPS)
-        .expect("the first centre point is the true foot of a sample");
-    assert!(start + centre.len() <= samples.len());
-    for (i, c) in centre.iter().enumerate() {
-        let (p, (d, _)) = (samples[start + i], truth[start + i]);
-        // A closest point: no farther from its sample than the brute-force foot.
-        assert_near!(p.distance(*c), d, INVERSION_EPS, "sample {}", start + i);
-    }
-    // No jump inside the kept run.
-    for w in centre.windows(2) {
-        assert!(w[0].distance(w[1]) <= BASIN_JUMP_RATIO * spacing);
+    // Each piece is consecutive samples, the pieces in drawing order: find where each
+    // starts.
+    assert!(stroke.pieces.len() >= 2, "{} pieces", stroke.pieces.len());
+    let mut from = 0;
+    for piece in &stroke.pieces {
+        let centre = &piece.centre;
+        let start = (from..samples.len())
+            .find(|&k| truth[k].1.distance(centre[0]) <= STATIONARY_FOOT_EPS)
+            .expect("the first centre point is the true foot of a sample");
+        assert!(start + centre.len() <= samples.len());
+        for (i, c) in centre.iter().enumerate() {
+            let (p, (d, _)) = (samples[start + i], truth[start + i]);
+            // A closest point: no farther from its sample than the brute-force foot.
+            assert_near!(p.distance(*c), d, INVERSION_EPS, "sample {}", start + i);
+        }
+        // No jump inside a piece.
+        for w in centre.windows(2) {
+            assert!(w[0].distance(w[1]) <= BASIN_JUMP_RATIO * spacing);
+        }
+        from = start + centre.len();
     }
 }

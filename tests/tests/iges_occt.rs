@@ -564,7 +564,9 @@ fn footprint_points(doc: &Document, surfaces: &[IgesSurface]) -> Vec<(usize, DVe
     let faces = surfaces[0].faces.clone().expect("the target is trimmed");
     let mut out = Vec::new();
     for rec in doc.strokes() {
-        let stroke = doc.stroke(rec.id).unwrap();
+        let [stroke] = doc.stroke(rec.id).unwrap().pieces.as_slice() else {
+            panic!("stroke {} falls into pieces", rec.id);
+        };
         let n = stroke.centre_uv.len();
         for k in 1..8 {
             let p = stroke.centre_uv[k * (n - 1) / 8];

@@ -304,6 +304,7 @@ impl AppState {
         if let Some(r) = self.session.refusal_at(self.session.time()) {
             lines.push(format!("REFUSED  {}", r.words));
         }
+        lines.extend(last_stroke_pieces(&self.session.doc));
         lines
     }
 
@@ -318,6 +319,16 @@ impl AppState {
             };
         }
     }
+}
+
+/// The HUD line for the document's last stroke when it was carved in several pieces or
+/// had pieces dropped (a stroke over basin jumps, see
+/// [`StrokePieces`](sculpt_core::sculpt::stroke::StrokePieces)); `None` otherwise.
+fn last_stroke_pieces(doc: &sculpt_core::sculpt::document::Document) -> Option<String> {
+    let built = doc.stroke(doc.strokes().last()?.id)?;
+    let (pieces, dropped) = (built.pieces.len(), built.dropped);
+    (pieces > 1 || dropped > 0)
+        .then(|| format!("last stroke: {pieces} pieces carved, {dropped} too short (dropped)"))
 }
 
 #[cfg(test)]
@@ -430,6 +441,53 @@ mod tests {
             orientation: DQuat::IDENTITY,
         }));
         assert_eq!(app.head, before);
+    }
+
+    /// A stroke lifted off the sheet half-way is carved in two pieces, and the HUD and
+    /// the operator log say so; a stroke in one piece adds no HUD line.
+    #[test]
+    fn a_stroke_in_pieces_shows_its_pieces_on_the_hud_and_in_the_log() {
+        use sculpt_core::interaction::{Edit, StrokeEdit, StrokeSample, Tool};
+        let dir = tempfile::tempdir().unwrap();
+        let mut cfg = Config::default();
+        cfg.files.dir = dir.path().to_path_buf();
+        let mut app = AppState::new(cfg).unwrap();
+        let target = app.session.doc.targets()[0].id;
+        // 40 cm across the sheet; the middle 10 cm lifted 30 cm off it when `lift`.
+        let stroke = |lift: bool| {
+            let samples = (0..=40)
+                .map(|i| {
+                    let x = -0.2 + 0.01 * f64::from(i);
+                    let off = if lift && (15..=25).contains(&i) {
+                        0.3
+                    } else {
+                        0.0
+                    };
+                    StrokeSample {
+                        t: 0.01 * f64::from(i),
+                        position: default_surface_point(x, 1.17) + DVec3::Z * off,
+                    }
+                })
+                .collect();
+            Edit::Stroke(StrokeEdit::new(target, Tool::default(), samples))
+        };
+        let base = app.hud_lines().len();
+        app.session.apply_committed(0.5, &stroke(false)).unwrap();
+        assert_eq!(app.hud_lines().len(), base, "one piece: no line");
+        app.session.apply_committed(1.0, &stroke(true)).unwrap();
+        let hud = app.hud_lines();
+        assert_eq!(hud.len(), base + 1);
+        assert_eq!(
+            hud[base],
+            "last stroke: 2 pieces carved, 0 too short (dropped)"
+        );
+        let log = std::fs::read_to_string(dir.path().join(crate::session::OPLOG_FILE)).unwrap();
+        let id = app.session.doc.strokes()[1].id;
+        assert!(
+            log.contains(&format!("stroke {id}: 2 pieces, 0 dropped")),
+            "{log}"
+        );
+        assert_eq!(log.matches("\"marker\"").count(), 1, "{log}");
     }
 
     #[test]

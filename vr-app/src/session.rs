@@ -392,7 +392,7 @@ impl EditHooks for SessionFiles {
 
     fn after_apply(
         &mut self,
-        _t: f64,
+        t: f64,
         edit: &Edit,
         applied: &Applied,
         doc: &Document,
@@ -403,6 +403,10 @@ impl EditHooks for SessionFiles {
                 tracing::warn!(seq, "the sculpting layer refused an edit: {}", Chain(e));
             }
             a => tracing::debug!(seq, "applied: {a:?}"),
+        }
+        // A stroke carved in several pieces (or with pieces dropped) says so.
+        if let Some(kind) = editor::oplog_applied(applied) {
+            self.oplog.push_kind(t, kind);
         }
         if *edit == Edit::Save {
             self.save_document(doc)?;

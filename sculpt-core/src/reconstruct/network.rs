@@ -1672,13 +1672,15 @@ mod tests {
             ..Tool::default()
         };
         let edit = Edit::Stroke(StrokeEdit::new(doc.targets()[qa].id, tool.clone(), samples));
-        let Applied::Stroke { id, target } = editor::apply(&mut doc, &edit) else {
+        let Applied::Stroke { id, target, .. } = editor::apply(&mut doc, &edit) else {
             panic!("stroke refused");
         };
         assert_eq!(target, doc.targets()[qa].id);
         // It stays on A: B gets nothing.
         assert!(doc.strokes_on(doc.targets()[qb].id).is_empty());
-        let stroke = doc.stroke(id).unwrap();
+        let [stroke] = doc.stroke(id).unwrap().pieces.as_slice() else {
+            panic!("the stroke falls into pieces");
+        };
         let side_mid = net.surfaces[qa].point_uv(sa_mid);
         // It reaches A's edge (the last foot is on the domain's boundary) and goes no
         // further.

@@ -63,7 +63,7 @@
 //! reject are errors that say which entry is wrong. Scene files are documents.
 
 use super::jordan::Rect;
-use super::stroke::{Stroke, StrokeInput, Tool};
+use super::stroke::{StrokeInput, StrokePieces, Tool};
 use super::stroke_surface::StrokeSurface;
 use super::surface::{TargetSurface, extent};
 use super::tessellate::{Detail, GridPlan, StrokeRef, TargetTessellation, TessStats};
@@ -194,7 +194,7 @@ pub struct Document {
     /// Steps with ids up to this are the document's base (made before its first edit,
     /// or loaded): undo stops there ([`Self::seal_history`]).
     history_floor: u64,
-    built: HashMap<StrokeId, Stroke>,
+    built: HashMap<StrokeId, Built>,
     views: HashMap<(TargetId, Detail), TargetTessellation>,
     /// Areas changed since the last tessellation, per target and detail
     /// (`None` inside: the whole target).
@@ -204,31 +204,62 @@ pub struct Document {
     /// The grid of each target at each detail, planned once.
     grids: HashMap<(TargetId, Detail), GridPlan>,
     /// The stroke being drawn, shown at interactive detail only (never saved or undone).
-    preview: Option<(TargetId, StrokeId, Stroke)>,
-    /// Preview updates so far (each gets a fresh id, so the tessellator sees it change).
+    preview: Option<(TargetId, Built)>,
+    /// Preview pieces so far (each gets a fresh key, so the tessellator sees it change).
     preview_serial: u64,
+    /// Pieces after the first of document strokes so far (each gets a fresh key).
+    piece_serial: u64,
     /// Stroke surfaces, built lazily when first asked for (export, stroke meshes).
     surfaces: SurfaceCache,
     /// Wand samples of all strokes in [`Self::strokes`] (for [`MAX_DOCUMENT_SAMPLES`]).
     samples_total: usize,
 }
 
-/// A stroke's cached surface: the strokes (ids, document order, itself included) whose
-/// bounds met its own when it was trimmed, and the surface (`None` when the stroke is
-/// too degenerate to have one).
+/// A stroke as built: its pieces and the key of each, under which the tessellator and
+/// the stroke-surface cache know it ([`Document::strokes_on`]).
+#[derive(Debug, Clone)]
+struct Built {
+    keys: Vec<u64>,
+    pieces: StrokePieces,
+}
+
+impl Built {
+    /// The pieces with their keys.
+    fn refs(&self) -> impl Iterator<Item = StrokeRef<'_>> {
+        self.keys.iter().copied().zip(&self.pieces.pieces)
+    }
+}
+
+/// The pieces of the strokes on `target`, in order, with their keys (see
+/// [`Document::strokes_on`]).
+fn pieces_on<'a>(
+    strokes: &'a [StrokeRecord],
+    built: &'a HashMap<StrokeId, Built>,
+    target: TargetId,
+) -> impl Iterator<Item = StrokeRef<'a>> {
+    strokes
+        .iter()
+        .filter(move |s| s.target == target)
+        .filter_map(|s| built.get(&s.id))
+        .flat_map(Built::refs)
+}
+
+/// A stroke piece's cached surface: the pieces (keys, document order, itself included)
+/// whose bounds met its own when it was trimmed, and the surface (`None` when the piece
+/// is too degenerate to have one).
 #[derive(Debug, Clone)]
 struct CachedSurface {
-    overlaps: Vec<StrokeId>,
+    overlaps: Vec<u64>,
     surface: Option<Arc<StrokeSurface>>,
 }
 
 /// The stroke-surface cache: filled through `&self` (exports take `&Document`), hence
 /// the lock; cloning a document clones the cache.
 #[derive(Debug, Default)]
-struct SurfaceCache(Mutex<HashMap<StrokeId, CachedSurface>>);
+struct SurfaceCache(Mutex<HashMap<u64, CachedSurface>>);
 
 impl SurfaceCache {
-    fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<StrokeId, CachedSurface>> {
+    fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<u64, CachedSurface>> {
         self.0
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner)
@@ -241,8 +272,11 @@ impl Clone for SurfaceCache {
     }
 }
 
-/// Preview strokes take ids from here up; document strokes never get this far.
+/// Preview strokes' pieces take keys from here up; document strokes never get this far.
 pub const PREVIEW_IDS: StrokeId = 1 << 62;
+/// The pieces of a document stroke after its first take keys from here up (the first
+/// piece's key is the stroke's id): above [`PREVIEW_IDS`] and every preview key.
+pub const PIECE_KEYS: u64 = 3 << 62;
 
 /// How far (metres) a wand sample may be from the target and still count as on it:
 /// twice the tool width, but at least 5 % of the target's size.
@@ -284,9 +318,15 @@ impl Document {
         &self.strokes
     }
 
-    /// The projected stroke of a stroke id.
-    pub fn stroke(&self, id: StrokeId) -> Option<&Stroke> {
-        self.built.get(&id)
+    /// The projected stroke of a stroke id: its pieces (see [`StrokePieces`]).
+    pub fn stroke(&self, id: StrokeId) -> Option<&StrokePieces> {
+        self.built.get(&id).map(|b| &b.pieces)
+    }
+
+    /// The keys of a stroke's pieces, in the order of [`StrokePieces::pieces`], as
+    /// [`Self::strokes_on`] lists them: the first is the stroke's id.
+    pub fn piece_keys(&self, id: StrokeId) -> Option<&[u64]> {
+        self.built.get(&id).map(|b| b.keys.as_slice())
     }
 
     /// Adds a target surface (undoable) and returns its id.
@@ -349,7 +389,7 @@ impl Document {
     }
 
     /// Projects and applies a stroke to a target (undoable). A stroke the rules reject
-    /// (see [`Stroke::build`]) or beyond the caps ([`Self::check_stroke_caps`]) leaves
+    /// (see [`StrokePieces::build`]) or beyond the caps ([`Self::check_stroke_caps`]) leaves
     /// the document unchanged and says why.
     pub fn apply_stroke(&mut self, target: TargetId, input: StrokeInput) -> Result<StrokeId> {
         let record = StrokeRecord {
@@ -463,9 +503,15 @@ impl Document {
                     id: record.target,
                 })?;
         let snap = snap_distance(&record.input.tool, target.surface.size());
-        let stroke = Stroke::build(&target.target, &record.input, snap)?;
-        self.mark_dirty(record.target, stroke.bounds);
-        self.built.insert(record.id, stroke);
+        let pieces = StrokePieces::build(&target.target, &record.input, snap)?;
+        let keys: Vec<u64> = std::iter::once(record.id)
+            .chain((1..pieces.pieces.len()).map(|_| {
+                self.piece_serial += 1;
+                PIECE_KEYS + self.piece_serial
+            }))
+            .collect();
+        self.mark_dirty(record.target, pieces.bounds());
+        self.built.insert(record.id, Built { keys, pieces });
         self.next_id = self.next_id.max(record.id + 1);
         self.samples_total += record.input.samples.len();
         self.strokes.push(record);
@@ -475,9 +521,13 @@ impl Document {
     fn pop_stroke(&mut self) -> Option<Step> {
         let s = self.strokes.pop()?;
         self.samples_total -= s.input.samples.len();
-        self.surfaces.lock().remove(&s.id);
-        if let Some(stroke) = self.built.remove(&s.id) {
-            self.mark_dirty(s.target, stroke.bounds);
+        if let Some(built) = self.built.remove(&s.id) {
+            let mut surfaces = self.surfaces.lock();
+            for key in &built.keys {
+                surfaces.remove(key);
+            }
+            drop(surfaces);
+            self.mark_dirty(s.target, built.pieces.bounds());
         }
         Some(Step::Stroke(s))
     }
@@ -495,7 +545,8 @@ impl Document {
     /// [`Detail::Interactive`] tessellation (only the cells it touches, and the cells of
     /// the preview it replaces, are rewritten) but it is not part of the document: not
     /// in [`Self::strokes`], the history, the final detail, the exports or the JSON.
-    /// A stroke the sculpting layer rejects clears the preview and says why.
+    /// A stroke the sculpting layer rejects clears the preview and says why. The preview
+    /// is carved in pieces as the stroke will be ([`StrokePieces`]).
     pub fn set_preview(&mut self, target: TargetId, input: &StrokeInput) -> Result<()> {
         self.clear_preview();
         let record = self
@@ -507,32 +558,35 @@ impl Document {
                 id: target,
             })?;
         let snap = snap_distance(&input.tool, record.surface.size());
-        let stroke = Stroke::build(&record.target, input, snap)?;
-        self.preview_serial += 1;
-        self.mark_dirty(target, stroke.bounds);
-        self.preview = Some((target, PREVIEW_IDS + self.preview_serial, stroke));
+        let pieces = StrokePieces::build(&record.target, input, snap)?;
+        let keys = (0..pieces.pieces.len())
+            .map(|_| {
+                self.preview_serial += 1;
+                PREVIEW_IDS + self.preview_serial
+            })
+            .collect();
+        self.mark_dirty(target, pieces.bounds());
+        self.preview = Some((target, Built { keys, pieces }));
         Ok(())
     }
 
     /// Removes the preview stroke, if any.
     pub fn clear_preview(&mut self) {
-        if let Some((target, _, stroke)) = self.preview.take() {
-            self.mark_dirty(target, stroke.bounds);
+        if let Some((target, built)) = self.preview.take() {
+            self.mark_dirty(target, built.pieces.bounds());
         }
     }
 
-    /// The preview stroke and its target.
-    pub fn preview(&self) -> Option<(TargetId, &Stroke)> {
-        self.preview.as_ref().map(|(t, _, s)| (*t, s))
+    /// The preview stroke's pieces and its target.
+    pub fn preview(&self) -> Option<(TargetId, &StrokePieces)> {
+        self.preview.as_ref().map(|(t, b)| (*t, &b.pieces))
     }
 
-    /// The strokes on one target, in order, as the tessellator takes them.
+    /// The strokes on one target, in order, as the tessellator takes them: every piece
+    /// of each stroke in drawing order, keyed by its piece key (a stroke's first piece
+    /// by the stroke's id, see [`Self::piece_keys`]).
     pub fn strokes_on(&self, target: TargetId) -> Vec<StrokeRef<'_>> {
-        self.strokes
-            .iter()
-            .filter(|s| s.target == target)
-            .filter_map(|s| self.built.get(&s.id).map(|b| (s.id, b)))
-            .collect()
+        pieces_on(&self.strokes, &self.built, target).collect()
     }
 
     /// Brings `sink` up to date at `detail`: the first call writes every patch, later
@@ -562,16 +616,12 @@ impl Document {
             let view = self.views.entry(key).or_insert_with(|| {
                 TargetTessellation::with_grid(&t.surface, k as u32, detail, &plan)
             });
-            let strokes: Vec<StrokeRef<'_>> = self
-                .strokes
-                .iter()
-                .filter(|s| s.target == t.id)
-                .filter_map(|s| self.built.get(&s.id).map(|b| (s.id, b)))
+            let strokes: Vec<StrokeRef<'_>> = pieces_on(&self.strokes, &self.built, t.id)
                 .chain(
                     self.preview
                         .iter()
-                        .filter(|(target, ..)| detail == Detail::Interactive && *target == t.id)
-                        .map(|(_, id, stroke)| (*id, stroke)),
+                        .filter(|(target, _)| detail == Detail::Interactive && *target == t.id)
+                        .flat_map(|(_, built)| built.refs()),
                 )
                 .collect();
             let s = view.update_strokes(&t.surface, &strokes, sink);
@@ -619,7 +669,10 @@ impl Document {
 
     /// Memory held by the derived state (projected strokes, UV maps), bytes.
     pub fn memory_bytes(&self) -> usize {
-        self.built.values().map(Stroke::memory_bytes).sum::<usize>()
+        self.built
+            .values()
+            .map(|b| b.pieces.memory_bytes())
+            .sum::<usize>()
             + self
                 .views
                 .values()
@@ -646,13 +699,13 @@ impl Document {
                 patch: patch_of(&t.surface),
                 faces,
             });
-            for (id, surface) in self.stroke_surfaces(t.id) {
+            for (key, surface) in self.stroke_surfaces(t.id) {
                 let faces = (!surface.trim().is_empty()).then(|| visible_faces(surface.trim()));
                 if faces.as_ref().is_some_and(Vec::is_empty) {
                     continue;
                 }
                 out.push(IgesSurface {
-                    name: format!("stroke{id}"),
+                    name: self.piece_name(key),
                     patch: patch_of(surface.surface()),
                     faces,
                 });
@@ -661,21 +714,46 @@ impl Document {
         out
     }
 
-    /// The stroke surface of a stroke, trimmed against the strokes overlapping it (see
-    /// [`super::stroke_surface`]); `None` for an unknown id or a stroke too degenerate
-    /// to have one. Built on first use and cached; only strokes whose overlaps changed
-    /// (an overlapping stroke applied or undone) are trimmed again.
-    pub fn stroke_surface(&self, id: StrokeId) -> Option<Arc<StrokeSurface>> {
-        let record = self.strokes.iter().find(|s| s.id == id)?;
-        self.stroke_surfaces(record.target)
+    /// The name of a stroke piece in exports: `stroke<id>` for a stroke's first piece,
+    /// `stroke<id>-<k>` for its k-th (counting from 1).
+    fn piece_name(&self, key: u64) -> String {
+        self.strokes
+            .iter()
+            .find_map(|s| {
+                let k = self.built.get(&s.id)?.keys.iter().position(|&x| x == key)?;
+                Some(if k == 0 {
+                    format!("stroke{}", s.id)
+                } else {
+                    format!("stroke{}-{}", s.id, k + 1)
+                })
+            })
+            .unwrap_or_else(|| format!("stroke{key}"))
+    }
+
+    /// The target of the stroke one of whose pieces has key `key`.
+    fn piece_target(&self, key: u64) -> Option<TargetId> {
+        self.strokes
+            .iter()
+            .find(|s| self.built.get(&s.id).is_some_and(|b| b.keys.contains(&key)))
+            .map(|s| s.target)
+    }
+
+    /// The stroke surface of a stroke piece (by its key, see [`Self::strokes_on`]; a
+    /// stroke's first piece has the stroke's id), trimmed against the pieces
+    /// overlapping it (see [`super::stroke_surface`]); `None` for an unknown key or a
+    /// piece too degenerate to have one. Built on first use and cached; only pieces
+    /// whose overlaps changed (an overlapping stroke applied or undone) are trimmed
+    /// again.
+    pub fn stroke_surface(&self, key: u64) -> Option<Arc<StrokeSurface>> {
+        self.stroke_surfaces(self.piece_target(key)?)
             .into_iter()
-            .find(|(sid, _)| *sid == id)
+            .find(|(k, _)| *k == key)
             .map(|(_, s)| s)
     }
 
-    /// The stroke surfaces of every stroke on a target, in document order (strokes
-    /// without one are left out). See [`Self::stroke_surface`].
-    pub fn stroke_surfaces(&self, target: TargetId) -> Vec<(StrokeId, Arc<StrokeSurface>)> {
+    /// The stroke surfaces of every stroke piece on a target with their keys, in
+    /// document order (pieces without one are left out). See [`Self::stroke_surface`].
+    pub fn stroke_surfaces(&self, target: TargetId) -> Vec<(u64, Arc<StrokeSurface>)> {
         let Some(t) = self.targets.iter().find(|t| t.id == target) else {
             return Vec::new();
         };
@@ -685,7 +763,7 @@ impl Document {
         let mut cache = self.surfaces.lock();
         let mut out = Vec::new();
         for (k, &(id, stroke)) in strokes.iter().enumerate() {
-            let overlaps: Vec<StrokeId> = strokes
+            let overlaps: Vec<u64> = strokes
                 .iter()
                 .filter(|(_, o)| bounds_meet(&o.bounds, &stroke.bounds, closed))
                 .map(|(oid, _)| *oid)
@@ -705,20 +783,16 @@ impl Document {
         out
     }
 
-    /// Tessellates the visible part of one stroke surface through its UV map at
-    /// `detail` into `sink`, as one patch keyed by [`stroke_patch_key`]. Returns the
-    /// triangles written (0, and nothing written, when the stroke has no surface).
-    pub fn stroke_surface_mesh(
-        &self,
-        stroke: StrokeId,
-        detail: Detail,
-        sink: &mut dyn MeshSink,
-    ) -> usize {
-        self.stroke_surface(stroke)
-            .map_or(0, |s| s.tessellate(detail, stroke_patch_key(stroke), sink))
+    /// Tessellates the visible part of one stroke piece's surface (by its key, see
+    /// [`Self::stroke_surface`]) through its UV map at `detail` into `sink`, as one
+    /// patch keyed by [`stroke_patch_key`]. Returns the triangles written (0, and
+    /// nothing written, when the piece has no surface).
+    pub fn stroke_surface_mesh(&self, key: u64, detail: Detail, sink: &mut dyn MeshSink) -> usize {
+        self.stroke_surface(key)
+            .map_or(0, |s| s.tessellate(detail, stroke_patch_key(key), sink))
     }
 
-    /// [`Self::stroke_surface_mesh`] for every stroke of the document. Returns the
+    /// [`Self::stroke_surface_mesh`] for every stroke piece of the document. Returns the
     /// triangles written.
     pub fn stroke_surfaces_mesh(&self, detail: Detail, sink: &mut dyn MeshSink) -> usize {
         self.targets
@@ -729,9 +803,10 @@ impl Document {
     }
 }
 
-/// The patch key of a stroke surface's mesh: the high bit set, so it never meets a
-/// target patch's key.
-pub fn stroke_patch_key(stroke: StrokeId) -> u64 {
+/// The patch key of a stroke piece's surface mesh (by the piece's key, see
+/// [`Document::strokes_on`]): the high bit set, so it never meets a target patch's key
+/// (a later piece's key, from [`PIECE_KEYS`], has it set already).
+pub fn stroke_patch_key(stroke: u64) -> u64 {
     (1 << 63) | stroke
 }
 

@@ -1,11 +1,12 @@
-//! The pipeline of [`Stroke::build`]: validation, projection onto the target with
-//! basin jumps, rims and footprint (steps 1 and 3 to 5 of the [module docs](super)).
+//! The pipeline of [`StrokePieces::build`]: validation, projection onto the target
+//! split at basin jumps into pieces, rims and footprint of each piece (steps 1 and 3
+//! to 5 of the [module docs](super)).
 
 use super::polygon::{
     Buckets, bounds_of, clip_to_box, domain_overlay, period_shifts, region_from_shapes,
     wrapped_segments,
 };
-use super::{MAX_INPUT_SAMPLES, Stroke, StrokeInput, Tool, reject, resample};
+use super::{MAX_INPUT_SAMPLES, Stroke, StrokeInput, StrokePieces, Tool, reject, resample};
 use crate::error::{Result, StrokeRejection};
 use crate::sculpt::jordan::{Rect, signed_area};
 use crate::sculpt::surface::{
@@ -15,93 +16,68 @@ use crate::tolerance::BASIN_JUMP_RATIO;
 use glam::{DVec2, DVec3};
 use i_overlay::core::overlay_rule::OverlayRule;
 
+/// A run of the projected centreline: feet (unwrapped parameter, point) in order.
+type Run = Vec<(DVec2, DVec3)>;
+
 /// Chords of the surface path between two feet that [`basin_jump`] measures.
 const JUMP_PATH_SEGMENTS: usize = 8;
 
-impl Stroke {
-    /// Runs the pipeline of the module docs. `snap` is the largest distance between a
-    /// wand sample and the surface for the sample to count as on it (metres).
+impl StrokePieces {
+    /// Runs the pipeline of the module docs and carves every run of the projected
+    /// centreline: one [`Stroke`] per run at least the minimum stroke length long
+    /// (`tool.width * MIN_STROKE_LEN_REL`), in drawing order; shorter runs (and runs
+    /// whose footprint is empty after clipping) are dropped and counted in
+    /// [`Self::dropped`]. `snap` is the largest distance between a wand sample and the
+    /// surface for the sample to count as on it (metres). A stroke with no piece left
+    /// is rejected.
     pub fn build(target: &TargetSurface, input: &StrokeInput, snap: f64) -> Result<Self> {
-        let surface: &dyn ParamSurface = target;
-        let tool = input.tool.clone();
-        tool.validate()?;
-        if input.samples.len() > MAX_INPUT_SAMPLES {
-            return Err(reject(StrokeRejection::TooManySamples {
-                count: input.samples.len(),
-                max: MAX_INPUT_SAMPLES,
-            }));
-        }
-        if let Some(k) = input
-            .samples
-            .iter()
-            .position(|(t, p)| !(t.is_finite() && p.is_finite()))
-        {
-            return Err(reject(StrokeRejection::SampleNotFinite { index: k }));
-        }
-        let ext = extent_sampled(surface, 8);
-        if tool.width > ext.diagonal() {
-            return Err(reject(StrokeRejection::ToolWiderThanSurface {
-                width_m: tool.width,
-                across_m: ext.diagonal(),
-            }));
-        }
-        let raw: Vec<DVec3> = input.samples.iter().map(|s| s.1).collect();
-        let length: f64 = raw.windows(2).map(|w| w[0].distance(w[1])).sum();
-        if raw.len() < 2 || length <= tool.width * crate::tolerance::MIN_STROKE_LEN_REL {
-            return Err(reject(StrokeRejection::TooShort {
-                length_m: length,
-                min_m: tool.width * crate::tolerance::MIN_STROKE_LEN_REL,
-            }));
-        }
-        let pts = resample(&raw, tool.width * 0.25);
-        // Project through the target's certified inverter, seeded from the previous
-        // sample's foot; split into runs where a sample leaves the surface or the feet
-        // jump to another basin; keep the longest run. In a closed direction the
-        // parameter is unwrapped next to the previous foot, so it crosses the seam and
-        // continues past 1 (or below 0) instead of jumping.
-        let closed = [ext.closed_u, ext.closed_v];
-        let mut runs: Vec<Vec<(DVec2, DVec3)>> = vec![Vec::new()];
-        // The previous on-surface sample and its foot (unwrapped parameter, point).
-        let mut prev: Option<(DVec3, DVec2, DVec3)> = None;
-        for &p in &pts {
-            let pr = match prev {
-                Some((_, uv, _)) => target.closest_point_near(p, closed, uv, uv),
-                None => target.closest_point(p),
-            };
-            if pr.distance <= snap && pr.point.is_finite() && pr.uv.is_finite() {
-                let foot = (pr.uv, pr.point);
-                if prev.is_some_and(|(q, uv, point)| {
-                    basin_jump(surface, p.distance(q), (uv, point), foot)
-                }) {
-                    runs.push(Vec::new());
-                }
-                prev = Some((p, pr.uv, pr.point));
-                if let Some(r) = runs.last_mut() {
-                    r.push(foot);
-                }
-            } else {
-                prev = None;
-                if runs.last().is_some_and(|r| !r.is_empty()) {
-                    runs.push(Vec::new());
+        let (tool, closed, runs) = project_runs(target, input, snap)?;
+        let min_len = tool.width * crate::tolerance::MIN_STROKE_LEN_REL;
+        let mut pieces = Vec::new();
+        let mut dropped = 0;
+        let mut refused = None;
+        for run in runs.iter().filter(|r| !r.is_empty()) {
+            let mut run = through_poles(run);
+            let run_len: f64 = run.windows(2).map(|w| w[0].1.distance(w[1].1)).sum();
+            if run.len() < 2 || run_len <= min_len {
+                dropped += 1;
+                continue;
+            }
+            // A piece whose end comes back to its start is a loop: it is closed with one
+            // more segment and carved without tapered ends, one continuous groove.
+            let (first, last) = (run[0], run[run.len() - 1]);
+            let is_loop = run.len() > 3
+                && run_len > 2.0 * tool.width
+                && first.1.distance(last.1) <= 0.5 * tool.width;
+            if is_loop && first.1.distance(last.1) > crate::tolerance::POINT_EPS {
+                run.push((unwrap_near(first.0, last.0, closed), first.1));
+            }
+            match Stroke::from_centreline(target, tool.clone(), run, closed, is_loop) {
+                Ok(piece) => pieces.push(piece),
+                Err(e) => {
+                    dropped += 1;
+                    refused = Some(e);
                 }
             }
         }
-        let mut run = runs.into_iter().max_by_key(|r| r.len()).unwrap_or_default();
-        run = through_poles(&run);
-        let run_len: f64 = run.windows(2).map(|w| w[0].1.distance(w[1].1)).sum();
-        if run.len() < 2 || run_len <= tool.width * crate::tolerance::MIN_STROKE_LEN_REL {
-            return Err(reject(StrokeRejection::OffSurface));
+        if pieces.is_empty() {
+            return Err(refused.unwrap_or_else(|| reject(StrokeRejection::OffSurface)));
         }
-        // A stroke whose end comes back to its start is a loop: it is closed with one
-        // more segment and carved without tapered ends, one continuous groove.
-        let (first, last) = (run[0], run[run.len() - 1]);
-        let is_loop = run.len() > 3
-            && run_len > 2.0 * tool.width
-            && first.1.distance(last.1) <= 0.5 * tool.width;
-        if is_loop && first.1.distance(last.1) > crate::tolerance::POINT_EPS {
-            run.push((unwrap_near(first.0, last.0, closed), first.1));
+        Ok(Self { pieces, dropped })
+    }
+}
+
+impl Stroke {
+    /// [`StrokePieces::build`] for a stroke that must carve as one piece: its one piece,
+    /// or [`StrokeRejection::Pieces`] when the projection falls into several (use
+    /// [`StrokePieces::build`] to carve them all).
+    pub fn build(target: &TargetSurface, input: &StrokeInput, snap: f64) -> Result<Self> {
+        let built = StrokePieces::build(target, input, snap)?;
+        let count = built.pieces.len();
+        match <[Stroke; 1]>::try_from(built.pieces) {
+            Ok([piece]) => Ok(piece),
+            Err(_) => Err(reject(StrokeRejection::Pieces { pieces: count })),
         }
-        Self::from_centreline(target, tool, run, closed, is_loop)
     }
 
     fn from_centreline(
@@ -239,6 +215,80 @@ impl Stroke {
             buckets,
         })
     }
+}
+
+/// Steps 1 to 3 of the pipeline: validates the input and tool, resamples the
+/// polyline and projects every sample through the target's certified inverter, seeded
+/// from the previous sample's foot. Returns the tool, the target's closed directions
+/// and the runs of feet (unwrapped parameter, point), split where a sample leaves the
+/// surface or the feet jump to another basin ([`basin_jump`]); runs may be empty. In a
+/// closed direction the parameter is unwrapped next to the previous foot, so it
+/// crosses the seam and continues past 1 (or below 0) instead of jumping.
+fn project_runs(
+    target: &TargetSurface,
+    input: &StrokeInput,
+    snap: f64,
+) -> Result<(Tool, [bool; 2], Vec<Run>)> {
+    let surface: &dyn ParamSurface = target;
+    let tool = input.tool.clone();
+    tool.validate()?;
+    if input.samples.len() > MAX_INPUT_SAMPLES {
+        return Err(reject(StrokeRejection::TooManySamples {
+            count: input.samples.len(),
+            max: MAX_INPUT_SAMPLES,
+        }));
+    }
+    if let Some(k) = input
+        .samples
+        .iter()
+        .position(|(t, p)| !(t.is_finite() && p.is_finite()))
+    {
+        return Err(reject(StrokeRejection::SampleNotFinite { index: k }));
+    }
+    let ext = extent_sampled(surface, 8);
+    if tool.width > ext.diagonal() {
+        return Err(reject(StrokeRejection::ToolWiderThanSurface {
+            width_m: tool.width,
+            across_m: ext.diagonal(),
+        }));
+    }
+    let raw: Vec<DVec3> = input.samples.iter().map(|s| s.1).collect();
+    let length: f64 = raw.windows(2).map(|w| w[0].distance(w[1])).sum();
+    if raw.len() < 2 || length <= tool.width * crate::tolerance::MIN_STROKE_LEN_REL {
+        return Err(reject(StrokeRejection::TooShort {
+            length_m: length,
+            min_m: tool.width * crate::tolerance::MIN_STROKE_LEN_REL,
+        }));
+    }
+    let pts = resample(&raw, tool.width * 0.25);
+    let closed = [ext.closed_u, ext.closed_v];
+    let mut runs: Vec<Run> = vec![Vec::new()];
+    // The previous on-surface sample and its foot (unwrapped parameter, point).
+    let mut prev: Option<(DVec3, DVec2, DVec3)> = None;
+    for &p in &pts {
+        let pr = match prev {
+            Some((_, uv, _)) => target.closest_point_near(p, closed, uv, uv),
+            None => target.closest_point(p),
+        };
+        if pr.distance <= snap && pr.point.is_finite() && pr.uv.is_finite() {
+            let foot = (pr.uv, pr.point);
+            if prev
+                .is_some_and(|(q, uv, point)| basin_jump(surface, p.distance(q), (uv, point), foot))
+            {
+                runs.push(Vec::new());
+            }
+            prev = Some((p, pr.uv, pr.point));
+            if let Some(r) = runs.last_mut() {
+                r.push(foot);
+            }
+        } else {
+            prev = None;
+            if runs.last().is_some_and(|r| !r.is_empty()) {
+                runs.push(Vec::new());
+            }
+        }
+    }
+    Ok((tool, closed, runs))
 }
 
 /// True when consecutive feet `a` and `b` (unwrapped parameter, point) of samples

@@ -1,7 +1,8 @@
 //! Strokes: from a timed wand polyline to a footprint in the target's UV square and a
 //! depth field.
 //!
-//! [`Stroke::build`] runs the pipeline:
+//! [`StrokePieces::build`] runs the pipeline (and [`Stroke::build`] for a stroke that
+//! must be one piece):
 //! 1. **Validate** the input and tool (finite samples, positive width and depth, a width
 //!    no larger than the surface): bad input is rejected with a reason.
 //! 2. **Clean, resample and smooth** the 3D polyline ([`resample`]): duplicates are
@@ -18,10 +19,14 @@
 //!    from one slope to the other; consecutive feet are then much farther apart along
 //!    the surface than the sample spacing justifies (more than
 //!    [`BASIN_JUMP_RATIO`] times it, see `basin_jump`). The stroke is **split into
-//!    runs** at every jump and wherever it leaves the surface, and the **longest run is
-//!    kept** (the stroke is clipped): a groove never bridges a jump, and never follows
-//!    a local minimum that is not the closest point (which a local Newton projection
-//!    did, silently). A stroke with no run is rejected.
+//!    runs** at every jump and wherever it leaves the surface, and **every run is
+//!    carved** as a piece of the one stroke ([`StrokePieces`]): a groove never bridges
+//!    a jump, never follows a local minimum that is not the closest point (which a
+//!    local Newton projection did, silently), and no part of the stroke whose closest
+//!    points run continuously is lost. Runs no longer than the minimum stroke length
+//!    (a lone foot between two jumps) are dropped and counted
+//!    ([`StrokePieces::dropped`]); a stroke with no piece left is rejected. Steps 4
+//!    and 5 run for each piece: each has its own tapered ends, rims and footprint.
 //! 4. Compute the **rims**: the 3D points `C +- w/2 B` (`B = N x T`, the side direction)
 //!    projected onto the surface. Tapered ends scale the width and depth smoothly to
 //!    zero over the taper length, so the groove starts and ends cleanly. A stroke whose
@@ -134,6 +139,35 @@ pub struct Stroke {
     centre_segments: Vec<[DVec2; 2]>,
     is_loop: bool,
     buckets: Buckets,
+}
+
+/// A stroke as it is carved: one operation (one record in the document, its journal
+/// entry, one undo step) made of **pieces**, one [`Stroke`] per run of the projected
+/// centreline between basin jumps or gaps off the surface (see the module docs), in
+/// drawing order. Each piece is grooved at the true closest points of its samples.
+#[derive(Debug, Clone)]
+pub struct StrokePieces {
+    /// The carved pieces, in drawing order; never empty.
+    pub pieces: Vec<Stroke>,
+    /// Runs that were left uncarved: no longer than the minimum stroke length
+    /// (`tool.width * MIN_STROKE_LEN_REL`), or with an empty footprint.
+    pub dropped: usize,
+}
+
+impl StrokePieces {
+    /// The pieces' footprint bounds together (the area the stroke changes).
+    pub fn bounds(&self) -> Rect {
+        let mut r = Rect::new(DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+        for p in &self.pieces {
+            r = Rect::new(r.min.min(p.bounds.min), r.max.max(p.bounds.max));
+        }
+        r
+    }
+
+    /// Memory held by the pieces, bytes (approximate).
+    pub fn memory_bytes(&self) -> usize {
+        self.pieces.iter().map(Stroke::memory_bytes).sum()
+    }
 }
 
 fn reject(why: StrokeRejection) -> Error {

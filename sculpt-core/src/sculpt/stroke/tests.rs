@@ -317,3 +317,75 @@ fn resampling_keeps_corners() {
         assert!(w[0].distance(w[1]) <= 0.05 + POINT_EPS);
     }
 }
+
+/// A stroke lifted off the surface part-way is carved on both sides of the gap: two
+/// pieces of one stroke, each tapered at its own ends; `Stroke::build`, which must
+/// give one piece, refuses it.
+#[test]
+fn a_stroke_lifted_off_mid_way_is_carved_in_two_pieces() {
+    let s = plane(1.0);
+    let samples: Vec<(f64, DVec3)> = line(DVec3::new(0.1, 0.5, 0.0), DVec3::new(0.9, 0.5, 0.0), 81)
+        .into_iter()
+        .map(|(t, p)| {
+            let lift = if (0.45..=0.55).contains(&p.x) {
+                0.5
+            } else {
+                0.0
+            };
+            (t, p + DVec3::Z * lift)
+        })
+        .collect();
+    let input = StrokeInput {
+        samples,
+        tool: tool(),
+    };
+    let built = StrokePieces::build(&s, &input, 0.1).unwrap();
+    assert_eq!(built.pieces.len(), 2);
+    assert_eq!(built.dropped, 0);
+    for (piece, x) in built.pieces.iter().zip([0.25, 0.75]) {
+        let uv = DVec2::new(x, 0.5);
+        assert_near!(piece.depth_at(uv, uv.extend(0.0)), 0.02, POINT_EPS);
+    }
+    // Nothing under the gap.
+    let gap = DVec2::new(0.5, 0.5);
+    assert!(
+        built
+            .pieces
+            .iter()
+            .all(|p| p.depth_at(gap, gap.extend(0.0)) == 0.0)
+    );
+    let b = built.bounds();
+    assert!(b.min.x < 0.15 && b.max.x > 0.85, "{b:?}");
+    let err = Stroke::build(&s, &input, 0.1).unwrap_err();
+    assert!(err.to_string().contains("2 pieces"), "{err}");
+}
+
+/// A lone on-surface foot between two gaps is too short to carve: dropped and
+/// counted, the rest carved. The path runs flat on the plane, up and down two 45 degree
+/// ridges (touching the plane once, at x = 0.5, between them) and flat again; with a
+/// snap of 5 mm only the touching corner of the ridges is on the surface.
+#[test]
+fn a_lone_foot_between_gaps_is_dropped_and_counted() {
+    let s = plane(1.0);
+    let ridge = |x: f64| {
+        (0.15 - (x - 0.35).abs())
+            .max(0.0)
+            .max(0.15 - (x - 0.65).abs())
+    };
+    let samples: Vec<(f64, DVec3)> =
+        line(DVec3::new(0.1, 0.5, 0.0), DVec3::new(0.9, 0.5, 0.0), 161)
+            .into_iter()
+            .map(|(t, p)| (t, p + DVec3::Z * ridge(p.x)))
+            .collect();
+    let built = StrokePieces::build(
+        &s,
+        &StrokeInput {
+            samples,
+            tool: tool(),
+        },
+        0.005,
+    )
+    .unwrap();
+    assert_eq!(built.pieces.len(), 2);
+    assert_eq!(built.dropped, 1);
+}
