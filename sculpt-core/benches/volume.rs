@@ -95,5 +95,33 @@ fn eval(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, eval);
+/// Scattered fit: 100,000 samples of a smooth 2-attribute field into a 16 x 16 x 16
+/// cubic net (least squares: sparse normal equations, Jacobi PCG).
+fn fit(c: &mut Criterion) {
+    let pts = params(100_000);
+    let p: Vec<f64> = pts.iter().flatten().copied().collect();
+    let values: Vec<f64> = pts
+        .iter()
+        .flat_map(|u| [(3.0 * u[0]).sin() * u[1] + u[2], (u[0] - u[2]).cos() * u[1]])
+        .collect();
+    let names = vec!["a".to_string(), "b".to_string()];
+    let mut group = c.benchmark_group("volume_fit");
+    group.sample_size(10);
+    group.measurement_time(Duration::from_secs(20));
+    group.bench_function("fit_100k_16cubed_cubic", |b| {
+        b.iter(|| {
+            Volume::fit_scattered(
+                black_box(&p),
+                &values,
+                names.clone(),
+                &[3, 3, 3],
+                &[16, 16, 16],
+            )
+            .expect("fit")
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, eval, fit);
 criterion_main!(benches);

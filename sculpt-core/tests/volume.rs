@@ -1028,3 +1028,23 @@ fn curvilinear_grid_written_as_vtk_interpolates_exactly_at_nodes_and_closely_bet
         );
     }
 }
+
+/// Regression: a value at the reader's cap, divided back out of its homogeneous
+/// form `(h A) / h`, could round one ulp past the cap and make the written file
+/// unreadable. The writer clamps it back.
+#[test]
+fn values_at_the_cap_survive_a_write_and_read_with_any_weight() {
+    let cap = sculpt_core::volume::MAX_JSON_VALUE;
+    for h in [3.0, 0.7, 1.1, 5.3, 0.3] {
+        let vol = Volume::new(
+            vec![1],
+            vec![vec![0.0, 0.0, 1.0, 1.0]],
+            vec!["f".into()],
+            vec![cap, -cap],
+            Some(vec![h, 1.0]),
+        )
+        .unwrap();
+        let back = Volume::from_json(&vol.to_json()).unwrap();
+        assert_near!(back.point(&[0.0]).unwrap()[0] / cap, 1.0, VOLUME_EVAL_REL);
+    }
+}

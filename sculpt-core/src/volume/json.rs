@@ -19,7 +19,7 @@
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use super::{NetIndex, Volume, VolumeError, VolumeResult, knot_vectors};
+use super::{MAX_JSON_VALUE, NetIndex, Volume, VolumeError, VolumeResult, knot_vectors};
 
 /// The value of the `format` field.
 pub const FORMAT: &str = "wandsculpt-volume";
@@ -147,7 +147,16 @@ fn nest(counts: &[usize], leaves: &mut impl Iterator<Item = Value>) -> Value {
 impl From<Volume> for VolumeJson {
     fn from(v: Volume) -> Self {
         let n_pts = v.point_count();
-        let mut leaves = (0..n_pts).map(|i| Value::from(v.control_values(i)));
+        // (h A) / h may round one ulp past the cap a value was read within: clamp it
+        // back, so every written file reads again.
+        let mut leaves = (0..n_pts).map(|i| {
+            let values: Vec<f64> = v
+                .control_values(i)
+                .into_iter()
+                .map(|x| x.clamp(-MAX_JSON_VALUE, MAX_JSON_VALUE))
+                .collect();
+            Value::from(values)
+        });
         let control_points = nest(v.counts(), &mut leaves);
         let weights = v.is_rational().then(|| {
             let mut w = (0..n_pts).map(|i| Value::from(v.weight(i)));

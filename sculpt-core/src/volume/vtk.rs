@@ -548,6 +548,27 @@ impl StructuredGrid {
             line: c.line,
             expected: "POINTS",
         })?;
+        // DIMENSIONS may come again after the data: everything must fit the last one.
+        let need: usize = dims.iter().product();
+        if points.len() != need {
+            return Err(VtkError::Count {
+                line: c.line,
+                what: "POINTS",
+                got: points.len(),
+                need,
+            });
+        }
+        if let Some(a) = arrays
+            .iter()
+            .find(|a| a.values.len() != a.components * need)
+        {
+            return Err(VtkError::Count {
+                line: c.line,
+                what: "point-data values",
+                got: a.values.len(),
+                need: a.components * need,
+            });
+        }
         Ok(Self {
             dims,
             points,
@@ -725,6 +746,21 @@ mod tests {
         assert!(matches!(e, VtkError::Dimensions { .. }), "{e}");
         let e = StructuredGrid::from_vtk(ok.replacen("0.5", "nan", 1).as_bytes()).unwrap_err();
         assert!(matches!(e, VtkError::Number { line: 8, .. }), "{e}");
+        // Regression (found by reading the fuzz target's round trip): DIMENSIONS given
+        // again after the data no longer matched the points, and the written file
+        // could not be read back.
+        let e = StructuredGrid::from_vtk(format!("{ok}DIMENSIONS 3 2 3\n").as_bytes()).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                VtkError::Count {
+                    got: 12,
+                    need: 18,
+                    ..
+                }
+            ),
+            "{e}"
+        );
         let bin = grid().to_vtk("t", true);
         let e = StructuredGrid::from_vtk(&bin[..bin.len() / 2]).unwrap_err();
         assert!(
