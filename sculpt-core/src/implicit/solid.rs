@@ -130,6 +130,11 @@ impl SolidDocument {
         Ok(doc)
     }
 
+    /// The document as JSON (what [`from_json`](Self::from_json) reads back).
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a solid document always serialises")
+    }
+
     /// The document as a graph (omega >= 0 inside) and its root.
     pub fn to_graph(&self) -> Result<(Graph, NodeId), ImplicitError> {
         self.solid.check("solid")?;
@@ -899,7 +904,7 @@ mod tests {
         fn tape_agrees_with_the_tree_walk(s in solid(),
                 pts in proptest::collection::vec((-1.5f64..1.5, -1.5f64..1.5, -1.5f64..1.5), 8)) {
             let doc = SolidDocument { version: 1, solid: s };
-            let text = serde_json::to_string(&doc).unwrap();
+            let text = doc.to_json();
             let back = SolidDocument::from_json(&text).unwrap();
             prop_assert_eq!(&back, &doc);
             let (g, root) = doc.to_graph().unwrap();

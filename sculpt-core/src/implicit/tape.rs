@@ -181,20 +181,30 @@ impl Tape {
     }
 
     /// Evaluates one block of up to [`LANES`] points (unused lanes are ignored).
+    /// `scratch` belongs to this tape: it starts empty, and constants are written
+    /// into it once, on the first block.
     fn eval_block(&self, xyz: &[[f32; LANES]; 3], scratch: &mut Vec<[f32; LANES]>) -> [f32; LANES] {
-        scratch.clear();
-        for ins in &self.instrs {
-            let r = match *ins {
-                Instr::Var(v) => xyz[v.index()],
+        let n = self.instrs.len();
+        if scratch.len() != n {
+            scratch.clear();
+            scratch.extend(self.instrs.iter().map(|ins| match *ins {
                 Instr::Const(c) => [c; LANES],
-                Instr::Unary(op, a) => unary_block(op, &scratch[a as usize]),
-                Instr::Binary(op, a, b) => {
-                    binary_block(op, &scratch[a as usize], &scratch[b as usize])
-                }
-            };
-            scratch.push(r);
+                _ => [0.0; LANES],
+            }));
         }
-        *scratch.last().expect("a tape has a root")
+        for (i, ins) in self.instrs.iter().enumerate() {
+            let (done, rest) = scratch.split_at_mut(i);
+            let out = &mut rest[0];
+            match *ins {
+                Instr::Var(v) => *out = xyz[v.index()],
+                Instr::Const(_) => {}
+                Instr::Unary(op, a) => unary_block(op, &done[a as usize], out),
+                Instr::Binary(op, a, b) => {
+                    binary_block(op, &done[a as usize], &done[b as usize], out)
+                }
+            }
+        }
+        scratch[n - 1]
     }
 
     /// Values at many points, written into `out` (one per point).
@@ -360,8 +370,7 @@ fn choose(op: Binary, a: Interval, b: Interval) -> Choice {
     }
 }
 
-fn unary_block(op: Unary, a: &[f32; LANES]) -> [f32; LANES] {
-    let mut r = [0.0f32; LANES];
+fn unary_block(op: Unary, a: &[f32; LANES], r: &mut [f32; LANES]) {
     match op {
         Unary::Neg => (0..LANES).for_each(|k| r[k] = -a[k]),
         Unary::Abs => (0..LANES).for_each(|k| r[k] = a[k].abs()),
@@ -369,11 +378,9 @@ fn unary_block(op: Unary, a: &[f32; LANES]) -> [f32; LANES] {
         Unary::Sqrt => (0..LANES).for_each(|k| r[k] = a[k].sqrt()),
         _ => (0..LANES).for_each(|k| r[k] = op.apply(a[k])),
     }
-    r
 }
 
-fn binary_block(op: Binary, a: &[f32; LANES], b: &[f32; LANES]) -> [f32; LANES] {
-    let mut r = [0.0f32; LANES];
+fn binary_block(op: Binary, a: &[f32; LANES], b: &[f32; LANES], r: &mut [f32; LANES]) {
     match op {
         Binary::Add => (0..LANES).for_each(|k| r[k] = a[k] + b[k]),
         Binary::Sub => (0..LANES).for_each(|k| r[k] = a[k] - b[k]),
@@ -381,7 +388,6 @@ fn binary_block(op: Binary, a: &[f32; LANES], b: &[f32; LANES]) -> [f32; LANES] 
         Binary::Div => (0..LANES).for_each(|k| r[k] = a[k] / b[k]),
         _ => (0..LANES).for_each(|k| r[k] = op.apply(a[k], b[k])),
     }
-    r
 }
 
 /// A value with its gradient.
