@@ -6,8 +6,10 @@
 //! - one point in f32 ([`Tape::eval_point`]);
 //! - many points and grids ([`Tape::eval_points`], [`Tape::eval_grid`]): instruction
 //!   by instruction over blocks of [`LANES`] points, so each op is a tight loop the
-//!   compiler vectorises; rows of a grid run on the rayon pool with the `parallel`
-//!   feature;
+//!   compiler vectorises, on a register file reused as values die, with operands that
+//!   are the same in every lane (constants; on a grid row, what depends on y and z
+//!   only, evaluated once per row) folded in as immediates; rows of a grid run on the
+//!   rayon pool with the `parallel` feature;
 //! - intervals ([`Tape::eval_interval`]);
 //! - gradients by forward-mode automatic differentiation ([`Tape::eval_grad`]);
 //!
@@ -20,6 +22,35 @@
 use super::expr::{Binary, Graph, Node, NodeId, Unary, Var};
 use super::interval::Interval;
 use super::{GridProblem, ImplicitError, MAX_GRID_CELLS};
+
+/// Runs `$e` with `$p` bound to `$op` as a constant, one match arm per variant of
+/// `$ty`, so each arm's lane loop is specialised to its op.
+macro_rules! per_op {
+    ($ty:ident [$($v:ident),*], $op:expr, $p:ident => $e:expr) => {
+        match $op {
+            $($ty::$v => {
+                const $p: $ty = $ty::$v;
+                $e
+            })*
+        }
+    };
+}
+
+/// [`per_op!`] over the unary ops.
+macro_rules! per_unary {
+    ($op:expr, $p:ident => $e:expr) => {
+        per_op!(Unary [Neg, Abs, Recip, Sqrt, Square, Floor, Ceil, Round, Sin, Cos, Tan,
+            Asin, Acos, Atan, Exp, Ln, Not], $op, $p => $e)
+    };
+}
+
+/// [`per_op!`] over the binary ops.
+macro_rules! per_binary {
+    ($op:expr, $p:ident => $e:expr) => {
+        per_op!(Binary [Add, Sub, Mul, Div, Min, Max, Atan2, Compare, Mod, And, Or],
+            $op, $p => $e)
+    };
+}
 
 /// Points per block of the batch evaluator.
 pub const LANES: usize = 64;
@@ -180,31 +211,10 @@ impl Tape {
         *scratch.last().expect("a tape has a root")
     }
 
-    /// Evaluates one block of up to [`LANES`] points (unused lanes are ignored).
-    /// `scratch` belongs to this tape: it starts empty, and constants are written
-    /// into it once, on the first block.
-    fn eval_block(&self, xyz: &[[f32; LANES]; 3], scratch: &mut Vec<[f32; LANES]>) -> [f32; LANES] {
-        let n = self.instrs.len();
-        if scratch.len() != n {
-            scratch.clear();
-            scratch.extend(self.instrs.iter().map(|ins| match *ins {
-                Instr::Const(c) => [c; LANES],
-                _ => [0.0; LANES],
-            }));
-        }
-        for (i, ins) in self.instrs.iter().enumerate() {
-            let (done, rest) = scratch.split_at_mut(i);
-            let out = &mut rest[0];
-            match *ins {
-                Instr::Var(v) => *out = xyz[v.index()],
-                Instr::Const(_) => {}
-                Instr::Unary(op, a) => unary_block(op, &done[a as usize], out),
-                Instr::Binary(op, a, b) => {
-                    binary_block(op, &done[a as usize], &done[b as usize], out)
-                }
-            }
-        }
-        scratch[n - 1]
+    /// The block program of this tape for points whose coordinates `varying` change
+    /// from point to point (the others are fixed per call or per grid row).
+    fn block_program(&self, varying: [bool; 3]) -> BlockProgram {
+        BlockProgram::new(&self.instrs, varying)
     }
 
     /// Values at many points, written into `out` (one per point).
@@ -213,42 +223,54 @@ impl Tape {
     /// When `out` and `points` differ in length.
     pub fn eval_points(&self, points: &[[f32; 3]], out: &mut [f32]) {
         assert_eq!(points.len(), out.len(), "one output per point");
-        let mut scratch = Vec::with_capacity(self.instrs.len());
+        let prog = self.block_program([true; 3]);
+        let mut known = vec![0.0f32; self.instrs.len()];
+        prog.fill_uniform(&self.instrs, [0.0; 3], &mut known);
+        let mut regs = prog.registers();
         for (pts, vals) in points.chunks(LANES).zip(out.chunks_mut(LANES)) {
-            let mut xyz = [[0.0f32; LANES]; 3];
             for (l, p) in pts.iter().enumerate() {
-                for a in 0..3 {
-                    xyz[a][l] = p[a];
+                for (a, reg) in regs[..3].iter_mut().enumerate() {
+                    reg[l] = p[a];
                 }
             }
-            let r = self.eval_block(&xyz, &mut scratch);
-            vals.copy_from_slice(&r[..vals.len()]);
+            prog.run(&known, &mut regs, vals);
         }
     }
 
     /// Values at the cell centres of `grid`, x fastest, then y, then z.
+    ///
+    /// Along a row only x changes: what depends on y, z and constants alone is
+    /// evaluated once per row (point by point, as [`eval_point`](Self::eval_point)
+    /// does, so the values are the same bits) and enters the block program as
+    /// immediate operands.
     pub fn eval_grid(&self, grid: &Grid) -> Vec<f32> {
         let nx = grid.n[0];
         let mut out = vec![0.0f32; grid.len()];
         let xs: Vec<f32> = (0..nx).map(|i| grid.centre(0, i) as f32).collect();
-        let row = |(r, vals): (usize, &mut [f32])| {
+        let prog = self.block_program([true, false, false]);
+        let init = || (vec![0.0f32; self.instrs.len()], prog.registers());
+        let row = |(known, regs): &mut (Vec<f32>, Vec<[f32; LANES]>),
+                   (r, vals): (usize, &mut [f32])| {
             let (j, k) = (r % grid.n[1], r / grid.n[1]);
             let (y, z) = (grid.centre(1, j) as f32, grid.centre(2, k) as f32);
-            let mut scratch = Vec::with_capacity(self.instrs.len());
+            prog.fill_uniform(&self.instrs, [0.0, y, z], known);
             for (xc, vc) in xs.chunks(LANES).zip(vals.chunks_mut(LANES)) {
-                let mut xyz = [[0.0f32; LANES], [y; LANES], [z; LANES]];
-                xyz[0][..xc.len()].copy_from_slice(xc);
-                let r = self.eval_block(&xyz, &mut scratch);
-                vc.copy_from_slice(&r[..vc.len()]);
+                regs[0][..xc.len()].copy_from_slice(xc);
+                prog.run(known, regs, vc);
             }
         };
         #[cfg(feature = "parallel")]
         {
             use rayon::prelude::*;
-            out.par_chunks_mut(nx).enumerate().for_each(row);
+            out.par_chunks_mut(nx).enumerate().for_each_init(init, row);
         }
         #[cfg(not(feature = "parallel"))]
-        out.chunks_mut(nx).enumerate().for_each(row);
+        {
+            let mut scratch = init();
+            out.chunks_mut(nx)
+                .enumerate()
+                .for_each(|item| row(&mut scratch, item));
+        }
         out
     }
 
@@ -370,23 +392,250 @@ fn choose(op: Binary, a: Interval, b: Interval) -> Choice {
     }
 }
 
-fn unary_block(op: Unary, a: &[f32; LANES], r: &mut [f32; LANES]) {
-    match op {
-        Unary::Neg => (0..LANES).for_each(|k| r[k] = -a[k]),
-        Unary::Abs => (0..LANES).for_each(|k| r[k] = a[k].abs()),
-        Unary::Square => (0..LANES).for_each(|k| r[k] = a[k] * a[k]),
-        Unary::Sqrt => (0..LANES).for_each(|k| r[k] = a[k].sqrt()),
-        _ => (0..LANES).for_each(|k| r[k] = op.apply(a[k])),
+/// An operand of a block instruction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Src {
+    /// A register: one value per lane.
+    Reg(u32),
+    /// The tape slot whose value is the same in every lane (a constant, or what
+    /// depends only on the fixed coordinates), read from the per-call table.
+    Imm(u32),
+}
+
+/// One instruction of a [`BlockProgram`]; the last field is the output register,
+/// never one of the input registers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum BlockOp {
+    Unary(Unary, u32, u32),
+    /// Register op register.
+    Rr(Binary, u32, u32, u32),
+    /// Register op immediate.
+    Ri(Binary, u32, u32, u32),
+    /// Immediate op register.
+    Ir(Binary, u32, u32, u32),
+}
+
+/// A tape compiled for blocks of [`LANES`] points: the instructions that vary from
+/// lane to lane, on a small register file reused as values die (so the working set
+/// stays in L1), with operands that are the same in every lane folded in as
+/// immediates. Registers 0, 1, 2 hold x, y, z.
+#[derive(Debug, Clone, PartialEq)]
+struct BlockProgram {
+    /// Per tape slot: whether its value is the same in every lane.
+    uniform: Vec<bool>,
+    ops: Vec<BlockOp>,
+    registers: usize,
+    result: Src,
+}
+
+impl BlockProgram {
+    fn new(instrs: &[Instr], varying: [bool; 3]) -> Self {
+        let n = instrs.len();
+        let mut uniform = vec![true; n];
+        let mut last_use = vec![0usize; n];
+        for (i, ins) in instrs.iter().enumerate() {
+            match *ins {
+                Instr::Var(v) => uniform[i] = !varying[v.index()],
+                Instr::Const(_) => {}
+                Instr::Unary(_, a) => {
+                    uniform[i] = uniform[a as usize];
+                    last_use[a as usize] = i;
+                }
+                Instr::Binary(_, a, b) => {
+                    uniform[i] = uniform[a as usize] && uniform[b as usize];
+                    last_use[a as usize] = i;
+                    last_use[b as usize] = i;
+                }
+            }
+        }
+        let mut reg = vec![u32::MAX; n];
+        let mut free: Vec<u32> = Vec::new();
+        let mut registers = 3u32;
+        let mut ops = Vec::new();
+        for (i, ins) in instrs.iter().enumerate() {
+            if uniform[i] {
+                continue;
+            }
+            let (op, args) = match *ins {
+                Instr::Var(v) => {
+                    reg[i] = v.index() as u32;
+                    continue;
+                }
+                Instr::Const(_) => continue,
+                Instr::Unary(op, a) => (BlockOp::Unary(op, reg[a as usize], 0), [a, a]),
+                Instr::Binary(op, a, b) => {
+                    let (ua, ub) = (uniform[a as usize], uniform[b as usize]);
+                    let (ra, rb) = (reg[a as usize], reg[b as usize]);
+                    let op = match (ua, ub) {
+                        (false, false) => BlockOp::Rr(op, ra, rb, 0),
+                        (false, true) => BlockOp::Ri(op, ra, b, 0),
+                        _ => BlockOp::Ir(op, a, rb, 0),
+                    };
+                    (op, [a, b])
+                }
+            };
+            // The output register is taken before the inputs are freed, so it is
+            // never an input.
+            let out = free.pop().unwrap_or_else(|| {
+                registers += 1;
+                registers - 1
+            });
+            reg[i] = out;
+            ops.push(match op {
+                BlockOp::Unary(op, a, _) => BlockOp::Unary(op, a, out),
+                BlockOp::Rr(op, a, b, _) => BlockOp::Rr(op, a, b, out),
+                BlockOp::Ri(op, a, c, _) => BlockOp::Ri(op, a, c, out),
+                BlockOp::Ir(op, c, b, _) => BlockOp::Ir(op, c, b, out),
+            });
+            for (k, &s) in args.iter().enumerate() {
+                let s = s as usize;
+                let dup = k == 1 && args[0] == args[1];
+                if !dup && !uniform[s] && last_use[s] == i && reg[s] >= 3 {
+                    free.push(reg[s]);
+                }
+            }
+        }
+        let root = n - 1;
+        let result = if uniform[root] {
+            Src::Imm(root as u32)
+        } else {
+            Src::Reg(reg[root])
+        };
+        Self {
+            uniform,
+            ops,
+            registers: registers as usize,
+            result,
+        }
+    }
+
+    /// A register file for [`run`](Self::run).
+    fn registers(&self) -> Vec<[f32; LANES]> {
+        vec![[0.0; LANES]; self.registers]
+    }
+
+    /// Writes into `known` the value of every uniform slot, with the fixed
+    /// coordinates `p` (entries of varying coordinates are not read), one point as
+    /// [`Tape::eval_point`] evaluates it.
+    fn fill_uniform(&self, instrs: &[Instr], p: [f32; 3], known: &mut [f32]) {
+        for (i, ins) in instrs.iter().enumerate() {
+            if !self.uniform[i] {
+                continue;
+            }
+            known[i] = match *ins {
+                Instr::Var(v) => p[v.index()],
+                Instr::Const(c) => c,
+                Instr::Unary(op, a) => op.apply(known[a as usize]),
+                Instr::Binary(op, a, b) => op.apply(known[a as usize], known[b as usize]),
+            };
+        }
+    }
+
+    /// Runs the program on the lanes in `regs[0..3]` and writes the first
+    /// `out.len()` values into `out`.
+    fn run(&self, known: &[f32], regs: &mut [[f32; LANES]], out: &mut [f32]) {
+        for &op in &self.ops {
+            match op {
+                BlockOp::Unary(op, a, o) => {
+                    let [a, r] = pair(regs, a, o);
+                    per_unary!(op, OP => map1(a, r, |x| lane_unary(OP, x)));
+                }
+                BlockOp::Rr(op, a, b, o) => {
+                    let (before, rest) = regs.split_at_mut(o as usize);
+                    let (r, after) = rest.split_first_mut().expect("output register exists");
+                    let (before, after): (&[[f32; LANES]], &[[f32; LANES]]) = (before, after);
+                    let pick = move |s: u32| {
+                        let s = s as usize;
+                        if s < before.len() {
+                            &before[s]
+                        } else {
+                            &after[s - before.len() - 1]
+                        }
+                    };
+                    let (a, b) = (pick(a), pick(b));
+                    per_binary!(op, OP => map2(a, b, r, |x, y| lane_binary(OP, x, y)));
+                }
+                BlockOp::Ri(op, a, c, o) => {
+                    let c = known[c as usize];
+                    let [a, r] = pair(regs, a, o);
+                    per_binary!(op, OP => map1(a, r, |x| lane_binary(OP, x, c)));
+                }
+                BlockOp::Ir(op, c, b, o) => {
+                    let c = known[c as usize];
+                    let [b, r] = pair(regs, b, o);
+                    per_binary!(op, OP => map1(b, r, |y| lane_binary(OP, c, y)));
+                }
+            }
+        }
+        match self.result {
+            Src::Reg(r) => out.copy_from_slice(&regs[r as usize][..out.len()]),
+            Src::Imm(s) => out.fill(known[s as usize]),
+        }
     }
 }
 
-fn binary_block(op: Binary, a: &[f32; LANES], b: &[f32; LANES], r: &mut [f32; LANES]) {
+/// The input register `a` and the distinct output register `o`.
+fn pair(regs: &mut [[f32; LANES]], a: u32, o: u32) -> [&mut [f32; LANES]; 2] {
+    regs.get_disjoint_mut([a as usize, o as usize])
+        .expect("block programs never write an input register")
+}
+
+/// [`Unary::apply`] in f32, with the common ops written out so that they inline
+/// into the lane loops and vectorise (the same IEEE operations, so the same bits).
+#[inline(always)]
+fn lane_unary(op: Unary, x: f32) -> f32 {
     match op {
-        Binary::Add => (0..LANES).for_each(|k| r[k] = a[k] + b[k]),
-        Binary::Sub => (0..LANES).for_each(|k| r[k] = a[k] - b[k]),
-        Binary::Mul => (0..LANES).for_each(|k| r[k] = a[k] * b[k]),
-        Binary::Div => (0..LANES).for_each(|k| r[k] = a[k] / b[k]),
-        _ => (0..LANES).for_each(|k| r[k] = op.apply(a[k], b[k])),
+        Unary::Neg => -x,
+        Unary::Abs => x.abs(),
+        Unary::Sqrt => x.sqrt(),
+        Unary::Square => x * x,
+        _ => op.apply(x),
+    }
+}
+
+/// [`Binary::apply`] in f32, with the common ops written out as in [`lane_unary`].
+#[inline(always)]
+fn lane_binary(op: Binary, x: f32, y: f32) -> f32 {
+    match op {
+        Binary::Add => x + y,
+        Binary::Sub => x - y,
+        Binary::Mul => x * y,
+        Binary::Div => x / y,
+        Binary::Min | Binary::Max if x.is_nan() || y.is_nan() => f32::NAN,
+        Binary::Min => x.min(y),
+        Binary::Max => x.max(y),
+        Binary::And => {
+            if x == 0.0 {
+                x
+            } else {
+                y
+            }
+        }
+        Binary::Or => {
+            if x != 0.0 {
+                x
+            } else {
+                y
+            }
+        }
+        _ => op.apply(x, y),
+    }
+}
+
+/// `r[k] = f(a[k])` for every lane: a loop the compiler vectorises once `f` is
+/// inlined.
+#[inline(always)]
+fn map1(a: &[f32; LANES], r: &mut [f32; LANES], f: impl Fn(f32) -> f32) {
+    for (r, &a) in r.iter_mut().zip(a) {
+        *r = f(a);
+    }
+}
+
+/// `r[k] = f(a[k], b[k])` for every lane.
+#[inline(always)]
+fn map2(a: &[f32; LANES], b: &[f32; LANES], r: &mut [f32; LANES], f: impl Fn(f32, f32) -> f32) {
+    for ((r, &a), &b) in r.iter_mut().zip(a).zip(b) {
+        *r = f(a, b);
     }
 }
 
@@ -537,6 +786,24 @@ mod tests {
                     continue; // beyond f32's range: the tape overflows where f64 does not
                 }
                 prop_assert!((f64::from(got) - want).abs() <= IMPLICIT_F32_REL * (1.0 + scale), "{got} vs {want}");
+            }
+        }
+
+        /// Grid values, with what depends on y and z alone evaluated once per row, are
+        /// the bits single-point evaluation gives at the cell centres.
+        #[test]
+        fn grid_values_equal_point_values(text in program(), n in [1usize..80, 1usize..4, 1usize..3]) {
+            let (g, root) = vm::parse(&text).unwrap().to_graph();
+            let tape = Tape::compile(&g, root);
+            let grid = Grid::new(n, [-2.0; 3], [2.0; 3]).unwrap();
+            let values = tape.eval_grid(&grid);
+            prop_assert_eq!(values.len(), grid.len());
+            for (idx, got) in values.iter().enumerate() {
+                let ijk = [idx % n[0], (idx / n[0]) % n[1], idx / (n[0] * n[1])];
+                let p = [0, 1, 2].map(|a| grid.centre(a, ijk[a]) as f32);
+                let want = tape.eval_point(p);
+                prop_assert!(got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
+                    "at {:?}: grid {} vs point {}", p, got, want);
             }
         }
 
