@@ -125,6 +125,19 @@ fn combine<const D: usize>(w: &[f64; 4], p: &[[f64; D]; 4]) -> [f64; D] {
     out
 }
 
+/// [`combine`] with two weight sets over the same points (one pass over `p`).
+#[inline(always)]
+fn combine2<const D: usize>(w: &[f64; 4], v: &[f64; 4], p: &[[f64; D]; 4]) -> ([f64; D], [f64; D]) {
+    let mut out_w = [0.0; D];
+    let mut out_v = [0.0; D];
+    for e in 0..D {
+        let (p0, p1, p2, p3) = (p[0][e], p[1][e], p[2][e], p[3][e]);
+        out_w[e] = (w[0] * p0 + w[1] * p1) + (w[2] * p2 + w[3] * p3);
+        out_v[e] = (v[0] * p0 + v[1] * p1) + (v[2] * p2 + v[3] * p3);
+    }
+    (out_w, out_v)
+}
+
 impl Derivatives {
     /// The number of directions.
     pub fn directions(&self) -> usize {
@@ -461,9 +474,10 @@ impl Volume {
                 let row: &[[f64; D]; 4] = pts[first..first + 4]
                     .try_into()
                     .expect("four points per cubic row");
-                c0[4 * i + j] = combine(&n[2], row);
                 if DERIVS {
-                    c1[4 * i + j] = combine(&dn[2], row);
+                    (c0[4 * i + j], c1[4 * i + j]) = combine2(&n[2], &dn[2], row);
+                } else {
+                    c0[4 * i + j] = combine(&n[2], row);
                 }
             }
         }
