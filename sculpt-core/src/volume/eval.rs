@@ -487,20 +487,22 @@ impl Volume {
         let mut b2 = [[0.0; D]; 4];
         for i in 0..4 {
             let r0: &[[f64; D]; 4] = c0[4 * i..4 * i + 4].try_into().expect("four rows");
-            b0[i] = combine(&n[1], r0);
             if DERIVS {
                 let r1: &[[f64; D]; 4] = c1[4 * i..4 * i + 4].try_into().expect("four rows");
-                b1[i] = combine(&dn[1], r0);
+                (b0[i], b1[i]) = combine2(&n[1], &dn[1], r0);
                 b2[i] = combine(&n[1], r1);
+            } else {
+                b0[i] = combine(&n[1], r0);
             }
         }
         // First direction: A^w and d/du_1, d/du_2, d/du_3 of A^w.
         let mut a = [[0.0; D]; 4];
-        a[0] = combine(&n[0], &b0);
         if DERIVS {
-            a[1] = combine(&dn[0], &b0);
+            (a[0], a[1]) = combine2(&n[0], &dn[0], &b0);
             a[2] = combine(&n[0], &b1);
             a[3] = combine(&n[0], &b2);
+        } else {
+            a[0] = combine(&n[0], &b0);
         }
         a
     }
