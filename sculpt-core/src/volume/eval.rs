@@ -465,34 +465,30 @@ impl Volume {
         let (st0, st1) = (self.strides[0], self.strides[1]);
         let start = (spans[0] - 3) * st0 + (spans[1] - 3) * st1 + spans[2] - 3;
         let (pts, _) = self.cw.as_chunks::<D>();
-        // Last direction: c0[4 i + j] = sum_l N_l P_ijl, c1[..] = sum_l N'_l P_ijl.
-        let mut c0 = [[0.0; D]; 16];
-        let mut c1 = [[0.0; D]; 16];
+        // Per slab i: the last direction, c0[j] = sum_l N_l P_ijl, c1[j] = sum_l N'_l P_ijl,
+        // then the middle one, b0 = sum_j N_j c0, b1 = sum_j N'_j c0, b2 = sum_j N_j c1.
+        let mut b0 = [[0.0; D]; 4];
+        let mut b1 = [[0.0; D]; 4];
+        let mut b2 = [[0.0; D]; 4];
         for i in 0..4 {
+            let mut c0 = [[0.0; D]; 4];
+            let mut c1 = [[0.0; D]; 4];
             for j in 0..4 {
                 let first = start + i * st0 + j * st1;
                 let row: &[[f64; D]; 4] = pts[first..first + 4]
                     .try_into()
                     .expect("four points per cubic row");
                 if DERIVS {
-                    (c0[4 * i + j], c1[4 * i + j]) = combine2(&n[2], &dn[2], row);
+                    (c0[j], c1[j]) = combine2(&n[2], &dn[2], row);
                 } else {
-                    c0[4 * i + j] = combine(&n[2], row);
+                    c0[j] = combine(&n[2], row);
                 }
             }
-        }
-        // Middle direction: b0 = sum_j N_j c0, b1 = sum_j N'_j c0, b2 = sum_j N_j c1.
-        let mut b0 = [[0.0; D]; 4];
-        let mut b1 = [[0.0; D]; 4];
-        let mut b2 = [[0.0; D]; 4];
-        for i in 0..4 {
-            let r0: &[[f64; D]; 4] = c0[4 * i..4 * i + 4].try_into().expect("four rows");
             if DERIVS {
-                let r1: &[[f64; D]; 4] = c1[4 * i..4 * i + 4].try_into().expect("four rows");
-                (b0[i], b1[i]) = combine2(&n[1], &dn[1], r0);
-                b2[i] = combine(&n[1], r1);
+                (b0[i], b1[i]) = combine2(&n[1], &dn[1], &c0);
+                b2[i] = combine(&n[1], &c1);
             } else {
-                b0[i] = combine(&n[1], r0);
+                b0[i] = combine(&n[1], &c0);
             }
         }
         // First direction: A^w and d/du_1, d/du_2, d/du_3 of A^w.
