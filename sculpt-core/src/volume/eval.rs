@@ -5,7 +5,8 @@
 //! product is contracted over the `(p_1 + 1) .. (p_n + 1)` homogeneous control points of
 //! the point's knot spans (P&T A3.6 / A4.3 extended to `n` directions). Rational
 //! derivatives follow from the homogeneous ones by the quotient rule (P&T eq. 4.20,
-//! A4.4, here for multi-indices of order up to 2).
+//! A4.4, here for multi-indices of order up to 2). All-cubic trivariate volumes (values
+//! and first derivatives) take an unrolled path on fixed-size arrays.
 
 // The book's algorithms index arrays by span offsets; keeping its loops keeps the
 // code checkable against the book.
@@ -18,6 +19,24 @@ use crate::nurbs::knots::{BasisDers, MAX_ORDER};
 const MAX_DIM: usize = MAX_COMPONENTS + 1;
 /// Multi-indices of order <= 2 in 4 directions: 1 + 4 + 10.
 const MAX_MULTI: usize = 1 + MAX_DIRECTIONS + MAX_DIRECTIONS * (MAX_DIRECTIONS + 1) / 2;
+
+/// Calls `$vol.$method::<D, ..>(..)` with the homogeneous width `D = $vol.dim` as a
+/// compile-time constant (2 to 9), or evaluates `$other` for wider points.
+macro_rules! by_width {
+    ($vol:ident . $method:ident :: <_ $(, $p:literal)?> ($($arg:expr),*) else $other:expr) => {
+        match $vol.dim {
+            2 => $vol.$method::<2 $(, $p)?>($($arg),*),
+            3 => $vol.$method::<3 $(, $p)?>($($arg),*),
+            4 => $vol.$method::<4 $(, $p)?>($($arg),*),
+            5 => $vol.$method::<5 $(, $p)?>($($arg),*),
+            6 => $vol.$method::<6 $(, $p)?>($($arg),*),
+            7 => $vol.$method::<7 $(, $p)?>($($arg),*),
+            8 => $vol.$method::<8 $(, $p)?>($($arg),*),
+            9 => $vol.$method::<9 $(, $p)?>($($arg),*),
+            _ => $other,
+        }
+    };
+}
 
 /// The value and partial derivatives of every attribute at one parameter.
 ///
@@ -59,6 +78,64 @@ fn multi_indices(n: usize, order: usize) -> ([[u8; MAX_DIRECTIONS]; MAX_MULTI], 
         }
     }
     (out, m)
+}
+
+/// The four cubic basis functions `N_{s-3,3} .. N_{s,3}` at `t` on the non-empty span
+/// `s` of the knots `k`, and (when `DERIVS`) their first derivatives.
+///
+/// P&T A2.2 (eq. 2.5) unrolled for `p = 3`; the derivatives follow A2.3 with `n = 1`:
+/// the last step of the triangle divides `N_{s-2+r,2}` by `u_{s+1+r} - u_{s-2+r}`, which
+/// is the quotient of eq. 2.7, so `N'_{s-3+r,3} = 3 (q_{r-1} - q_r)` with `q_{-1} = q_3 = 0`.
+/// Every denominator spans the knot interval `[u_s, u_{s+1}]`, so none is zero.
+#[inline(always)]
+fn cubic_basis<const DERIVS: bool>(k: &[f64], s: usize, t: f64) -> ([f64; 4], [f64; 4]) {
+    // kk[i] = u_{s-2+i}, i = 0..6.
+    let kk: &[f64; 6] = k[s - 2..s + 4]
+        .try_into()
+        .expect("a cubic span has two knots on each side");
+    let (l1, l2, l3) = (t - kk[2], t - kk[1], t - kk[0]);
+    let (r1, r2, r3) = (kk[3] - t, kk[4] - t, kk[5] - t);
+    // Degree 1.
+    let tmp = 1.0 / (r1 + l1);
+    let (a0, a1) = (r1 * tmp, l1 * tmp);
+    // Degree 2.
+    let tmp0 = a0 / (r1 + l2);
+    let tmp1 = a1 / (r2 + l1);
+    let (b0, b1, b2) = (r1 * tmp0, l2 * tmp0 + r2 * tmp1, l1 * tmp1);
+    // Degree 3: q_r = N_{s-2+r,2} / (u_{s+1+r} - u_{s-2+r}).
+    let q0 = b0 / (r1 + l3);
+    let q1 = b1 / (r2 + l2);
+    let q2 = b2 / (r3 + l1);
+    let n = [r1 * q0, l3 * q0 + r2 * q1, l2 * q1 + r3 * q2, l1 * q2];
+    let dn = if DERIVS {
+        [-3.0 * q0, 3.0 * (q0 - q1), 3.0 * (q1 - q2), 3.0 * q2]
+    } else {
+        [0.0; 4]
+    };
+    (n, dn)
+}
+
+/// `sum_l w_l p_l` over four points of `D` values (one step of the tensor contraction).
+#[inline(always)]
+fn combine<const D: usize>(w: &[f64; 4], p: &[[f64; D]; 4]) -> [f64; D] {
+    let mut out = [0.0; D];
+    for e in 0..D {
+        out[e] = (w[0] * p[0][e] + w[1] * p[1][e]) + (w[2] * p[2][e] + w[3] * p[3][e]);
+    }
+    out
+}
+
+/// [`combine`] with two weight sets over the same points (one pass over `p`).
+#[inline(always)]
+fn combine2<const D: usize>(w: &[f64; 4], v: &[f64; 4], p: &[[f64; D]; 4]) -> ([f64; D], [f64; D]) {
+    let mut out_w = [0.0; D];
+    let mut out_v = [0.0; D];
+    for e in 0..D {
+        let (p0, p1, p2, p3) = (p[0][e], p[1][e], p[2][e], p[3][e]);
+        out_w[e] = (w[0] * p0 + w[1] * p1) + (w[2] * p2 + w[3] * p3);
+        out_v[e] = (v[0] * p0 + v[1] * p1) + (v[2] * p2 + v[3] * p3);
+    }
+    (out_w, out_v)
 }
 
 impl Derivatives {
@@ -218,6 +295,28 @@ impl Volume {
             });
         }
         let n = self.directions();
+        if n == 3 && self.knots.iter().all(|kv| kv.degree() == 3) {
+            by_width!(self.value_cubic::<_>(u, out) else self.value_general(u, out));
+        } else {
+            self.value_general(u, out);
+        }
+        Ok(())
+    }
+
+    /// The all-cubic trivariate path of [`Self::eval_into`].
+    #[inline(always)]
+    fn value_cubic<const D: usize>(&self, u: &[f64], out: &mut [f64]) {
+        let [aw, ..] = self.cubic_trivariate::<D, false>(u);
+        let inv_w = 1.0 / aw[D - 1];
+        for (o, v) in out.iter_mut().zip(&aw[..D - 1]) {
+            *o = v * inv_w;
+        }
+    }
+
+    /// The generic path of [`Self::eval_into`], any number of directions and degrees.
+    fn value_general(&self, u: &[f64], out: &mut [f64]) {
+        let n = self.directions();
+        let k = self.components();
         let dim = self.dim;
         let (spans, ders) = self.bases(u, 0);
         let mut acc = [0.0; MAX_DIM];
@@ -241,7 +340,7 @@ impl Volume {
                 for c in 0..k {
                     out[c] = acc[c] * inv_w;
                 }
-                return Ok(());
+                return;
             }
         }
     }
@@ -257,10 +356,12 @@ impl Volume {
     /// into `out`: `k` values, then `dA/du_1` (`k` values), `dA/du_2`, .. : `k (n + 1)`
     /// in all, the order `sculpt-tools volume eval --derivatives 1` prints.
     ///
-    /// Never allocates. Trivariate volumes take the fast path: the basis functions of
+    /// Never allocates. Trivariate volumes take a fast path: the basis functions of
     /// each direction once (P&T A2.2, eq. 2.7), then the tensor contracted one
     /// direction at a time (last direction innermost, over contiguous memory), with
-    /// the homogeneous width a compile-time constant for up to 8 attributes.
+    /// the homogeneous width a compile-time constant for up to 8 attributes. All-cubic
+    /// ones compute only the cubic values and first derivatives, in one pass
+    /// (P&T A2.3 with `n = 1`, unrolled), and contract fixed 4 x 4 x 4 blocks.
     pub fn eval_d1_into(&self, u: &[f64], out: &mut [f64]) -> VolumeResult<()> {
         self.check_params(u)?;
         let n = self.directions();
@@ -277,27 +378,14 @@ impl Volume {
                 self.knots[1].degree(),
                 self.knots[2].degree(),
             ];
-            // Constant widths and (for all-cubic or all-quadratic volumes) constant
-            // degrees let the compiler unroll the contraction.
-            macro_rules! widths {
-                ($p:literal) => {
-                    match self.dim {
-                        2 => self.d1_trivariate::<2, $p>(u, out),
-                        3 => self.d1_trivariate::<3, $p>(u, out),
-                        4 => self.d1_trivariate::<4, $p>(u, out),
-                        5 => self.d1_trivariate::<5, $p>(u, out),
-                        6 => self.d1_trivariate::<6, $p>(u, out),
-                        7 => self.d1_trivariate::<7, $p>(u, out),
-                        8 => self.d1_trivariate::<8, $p>(u, out),
-                        9 => self.d1_trivariate::<9, $p>(u, out),
-                        _ => self.d1_general(u, out),
-                    }
-                };
-            }
+            // Constant widths and (for all-quadratic volumes) constant degrees let the
+            // compiler unroll the contraction; all-cubic volumes take their own path.
             match degrees {
-                [3, 3, 3] => widths!(3),
-                [2, 2, 2] => widths!(2),
-                _ => widths!(0),
+                [3, 3, 3] => by_width!(self.d1_cubic::<_>(u, out) else self.d1_general(u, out)),
+                [2, 2, 2] => {
+                    by_width!(self.d1_trivariate::<_, 2>(u, out) else self.d1_general(u, out))
+                }
+                _ => by_width!(self.d1_trivariate::<_, 0>(u, out) else self.d1_general(u, out)),
             }
         } else {
             self.d1_general(u, out);
@@ -354,6 +442,67 @@ impl Volume {
         }
     }
 
+    /// The homogeneous value `A^w` and (when `DERIVS`) its first partial derivatives
+    /// `d/du_1, d/du_2, d/du_3` at `u` of an all-cubic trivariate volume with `D = k + 1`
+    /// values per homogeneous point.
+    ///
+    /// The basis of each direction once ([`cubic_basis`]), then P&T A3.6 / A4.3 on the
+    /// tensor one direction at a time: the last direction over each contiguous row of
+    /// four points (2 sums), the middle one over the four rows (3 sums), the first one
+    /// over the four slabs (4 sums). Fixed-size arrays only: no allocation, and the
+    /// loops unroll.
+    #[inline(always)]
+    fn cubic_trivariate<const D: usize, const DERIVS: bool>(&self, u: &[f64]) -> [[f64; D]; 4] {
+        let mut spans = [0; 3];
+        let mut n = [[0.0; 4]; 3];
+        let mut dn = [[0.0; 4]; 3];
+        for (d, kv) in self.knots.iter().take(3).enumerate() {
+            let t = kv.clamp(u[d]);
+            let s = kv.find_span(t);
+            spans[d] = s;
+            (n[d], dn[d]) = cubic_basis::<DERIVS>(kv.knots(), s, t);
+        }
+        let (st0, st1) = (self.strides[0], self.strides[1]);
+        let start = (spans[0] - 3) * st0 + (spans[1] - 3) * st1 + spans[2] - 3;
+        let (pts, _) = self.cw.as_chunks::<D>();
+        // Per slab i: the last direction, c0[j] = sum_l N_l P_ijl, c1[j] = sum_l N'_l P_ijl,
+        // then the middle one, b0 = sum_j N_j c0, b1 = sum_j N'_j c0, b2 = sum_j N_j c1.
+        let mut b0 = [[0.0; D]; 4];
+        let mut b1 = [[0.0; D]; 4];
+        let mut b2 = [[0.0; D]; 4];
+        for i in 0..4 {
+            let mut c0 = [[0.0; D]; 4];
+            let mut c1 = [[0.0; D]; 4];
+            for j in 0..4 {
+                let first = start + i * st0 + j * st1;
+                let row: &[[f64; D]; 4] = pts[first..first + 4]
+                    .try_into()
+                    .expect("four points per cubic row");
+                if DERIVS {
+                    (c0[j], c1[j]) = combine2(&n[2], &dn[2], row);
+                } else {
+                    c0[j] = combine(&n[2], row);
+                }
+            }
+            if DERIVS {
+                (b0[i], b1[i]) = combine2(&n[1], &dn[1], &c0);
+                b2[i] = combine(&n[1], &c1);
+            } else {
+                b0[i] = combine(&n[1], &c0);
+            }
+        }
+        // First direction: A^w and d/du_1, d/du_2, d/du_3 of A^w.
+        let mut a = [[0.0; D]; 4];
+        if DERIVS {
+            (a[0], a[1]) = combine2(&n[0], &dn[0], &b0);
+            a[2] = combine(&n[0], &b1);
+            a[3] = combine(&n[0], &b2);
+        } else {
+            a[0] = combine(&n[0], &b0);
+        }
+        a
+    }
+
     /// The trivariate fast path of [`Self::eval_d1_into`] with `D = k + 1` known at
     /// compile time, and the degrees too when `P > 0` (all three equal to `P`).
     #[inline(always)]
@@ -402,16 +551,30 @@ impl Volume {
                 a[3][e] += n * b[2][e];
             }
         }
-        let k = D - 1;
-        let inv_w = 1.0 / a[0][k];
+        d1_quotient(&a, out);
+    }
+
+    /// The all-cubic trivariate path of [`Self::eval_d1_into`].
+    #[inline(always)]
+    fn d1_cubic<const D: usize>(&self, u: &[f64], out: &mut [f64]) {
+        d1_quotient(&self.cubic_trivariate::<D, true>(u), out);
+    }
+}
+
+/// The rational values and first derivatives (`k = D - 1` each, in the layout of
+/// [`Volume::eval_d1_into`]) from the homogeneous ones `a = [A^w, d/du_1 A^w, ..]`
+/// (P&T eq. 4.8 differentiated: `A_d = (A^w_d - w_d A) / w`).
+#[inline(always)]
+fn d1_quotient<const D: usize>(a: &[[f64; D]; 4], out: &mut [f64]) {
+    let k = D - 1;
+    let inv_w = 1.0 / a[0][k];
+    for c in 0..k {
+        out[c] = a[0][c] * inv_w;
+    }
+    for d in 1..4 {
+        let wd = a[d][k];
         for c in 0..k {
-            out[c] = a[0][c] * inv_w;
-        }
-        for d in 1..4 {
-            let wd = a[d][k];
-            for c in 0..k {
-                out[d * k + c] = (a[d][c] - wd * out[c]) * inv_w;
-            }
+            out[d * k + c] = (a[d][c] - wd * out[c]) * inv_w;
         }
     }
 }
