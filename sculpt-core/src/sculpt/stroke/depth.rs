@@ -110,6 +110,13 @@ impl Stroke {
 
     /// The distance from `p` to segment `i` in units of its half-width there.
     fn segment_reach(&self, i: usize, p: DVec3) -> f64 {
+        let (_, r, hw) = self.segment_foot(i, p);
+        r / hw
+    }
+
+    /// Where `p` falls on segment `i`: the clamped parameter `t` of its foot, the
+    /// distance `r` to the foot and the half-width `hw` interpolated there.
+    fn segment_foot(&self, i: usize, p: DVec3) -> (f64, f64, f64) {
         let (a, b) = (self.centre[i], self.centre[i + 1]);
         let d = b - a;
         let l2 = d.length_squared();
@@ -119,7 +126,7 @@ impl Stroke {
             0.0
         };
         let hw = self.half_width[i] + (self.half_width[i + 1] - self.half_width[i]) * t;
-        p.distance(a + d * t) / hw
+        (t, p.distance(a + d * t), hw)
     }
 
     /// The gradient of segment `i`'s depth (see [`Self::segment_depth`]) at `p`, on
@@ -170,16 +177,7 @@ impl Stroke {
     /// The depth segment `i` of the centreline gives the point `p` (zero beyond its
     /// half-width).
     fn segment_depth(&self, i: usize, p: DVec3) -> f64 {
-        let (a, b) = (self.centre[i], self.centre[i + 1]);
-        let d = b - a;
-        let l2 = d.length_squared();
-        let t = if l2 > 0.0 {
-            ((p - a).dot(d) / l2).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let r = p.distance(a + d * t);
-        let hw = self.half_width[i] + (self.half_width[i + 1] - self.half_width[i]) * t;
+        let (t, r, hw) = self.segment_foot(i, p);
         if hw > 0.0 && r < hw {
             let dep = self.depth[i] + (self.depth[i + 1] - self.depth[i]) * t;
             dep * self.tool.profile.shape(r / hw)
