@@ -78,6 +78,11 @@ pub const BARYCENTRIC_EPS: f64 = 1e-9;
 /// Bounding rectangles in parameter space are padded by this, so points on their
 /// edges are inside.
 pub const UV_PAD: f64 = 1e-9;
+/// A component of the hidden region (`sculpt::hidden`) takes part in a union or a
+/// query when its bounds come within this of the footprint or query rectangle (in
+/// parameter units): wider than the polygon boolean's snapping grid (a few 1e-9 over
+/// `[-1, 2]^2`) and than [`ON_EDGE_EPS`], so no component that could meet is left out.
+pub const HIDDEN_COMPONENT_MARGIN: f64 = 1e-6;
 /// The smallest parameter extent of a grid's cells (a zero extent would divide by 0).
 pub const UV_EXTENT_MIN: f64 = 1e-12;
 /// A polygon in parameter space with a smaller signed area than this is degenerate.

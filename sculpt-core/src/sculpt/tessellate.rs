@@ -34,6 +34,7 @@
 //! **Incremental.** Each patch's inputs are hashed; after an edit only patches whose hash
 //! changed are triangulated and written (the sink replaces them by key).
 
+use super::hidden::HiddenRegion;
 use super::jordan::{Location, NodeClass, Rect, Region};
 use super::stroke::{Mode, Stroke};
 use super::surface::{ParamSurface, SurfaceExtent, extent, normal_from};
@@ -254,11 +255,9 @@ pub struct TargetTessellation {
     /// around a pole when a stroke far along it in parameter changes it.
     pole_heights: [u64; 4],
     map: UvMap,
-    /// `unions[k]`: the id of the k-th stroke and the union of the footprints of
-    /// strokes `0..=k`. Applying a stroke unions one footprint into the last entry;
-    /// undo pops.
-    unions: Vec<(u64, Region)>,
-    empty: Region,
+    /// The union of the footprints of the strokes seen, in order, as components:
+    /// applying a stroke unions its footprint with the components it meets; undo pops.
+    hidden: HiddenRegion,
     /// The roots each stroke touches (see [`Stroke::piece_bounds`]), by stroke id.
     touched: HashMap<u64, Vec<u32>>,
     /// The strokes touching each root, in application order.
@@ -311,8 +310,7 @@ impl TargetTessellation {
             triangles: vec![0; (n * n) as usize],
             root_strokes: vec![Vec::new(); (n * n) as usize],
             map,
-            unions: Vec::new(),
-            empty: Region::empty(),
+            hidden: HiddenRegion::default(),
             touched: HashMap::new(),
         }
     }
@@ -322,9 +320,11 @@ impl TargetTessellation {
         &self.map
     }
 
-    /// The union of all footprints (the region where the target is hidden).
-    pub fn hidden(&self) -> &Region {
-        self.unions.last().map_or(&self.empty, |u| &u.1)
+    /// The union of all footprints (the region where the target is hidden), as one
+    /// region (built on each call: the view keeps it as components, see
+    /// [`super::hidden`]).
+    pub fn hidden(&self) -> Region {
+        self.hidden.region()
     }
 
     /// Triangles in the current mesh of this target.
@@ -345,11 +345,7 @@ impl TargetTessellation {
     /// Memory held by the map and bookkeeping, bytes (excluding the written mesh).
     pub fn memory_bytes(&self) -> usize {
         self.map.memory_bytes()
-            + self
-                .unions
-                .iter()
-                .map(|u| u.1.segments().len() * 40)
-                .sum::<usize>()
+            + self.hidden.memory_bytes()
             + self
                 .touched
                 .values()
@@ -416,25 +412,22 @@ impl TargetTessellation {
         }
         // The strokes added and removed since the last call.
         let common = self
-            .unions
-            .iter()
+            .hidden
+            .ids()
             .zip(strokes)
-            .take_while(|(u, s)| u.0 == s.0)
+            .take_while(|(u, s)| *u == s.0)
             .count();
-        let old_segments: Vec<[DVec2; 2]> = self.hidden().segments().to_vec();
-        let edited = common < self.unions.len() || common < strokes.len();
-        for (id, _) in self.unions.split_off(common) {
+        let edited = common < self.hidden.len() || common < strokes.len();
+        self.hidden.set_tracking(!fresh);
+        while self.hidden.len() > common {
+            let Some(id) = self.hidden.pop() else { break };
             for r in self.touched.remove(&id).unwrap_or_default() {
                 dirty[r as usize] = true;
                 self.root_strokes[r as usize].retain(|&x| x != id);
             }
         }
         for &(id, s) in &strokes[common..] {
-            let hidden = match self.unions.last() {
-                Some((_, prev)) => super::stroke::union(&[prev, &s.footprint]),
-                None => super::stroke::union(&[&s.footprint]),
-            };
-            self.unions.push((id, hidden));
+            self.hidden.push(id, &s.footprint);
             let touched = self.roots_touched(s);
             for &r in &touched {
                 dirty[r as usize] = true;
@@ -443,22 +436,8 @@ impl TargetTessellation {
             self.touched.insert(id, touched);
         }
         // Roots met by an outline segment that appeared or disappeared.
+        let changed = self.hidden.take_changed();
         if !fresh && edited {
-            let key = |s: &[DVec2; 2]| [s[0].x, s[0].y, s[1].x, s[1].y].map(f64::to_bits);
-            let old: std::collections::HashSet<[u64; 4]> = old_segments.iter().map(key).collect();
-            let new: std::collections::HashSet<[u64; 4]> =
-                self.hidden().segments().iter().map(key).collect();
-            let changed: Vec<[DVec2; 2]> = old_segments
-                .iter()
-                .filter(|s| !new.contains(&key(s)))
-                .chain(
-                    self.hidden()
-                        .segments()
-                        .iter()
-                        .filter(|s| !old.contains(&key(s))),
-                )
-                .copied()
-                .collect();
             for s in changed {
                 self.for_roots_meeting(s, |r| dirty[r as usize] = true);
             }
@@ -486,13 +465,13 @@ impl TargetTessellation {
                 dirty[r as usize] = true;
             }
         }
-        let hidden = self.unions.last().map_or(&self.empty, |u| &u.1);
         // The grading looks up to `GRADING_REACH` root cells beyond a node (see
         // `uvmap::GRADING_REACH`): the two rings of roots around a dirty one are
         // reclassified too, and those whose leaves changed are re-checked.
         let reclassify = self.grow_with_corners(&self.grow_with_corners(&dirty));
         for r in (0..n * n).filter(|&r| reclassify[r as usize]) {
-            let edit = self.map.update_roots(hidden, [r], self.detail.cap());
+            let near = self.hidden.local(self.reach_of(r));
+            let edit = self.map.update_roots(&near, [r], self.detail.cap());
             if !edit.is_empty() {
                 dirty[r as usize] = true;
             }
@@ -574,6 +553,30 @@ impl TargetTessellation {
         (j0..=j1).flat_map(move |j| (i0..=i1).map(move |i| self.map.root(i, j)))
     }
 
+    /// The rectangles a classification of root `root`'s nodes may ask about: the root
+    /// widened by two root cells (more than [`super::uvmap::GRADING_REACH`] of its
+    /// largest node), with its copies one period over on a closed surface.
+    fn reach_of(&self, root: u32) -> Vec<Rect> {
+        let rect = self.map.node(root).rect;
+        let reach = (rect.max - rect.min) * 2.0;
+        let wide = Rect::new(rect.min - reach, rect.max + reach);
+        let shifts = |closed: bool| {
+            if closed {
+                vec![-1.0, 0.0, 1.0]
+            } else {
+                vec![0.0]
+            }
+        };
+        let mut out = Vec::new();
+        for dv in shifts(self.extent.closed_v) {
+            for du in shifts(self.extent.closed_u) {
+                let d = DVec2::new(du, dv);
+                out.push(Rect::new(wide.min + d, wide.max + d));
+            }
+        }
+        out
+    }
+
     /// The mask grown by one ring of neighbours (across the seams of closed surfaces).
     fn grow(&self, mask: &[bool]) -> Vec<bool> {
         let mut out = mask.to_vec();
@@ -648,12 +651,13 @@ impl TargetTessellation {
                 || ((self.extent.closed_v || p2) && on(s[0].y, s[1].y, 0.0))
                 || ((self.extent.closed_v || p3) && on(s[0].y, s[1].y, 1.0))
         };
-        let hidden = self
-            .hidden()
-            .segments()
-            .iter()
-            .filter(|s| !on_seam(s))
-            .map(|s| (*s, Kind::Rim));
+        let mut outline = Vec::new();
+        self.hidden.segments_where(near, |s| {
+            if !on_seam(&s) {
+                outline.push((s, Kind::Rim));
+            }
+        });
+        let hidden = outline.into_iter();
         let centres = strokes
             .iter()
             .filter(|(id, _)| {
