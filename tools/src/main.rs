@@ -40,6 +40,7 @@ use clap::{Parser, Subcommand};
 
 mod cmd;
 mod goms;
+mod progress;
 
 /// The Wandsculpt command-line tools.
 #[derive(Debug, Parser)]

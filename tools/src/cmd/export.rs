@@ -2,9 +2,9 @@
 //! surfaces, entity 144; stroke surfaces as entity 128).
 
 use super::mesh::load_scene;
+use crate::progress::Progress;
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use indicatif::ProgressBar;
 use sculpt_core::formats::iges;
 use std::path::PathBuf;
 
@@ -28,14 +28,15 @@ pub fn run(args: ExportArgs) -> Result<()> {
     if !matches!(ext.as_deref(), Some("igs" | "iges")) {
         bail!("--out must end in .igs or .iges: {}", args.out.display());
     }
+    let mut progress = Progress::new("export", 0);
+    progress.set_message("reading the scene");
     let doc = load_scene(&args.scene)?;
-    let bar = ProgressBar::new_spinner();
-    bar.set_message("building trimmed surfaces");
+    progress.set_message("building trimmed surfaces");
     let surfaces = doc.iges_surfaces();
-    bar.set_message("writing IGES");
+    progress.set_message("writing IGES");
     let bytes = iges::write(&surfaces).context("writing IGES")?;
-    bar.finish_and_clear();
     super::io::write_file(&args.out, &bytes)?;
+    progress.finish();
     let trimmed = surfaces.iter().filter(|s| s.faces.is_some()).count();
     println!(
         "{}: {} surfaces ({} trimmed), {} bytes",

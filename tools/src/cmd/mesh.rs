@@ -3,9 +3,9 @@
 //! picks what is written: the sculpted target (the default), the visible parts of the
 //! stroke surfaces, or both.
 
+use crate::progress::Progress;
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
 use sculpt_core::formats::MeshFormat;
 use sculpt_core::mesh::{MeshSink, MeshVertex, PatchKey, PatchMesh};
 use sculpt_core::sculpt::document::Document;
@@ -70,13 +70,13 @@ pub fn load_scene(path: &Path) -> Result<Document> {
     Document::from_json(&bytes).with_context(|| format!("loading {}", path.display()))
 }
 
-/// A sink that collects patches and ticks a progress bar per patch.
-struct Progress<'a> {
+/// A sink that collects patches and ticks the progress per patch.
+struct Ticking<'a> {
     mesh: &'a mut PatchMesh,
-    bar: &'a ProgressBar,
+    progress: &'a mut Progress,
 }
 
-impl MeshSink for Progress<'_> {
+impl MeshSink for Ticking<'_> {
     fn begin_patch(&mut self, key: PatchKey) {
         self.mesh.begin_patch(key);
     }
@@ -88,31 +88,29 @@ impl MeshSink for Progress<'_> {
     }
     fn end_patch(&mut self) {
         self.mesh.end_patch();
-        self.bar.inc(1);
+        self.progress.inc(1);
     }
     fn remove_patch(&mut self, key: PatchKey) {
         self.mesh.remove_patch(key);
     }
 }
 
-/// Tessellates a document with a progress bar on a terminal (hidden otherwise).
-pub fn tessellate_with_progress(doc: &mut Document, detail: Detail) -> PatchMesh {
-    let bar = ProgressBar::new(0);
-    bar.set_style(
-        ProgressStyle::with_template("{msg} [{bar:40}] {pos} patches ({elapsed})")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    bar.set_message("tessellating");
-    bar.set_length(doc.patch_count(detail) as u64);
+/// Tessellates a document, reporting progress per patch (see [`crate::progress`]).
+pub fn tessellate_with_progress(
+    doc: &mut Document,
+    detail: Detail,
+    progress: &mut Progress,
+) -> PatchMesh {
+    progress.set_length(doc.patch_count(detail) as u64);
+    progress.set_message("tessellating patches");
     let mut mesh = PatchMesh::new();
     doc.tessellate(
         detail,
-        &mut Progress {
+        &mut Ticking {
             mesh: &mut mesh,
-            bar: &bar,
+            progress,
         },
     );
-    bar.finish_and_clear();
     mesh
 }
 
@@ -124,16 +122,20 @@ pub fn run(args: MeshArgs) -> Result<()> {
             args.out.display()
         );
     };
+    let mut progress = Progress::new("mesh", 0);
+    progress.set_message("reading the scene");
     let mut doc = load_scene(&args.scene)?;
     let detail = Detail::from(args.depth);
     let mut mesh = if args.part == PartArg::Strokes {
         PatchMesh::new()
     } else {
-        tessellate_with_progress(&mut doc, detail)
+        tessellate_with_progress(&mut doc, detail, &mut progress)
     };
     if args.part != PartArg::Target {
+        progress.set_message("stroke surfaces");
         doc.stroke_surfaces_mesh(detail, &mut mesh);
     }
+    progress.set_message("welding and writing");
     let size = doc
         .targets()
         .iter()
@@ -146,6 +148,7 @@ pub fn run(args: MeshArgs) -> Result<()> {
     let bytes = format.write(&welded).context("writing the mesh")?;
     super::io::write_file(&args.out, &bytes)?;
     let report = welded.edge_report();
+    progress.finish();
     println!(
         "{}: {} triangles, {} vertices, {} bytes; open edges {}, watertight {}",
         args.out.display(),

@@ -11,9 +11,9 @@
 //! `POINTS` is a `.xyz`, `.pwn`, `.ply`, `.obj` or `.off` file, or `torus:N[:SEED]` for
 //! the paper's torus (N points, seeded).
 
+use crate::progress::Progress;
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
 use sculpt_core::formats::{iges, obj};
 use sculpt_core::nurbs::surface::MAX_JSON_COORDINATE_M;
 use sculpt_core::reconstruct::network::{NetworkSettings, shared_sides, to_document};
@@ -191,12 +191,8 @@ fn check_extent(cloud: &PointCloud, spec: &str) -> Result<()> {
 /// Reads the points and runs the method, with a progress bar on a terminal.
 pub fn reconstruct(args: &ReconstructArgs) -> Result<(Reconstruction, Report)> {
     let start = Instant::now();
-    let bar = ProgressBar::new(STAGES.len() as u64 + 1);
-    bar.set_style(
-        ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} ({elapsed})")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    bar.set_message("reading");
+    let mut progress = Progress::new("reconstruct", STAGES.len() as u64 + 1);
+    progress.set_message("reading");
     let cloud = load(&args.points)?;
     check_extent(&cloud, &args.points)?;
     let mut settings = SegmentSettings::new(args.patches);
@@ -209,11 +205,11 @@ pub fn reconstruct(args: &ReconstructArgs) -> Result<(Reconstruction, Report)> {
     };
     let r = run_method(&cloud, &settings, &network_settings, |stage| {
         let at = STAGES.iter().position(|s| *s == stage).unwrap_or(0);
-        bar.set_position(at as u64 + 1);
-        bar.set_message(stage);
+        progress.set_position(at as u64 + 1);
+        progress.set_message(stage);
     })
     .with_context(|| args.points.clone())?;
-    bar.finish_and_clear();
+    progress.finish();
     let seg = &r.segmentation;
     let model = &r.model;
     let edge_uses = model.edge_uses();
