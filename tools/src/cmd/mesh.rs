@@ -147,13 +147,15 @@ pub fn run(args: MeshArgs) -> Result<()> {
     super::io::write_file(&args.out, &bytes)?;
     let report = welded.edge_report();
     println!(
-        "{}: {} triangles, {} vertices, {} bytes; open edges {}, watertight {}",
+        "{}: {} triangles, {} vertices, {} bytes; open edges {}, watertight {}, bodies {}, Euler characteristic {}",
         args.out.display(),
         welded.triangles.len(),
         welded.vertices.len(),
         bytes.len(),
         report.boundary,
-        report.is_watertight()
+        report.is_watertight(),
+        welded.bodies(),
+        welded.euler_characteristic()
     );
     Ok(())
 }
