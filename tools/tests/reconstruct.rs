@@ -451,7 +451,12 @@ fn a_reconstructed_torus_meshes_into_one_watertight_surface() {
         "--out",
         doc.to_str().unwrap(),
     ]);
-    report(&out);
+    // No folds: the network's area facing against the data normals (measured 0).
+    let folded = fig(&report(&out), "folded_area");
+    assert!(
+        folded <= sculpt_core::tolerance::FOLD_AREA_FRACTION,
+        "{folded}"
+    );
     for (depth, file) in [("final", "scan.stl"), ("interactive", "scan.obj")] {
         let path = dir.path().join(file);
         let out = run(&[
