@@ -225,6 +225,46 @@ pub fn weld(verts: &[MeshVertex], tris: &[[u32; 3]], tol: f32) -> WeldedMesh {
 }
 
 impl WeldedMesh {
+    /// The connected pieces of the mesh (triangles joined through shared vertices).
+    pub fn bodies(&self) -> usize {
+        let mut parent: Vec<u32> = (0..self.vertices.len() as u32).collect();
+        fn root(parent: &mut [u32], x: u32) -> u32 {
+            let mut r = x;
+            while parent[r as usize] != r {
+                parent[r as usize] = parent[parent[r as usize] as usize];
+                r = parent[r as usize];
+            }
+            r
+        }
+        for t in &self.triangles {
+            for k in 0..2 {
+                let (a, b) = (root(&mut parent, t[k]), root(&mut parent, t[k + 1]));
+                parent[a as usize] = b;
+            }
+        }
+        let mut roots: Vec<u32> = self
+            .triangles
+            .iter()
+            .map(|t| root(&mut parent, t[0]))
+            .collect();
+        roots.sort_unstable();
+        roots.dedup();
+        roots.len()
+    }
+
+    /// The Euler characteristic `V - E + F` over the vertices the triangles use
+    /// (`2 - 2g` for a closed surface of genus `g`, summed over its bodies).
+    pub fn euler_characteristic(&self) -> i64 {
+        let mut used = vec![false; self.vertices.len()];
+        for t in &self.triangles {
+            for &k in t {
+                used[k as usize] = true;
+            }
+        }
+        let v = used.iter().filter(|&&u| u).count() as i64;
+        v - self.edge_report().edges as i64 + self.triangles.len() as i64
+    }
+
     /// Counts boundary, non-manifold and misoriented edges.
     pub fn edge_report(&self) -> EdgeReport {
         use std::collections::HashMap;

@@ -592,6 +592,19 @@ pub const VOLUME_GRID_INTERP_EPS: f64 = 1e-2;
 /// size of the values.
 pub const VOLUME_REFINE_REL: f64 = 1e-12;
 
+// ---------------------------------------------------------------------------------
+// Conforming tessellation of patch networks (`sculpt::conform`, issue 30 item 2).
+// ---------------------------------------------------------------------------------
+
+/// Largest difference of two patches' knots along a side (normalised to `[0, 1]`) for
+/// the side to count as shared: the knots of a reversed side are `1 - t`, which may
+/// differ from the other patch's `t` by rounding.
+pub const CONFORM_KNOT_EPS: f64 = 1e-12;
+
+/// Largest area fraction of a reconstructed network that may face against the data's
+/// normals (issue 30: at most 0.1 %).
+pub const FOLD_AREA_FRACTION: f64 = 1e-3;
+
 #[cfg(test)]
 mod tests {
     use super::*;

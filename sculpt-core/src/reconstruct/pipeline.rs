@@ -6,9 +6,11 @@ use super::network::{
     DataSnap, NetworkSettings, PatchNetwork, SideAngle, fit_network, g1_angles, network_distances,
     place_corners, quad_grids,
 };
+use super::normals::point_tree;
 use super::polygon::{PolygonModel, polygon_model};
 use super::read::PointCloud;
 use super::segment::{SegmentSettings, Segmentation, bbox_diagonal, segment};
+use glam::DVec3;
 
 /// The stages, in order, as [`reconstruct`] reports them to its progress callback.
 pub const STAGES: [&str; 9] = [
@@ -37,6 +39,9 @@ pub struct Figures {
     pub e_max: f64,
     /// The largest angle between normals along each shared side.
     pub angles: Vec<SideAngle>,
+    /// The fraction of the network's area that faces against the data
+    /// ([`folded_area`]).
+    pub folded_area: f64,
 }
 
 impl Figures {
@@ -105,7 +110,46 @@ pub fn figures(network: &PatchNetwork, seg: &Segmentation) -> Figures {
         e_avg: d.iter().sum::<f64>() / d.len().max(1) as f64 / scale,
         e_max: d.iter().copied().fold(0.0, f64::max) / scale,
         angles: g1_angles(network, ANGLE_SAMPLES),
+        folded_area: folded_area(network, &seg.points, &seg.normals),
     }
+}
+
+/// The fraction of the network's area that faces against the data: its conforming
+/// mesh at final detail ([`crate::sculpt::conform`], as `sculpt-tools mesh` writes it),
+/// each triangle's area counted against when its normal points away from the normal
+/// of the data point nearest its centroid (issue 30: at most 0.1 %). 0 without area
+/// or points.
+pub fn folded_area(network: &PatchNetwork, points: &[DVec3], normals: &[DVec3]) -> f64 {
+    use crate::mesh::PatchMesh;
+    use crate::sculpt::conform::{Network, NetworkPlan, write_network};
+    use crate::sculpt::tessellate::Detail;
+    if points.is_empty() || points.len() != normals.len() {
+        return 0.0;
+    }
+    let surfaces: Vec<&crate::nurbs::NurbsSurface> = network.surfaces.iter().collect();
+    let net = Network::of(&surfaces);
+    let plan = NetworkPlan::new(&surfaces, &net, Detail::Final);
+    let all: Vec<usize> = (0..surfaces.len()).collect();
+    let mut mesh = PatchMesh::new();
+    write_network(&surfaces, &net, &plan, &all, |k| k as u64, &mut mesh);
+    let tree = point_tree(points);
+    let (mut against, mut total) = (0.0, 0.0);
+    for (_, patch) in mesh.patches() {
+        for t in &patch.triangles {
+            let [a, b, c] =
+                t.map(|i| DVec3::from(patch.vertices[i as usize].position.map(f64::from)));
+            let n = (b - a).cross(c - a);
+            let area = 0.5 * n.length();
+            total += area;
+            let centre = (a + b + c) / 3.0;
+            if let Some(near) = tree.nearest_neighbor(&centre.to_array())
+                && n.dot(normals[near.data]) < 0.0
+            {
+                against += area;
+            }
+        }
+    }
+    if total > 0.0 { against / total } else { 0.0 }
 }
 
 #[cfg(test)]

@@ -53,6 +53,20 @@ pub fn torus_distance(p: DVec3, major: f64, minor: f64) -> f64 {
     (ring * ring + p.z * p.z).sqrt() - minor
 }
 
+/// `n` points uniformly distributed by area on the sphere of radius `radius` about the
+/// origin (uniform `z` and longitude: Archimedes' hat-box theorem), from `seed`.
+pub fn sphere(n: usize, radius: f64, seed: u64) -> Vec<DVec3> {
+    let mut rng = SplitMix64::new(seed);
+    (0..n)
+        .map(|_| {
+            let z = 2.0 * rng.next_f64() - 1.0;
+            let a = TAU * rng.next_f64();
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            DVec3::new(r * a.cos(), r * a.sin(), z) * radius
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

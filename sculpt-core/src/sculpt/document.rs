@@ -62,6 +62,7 @@
 //! other versions, duplicate ids, dangling targets and strokes that the sculpting rules
 //! reject are errors that say which entry is wrong. Scene files are documents.
 
+use super::conform::{Network, NetworkPlan, write_network};
 use super::jordan::Rect;
 use super::stroke::{StrokeInput, StrokePieces, Tool};
 use super::stroke_surface::StrokeSurface;
@@ -213,6 +214,27 @@ pub struct Document {
     surfaces: SurfaceCache,
     /// Wand samples of all strokes in [`Self::strokes`] (for [`MAX_DOCUMENT_SAMPLES`]).
     samples_total: usize,
+    /// The conforming tessellation of the targets that form a patch network, per
+    /// detail ([`super::conform`]).
+    conform: HashMap<Detail, ConformState>,
+}
+
+/// The patch network of the targets at one detail and what of it is in the sink.
+#[derive(Debug, Clone)]
+struct ConformState {
+    /// The targets (ids, in order) the network was found among.
+    ids: Vec<TargetId>,
+    network: Network,
+    plan: NetworkPlan,
+    /// Per target index, the triangles of its conforming patch in the sink (`None`:
+    /// not written).
+    written: Vec<Option<usize>>,
+}
+
+/// The key of a target's one patch when it is tessellated as part of a network (its
+/// index in the high bits, as every patch key of a target, and a root no grid has).
+pub fn conform_key(target: usize) -> u64 {
+    ((target as u64) << 32) | u64::from(u32::MAX)
 }
 
 /// A stroke as built: its pieces and the key of each, under which the tessellator and
@@ -604,7 +626,11 @@ impl Document {
                 true
             }
         });
+        let conformal = self.conform_pass(detail, sink, &mut stats);
         for (k, t) in self.targets.iter().enumerate() {
+            if conformal.get(k) == Some(&true) {
+                continue;
+            }
             let key = (t.id, detail);
             let changed = self.dirty.remove(&key);
             let fresh = !self.views.contains_key(&key);
@@ -636,19 +662,136 @@ impl Document {
     /// at each detail writes every patch again, as into new, empty sinks.
     pub fn forget_sinks(&mut self) {
         self.views.clear();
+        self.conform.clear();
         self.dirty.clear();
         self.removed.clear();
     }
 
     /// The number of patches a full tessellation at `detail` writes (for progress).
     pub fn patch_count(&self, detail: Detail) -> usize {
+        let conformal = self.conformal(&self.network(), detail);
         self.targets
             .iter()
-            .map(|t| {
+            .enumerate()
+            .map(|(k, t)| {
+                if conformal.get(k) == Some(&true) {
+                    return 1;
+                }
                 let n = self.grid(t, detail).n;
                 (n * n) as usize
             })
             .sum()
+    }
+
+    /// The patch network the targets form ([`Network::of`]; empty when no two share a
+    /// side, as for every document of one target).
+    pub fn network(&self) -> Network {
+        let surfaces: Vec<&NurbsSurface> = self.targets.iter().map(|t| &t.surface).collect();
+        Network::of(&surfaces)
+    }
+
+    /// Per target index, whether it is tessellated as part of `network` at `detail`:
+    /// it shares a side and carries no stroke (nor, at interactive detail, the
+    /// preview). Empty when the network is.
+    fn conformal(&self, network: &Network, detail: Detail) -> Vec<bool> {
+        if network.is_empty() {
+            return Vec::new();
+        }
+        self.targets
+            .iter()
+            .enumerate()
+            .map(|(k, t)| {
+                let previewed = detail == Detail::Interactive
+                    && self.preview.as_ref().is_some_and(|(id, _)| *id == t.id);
+                network.holds(k)
+                    && !previewed
+                    && pieces_on(&self.strokes, &self.built, t.id).next().is_none()
+            })
+            .collect()
+    }
+
+    /// Writes the network's patches that need it ([`Self::conformal`] targets not yet
+    /// in the sink), removes the per-target patches of targets that became conformal
+    /// and the conforming patches of those that no longer are. Returns
+    /// [`Self::conformal`].
+    fn conform_pass(
+        &mut self,
+        detail: Detail,
+        sink: &mut dyn MeshSink,
+        stats: &mut TessStats,
+    ) -> Vec<bool> {
+        let ids: Vec<TargetId> = self.targets.iter().map(|t| t.id).collect();
+        if self.conform.get(&detail).is_none_or(|c| c.ids != ids) {
+            if let Some(old) = self.conform.remove(&detail) {
+                for (k, w) in old.written.iter().enumerate() {
+                    if w.is_some() {
+                        sink.remove_patch(conform_key(k));
+                    }
+                }
+            }
+            let network = self.network();
+            let plan = if network.is_empty() {
+                NetworkPlan {
+                    cells: Vec::new(),
+                    side_cells: Vec::new(),
+                }
+            } else {
+                let surfaces: Vec<&NurbsSurface> =
+                    self.targets.iter().map(|t| &t.surface).collect();
+                NetworkPlan::new(&surfaces, &network, detail)
+            };
+            let written = vec![None; ids.len()];
+            self.conform.insert(
+                detail,
+                ConformState {
+                    ids,
+                    network,
+                    plan,
+                    written,
+                },
+            );
+        }
+        let Some(mut state) = self.conform.remove(&detail) else {
+            return Vec::new();
+        };
+        let conformal = self.conformal(&state.network, detail);
+        let mut to_write = Vec::new();
+        for (k, t) in self.targets.iter().enumerate() {
+            if conformal.get(k) == Some(&true) {
+                if let Some(view) = self.views.remove(&(t.id, detail)) {
+                    let n = view.map().n();
+                    for r in 0..n * n {
+                        sink.remove_patch(view.patch_key(r));
+                    }
+                }
+                self.dirty.remove(&(t.id, detail));
+                match state.written[k] {
+                    Some(tris) => stats.triangles_total += tris,
+                    None => to_write.push(k),
+                }
+            } else if state.written[k].take().is_some() {
+                sink.remove_patch(conform_key(k));
+            }
+        }
+        if !to_write.is_empty() {
+            let surfaces: Vec<&NurbsSurface> = self.targets.iter().map(|t| &t.surface).collect();
+            let tris = write_network(
+                &surfaces,
+                &state.network,
+                &state.plan,
+                &to_write,
+                conform_key,
+                sink,
+            );
+            for (k, n) in to_write.into_iter().zip(tris) {
+                state.written[k] = Some(n);
+                stats.patches_written += 1;
+                stats.triangles_written += n;
+                stats.triangles_total += n;
+            }
+        }
+        self.conform.insert(detail, state);
+        conformal
     }
 
     /// The root grid of a target at a detail (chosen when the target was added).
@@ -659,7 +802,18 @@ impl Document {
     /// The whole sculpted mesh at `detail`, freshly tessellated.
     pub fn mesh(&self, detail: Detail) -> PatchMesh {
         let mut mesh = PatchMesh::new();
+        let network = self.network();
+        let conformal = self.conformal(&network, detail);
+        let which: Vec<usize> = (0..conformal.len()).filter(|&k| conformal[k]).collect();
+        if !which.is_empty() {
+            let surfaces: Vec<&NurbsSurface> = self.targets.iter().map(|t| &t.surface).collect();
+            let plan = NetworkPlan::new(&surfaces, &network, detail);
+            write_network(&surfaces, &network, &plan, &which, conform_key, &mut mesh);
+        }
         for (k, t) in self.targets.iter().enumerate() {
+            if conformal.get(k) == Some(&true) {
+                continue;
+            }
             let plan = self.grid(t, detail);
             let mut view = TargetTessellation::with_grid(&t.surface, k as u32, detail, &plan);
             view.update_strokes(&t.surface, &self.strokes_on(t.id), &mut mesh);

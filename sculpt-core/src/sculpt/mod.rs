@@ -1,5 +1,6 @@
 //! Multiresolution sculpting (Kwon, Kim and Chai, "NURBS surface rendering of sculpting effect using multiresolution surface trimming for spatial virtual design", 2006): UV vector maps, strokes, Jordan
 //! classification, trimming, overlaps and tessellation.
+pub mod conform;
 pub mod document;
 pub mod hidden;
 pub mod jordan;

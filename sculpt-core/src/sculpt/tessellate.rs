@@ -108,7 +108,7 @@ pub const MIN_GRID: u32 = 8;
 /// The deviation the grid is planned for, as a fraction of the stated tolerance: the
 /// chord error is measured at cell midpoints, where it peaks for smooth patches; the
 /// margin covers higher-order terms between them.
-const GRID_MARGIN: f64 = 0.8;
+pub(crate) const GRID_MARGIN: f64 = 0.8;
 
 /// Most root cells refined beyond this many levels by [`GridPlan`].
 pub const MAX_REFINE: u8 = 4;

@@ -9,7 +9,7 @@ use clap::Args;
 use sculpt_core::formats::MeshFormat;
 use sculpt_core::mesh::{MeshSink, MeshVertex, PatchKey, PatchMesh};
 use sculpt_core::sculpt::document::Document;
-use sculpt_core::sculpt::tessellate::Detail;
+use sculpt_core::sculpt::tessellate::{Detail, TargetTessellation};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `mesh`.
@@ -29,6 +29,10 @@ pub struct MeshArgs {
     /// remove it) or `all` (both).
     #[arg(long, value_enum, default_value_t = PartArg::Target)]
     pub part: PartArg,
+    /// Mesh every target on its own grid, also where targets share sides (a
+    /// reconstructed patch network is otherwise meshed as one watertight surface).
+    #[arg(long)]
+    pub apart: bool,
 }
 
 /// The `--part` values.
@@ -128,6 +132,13 @@ pub fn run(args: MeshArgs) -> Result<()> {
     let detail = Detail::from(args.depth);
     let mut mesh = if args.part == PartArg::Strokes {
         PatchMesh::new()
+    } else if args.apart {
+        let mut mesh = PatchMesh::new();
+        for (k, t) in doc.targets().iter().enumerate() {
+            let mut view = TargetTessellation::new(&t.surface, k as u32, detail);
+            view.update_strokes(&t.surface, &doc.strokes_on(t.id), &mut mesh);
+        }
+        mesh
     } else {
         tessellate_with_progress(&mut doc, detail, &mut progress)
     };
@@ -150,13 +161,15 @@ pub fn run(args: MeshArgs) -> Result<()> {
     let report = welded.edge_report();
     progress.finish();
     println!(
-        "{}: {} triangles, {} vertices, {} bytes; open edges {}, watertight {}",
+        "{}: {} triangles, {} vertices, {} bytes; open edges {}, watertight {}, bodies {}, Euler characteristic {}",
         args.out.display(),
         welded.triangles.len(),
         welded.vertices.len(),
         bytes.len(),
         report.boundary,
-        report.is_watertight()
+        report.is_watertight(),
+        welded.bodies(),
+        welded.euler_characteristic()
     );
     Ok(())
 }

@@ -131,6 +131,9 @@ pub struct Report {
     pub g1_max_degrees: f64,
     /// Mean over shared sides of each side's largest angle, degrees.
     pub g1_mean_degrees: f64,
+    /// Fraction of the network's area (its mesh at final detail) facing against the
+    /// normals of the nearest data points (folds; issue 30 asks at most 0.001).
+    pub folded_area: f64,
     /// Seconds for reading and the whole method, figures included (not writing).
     pub seconds: f64,
 }
@@ -253,6 +256,7 @@ pub fn reconstruct(args: &ReconstructArgs) -> Result<(Reconstruction, Report)> {
         e_max: r.figures.e_max,
         g1_max_degrees: r.figures.worst_angle(),
         g1_mean_degrees: angles.iter().sum::<f64>() / angles.len().max(1) as f64,
+        folded_area: r.figures.folded_area,
         seconds: start.elapsed().as_secs_f64(),
     };
     Ok((r, report))
