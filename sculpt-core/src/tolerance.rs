@@ -617,6 +617,21 @@ pub const GPU_EVAL_ARC_REL: f64 = 1.5e-5;
 /// `atan`, 3.7e-7 on the shipped models.
 pub const GPU_EVAL_MODEL_REL: f64 = 1e-5;
 
+// ---------------------------------------------------------------------------------
+// Dual contouring of implicit solids (sculpt_core::implicit::dual, issue 34).
+// ---------------------------------------------------------------------------------
+
+/// Singular values of a cell's QEF matrix A (one row per tangent plane) below this
+/// fraction of the largest are dropped (Lindstrom 2000; Ju et al. 2002 sec. 2.3):
+/// normals that differ by less than about 15 degrees count as one plane, so smooth
+/// patches get rank 1, and an edge is seen even where one face has ten times the
+/// other's points in the cell.
+pub const DUAL_QEF_SVD_REL: f64 = 0.25;
+/// Dual contouring puts a vertex on a box's edges to this fraction of a grid cell
+/// within every cell along them (measured 3e-7), where marching tetrahedra keep theirs
+/// on grid edges, a good part of a cell away.
+pub const DUAL_EDGE_CELL_FRAC: f64 = 0.05;
+
 #[cfg(test)]
 mod tests {
     use super::*;
