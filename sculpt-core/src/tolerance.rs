@@ -605,6 +605,50 @@ pub const CONFORM_KNOT_EPS: f64 = 1e-12;
 /// normals (issue 30: at most 0.1 %).
 pub const FOLD_AREA_FRACTION: f64 = 1e-3;
 
+// GPU evaluation of implicit tapes (vr_app::gpu_eval, issue 34).
+// ---------------------------------------------------------------------------------
+
+/// GPU and CPU values of one correctly rounded op (`add sub mul neg abs square floor
+/// ceil round min max compare and or not`) agree to this many f32 ulps of the CPU
+/// value: none, IEEE 754 fixes these results bit for bit (WGSL sec. 15.7.4).
+pub const GPU_EVAL_EXACT_ULPS: f64 = 0.0;
+/// GPU and CPU values of `div`, `recip`, `sqrt` and `mod` agree to this many f32 ulps
+/// (of the CPU value; of the larger argument for `mod`, whose WGSL form
+/// `a - b trunc(a / b)` rounds the product): WGSL allows 2.5 ulps for division and
+/// inherits `sqrt` from `1 / inverseSqrt` (2 + 2.5 ulps), sec. 15.7.4. Lavapipe rounds
+/// them correctly (0 ulps measured; `mod` 0.45).
+pub const GPU_EVAL_ULPS: f64 = 5.0;
+/// GPU and CPU values of `sin cos tan exp ln` agree to this fraction of
+/// max(|value|, 1) on the test domains (vr-app/tests/gpu_eval.rs): the largest
+/// difference measured on lavapipe, 4.6e-7 (`exp` on [-10, 10]), with a margin of 4.
+/// WGSL itself allows more (2^-11 absolute for `sin` and `cos`, sec. 15.7.4), so other
+/// drivers may need a looser bound.
+pub const GPU_EVAL_TRANSCENDENTAL_REL: f64 = 2e-6;
+/// The same for `atan atan2 asin acos` (the last two computed through `atan2`):
+/// measured on lavapipe 3.4e-6, with a margin of 4 (WGSL allows 4096 ulps).
+pub const GPU_EVAL_ARC_REL: f64 = 1.5e-5;
+/// A whole tape on the GPU agrees with the CPU's f32 tape to this fraction of the
+/// largest intermediate magnitude (plus one): the per-op differences above (a final
+/// `atan`'s, and a few ulps where a driver fuses a multiply and an add) carried through
+/// tapes of tens of ops. Measured on lavapipe: 1.6e-6 on random programs ending in
+/// `atan`, 3.7e-7 on the shipped models.
+pub const GPU_EVAL_MODEL_REL: f64 = 1e-5;
+
+// ---------------------------------------------------------------------------------
+// Dual contouring of implicit solids (sculpt_core::implicit::dual, issue 34).
+// ---------------------------------------------------------------------------------
+
+/// Singular values of a cell's QEF matrix A (one row per tangent plane) below this
+/// fraction of the largest are dropped (Lindstrom 2000; Ju et al. 2002 sec. 2.3):
+/// normals that differ by less than about 15 degrees count as one plane, so smooth
+/// patches get rank 1, and an edge is seen even where one face has ten times the
+/// other's points in the cell.
+pub const DUAL_QEF_SVD_REL: f64 = 0.25;
+/// Dual contouring puts a vertex on a box's edges to this fraction of a grid cell
+/// within every cell along them (measured 3e-7), where marching tetrahedra keep theirs
+/// on grid edges, a good part of a cell away.
+pub const DUAL_EDGE_CELL_FRAC: f64 = 0.05;
+
 #[cfg(test)]
 mod tests {
     use super::*;

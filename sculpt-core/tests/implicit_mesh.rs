@@ -125,9 +125,10 @@ fn mesh_of(json: &str, res: usize, lo: f64, hi: f64) -> (Model, WeldedMesh) {
     (model, mesh)
 }
 
-#[test]
-fn sphere_is_a_closed_sphere_near_the_surface() {
-    let (_, mesh) = mesh_of(
+/// A sphere meshed by `make` is closed, with Euler characteristic 2, its vertices
+/// within half a cell of the surface and its volume within 5 %.
+fn check_sphere(make: fn(&str, usize, f64, f64) -> (Model, WeldedMesh)) {
+    let (_, mesh) = make(
         r#"{"solid": {"sphere": {"center": [0.1, 0.0, -0.05], "radius": 0.8}}}"#,
         24,
         -1.0,
@@ -145,8 +146,14 @@ fn sphere_is_a_closed_sphere_near_the_surface() {
 }
 
 #[test]
-fn torus_has_euler_characteristic_zero() {
-    let (_, mesh) = mesh_of(
+fn sphere_is_a_closed_sphere_near_the_surface() {
+    check_sphere(mesh_of);
+}
+
+/// A tilted torus meshed by `make` is closed, with Euler characteristic 0, its
+/// vertices within half a cell of the surface and a positive volume.
+fn check_torus(make: fn(&str, usize, f64, f64) -> (Model, WeldedMesh)) {
+    let (_, mesh) = make(
         r#"{"solid": {"torus": {"center": [0, 0, 0], "axis": [0.2, 0.1, 1], "major": 0.6, "minor": 0.25}}}"#,
         32,
         -1.0,
@@ -176,6 +183,11 @@ fn torus_has_euler_characteristic_zero() {
 
 /// A CSG part: a box with a cylindrical hole through it and a spherical bite out of a
 /// corner (genus 1), R_0 conjunctions throughout.
+#[test]
+fn torus_has_euler_characteristic_zero() {
+    check_torus(mesh_of);
+}
+
 #[test]
 fn csg_part_with_a_hole_is_a_closed_torus_topologically() {
     let json = r#"{"solid": {"and": {"solids": [
@@ -232,4 +244,191 @@ fn vm_model_meshes_and_survives_stl() {
         (t2.vertices, t2.faces, euler(&t2)),
         (t.vertices, t.faces, 2)
     );
+}
+
+// Dual contouring (`implicit::dual`): the same checks, and sharp edges.
+
+use sculpt_core::implicit::dual::dual_contour;
+use sculpt_core::tolerance::DUAL_EDGE_CELL_FRAC;
+
+fn dual_of(json: &str, res: usize, lo: f64, hi: f64) -> (Model, WeldedMesh) {
+    let model = Model::from_solid_json(json).unwrap();
+    let (mesh, report) =
+        dual_contour(&model.tape_negative_inside(), [res; 3], [lo; 3], [hi; 3]).unwrap();
+    assert!(report.fans > 0, "{report:?}");
+    eprintln!("{report:?}");
+    (model, mesh)
+}
+
+#[test]
+fn dual_sphere_and_torus_are_closed_near_the_surface() {
+    check_sphere(dual_of);
+    check_torus(dual_of);
+}
+
+/// The distance from `q` to the triangle `p` (Ericson, *Real-Time Collision
+/// Detection*, 5.1.5, by regions).
+fn point_triangle(q: [f64; 3], p: [[f64; 3]; 3]) -> f64 {
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let at = |a: [f64; 3], d: [f64; 3], t: f64| [a[0] + t * d[0], a[1] + t * d[1], a[2] + t * d[2]];
+    let (ab, ac, ap) = (sub(p[1], p[0]), sub(p[2], p[0]), sub(q, p[0]));
+    let (d1, d2) = (dot(ab, ap), dot(ac, ap));
+    let closest = if d1 <= 0.0 && d2 <= 0.0 {
+        p[0]
+    } else {
+        let bp = sub(q, p[1]);
+        let (d3, d4) = (dot(ab, bp), dot(ac, bp));
+        let cp = sub(q, p[2]);
+        let (d5, d6) = (dot(ab, cp), dot(ac, cp));
+        let (va, vb, vc) = (d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2);
+        if d3 >= 0.0 && d4 <= d3 {
+            p[1]
+        } else if d6 >= 0.0 && d5 <= d6 {
+            p[2]
+        } else if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+            at(p[0], ab, d1 / (d1 - d3))
+        } else if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+            at(p[0], ac, d2 / (d2 - d6))
+        } else if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+            at(p[1], sub(p[2], p[1]), (d4 - d3) / ((d4 - d3) + (d5 - d6)))
+        } else {
+            let den = 1.0 / (va + vb + vc);
+            let (v, w) = (vb * den, vc * den);
+            [0, 1, 2].map(|c| p[0][c] + ab[c] * v + ac[c] * w)
+        }
+    };
+    dot(sub(q, closest), sub(q, closest)).sqrt()
+}
+
+/// Along the box's edges (away from its corners): the largest distance from a point on
+/// an edge to the mesh, and the largest over those points of the distance to the edge
+/// of the mesh vertex within a cell of the point that lies closest to the edge.
+fn edge_error(mesh: &WeldedMesh, lo: [f64; 3], hi: [f64; 3], cell: f64) -> (f64, f64) {
+    let tris: Vec<[[f64; 3]; 3]> = mesh
+        .triangles
+        .iter()
+        .map(|t| t.map(|i| mesh.vertices[i as usize].position.map(f64::from)))
+        .collect();
+    let mut worst = 0.0f64;
+    let mut worst_vertex = 0.0f64;
+    for axis in 0..3 {
+        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+        for (cu, cv) in [
+            (lo[u], lo[v]),
+            (lo[u], hi[v]),
+            (hi[u], lo[v]),
+            (hi[u], hi[v]),
+        ] {
+            for s in 1..20 {
+                let t = 0.1 + 0.8 * s as f64 / 20.0;
+                let mut q = [0.0; 3];
+                q[axis] = lo[axis] + t * (hi[axis] - lo[axis]);
+                q[u] = cu;
+                q[v] = cv;
+                let d = tris
+                    .iter()
+                    .map(|p| point_triangle(q, *p))
+                    .fold(f64::INFINITY, f64::min);
+                worst = worst.max(d);
+                let near_edge = mesh
+                    .vertices
+                    .iter()
+                    .map(|v| v.position.map(f64::from))
+                    .filter(|p| (0..3).map(|c| (p[c] - q[c]).powi(2)).sum::<f64>() <= cell * cell)
+                    .map(|p| ((p[u] - cu).powi(2) + (p[v] - cv).powi(2)).sqrt())
+                    .fold(f64::INFINITY, f64::min);
+                worst_vertex = worst_vertex.max(near_edge);
+            }
+        }
+    }
+    (worst, worst_vertex)
+}
+
+/// A CSG part with sharp edges: a box (edges off the grid planes) minus a cylinder,
+/// genus 1. Dual contouring puts its vertices on the box's edges, where marching
+/// tetrahedra cut them within a cell.
+#[test]
+fn dual_box_minus_cylinder_is_closed_with_sharp_edges() {
+    let (lo, hi) = ([-0.713, -0.471, -0.289], [0.687, 0.517, 0.313]);
+    let json = format!(
+        r#"{{"solid": {{"and": {{"solids": [
+        {{"box": {{"min": {lo:?}, "max": {hi:?}}}}},
+        {{"not": {{"solid": {{"cylinder": {{"base": [0, 0, -1], "axis": [0, 0, 1], "radius": 0.25, "height": 2}}}}}}}}
+    ]}}}}}}"#
+    );
+    let res = 40;
+    let cell = 2.0 / res as f64;
+    let (model, mesh) = dual_of(&json, res, -1.0, 1.0);
+    assert_closed(&mesh, 0);
+    assert!(volume(&mesh) > 0.0);
+    let tape = model.tape_positive_inside();
+    for v in &mesh.vertices {
+        let w = f64::from(tape.eval_point(v.position));
+        assert!(
+            w.abs() <= 0.5 * cell,
+            "omega {w} at vertex {:?}",
+            v.position
+        );
+    }
+    let (dc_surface, dc_vertex) = edge_error(&mesh, lo, hi, cell);
+    let (_, mt) = mesh_of(&json, res, -1.0, 1.0);
+    let (mt_surface, mt_vertex) = edge_error(&mt, lo, hi, cell);
+    eprintln!(
+        "box edges (cell {cell}): nearest vertex off the edge: dual contouring {dc_vertex:e}, \
+         marching tetrahedra {mt_vertex:e}; edge points from the mesh: {dc_surface:e}, {mt_surface:e}"
+    );
+    assert!(
+        dc_vertex <= DUAL_EDGE_CELL_FRAC * cell,
+        "dual contouring: vertices {dc_vertex} off the edges"
+    );
+    assert!(
+        mt_vertex > DUAL_EDGE_CELL_FRAC * cell,
+        "marching tetrahedra already on the edges: {mt_vertex}"
+    );
+    assert!(
+        dc_surface < mt_surface,
+        "dual contouring cuts the edges more: {dc_surface} vs {mt_surface}"
+    );
+}
+
+/// Two small spheres around the corners x and y of one cell (corners that share no
+/// edge of the cell's tetrahedra): that cell holds two sheets. Plain dual contouring
+/// gives it one vertex and pinches the spheres together; here each sheet is its own
+/// patch with its own vertex, and the spheres stay apart.
+#[test]
+fn dual_keeps_two_sheets_in_one_cell_apart() {
+    let (res, r) = (10, 0.12);
+    let cell = 2.0 / res as f64;
+    let centres = [[0.21, 0.005, 0.003], [0.004, 0.19, 0.007]];
+    let json = format!(
+        r#"{{"solid": {{"or": {{"solids": [
+        {{"sphere": {{"center": {:?}, "radius": {r}}}}},
+        {{"sphere": {{"center": {:?}, "radius": {r}}}}}
+    ]}}}}}}"#,
+        centres[0], centres[1]
+    );
+    let model = Model::from_solid_json(&json).unwrap();
+    let (mesh, report) =
+        dual_contour(&model.tape_negative_inside(), [res; 3], [-1.0; 3], [1.0; 3]).unwrap();
+    assert!(
+        report.split_cells > 0,
+        "no cell holds two sheets: {report:?}"
+    );
+    let t = half_edge_check(&mesh);
+    assert_eq!((t.components, euler(&t)), (2, 4), "{t:?} {report:?}");
+    // Every vertex lies within half a cell of one of the spheres.
+    for v in &mesh.vertices {
+        let p = v.position.map(f64::from);
+        let d = centres
+            .map(|c| {
+                ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt() - r
+            })
+            .into_iter()
+            .fold(f64::INFINITY, |m, d| if d.abs() < m.abs() { d } else { m });
+        assert!(
+            d.abs() <= 0.5 * cell,
+            "vertex {p:?} is {d} from the spheres"
+        );
+    }
 }

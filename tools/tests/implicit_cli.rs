@@ -127,7 +127,10 @@ fn eval_grid_3d_runs_x_fastest() {
 
 #[test]
 fn mesh_writes_a_closed_stl_for_each_shipped_3d_model() {
-    for model in ["sphere.vm", "two-spheres.vm", "bracket.json", "torus.json"] {
+    for (model, method) in ["sphere.vm", "two-spheres.vm", "bracket.json", "torus.json"]
+        .into_iter()
+        .flat_map(|m| [(m, "mt"), (m, "dc")])
+    {
         let (_d, out) = tmp("m.stl");
         let text = ok(&run(&[
             "implicit",
@@ -137,14 +140,17 @@ fn mesh_writes_a_closed_stl_for_each_shipped_3d_model() {
             "24",
             "--bounds",
             "-1.2,1.2",
+            "--method",
+            method,
             "--out",
             out.to_str().unwrap(),
         ]));
         assert!(text.contains("\"triangles\""), "{text}");
+        assert_eq!(text.contains("\"fans\""), method == "dc", "{text}");
         let mesh = sculpt_core::formats::stl::read(&std::fs::read(&out).unwrap()).unwrap();
         let welded = sculpt_core::mesh::weld(&mesh.vertices, &mesh.triangles, TEST_WELD_EPS);
         let report = welded.edge_report();
-        assert!(report.is_watertight(), "{model}: {report:?}");
+        assert!(report.is_watertight(), "{model} ({method}): {report:?}");
         assert!(!welded.triangles.is_empty());
     }
 }

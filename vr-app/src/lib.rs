@@ -19,6 +19,7 @@
 //! * [`study`] (`--study`: trials into a study's logs) -> session;
 //! * [`scene`] (a frame as plain values: cameras, overlay lines, the meshes of a
 //!   document and an interaction) -> preview;
+//! * [`gpu_eval`] (wgpu compute: implicit tapes as WGSL) -> render (its [`Gpu`](render::Gpu));
 //! * [`render`] (wgpu) -> scene, output: it draws a [`FrameInput`](scene::FrameInput)
 //!   and fills mesh sinks it is handed, and never sees the app state;
 //! * [`app`] ([`AppState`](app::AppState)) -> config, session, study, scene, input,
@@ -50,6 +51,7 @@ pub mod demo;
 pub mod desktop_view;
 pub mod desktop_wand;
 pub mod error;
+pub mod gpu_eval;
 pub mod headless;
 pub mod input;
 pub mod journal;

@@ -3,7 +3,10 @@
 //! The Wandsculpt display server. With no arguments it opens a desktop window with the
 //! default surface and an emulated wand (mouse and keyboard); with a config naming a
 //! tracker it drives a projection wall; `--headless` runs with no window and writes
-//! PNGs; `--demo` plays a built-in session. See `docs/cli/wandsculpt.md`.
+//! PNGs; `--demo` plays a built-in session; `--gpu-eval` evaluates an implicit model on
+//! the GPU (docs/implicit.md). See `docs/cli/wandsculpt.md`.
+
+mod gpu_eval_cli;
 
 use std::path::PathBuf;
 
@@ -125,6 +128,28 @@ struct Cli {
     /// With --study: the task named in each trial's `trial_start` (default: the method).
     #[arg(long, value_name = "NAME", requires = "study")]
     task: Option<String>,
+    /// Evaluate an implicit model (a `.vm` file or a solid document, as `sculpt-tools
+    /// implicit eval` reads) on the GPU at the cell centres of --grid, with no window;
+    /// --out names the little-endian f32 file (docs/implicit.md).
+    #[arg(long, value_name = "MODEL", requires_all = ["grid", "bounds", "out"],
+        conflicts_with_all = ["headless", "demo", "xr", "cluster", "study", "config", "scene"])]
+    gpu_eval: Option<PathBuf>,
+    /// With --gpu-eval: cells per axis, `NxM` (the plane z = 0) or `NxMxK`.
+    #[arg(long, value_name = "NxM[xK]", requires = "gpu_eval")]
+    grid: Option<String>,
+    /// With --gpu-eval: the grid's bounds on every axis, `LO,HI`.
+    #[arg(
+        long,
+        value_name = "LO,HI",
+        requires = "gpu_eval",
+        allow_hyphen_values = true
+    )]
+    bounds: Option<String>,
+    /// With --gpu-eval: evaluate this many times (the file holds the last values) and
+    /// report every GPU time, their median and minimum.
+    #[arg(long, value_name = "N", default_value_t = 1, requires = "gpu_eval",
+        value_parser = clap::value_parser!(u32).range(1..=1000))]
+    repeat: u32,
 }
 
 /// `--cluster` roles.
@@ -188,6 +213,19 @@ fn main() -> std::process::ExitCode {
 }
 
 fn run(cli: Cli) -> Result<()> {
+    if let (Some(model), Some(grid), Some(bounds), Some(out)) =
+        (&cli.gpu_eval, &cli.grid, &cli.bounds, &cli.out)
+    {
+        let report = gpu_eval_cli::run(&gpu_eval_cli::GpuEvalArgs {
+            model,
+            grid,
+            bounds,
+            out,
+            repeat: cli.repeat as usize,
+        })?;
+        println!("{}", serde_json::to_string_pretty(&report)?);
+        return Ok(());
+    }
     let mut config = match &cli.config {
         Some(p) => Config::load(p)?,
         None => Config::default(),

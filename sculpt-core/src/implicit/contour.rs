@@ -48,6 +48,25 @@ pub fn contour(
     lo: [f64; 3],
     hi: [f64; 3],
 ) -> Result<WeldedMesh, ImplicitError> {
+    Ok(contour_cells(tape, n, lo, hi)?.0)
+}
+
+/// What [`contour_cells`] gives besides the mesh.
+#[derive(Debug, Clone, Default)]
+pub struct ContourCells {
+    /// The grid cell of each triangle (`i + n[0] (j + n[1] k)`).
+    pub cells: Vec<usize>,
+    /// The ends of the grid edge (or cell diagonal) each vertex lies on.
+    pub edges: Vec<[[f64; 3]; 2]>,
+}
+
+/// [`contour`] with the cell of each triangle and the edge of each vertex.
+pub fn contour_cells(
+    tape: &Tape,
+    n: [usize; 3],
+    lo: [f64; 3],
+    hi: [f64; 3],
+) -> Result<(WeldedMesh, ContourCells), ImplicitError> {
     // Checks the sizes (and that corners fit): the corner grid has one more per axis.
     Grid::new(n.map(|k| k + 1), lo, hi)?;
     Grid::new(n, lo, hi)?;
@@ -84,6 +103,7 @@ pub fn contour(
     };
 
     let mut mesh = WeldedMesh::default();
+    let mut extra = ContourCells::default();
     let mut edge_vertex: HashMap<(u64, u64), u32> = HashMap::new();
     let id = |i: usize, j: usize, k: usize| (i + cx * (j + cy * k)) as u64;
     let mut below = layer(0)?;
@@ -121,6 +141,7 @@ pub fn contour(
                             } else {
                                 [0.0; 3]
                             };
+                            extra.edges.push([pa, pb]);
                             mesh.vertices.push(MeshVertex {
                                 position: pf,
                                 normal,
@@ -133,13 +154,14 @@ pub fn contour(
                     for tri in tet_triangles(inside) {
                         let t = tri.map(|(a, b)| vertex(a, b));
                         mesh.triangles.push(t);
+                        extra.cells.push(i + n[0] * (j + n[1] * k));
                     }
                 }
             }
         }
         below = above;
     }
-    Ok(mesh)
+    Ok((mesh, extra))
 }
 
 /// Whether a permutation of `0..4` is even.

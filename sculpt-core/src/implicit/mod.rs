@@ -27,6 +27,7 @@
 //! ```
 
 pub mod contour;
+pub mod dual;
 pub mod expr;
 pub mod interval;
 pub mod rfunc;

@@ -5,9 +5,10 @@
 //! - `implicit eval MODEL --grid NxM[xK] --bounds LO,HI --out V.f32`: little-endian
 //!   f32 at the cell centres `LO + (i + 0.5) (HI - LO) / N` on every axis, x fastest;
 //!   a 2D grid (`NxM`) samples the plane z = 0.
-//! - `implicit mesh MODEL --res N --bounds LO,HI --out M.{stl,obj,glb}`: a closed,
-//!   manifold, outward-oriented mesh of the solid by marching tetrahedra on the
-//!   corners of an N^3 grid.
+//! - `implicit mesh MODEL --res N --bounds LO,HI --out M.{stl,obj,glb} [--method dc]`:
+//!   a closed, manifold, outward-oriented mesh of the solid by marching tetrahedra on
+//!   the corners of an N^3 grid; `--method dc` adds dual contouring vertices on sharp
+//!   edges and corners (`sculpt_core::implicit::dual`).
 //!
 //! MODEL is a `.vm` file (Fidget's SSA text, negative inside) or a solid document
 //! (JSON, omega >= 0 inside, recognised by its leading `{`). Values written are
@@ -21,6 +22,7 @@ use clap::{Args, Subcommand};
 use sculpt_core::formats::MeshFormat;
 use sculpt_core::implicit::Model;
 use sculpt_core::implicit::contour::contour;
+use sculpt_core::implicit::dual::dual_contour;
 use sculpt_core::implicit::tape::Grid;
 
 use super::io;
@@ -75,6 +77,19 @@ pub struct MeshArgs {
     /// Output mesh: `.stl`, `.obj` or `.glb`.
     #[arg(long)]
     pub out: PathBuf,
+    /// `mt`: marching tetrahedra (the default); `dc`: dual contouring vertices on
+    /// sharp edges and corners, in the marching-tetrahedra mesh (docs/implicit.md).
+    #[arg(long, value_enum, default_value_t = MeshMethod::Mt)]
+    pub method: MeshMethod,
+}
+
+/// How `implicit mesh` meshes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum MeshMethod {
+    /// Marching tetrahedra.
+    Mt,
+    /// Dual contouring (sharp features).
+    Dc,
 }
 
 /// Runs `implicit`.
@@ -198,12 +213,15 @@ fn mesh(args: &MeshArgs) -> Result<()> {
     })?;
     let model = read_model(&args.model)?;
     let (lo, hi) = parse_bounds(&args.bounds)?;
-    let mesh = contour(
-        &model.tape_negative_inside(),
-        [args.res; 3],
-        [lo; 3],
-        [hi; 3],
-    )?;
+    let tape = model.tape_negative_inside();
+    let (n, lo3, hi3) = ([args.res; 3], [lo; 3], [hi; 3]);
+    let (mesh, dual) = match args.method {
+        MeshMethod::Mt => (contour(&tape, n, lo3, hi3)?, None),
+        MeshMethod::Dc => {
+            let (mesh, report) = dual_contour(&tape, n, lo3, hi3)?;
+            (mesh, Some(report))
+        }
+    };
     if mesh.triangles.is_empty() {
         bail!(
             "{}: the model's surface does not cross the box [{lo}, {hi}]^3",
@@ -212,10 +230,22 @@ fn mesh(args: &MeshArgs) -> Result<()> {
     }
     let bytes = format.write(&mesh)?;
     io::write_file(&args.out, &bytes)?;
-    println!(
-        "{{\"vertices\": {}, \"triangles\": {}}}",
-        mesh.vertices.len(),
-        mesh.triangles.len()
-    );
+    match dual {
+        None => println!(
+            "{{\"vertices\": {}, \"triangles\": {}}}",
+            mesh.vertices.len(),
+            mesh.triangles.len()
+        ),
+        Some(r) => println!(
+            "{{\"vertices\": {}, \"triangles\": {}, \"fans\": {}, \"kept\": {}, \"split_cells\": {}, \"feature_vertices\": {}, \"flips\": {}}}",
+            mesh.vertices.len(),
+            mesh.triangles.len(),
+            r.fans,
+            r.kept,
+            r.split_cells,
+            r.feature_vertices,
+            r.flips
+        ),
+    }
     Ok(())
 }

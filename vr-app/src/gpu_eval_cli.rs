@@ -1,0 +1,178 @@
+//! `wandsculpt --gpu-eval MODEL --grid NxM[xK] --bounds LO,HI --out V.f32`: an implicit
+//! model evaluated on the GPU at grid cell centres, with no window (docs/implicit.md).
+//!
+//! The file is the one `sculpt-tools implicit eval --grid` writes: little-endian f32 at
+//! the cell centres `LO + (i + 0.5) (HI - LO) / N`, x fastest, negative inside; a 2D
+//! grid is the layer z = 0. The JSON report on stdout names the adapter and gives the
+//! GPU time from submit to the values read back. A tape longer than the GPU path
+//! compiles is evaluated on the CPU instead, which the report and stderr say.
+
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use sculpt_core::implicit::Model;
+use sculpt_core::implicit::tape::Grid;
+use serde_json::{Value, json};
+use vr_app::gpu_eval::{GpuEvalError, GpuTape};
+use vr_app::render::Gpu;
+
+/// The arguments of `--gpu-eval`.
+pub struct GpuEvalArgs<'a> {
+    /// The model file.
+    pub model: &'a Path,
+    /// `NxM` or `NxMxK`.
+    pub grid: &'a str,
+    /// `LO,HI`.
+    pub bounds: &'a str,
+    /// The f32 file written.
+    pub out: &'a Path,
+    /// Evaluations (timed each).
+    pub repeat: usize,
+}
+
+/// The grid of `--grid` and `--bounds`: a 2D grid (`NxM`) is one layer centred on
+/// z = 0, as `sculpt-tools implicit eval` samples it.
+fn grid_of(spec: &str, bounds: &str) -> Result<Grid> {
+    let counts: Vec<&str> = spec.split(['x', 'X']).collect();
+    if !(2..=3).contains(&counts.len()) {
+        bail!("--grid {spec:?}: expected NxM or NxMxK");
+    }
+    let mut n = [1usize; 3];
+    for (slot, text) in n.iter_mut().zip(&counts) {
+        *slot = match text.trim().parse::<usize>() {
+            Ok(k) if k > 0 => k,
+            _ => bail!("--grid {spec:?}: {text:?} is not a positive count"),
+        };
+    }
+    let ends: Vec<f64> = bounds
+        .split(',')
+        .map(|t| t.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("--bounds {bounds:?}: expected two numbers LO,HI"))?;
+    let &[lo, hi] = ends.as_slice() else {
+        bail!("--bounds {bounds:?}: expected two numbers LO,HI");
+    };
+    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+        bail!("--bounds {bounds:?}: expected finite LO < HI");
+    }
+    let (zlo, zhi) = if counts.len() == 2 {
+        (-0.5, 0.5)
+    } else {
+        (lo, hi)
+    };
+    Ok(Grid::new(n, [lo, lo, zlo], [hi, hi, zhi])?)
+}
+
+/// Milliseconds.
+fn ms(d: std::time::Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+/// The median of `xs` (not empty).
+fn median(xs: &[f64]) -> f64 {
+    let mut v = xs.to_vec();
+    v.sort_by(f64::total_cmp);
+    let m = v.len() / 2;
+    if v.len() % 2 == 1 {
+        v[m]
+    } else {
+        0.5 * (v[m - 1] + v[m])
+    }
+}
+
+/// Runs `--gpu-eval`; returns the JSON report.
+pub fn run(args: &GpuEvalArgs<'_>) -> Result<Value> {
+    let start = Instant::now();
+    let text = std::fs::read_to_string(args.model)
+        .with_context(|| format!("cannot read {}", args.model.display()))?;
+    let model = Model::from_text(&text)
+        .with_context(|| format!("{}: invalid model", args.model.display()))?;
+    let grid = grid_of(args.grid, args.bounds)?;
+    let tape = model.tape_negative_inside();
+    let gpu = Gpu::headless()?;
+    let info = gpu.adapter.get_info();
+    let mut report = json!({
+        "model": args.model.display().to_string(),
+        "grid": grid.n,
+        "cells": grid.len(),
+        "tape_len": tape.len(),
+        "adapter": info.name,
+        "backend": format!("{:?}", info.backend),
+        "device_type": format!("{:?}", info.device_type),
+        "driver": info.driver_info,
+    });
+    let values = match GpuTape::compile(&gpu, &tape) {
+        Ok(compiled) => {
+            let job = compiled.grid_job(&gpu, &grid);
+            let mut runs = Vec::with_capacity(args.repeat);
+            let mut values = Vec::new();
+            let mut chunks = 0;
+            for _ in 0..args.repeat {
+                let (v, timing) = job.run(&gpu)?;
+                runs.push(ms(timing.gpu));
+                chunks = timing.chunks;
+                values = v;
+            }
+            report["path"] = json!("gpu");
+            report["compile_ms"] = json!(ms(compiled.compile));
+            report["shader_bytes"] = json!(compiled.shader_bytes);
+            report["chunks"] = json!(chunks);
+            report["gpu_ms"] = json!(runs[0]);
+            report["gpu_ms_median"] = json!(median(&runs));
+            report["gpu_ms_min"] = json!(runs.iter().copied().fold(f64::INFINITY, f64::min));
+            report["gpu_ms_runs"] = json!(runs);
+            values
+        }
+        Err(e @ GpuEvalError::TapeTooLong { .. }) => {
+            eprintln!("wandsculpt: {e}; evaluating on the CPU instead");
+            let cpu = Instant::now();
+            let values = tape.eval_grid(&grid);
+            report["path"] = json!("cpu");
+            report["fallback"] = json!(e.to_string());
+            report["cpu_ms"] = json!(ms(cpu.elapsed()));
+            values
+        }
+        Err(e) => return Err(e.into()),
+    };
+    let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+    fsio::write_atomic(args.out, &bytes)
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    report["out"] = json!(args.out.display().to_string());
+    report["total_ms"] = json!(ms(start.elapsed()));
+    Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grids_parse_as_the_cpu_tool_reads_them() {
+        let g = grid_of("4x2", "0,1").unwrap();
+        assert_eq!(g.n, [4, 2, 1]);
+        assert_eq!(g.centre(2, 0), 0.0);
+        assert_eq!(g.centre(0, 0), 0.125);
+        let g = grid_of("2x3x4", "-1,1").unwrap();
+        assert_eq!(g.n, [2, 3, 4]);
+        assert_eq!(g.lo, [-1.0; 3]);
+        for (grid, bounds) in [
+            ("4", "0,1"),
+            ("4x0", "0,1"),
+            ("4xa", "0,1"),
+            ("1x2x3x4", "0,1"),
+            ("4x4", "1,0"),
+            ("4x4", "0"),
+            ("4x4", "0,nan"),
+            ("4x4", "0,1,2"),
+        ] {
+            assert!(grid_of(grid, bounds).is_err(), "{grid} {bounds}");
+        }
+    }
+
+    #[test]
+    fn medians() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), 2.5);
+    }
+}
