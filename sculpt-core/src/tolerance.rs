@@ -605,6 +605,7 @@ pub const CONFORM_KNOT_EPS: f64 = 1e-12;
 /// normals (issue 30: at most 0.1 %).
 pub const FOLD_AREA_FRACTION: f64 = 1e-3;
 
+// ---------------------------------------------------------------------------------
 // GPU evaluation of implicit tapes (vr_app::gpu_eval, issue 34).
 // ---------------------------------------------------------------------------------
 
