@@ -12,7 +12,8 @@
 //! Because the mesh is built on the parameter grid, a vertex is shared by every cell
 //! that uses its edge, whatever the map does, so the surface is closed, 2-manifold
 //! and consistently oriented where `B` is one-to-one; the domain's faces close it off
-//! where the level set leaves the volume. Inside is `d < L`; the triangles face the
+//! where the level set leaves the volume (a level the sampled attribute never
+//! crosses gives no surface at all). Inside is `d < L`; the triangles face the
 //! side where `d > L` (outwards for a distance from a centre). A left-handed map
 //! (`sqrt(g) < 0`) would turn them, so they are flipped back. Normals are the
 //! physical gradient of `d` (eq. 39), unit length. A volume without geometry is meshed
@@ -68,6 +69,7 @@ impl Volume {
         };
         let k = self.components();
         let mut value = vec![0.0; k];
+        let (mut any_in, mut any_out) = (false, false);
         let layer = |kk: usize| -> VolumeResult<Vec<f64>> {
             let mut out = Vec::with_capacity((res[0] + 1) * (res[1] + 1));
             for j in 0..=res[1] {
@@ -75,6 +77,8 @@ impl Volume {
                     let u = param([i as f64, j as f64, kk as f64]);
                     self.eval_into(&u, &mut value)?;
                     let v = value[attribute] - level;
+                    any_in |= v < 0.0;
+                    any_out |= v >= 0.0;
                     out.push(v);
                 }
             }
@@ -125,6 +129,10 @@ impl Volume {
             })
         };
         let mut mesh = march_tetrahedra(res, outside, layer, vertex)?;
+        if !(any_in && any_out) {
+            // The level is not crossed: no surface (not the domain's faces).
+            return Ok(WeldedMesh::default());
+        }
         if let Some(g) = geometry {
             // A left-handed map turns the triangles: turn them back.
             let centre: [f64; 3] = std::array::from_fn(|d| (domain[d].0 + domain[d].1) / 2.0);
