@@ -7,31 +7,21 @@ mod common;
 use sculpt_core::formats::MeshFormat;
 use sculpt_core::tolerance::{CRITICAL_POSITION_EPS, STREAMLINE_CLOSURE_EPS, TEST_WELD_EPS};
 
-/// A scratch directory.
-struct Files(tempfile::TempDir);
+use common::{Files, assert_one_line_error};
 
-impl Files {
-    fn new() -> Self {
-        Self(tempfile::tempdir().unwrap())
-    }
-    fn put(&self, name: &str, text: &str) -> String {
-        let p = self.0.path().join(name);
-        std::fs::write(&p, text).unwrap();
-        p.display().to_string()
-    }
-    fn path(&self, name: &str) -> String {
-        self.0.path().join(name).display().to_string()
-    }
+/// The words of a command line (the test paths hold no spaces).
+fn words(line: &str) -> Vec<&str> {
+    line.split(' ').collect()
 }
 
-/// A failed run: non-zero exit, exactly one line on stderr containing `needle`.
-fn assert_one_line_error(args: &[&str], needle: &str) {
-    let out = common::tools(args);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success(), "{args:?} succeeded");
-    assert!(!err.contains("panicked"), "{err}");
-    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
-    assert!(err.contains(needle), "expected '{needle}' in: {err}");
+/// Runs a space-separated command line, which must succeed; its stdout.
+fn ok(line: &str) -> String {
+    common::ok(&words(line))
+}
+
+/// Runs a space-separated command line, which must fail with one line naming `needle`.
+fn fails(line: &str, needle: &str) {
+    assert_one_line_error(&words(line), needle);
 }
 
 /// A volume file over `[-1, 1]^3` of degree `p` with `p + 1` control points per
@@ -78,21 +68,10 @@ fn streamlines_trace_a_closed_orbit_and_refuse_a_seed_outside() {
         }),
     );
     let seeds = files.put("seeds.csv", "x,y,z\n0.5,0,0.1\n0,0.25,-0.3\n");
-    let out = files.path("lines.csv");
-    let time = format!("{}", 2.0 * std::f64::consts::PI);
-    common::ok(&[
-        "volume",
-        "streamlines",
-        &vol,
-        "--velocity",
-        "vx,vy,vz",
-        "--seeds",
-        &seeds,
-        "--time",
-        &time,
-        "--out",
-        &out,
-    ]);
+    let out = files.path("lines.csv").display().to_string();
+    let cmd = format!("volume streamlines {vol} --velocity vx,vy,vz --out {out}");
+    let two_pi = 2.0 * std::f64::consts::PI;
+    ok(&format!("{cmd} --seeds {seeds} --time {two_pi}"));
     let text = std::fs::read_to_string(&out).unwrap();
     let mut lines = text.lines();
     assert_eq!(lines.next(), Some("line,x,y,z"));
@@ -112,52 +91,18 @@ fn streamlines_trace_a_closed_orbit_and_refuse_a_seed_outside() {
         }
     }
     let outside = files.put("out.csv", "0.5,0,0\n1.5,0,0\n");
-    assert_one_line_error(
-        &[
-            "volume",
-            "streamlines",
-            &vol,
-            "--velocity",
-            "vx,vy,vz",
-            "--seeds",
-            &outside,
-            "--time",
-            "1",
-            "--out",
-            &out,
-        ],
+    fails(
+        &format!("{cmd} --seeds {outside} --time 1"),
         "seed 1: point (1.5, 0, 0) is outside the volume",
     );
-    assert_one_line_error(
-        &[
-            "volume",
-            "streamlines",
-            &vol,
-            "--velocity",
-            "vx,vy",
-            "--seeds",
-            &seeds,
-            "--time",
-            "1",
-            "--out",
-            &out,
-        ],
+    let two = format!("volume streamlines {vol} --velocity vx,vy --out {out}");
+    fails(
+        &format!("{two} --seeds {seeds} --time 1"),
         "--velocity needs three attribute names",
     );
-    assert_one_line_error(
-        &[
-            "volume",
-            "streamlines",
-            &vol,
-            "--velocity",
-            "vx,vy,w",
-            "--seeds",
-            &seeds,
-            "--time",
-            "1",
-            "--out",
-            &out,
-        ],
+    let unknown = format!("volume streamlines {vol} --velocity vx,vy,w --out {out}");
+    fails(
+        &format!("{unknown} --seeds {seeds} --time 1"),
         "no attribute \"w\"",
     );
 }
@@ -173,7 +118,7 @@ fn critical_prints_the_zeros_of_a_quadratic_field_classified() {
             vec![sq - 0.25, -(j as f64 - 1.0), -(l as f64 - 1.0)]
         }),
     );
-    let out = common::ok(&["volume", "critical", &vol, "--velocity", "vx,vy,vz"]);
+    let out = ok(&format!("volume critical {vol} --velocity vx,vy,vz"));
     let doc: serde_json::Value = serde_json::from_str(&out).unwrap();
     let mut cps: Vec<(f64, f64, f64, String)> = doc["critical_points"]
         .as_array()
@@ -203,8 +148,8 @@ fn critical_prints_the_zeros_of_a_quadratic_field_classified() {
             "knots": [[0,0,1,1]], "attributes": ["vx","vy","vz"],
             "control_points": [[1,2,3],[4,5,6]]}"#,
     );
-    assert_one_line_error(
-        &["volume", "critical", &flat, "--velocity", "vx,vy,vz"],
+    fails(
+        &format!("volume critical {flat} --velocity vx,vy,vz"),
         "needs a volume with 3 parameter directions and attributes x, y, z",
     );
 }
@@ -230,37 +175,16 @@ fn isosurface_of_a_fitted_distance_field_is_a_closed_sphere() {
         }
     }
     let data = files.put("samples.csv", &csv);
-    let vol = files.path("sphere.json");
-    common::ok(&[
-        "volume",
-        "fit",
-        &data,
-        "--params",
-        "3",
-        "--degrees",
-        "3,3,3",
-        "--counts",
-        "10,10,10",
-        "--out",
-        &vol,
-    ]);
+    let vol = files.path("sphere.json").display().to_string();
+    ok(&format!(
+        "volume fit {data} --params 3 --degrees 3,3,3 --counts 10,10,10 --out {vol}"
+    ));
     let res = 24;
     let cell = 2.0 / res as f64;
+    let iso = format!("volume isosurface {vol} --attribute d");
     for ext in ["stl", "obj"] {
-        let mesh_path = files.path(&format!("s.{ext}"));
-        common::ok(&[
-            "volume",
-            "isosurface",
-            &vol,
-            "--attribute",
-            "d",
-            "--level",
-            "0.6",
-            "--res",
-            &res.to_string(),
-            "--out",
-            &mesh_path,
-        ]);
+        let mesh_path = files.path(&format!("s.{ext}")).display().to_string();
+        ok(&format!("{iso} --level 0.6 --res {res} --out {mesh_path}"));
         let format = MeshFormat::from_extension(&mesh_path).unwrap();
         let mesh = format.read(&std::fs::read(&mesh_path).unwrap()).unwrap();
         let mesh = sculpt_core::mesh::weld(&mesh.vertices, &mesh.triangles, TEST_WELD_EPS);
@@ -273,34 +197,14 @@ fn isosurface_of_a_fitted_distance_field_is_a_closed_sphere() {
             assert!((d - 0.6).abs() <= cell / 2.0, "{ext}: vertex at radius {d}");
         }
     }
-    assert_one_line_error(
-        &[
-            "volume",
-            "isosurface",
-            &vol,
-            "--attribute",
-            "d",
-            "--level",
-            "5",
-            "--res",
-            "8",
-            "--out",
-            &files.path("none.stl"),
-        ],
+    let none = files.path("none.stl").display().to_string();
+    fails(
+        &format!("{iso} --level 5 --res 8 --out {none}"),
         "does not reach the level 5",
     );
-    assert_one_line_error(
-        &[
-            "volume",
-            "isosurface",
-            &vol,
-            "--attribute",
-            "d",
-            "--level",
-            "0.5",
-            "--out",
-            &files.path("x.ply"),
-        ],
+    let ply = files.path("x.ply").display().to_string();
+    fails(
+        &format!("{iso} --level 0.5 --out {ply}"),
         "must end in .stl, .obj or .glb",
     );
 }
@@ -315,8 +219,8 @@ fn png(path: &str, w: u32, h: u32, f: impl Fn(u32, u32) -> [u8; 4]) -> Vec<u8> {
 #[test]
 fn morph_writes_frames_from_a_to_b_and_refuses_images_of_different_sizes() {
     let files = Files::new();
-    let a_path = files.path("a.png");
-    let b_path = files.path("b.png");
+    let path = |name: &str| files.path(name).display().to_string();
+    let (a_path, b_path, dir) = (path("a.png"), path("b.png"), path("frames"));
     let a = png(&a_path, 12, 8, |x, y| {
         [(x * 20) as u8, (y * 30) as u8, 7, 255]
     });
@@ -328,10 +232,8 @@ fn morph_writes_frames_from_a_to_b_and_refuses_images_of_different_sizes() {
         r#"{"format": "wandsculpt-morph-lines", "version": 1,
             "lines": [{"source": [[2, 2], [9, 3]], "target": [[3, 1], [8, 6]]}]}"#,
     );
-    let dir = files.path("frames");
-    common::ok(&[
-        "volume", "morph", &a_path, &b_path, "--frames", "4", "--lines", &lines, "--out", &dir,
-    ]);
+    let morph = format!("volume morph {a_path} {b_path} --out {dir}");
+    ok(&format!("{morph} --frames 4 --lines {lines}"));
     let frame = |i: usize| {
         image::open(format!("{dir}/frame_{i:04}.png"))
             .unwrap()
@@ -342,25 +244,20 @@ fn morph_writes_frames_from_a_to_b_and_refuses_images_of_different_sizes() {
     assert!(frame(3) == b, "the last frame is not B");
     let mid = frame(1);
     assert!(mid != a && mid != b);
-    let small = files.path("small.png");
+    let small = path("small.png");
     png(&small, 11, 8, |_, _| [0, 0, 0, 255]);
-    assert_one_line_error(
-        &[
-            "volume", "morph", &a_path, &small, "--frames", "3", "--out", &dir,
-        ],
+    fails(
+        &format!("volume morph {a_path} {small} --frames 3 --out {dir}"),
         "the images differ in size: 12x8 and 11x8",
     );
-    let bad = files.put("bad.json", r#"{"format": "wandsculpt-morph-lines", "version": 1, "lines": [{"source": [[0, 0], [0, 0]], "target": [[1, 1], [2, 2]]}]}"#);
-    assert_one_line_error(
-        &[
-            "volume", "morph", &a_path, &b_path, "--frames", "3", "--lines", &bad, "--out", &dir,
-        ],
+    let bad = files.put(
+        "bad.json",
+        r#"{"format": "wandsculpt-morph-lines", "version": 1,
+            "lines": [{"source": [[0, 0], [0, 0]], "target": [[1, 1], [2, 2]]}]}"#,
+    );
+    fails(
+        &format!("{morph} --frames 3 --lines {bad}"),
         "line 0, source",
     );
-    assert_one_line_error(
-        &[
-            "volume", "morph", &a_path, &b_path, "--frames", "1", "--out", &dir,
-        ],
-        "--frames 1",
-    );
+    fails(&format!("{morph} --frames 1"), "--frames 1");
 }
