@@ -261,3 +261,54 @@ fn morph_writes_frames_from_a_to_b_and_refuses_images_of_different_sizes() {
     );
     fails(&format!("{morph} --frames 1"), "--frames 1");
 }
+
+/// The commands docs/volumes.md shows, on the example files it shows
+/// (docs/examples/volume/, written by `tools/examples/volume_pictures.rs`).
+#[test]
+fn the_documented_commands_run_on_the_documented_files() {
+    let files = Files::new();
+    let ex = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/examples/volume");
+    let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/volumes.md"))
+        .unwrap();
+    let out = |name: &str| files.path(name).display().to_string();
+    let lines = out("lines.csv");
+    ok(&format!(
+        "volume streamlines {ex}/flow.json --velocity vx,vy,vz --seeds {ex}/seeds.csv --time 20 --out {lines}"
+    ));
+    let seeds = std::fs::read_to_string(format!("{ex}/seeds.csv")).unwrap();
+    let text = std::fs::read_to_string(&lines).unwrap();
+    let last_line = text.lines().last().unwrap().split(',').next().unwrap();
+    assert_eq!(
+        last_line.parse::<usize>().unwrap(),
+        seeds.lines().count() - 2
+    );
+    // The flow rises at a constant rate: it has no critical point.
+    let cps = ok(&format!(
+        "volume critical {ex}/flow.json --velocity vx,vy,vz"
+    ));
+    assert_eq!(cps.trim(), r#"{"critical_points":[]}"#);
+    let stl = out("blobs.stl");
+    ok(&format!(
+        "volume isosurface {ex}/sphere.json --attribute d --level 0.45 --res 40 --out {stl}"
+    ));
+    let mesh = MeshFormat::Stl.read(&std::fs::read(&stl).unwrap()).unwrap();
+    let mesh = sculpt_core::mesh::weld(&mesh.vertices, &mesh.triangles, TEST_WELD_EPS);
+    assert!(mesh.edge_report().is_watertight());
+    let frames = out("frames");
+    ok(&format!(
+        "volume morph {ex}/a.png {ex}/b.png --frames 5 --lines {ex}/lines.json --out {frames}"
+    ));
+    let a = image::open(format!("{ex}/a.png")).unwrap().into_rgba8();
+    let first = image::open(format!("{frames}/frame_0000.png"))
+        .unwrap()
+        .into_rgba8();
+    assert!(a == first);
+    // The docs show these commands on these files.
+    for needle in [
+        "volume streamlines docs/examples/volume/flow.json",
+        "volume isosurface docs/examples/volume/sphere.json --attribute d --level 0.45",
+        "volume morph docs/examples/volume/a.png docs/examples/volume/b.png",
+    ] {
+        assert!(doc.contains(needle), "docs/volumes.md lacks '{needle}'");
+    }
+}

@@ -4,8 +4,8 @@
 //! - `volume streamlines VOL.json --velocity vx,vy,vz --seeds S.csv --time T --out L.csv`:
 //!   seeds are physical points (CSV `x,y,z`, optional header); each is mapped to its
 //!   parameters and traced (adaptive Dormand-Prince 5(4) in parameter space) for time
-//!   `T` or until it leaves the volume. Output rows `line,x,y,z` after a header, `line`
-//!   the seed's 0-based row.
+//!   `T` or until it leaves the volume, on all cores (`std::thread::scope`). Output rows
+//!   `line,x,y,z` after a header, `line` the seed's 0-based row.
 //! - `volume critical VOL.json --velocity vx,vy,vz`: prints
 //!   `{"critical_points": [{"x", "y", "z", "eigenvalues", "kind"}]}`, the eigenvalues
 //!   as `[re, im]` pairs.
@@ -20,7 +20,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use sculpt_core::formats::MeshFormat;
 use sculpt_core::volume::morph::{FeatureLines, ImageMorph};
-use sculpt_core::volume::{FlowField, StreamlineEnd, StreamlineOptions, Volume};
+use sculpt_core::volume::{
+    FlowField, Streamline, StreamlineEnd, StreamlineOptions, Volume, VolumeError,
+};
 
 use super::io;
 use super::volume::read_volume;
@@ -99,6 +101,8 @@ pub struct MorphArgs {
 
 /// The most seeds `volume streamlines` traces.
 const MAX_SEEDS: usize = 100_000;
+/// Seeds traced together (on all cores) before their lines are written.
+const TRACE_BATCH: usize = 256;
 /// The most frames `volume morph` writes.
 const MAX_FRAMES: usize = 10_000;
 /// The largest image file `volume morph` reads (bytes).
@@ -148,21 +152,50 @@ pub fn streamlines(args: &StreamlinesArgs) -> Result<()> {
     let seeds_name = io::display_name(&args.seeds);
     let mut out = io::open_output(Some(&args.out))?;
     writeln!(out, "line,x,y,z")?;
-    for (i, s) in seeds.iter().enumerate() {
-        let u = inverter
-            .invert(glam::DVec3::from_array(*s))
-            .with_context(|| format!("{seeds_name}: seed {i}"))?;
-        let line = field
-            .trace(u, &opts)
-            .with_context(|| format!("{seeds_name}: seed {i}"))?;
-        if line.end == StreamlineEnd::Singular {
-            let last = line.params.last().copied().unwrap_or(u);
-            eprintln!(
-                "warning: streamline {i} stops at parameters {last:?}: the map is singular next to it"
-            );
-        }
-        for p in &line.points {
-            writeln!(out, "{i},{},{},{}", p.x, p.y, p.z)?;
+    // Every seed is mapped first, so a seed outside fails before any tracing.
+    let params = seeds
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            inverter
+                .invert(glam::DVec3::from_array(*s))
+                .with_context(|| format!("{seeds_name}: seed {i}"))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    // Lines are traced on all cores, a batch at a time (bounded memory), and written in
+    // seed order.
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    for (b, batch) in params.chunks(TRACE_BATCH).enumerate() {
+        let per = batch.len().div_ceil(threads);
+        let traced: Vec<Result<Streamline, VolumeError>> = std::thread::scope(|scope| {
+            let handles: Vec<_> = batch
+                .chunks(per)
+                .map(|part| {
+                    let (field, opts) = (&field, &opts);
+                    scope.spawn(move || {
+                        part.iter()
+                            .map(|u| field.trace(*u, opts))
+                            .collect::<Vec<_>>()
+                    })
+                })
+                .collect();
+            handles
+                .into_iter()
+                .flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+                .collect()
+        });
+        for (j, line) in traced.into_iter().enumerate() {
+            let i = b * TRACE_BATCH + j;
+            let line = line.with_context(|| format!("{seeds_name}: seed {i}"))?;
+            if line.end == StreamlineEnd::Singular {
+                let last = line.params.last().copied().unwrap_or(params[i]);
+                eprintln!(
+                    "warning: streamline {i} stops at parameters {last:?}: the map is singular next to it"
+                );
+            }
+            for p in &line.points {
+                writeln!(out, "{i},{},{},{}", p.x, p.y, p.z)?;
+            }
         }
     }
     io::finish_output(out, Some(&args.out))
