@@ -291,9 +291,26 @@ fn bend(s: DVec3) -> DVec3 {
 
 #[test]
 fn the_isosurface_of_a_spheres_distance_field_is_a_watertight_sphere() {
+    sphere_isosurface(false);
+}
+
+/// Regression guard for the orientation fix-up: a mirrored (left-handed, sqrt(g) < 0)
+/// map turns the parameter-space triangles inside out unless they are flipped back.
+#[test]
+fn a_left_handed_map_still_gives_outward_triangles() {
+    sphere_isosurface(true);
+}
+
+/// The checks of the sphere isosurface, on a right- or left-handed (`mirror`) map.
+fn sphere_isosurface(mirror: bool) {
     // A curvilinear grid of a bent cube carrying the distance from c, interpolated
     // (sec. 3.2) by a cubic volume.
-    let c = DVec3::new(0.05, -0.1, 0.02);
+    let flip = if mirror {
+        DVec3::new(-1.0, 1.0, 1.0)
+    } else {
+        DVec3::ONE
+    };
+    let c = DVec3::new(0.05, -0.1, 0.02) * flip;
     let r = 0.55;
     let n = 15;
     let mut points = Vec::new();
@@ -303,7 +320,7 @@ fn the_isosurface_of_a_spheres_distance_field_is_a_watertight_sphere() {
             for i in 0..n {
                 let s =
                     DVec3::new(i as f64, j as f64, l as f64) * (2.0 / (n - 1) as f64) - DVec3::ONE;
-                let p = bend(s);
+                let p = bend(s) * flip;
                 points.push(p.to_array());
                 dist.push(p.distance(c));
             }
@@ -319,6 +336,7 @@ fn the_isosurface_of_a_spheres_distance_field_is_a_watertight_sphere() {
         }],
     };
     let (vol, _) = Volume::interpolate_grid(&grid, &[3, 3, 3]).unwrap();
+    assert_eq!(vol.frame(&[0.5; 3]).unwrap().jacobian < 0.0, mirror);
     let res = 28;
     let mesh = vol.isosurface(3, r, [res; 3]).unwrap();
     assert!(
