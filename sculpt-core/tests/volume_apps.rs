@@ -13,7 +13,7 @@ use glam::DVec3;
 use proptest::prelude::*;
 use sculpt_core::assert_near;
 use sculpt_core::tolerance::{
-    CRITICAL_DOUBLE_ROOT_EPS, CRITICAL_POSITION_EPS, STREAMLINE_CLOSURE_EPS,
+    CRITICAL_DOUBLE_ROOT_EPS, CRITICAL_POSITION_EPS, STREAMLINE_CLOSURE_EPS, VOLUME_EVAL_REL,
 };
 use sculpt_core::volume::morph::{FeatureLine, FeatureLines, ImageMorph, MorphError};
 use sculpt_core::volume::{
@@ -565,4 +565,32 @@ proptest! {
             });
         prop_assert_eq!(FeatureLines::from_json(&text).is_ok(), valid);
     }
+}
+
+#[test]
+fn a_flow_keeps_only_the_attributes_it_reads() {
+    // A density before the velocity and an energy after it, as flow data sets carry.
+    let vol = curved_box(5, 0.1, 0.2, &["rho", "vx", "vy", "vz", "e"], |b, _| {
+        vec![1.0 + b.z, -b.y, b.x, 0.0, b.x * b.y]
+    });
+    let keep = [0, 1, 2, 4, 5, 6];
+    let picked = vol.with_attributes(&keep).unwrap();
+    assert_eq!(picked.attributes(), ["x", "y", "z", "vx", "vy", "vz"]);
+    for u in [[0.3, 0.6, 0.45], [0.0, 1.0, 0.2]] {
+        let (a, b) = (vol.point(&u).unwrap(), picked.point(&u).unwrap());
+        for (i, &c) in keep.iter().enumerate() {
+            assert_near!(b[i], a[c], VOLUME_EVAL_REL);
+        }
+    }
+    assert_eq!(
+        vol.with_attributes(&[3, 3]).unwrap().attributes(),
+        ["rho", "rho#2"]
+    );
+    assert!(vol.with_attributes(&[9]).is_err());
+    // The rotation about the z axis through the origin closes with the extra attributes.
+    let field = FlowField::new(&vol, [4, 5, 6]).unwrap();
+    let seed = DVec3::new(0.4, 0.1, -0.2);
+    let u0 = vol.inverter().unwrap().invert(seed).unwrap();
+    let line = field.trace(u0, &StreamlineOptions::new(2.0 * PI)).unwrap();
+    assert_near!(*line.points.last().unwrap(), seed, STREAMLINE_CLOSURE_EPS);
 }

@@ -131,9 +131,13 @@ pub struct Streamline {
 }
 
 /// The velocity attributes of a trivariate volume with geometry, ready for tracing.
+///
+/// It keeps its own copy of the volume with only the six attributes it reads
+/// (`x, y, z` and the velocity): evaluation costs in proportion to the attributes, and
+/// a flow data set carries more (density, energy, pressure: `k = 8` in the paper).
 #[derive(Debug, Clone)]
-pub struct FlowField<'a> {
-    vol: &'a Volume,
+pub struct FlowField {
+    vol: Volume,
     geometry: [usize; 3],
     velocity: [usize; 3],
     lo: [f64; 3],
@@ -143,19 +147,27 @@ pub struct FlowField<'a> {
 /// One evaluation of the right-hand side: `du/dt` and the physical point.
 type Rhs = ([f64; 3], DVec3);
 
-impl<'a> FlowField<'a> {
+impl FlowField {
     /// The flow of the velocity attributes `velocity` (three attribute indices) of
     /// `vol`, which must be trivariate with geometry `x, y, z`.
-    pub fn new(vol: &'a Volume, velocity: [usize; 3]) -> VolumeResult<Self> {
+    pub fn new(vol: &Volume, velocity: [usize; 3]) -> VolumeResult<Self> {
         let geometry = vol.geometry3("streamlines")?;
         for &v in &velocity {
             vol.check_attribute(v)?;
         }
         let domain = vol.domain();
+        let picked = [
+            geometry[0],
+            geometry[1],
+            geometry[2],
+            velocity[0],
+            velocity[1],
+            velocity[2],
+        ];
         Ok(Self {
-            vol,
-            geometry,
-            velocity,
+            vol: vol.with_attributes(&picked)?,
+            geometry: [0, 1, 2],
+            velocity: [3, 4, 5],
             lo: std::array::from_fn(|d| domain[d].0),
             hi: std::array::from_fn(|d| domain[d].1),
         })
@@ -334,6 +346,38 @@ impl<'a> FlowField<'a> {
 }
 
 impl Volume {
+    /// The volume with only the attributes `attrs` (indices, in that order; one may
+    /// repeat, its copies then named `name#2` ..): the same knots and weights.
+    pub fn with_attributes(&self, attrs: &[usize]) -> VolumeResult<Volume> {
+        for &a in attrs {
+            self.check_attribute(a)?;
+        }
+        if attrs.is_empty() {
+            return Err(super::VolumeError::AttributeCount {
+                got: 0,
+                max: super::MAX_COMPONENTS,
+            });
+        }
+        let mut names: Vec<String> = Vec::with_capacity(attrs.len());
+        for &a in attrs {
+            let base = &self.attributes()[a];
+            let mut name = base.clone();
+            let mut copy = 1;
+            while names.contains(&name) {
+                copy += 1;
+                name = format!("{base}#{copy}");
+            }
+            names.push(name);
+        }
+        let dim = self.dim;
+        let mut cw = Vec::with_capacity(self.point_count() * (attrs.len() + 1));
+        for p in self.cw.chunks(dim) {
+            cw.extend(attrs.iter().map(|&a| p[a]));
+            cw.push(p[dim - 1]);
+        }
+        Ok(Volume::from_parts(self.knots.clone(), names, cw))
+    }
+
     /// Checks an attribute index.
     pub(crate) fn check_attribute(&self, attr: usize) -> VolumeResult<()> {
         if attr < self.components() {
