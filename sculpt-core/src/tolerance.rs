@@ -650,6 +650,36 @@ pub const DUAL_QEF_SVD_REL: f64 = 0.25;
 /// on grid edges, a good part of a cell away.
 pub const DUAL_EDGE_CELL_FRAC: f64 = 0.05;
 
+// Volume applications (Park 2005, sec. 5; issue 33): streamlines, critical points,
+// isosurfaces, image morphing.
+// ---------------------------------------------------------------------------------
+
+/// Default local error per Dormand-Prince step of a streamline, relative to the
+/// parameter domain's width in each direction.
+pub const STREAMLINE_STEP_REL: f64 = 1e-10;
+/// A streamline ends on the boundary when its point is within this fraction of the
+/// domain's width of a face (the last step is shortened until it is).
+pub const STREAMLINE_BOUNDARY_REL: f64 = 1e-9;
+/// A closed orbit of a rigid rotation traced for one period comes back to its seed
+/// within this (absolute, orbit radius of order one; the issue's bound).
+pub const STREAMLINE_CLOSURE_EPS: f64 = 1e-6;
+/// Newton's method for a zero of the velocity stops when `|V|` is this fraction of the
+/// largest control velocity (a few roundings of a cubic evaluation).
+pub const CRITICAL_ZERO_REL: f64 = 1e-13;
+/// An eigenvalue (or a real part) of the velocity gradient within this fraction of
+/// the largest eigenvalue's modulus counts as zero when classifying a critical point.
+/// At a double root Newton stops `sqrt(CRITICAL_ZERO_REL)` away, where the vanishing
+/// eigenvalue is about `2e-7` of the others: this must lie above that.
+pub const CRITICAL_EIGEN_REL: f64 = 1e-5;
+/// Two zeros of the velocity closer than this fraction of the parameter domain are
+/// one critical point (a double root is found to about `3e-7`).
+pub const CRITICAL_SAME_REL: f64 = 1e-5;
+/// A double root (a degenerate critical point) is located to this (absolute).
+pub const CRITICAL_DOUBLE_ROOT_EPS: f64 = 1e-5;
+/// Critical points found in a test lie this close (absolute, field of size one) to
+/// the analytic ones.
+pub const CRITICAL_POSITION_EPS: f64 = 1e-9;
+
 #[cfg(test)]
 mod tests {
     use super::*;

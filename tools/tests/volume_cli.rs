@@ -19,40 +19,12 @@ const SHELL: &str = r#"{"format": "wandsculpt-volume", "version": 1,
                     [[[0,1,0,0.7], [0,1,3,4.6]], [[0,2.5,0,0.7], [0,2.5,3,4.6]]]],
  "weights": [[[1,1],[1,1]], [[0.7071067811865476,0.7071067811865476],[0.7071067811865476,0.7071067811865476]], [[1,1],[1,1]]]}"#;
 
-/// A scratch directory for the files a test writes.
-struct Files(tempfile::TempDir);
-
-impl Files {
-    fn new() -> Self {
-        Self(tempfile::tempdir().unwrap())
-    }
-    /// Writes `text` to `name` and returns the path as the command line takes it.
-    fn put(&self, name: &str, text: &str) -> String {
-        let p = self.0.path().join(name);
-        std::fs::write(&p, text).unwrap();
-        p.display().to_string()
-    }
-    /// A path in the directory that nothing has written yet.
-    fn path(&self, name: &str) -> std::path::PathBuf {
-        self.0.path().join(name)
-    }
-}
+use common::{Files, assert_one_line_error};
 
 /// The numbers of CSV output, row by row.
 fn csv_numbers(text: &str) -> Vec<Vec<f64>> {
     let parse = |l: &str| -> Vec<f64> { l.split(',').flat_map(str::parse).collect() };
     text.lines().map(parse).collect()
-}
-
-/// A failed run: non-zero exit, exactly one line on stderr, no panic, containing
-/// `needle`.
-fn assert_one_line_error(args: &[&str], needle: &str) {
-    let out = common::tools(args);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success(), "{args:?} succeeded");
-    assert!(!err.contains("panicked"), "{err}");
-    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
-    assert!(err.contains(needle), "expected '{needle}' in: {err}");
 }
 
 #[test]

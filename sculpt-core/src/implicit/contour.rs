@@ -71,24 +71,69 @@ pub fn contour_cells(
     Grid::new(n.map(|k| k + 1), lo, hi)?;
     Grid::new(n, lo, hi)?;
     let h: [f64; 3] = [0, 1, 2].map(|a| (hi[a] - lo[a]) / n[a] as f64);
-    let corner = |i: usize, j: usize, k: usize| {
-        [
-            lo[0] + i as f64 * h[0],
-            lo[1] + j as f64 * h[1],
-            lo[2] + k as f64 * h[2],
-        ]
-    };
-    let outside = h.iter().copied().fold(f64::INFINITY, f64::min) as f32;
+    let corner = |c: [usize; 3]| [0, 1, 2].map(|a| lo[a] + c[a] as f64 * h[a]);
+    let outside = f64::from(h.iter().copied().fold(f64::INFINITY, f64::min) as f32);
     let (cx, cy) = (n[0] + 1, n[1] + 1);
-    // Corner values of layer k, with the outer layer and NaN forced outside.
-    let layer = |k: usize| -> Result<Vec<f32>, ImplicitError> {
+    // Corner values of layer k, as the tape computes them (f32).
+    let layer = |k: usize| -> Result<Vec<f64>, ImplicitError> {
         let z = lo[2] + k as f64 * h[2];
         let g = Grid::new(
             [cx, cy, 1],
             [lo[0] - h[0] / 2.0, lo[1] - h[1] / 2.0, z - 0.5],
             [hi[0] + h[0] / 2.0, hi[1] + h[1] / 2.0, z + 0.5],
         )?;
-        let mut v = tape.eval_grid(&g);
+        Ok(tape.eval_grid(&g).into_iter().map(f64::from).collect())
+    };
+    let mut edges = Vec::new();
+    let vertex = |a: [usize; 3], b: [usize; 3], t: f64| -> Result<MeshVertex, ImplicitError> {
+        let (pa, pb) = (corner(a), corner(b));
+        edges.push([pa, pb]);
+        let p = [0, 1, 2].map(|c| pa[c] + t * (pb[c] - pa[c]));
+        let pf = p.map(|c| c as f32);
+        let (_, g) = tape.eval_grad(pf);
+        let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+        let normal = if len.is_finite() && len > 0.0 {
+            g.map(|c| c / len)
+        } else {
+            [0.0; 3]
+        };
+        Ok(MeshVertex {
+            position: pf,
+            normal,
+            uv: [0.0; 2],
+        })
+    };
+    let (mesh, cells) = march_tetrahedra_cells(n, outside, layer, vertex)?;
+    Ok((mesh, ContourCells { cells, edges }))
+}
+
+/// Marching tetrahedra on a grid of `n` cells per axis (the module docs' rules), for
+/// any sampled field: `layer(k)` gives the `(n_x + 1) (n_y + 1)` corner values of
+/// layer `k` (x fastest), negative inside; `vertex(a, b, t)` makes the vertex at
+/// fraction `t` of the grid edge from corner `a` to corner `b` (integer corner
+/// indices). NaN corners, and non-positive ones on the outer layer, are set to
+/// `outside` (a positive value) first, so the mesh is closed.
+pub fn march_tetrahedra<E>(
+    n: [usize; 3],
+    outside: f64,
+    layer: impl FnMut(usize) -> Result<Vec<f64>, E>,
+    vertex: impl FnMut([usize; 3], [usize; 3], f64) -> Result<MeshVertex, E>,
+) -> Result<WeldedMesh, E> {
+    Ok(march_tetrahedra_cells(n, outside, layer, vertex)?.0)
+}
+
+/// [`march_tetrahedra`] with the grid cell of each triangle
+/// (`i + n[0] (j + n[1] k)`).
+pub fn march_tetrahedra_cells<E>(
+    n: [usize; 3],
+    outside: f64,
+    mut layer: impl FnMut(usize) -> Result<Vec<f64>, E>,
+    mut vertex: impl FnMut([usize; 3], [usize; 3], f64) -> Result<MeshVertex, E>,
+) -> Result<(WeldedMesh, Vec<usize>), E> {
+    let (cx, cy) = (n[0] + 1, n[1] + 1);
+    // Corner values of layer k, with the outer layer and NaN forced outside.
+    let mut forced = |k: usize| -> Result<Vec<f64>, E> {
+        let mut v = layer(k)?;
         for j in 0..cy {
             for i in 0..cx {
                 let edge = i == 0 || j == 0 || k == 0 || i == n[0] || j == n[1] || k == n[2];
@@ -103,65 +148,54 @@ pub fn contour_cells(
     };
 
     let mut mesh = WeldedMesh::default();
-    let mut extra = ContourCells::default();
+    let mut cells = Vec::new();
     let mut edge_vertex: HashMap<(u64, u64), u32> = HashMap::new();
-    let id = |i: usize, j: usize, k: usize| (i + cx * (j + cy * k)) as u64;
-    let mut below = layer(0)?;
+    let id = |c: [usize; 3]| (c[0] + cx * (c[1] + cy * c[2])) as u64;
+    let mut below = forced(0)?;
     for k in 0..n[2] {
-        let above = layer(k + 1)?;
+        let above = forced(k + 1)?;
         for j in 0..n[1] {
             for i in 0..n[0] {
-                let mut ids = [0u64; 8];
-                let mut vals = [0f32; 8];
-                for (b, (idv, val)) in ids.iter_mut().zip(vals.iter_mut()).enumerate() {
+                let mut cs = [[0usize; 3]; 8];
+                let mut vals = [0f64; 8];
+                for (b, (c, val)) in cs.iter_mut().zip(vals.iter_mut()).enumerate() {
                     let (di, dj, dk) = (b & 1, (b >> 1) & 1, (b >> 2) & 1);
-                    *idv = id(i + di, j + dj, k + dk);
+                    *c = [i + di, j + dj, k + dk];
                     let src = if dk == 0 { &below } else { &above };
                     *val = src[(i + di) + cx * (j + dj)];
                 }
                 if vals.iter().all(|&v| v < 0.0) || vals.iter().all(|&v| v >= 0.0) {
                     continue;
                 }
-                let pos = |b: usize| corner(i + (b & 1), j + ((b >> 1) & 1), k + ((b >> 2) & 1));
                 for tet in TETS {
-                    let mut vertex = |a: usize, b: usize| -> u32 {
-                        let (ca, cb) = (tet[a], tet[b]);
-                        let key = (ids[ca].min(ids[cb]), ids[ca].max(ids[cb]));
-                        *edge_vertex.entry(key).or_insert_with(|| {
-                            let (va, vb) = (f64::from(vals[ca]), f64::from(vals[cb]));
-                            let t = (va / (va - vb))
-                                .clamp(CONTOUR_EDGE_T_MIN, 1.0 - CONTOUR_EDGE_T_MIN);
-                            let (pa, pb) = (pos(ca), pos(cb));
-                            let p = [0, 1, 2].map(|c| pa[c] + t * (pb[c] - pa[c]));
-                            let pf = p.map(|c| c as f32);
-                            let (_, g) = tape.eval_grad(pf);
-                            let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-                            let normal = if len.is_finite() && len > 0.0 {
-                                g.map(|c| c / len)
-                            } else {
-                                [0.0; 3]
-                            };
-                            extra.edges.push([pa, pb]);
-                            mesh.vertices.push(MeshVertex {
-                                position: pf,
-                                normal,
-                                uv: [0.0; 2],
-                            });
-                            (mesh.vertices.len() - 1) as u32
-                        })
-                    };
                     let inside = tet.map(|c| vals[c] < 0.0);
                     for tri in tet_triangles(inside) {
-                        let t = tri.map(|(a, b)| vertex(a, b));
+                        let mut t = [0u32; 3];
+                        for (slot, (a, b)) in t.iter_mut().zip(tri) {
+                            let (ca, cb) = (tet[a], tet[b]);
+                            let key = (id(cs[ca]).min(id(cs[cb])), id(cs[ca]).max(id(cs[cb])));
+                            *slot = match edge_vertex.get(&key) {
+                                Some(&v) => v,
+                                None => {
+                                    let (va, vb) = (vals[ca], vals[cb]);
+                                    let s = (va / (va - vb))
+                                        .clamp(CONTOUR_EDGE_T_MIN, 1.0 - CONTOUR_EDGE_T_MIN);
+                                    mesh.vertices.push(vertex(cs[ca], cs[cb], s)?);
+                                    let v = (mesh.vertices.len() - 1) as u32;
+                                    edge_vertex.insert(key, v);
+                                    v
+                                }
+                            };
+                        }
                         mesh.triangles.push(t);
-                        extra.cells.push(i + n[0] * (j + n[1] * k));
+                        cells.push(i + n[0] * (j + n[1] * k));
                     }
                 }
             }
         }
         below = above;
     }
-    Ok((mesh, extra))
+    Ok((mesh, cells))
 }
 
 /// Whether a permutation of `0..4` is even.

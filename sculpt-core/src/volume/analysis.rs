@@ -124,7 +124,12 @@ impl Volume {
     }
 
     /// The frame from a derivative row of [`Volume::eval_d1_into`].
-    fn frame_from_row(&self, u: &[f64], row: &[f64], g: [usize; 3]) -> VolumeResult<Frame> {
+    pub(super) fn frame_from_row(
+        &self,
+        u: &[f64],
+        row: &[f64],
+        g: [usize; 3],
+    ) -> VolumeResult<Frame> {
         let k = self.components();
         let point = slot_vector(row, k, 0, g);
         let covariant: [DVec3; 3] = std::array::from_fn(|d| slot_vector(row, k, 1 + d, g));

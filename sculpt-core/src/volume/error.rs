@@ -244,6 +244,30 @@ pub enum VolumeError {
         /// The attributes there are.
         available: Vec<String>,
     },
+    /// The velocity vanishes on a curve or region: too many zeros to list.
+    #[error(
+        "more than {max} critical points: the velocity vanishes on a curve or a region, not at isolated points"
+    )]
+    TooManyCriticalPoints {
+        /// The cap ([`super::critical::MAX_CRITICAL_POINTS`]).
+        max: usize,
+    },
+    /// A sampling resolution is zero or too large.
+    #[error("resolution {got}: use 1 to {max} cells per direction")]
+    Resolution {
+        /// The resolution asked for.
+        got: usize,
+        /// The most allowed.
+        max: usize,
+    },
+    /// A number given to an application is NaN or infinite.
+    #[error("{what} is not finite ({value})")]
+    NotFinite {
+        /// What the number is.
+        what: &'static str,
+        /// The value.
+        value: f64,
+    },
     /// The text is not JSON or does not follow the volume schema.
     #[error("volume JSON: {0}")]
     Json(crate::error::JsonError),

@@ -62,19 +62,25 @@
 //! ```
 
 pub mod analysis;
+pub mod critical;
 mod error;
 mod eval;
 pub mod fit;
 pub mod integrate;
+pub mod isosurface;
 pub mod json;
+pub mod morph;
 pub mod refine;
+pub mod streamline;
 pub mod vtk;
 
 pub use analysis::{Frame, VectorDerivatives, VolumeInverter};
+pub use critical::{CriticalKind, CriticalPoint};
 pub use error::{NetIndex, VolumeError, VolumeResult};
 pub use eval::Derivatives;
 pub use fit::FitError;
 pub use integrate::Integrals;
+pub use streamline::{FlowField, Streamline, StreamlineEnd, StreamlineOptions};
 pub use vtk::{PointArray, StructuredGrid, VtkError};
 
 use crate::nurbs::KnotVector;

@@ -10,3 +10,4 @@ pub mod project;
 pub mod reconstruct;
 pub mod tilt2poselog;
 pub mod volume;
+pub mod volume_apps;

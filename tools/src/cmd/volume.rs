@@ -12,6 +12,8 @@
 //! - `volume grid VOL.json --res r1,..,rn --out G.vtk [--binary]`: the volume sampled
 //!   on a uniform parameter grid, as a legacy VTK structured grid (first index
 //!   fastest), the geometry as points and the other attributes as point data.
+//! - `volume streamlines`, `critical`, `isosurface`, `morph`: the applications, in
+//!   [`super::volume_apps`].
 
 use std::path::{Path, PathBuf};
 
@@ -38,6 +40,14 @@ enum VolumeCommand {
     Analyze(AnalyzeArgs),
     /// Sample a volume on a uniform parameter grid into a legacy VTK structured grid.
     Grid(GridArgs),
+    /// Trace streamlines of a velocity attribute from physical seed points.
+    Streamlines(super::volume_apps::StreamlinesArgs),
+    /// Find and classify the zeros of a velocity attribute.
+    Critical(super::volume_apps::CriticalArgs),
+    /// Mesh a level set of an attribute (watertight) into STL, OBJ or GLB.
+    Isosurface(super::volume_apps::IsosurfaceArgs),
+    /// Morph one image into another through an image volume: PNG frames.
+    Morph(super::volume_apps::MorphArgs),
 }
 
 /// Arguments of `volume fit`.
@@ -111,11 +121,15 @@ pub fn run(args: VolumeArgs) -> Result<()> {
         VolumeCommand::Fit(a) => fit(&a),
         VolumeCommand::Analyze(a) => analyze(&a),
         VolumeCommand::Grid(a) => grid(&a),
+        VolumeCommand::Streamlines(a) => super::volume_apps::streamlines(&a),
+        VolumeCommand::Critical(a) => super::volume_apps::critical(&a),
+        VolumeCommand::Isosurface(a) => super::volume_apps::isosurface(&a),
+        VolumeCommand::Morph(a) => super::volume_apps::morph(&a),
     }
 }
 
 /// Reads a volume file; errors name the file (and for JSON errors the line and column).
-fn read_volume(path: &Path) -> Result<Volume> {
+pub(super) fn read_volume(path: &Path) -> Result<Volume> {
     let text = io::read_input(path)?;
     Volume::from_json(&text).map_err(|e| match e {
         VolumeError::Json(json) => {

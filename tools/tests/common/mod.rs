@@ -20,3 +20,37 @@ pub fn ok(args: &[&str]) -> String {
     );
     String::from_utf8(out.stdout).unwrap()
 }
+
+/// A scratch directory for the files a test writes.
+#[allow(dead_code)] // not every test binary writes files
+pub struct Files(pub tempfile::TempDir);
+
+#[allow(dead_code)]
+impl Files {
+    /// A new empty directory.
+    pub fn new() -> Self {
+        Self(tempfile::tempdir().unwrap())
+    }
+    /// Writes `text` to `name` and returns the path as the command line takes it.
+    pub fn put(&self, name: &str, text: &str) -> String {
+        let p = self.0.path().join(name);
+        std::fs::write(&p, text).unwrap();
+        p.display().to_string()
+    }
+    /// A path in the directory that nothing has written yet.
+    pub fn path(&self, name: &str) -> std::path::PathBuf {
+        self.0.path().join(name)
+    }
+}
+
+/// A failed run: non-zero exit, exactly one line on stderr, no panic, containing
+/// `needle`.
+#[allow(dead_code)]
+pub fn assert_one_line_error(args: &[&str], needle: &str) {
+    let out = tools(args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{args:?} succeeded");
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    assert!(err.contains(needle), "expected '{needle}' in: {err}");
+}
