@@ -29,6 +29,8 @@
 pub mod contour;
 pub mod expr;
 pub mod interval;
+pub mod material;
+pub mod rfm;
 pub mod rfunc;
 pub mod solid;
 pub mod tape;
