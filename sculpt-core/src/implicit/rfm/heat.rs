@@ -41,9 +41,9 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::implicit::expr::{Graph, NodeId};
-use crate::implicit::interval::Interval;
 use crate::implicit::material::{import_graph, interpolate};
 use crate::implicit::rfunc::RSystem;
+use crate::implicit::tape::Grid;
 use crate::implicit::{Convention, Model, Tape};
 use crate::tolerance::{RFM_DROP_REL, RFM_SINGULAR_REL};
 
@@ -56,8 +56,11 @@ use super::quadrature::{self, Quadrature, WeightedPoint};
 pub const MAX_PIECES: usize = 64;
 /// The most quadrature refinement levels of cut cells.
 pub const MAX_DEPTH: u32 = 8;
-/// Half the side of the square searched for the domain when no bounds are given.
-pub const SEARCH_HALF_SIDE: f64 = 1.0e4;
+/// Half sides of the squares about the origin searched for the domain, largest first,
+/// when no bounds are given.
+pub const SEARCH_HALF_SIDES: [f64; 7] = [1000.0, 100.0, 10.0, 1.0, 0.1, 0.01, 0.001];
+/// Samples per axis of each search grid.
+pub const BOX_SAMPLES: usize = 128;
 
 /// One boundary piece: a model whose inside is the domain's side, and its film
 /// condition.
@@ -207,63 +210,35 @@ fn check(settings: &HeatSettings, pieces: &[Piece]) -> Result<(), RfmError> {
     Ok(())
 }
 
-/// The smallest box of interval-arithmetic cells that may hold the domain, found by
-/// subdividing [`SEARCH_HALF_SIDE`] squares until the cells are 1/64 of the box.
+/// A box around the domain, by sampling: grids of [`BOX_SAMPLES`]^2 points on squares
+/// of half side 1000, 100, ... 0.001 about the origin until one has a point inside;
+/// then the box of the inside points, grown by a grid step, is sampled again, twice,
+/// and the last box of inside points grown by a step is returned. (Interval arithmetic
+/// over large boxes is too loose on R-function compositions to bound the domain.)
 fn domain_box(tape: &Tape) -> Result<[f64; 4], RfmError> {
-    const MAX_CELLS: usize = 1 << 14;
-    let bounds_of = |cells: &[[f64; 4]]| {
-        cells.iter().fold(
-            [
-                f64::INFINITY,
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-                f64::NEG_INFINITY,
-            ],
-            |b, c| {
-                [
-                    b[0].min(c[0]),
-                    b[1].min(c[1]),
-                    b[2].max(c[2]),
-                    b[3].max(c[3]),
-                ]
-            },
-        )
-    };
-    let s = SEARCH_HALF_SIDE;
-    let mut cells = vec![[-s, -s, s, s]];
-    loop {
-        let mut next = Vec::with_capacity(cells.len() * 4);
-        for c in &cells {
-            let m = [0.5 * (c[0] + c[2]), 0.5 * (c[1] + c[3])];
-            for k in [
-                [c[0], c[1], m[0], m[1]],
-                [m[0], c[1], c[2], m[1]],
-                [c[0], m[1], m[0], c[3]],
-                [m[0], m[1], c[2], c[3]],
-            ] {
-                let r = tape.eval_interval([
-                    Interval::new(k[0] as f32, k[2] as f32),
-                    Interval::new(k[1] as f32, k[3] as f32),
-                    Interval::point(0.0),
-                ]);
-                if r.nan || r.hi > 0.0 {
-                    next.push(k);
-                }
+    let inside_box = |b: [f64; 4]| -> Option<[f64; 4]> {
+        let n = BOX_SAMPLES;
+        let grid = Grid::new([n, n, 1], [b[0], b[1], -0.5], [b[2], b[3], 0.5]).ok()?;
+        let values = tape.eval_grid(&grid);
+        let (sx, sy) = ((b[2] - b[0]) / n as f64, (b[3] - b[1]) / n as f64);
+        let mut found: Option<[f64; 4]> = None;
+        for (k, v) in values.iter().enumerate() {
+            if *v > 0.0 {
+                let (x, y) = (grid.centre(0, k % n), grid.centre(1, k / n));
+                let f = found.get_or_insert([x, y, x, y]);
+                *f = [f[0].min(x), f[1].min(y), f[2].max(x), f[3].max(y)];
             }
         }
-        if next.is_empty() {
-            return Err(RfmError::NoInterior);
-        }
-        if next.len() > MAX_CELLS {
-            return Ok(bounds_of(&cells));
-        }
-        let b = bounds_of(&next);
-        let side = next[0][2] - next[0][0];
-        cells = next;
-        if side * 64.0 <= (b[2] - b[0]).max(b[3] - b[1]) {
-            return Ok(b);
-        }
+        found.map(|f| [f[0] - sx, f[1] - sy, f[2] + sx, f[3] + sy])
+    };
+    let mut b = SEARCH_HALF_SIDES
+        .iter()
+        .find_map(|&s| inside_box([-s, -s, s, s]))
+        .ok_or(RfmError::NoInterior)?;
+    for _ in 0..2 {
+        b = inside_box(b).ok_or(RfmError::NoInterior)?;
     }
+    Ok(b)
 }
 
 /// Solves the problem (see the module docs).
@@ -715,5 +690,49 @@ mod tests {
             solve(&bad, &ring()),
             Err(RfmError::Conductivity { .. })
         ));
+    }
+
+    /// The paper's heating pipe (sec. 3.2): inner fins raise the outer surface's mean
+    /// temperature (the shipped specs' geometry and films, tests/data/rfm).
+    #[test]
+    fn fins_raise_the_outer_surface_temperature() {
+        let outer = include_str!("../../../../tests/data/rfm/pipe-outer.json");
+        let inners = [
+            include_str!("../../../../tests/data/rfm/pipe-inner-0.json"),
+            include_str!("../../../../tests/data/rfm/pipe-inner-4.json"),
+            include_str!("../../../../tests/data/rfm/pipe-inner-8.json"),
+        ];
+        let settings = HeatSettings {
+            conductivity: 400.0,
+            depth: 5,
+            ..Default::default()
+        };
+        let means: Vec<f64> = inners
+            .iter()
+            .map(|inner| {
+                let pieces = [
+                    Piece {
+                        model: Model::from_text(outer).unwrap(),
+                        ambient: 293.15,
+                        film: 30.0,
+                    },
+                    Piece {
+                        model: Model::from_text(inner).unwrap(),
+                        ambient: 353.15,
+                        film: 150.0,
+                    },
+                ];
+                solve(&settings, &pieces).unwrap().boundary_means()[0]
+            })
+            .collect();
+        eprintln!(
+            "outer surface mean temperature (K): no fins {}, 4 fins {}, 8 fins {}",
+            means[0], means[1], means[2]
+        );
+        assert!(means[0] < means[1] && means[1] < means[2], "{means:?}");
+        // Without fins the wall is nearly isothermal (Biot number ~ 1e-3): the lumped
+        // balance per unit length, 2 pi (r_i h_i (T_w - T) + r_o h_o (T_a - T)) = 0.
+        let lumped = (0.05 * 150.0 * 353.15 + 0.06 * 30.0 * 293.15) / (0.05 * 150.0 + 0.06 * 30.0);
+        assert!((means[0] - lumped).abs() < 0.1, "{} vs {lumped}", means[0]);
     }
 }
