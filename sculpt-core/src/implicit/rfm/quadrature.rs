@@ -108,7 +108,12 @@ fn cell(
         Interval::point(0.0),
     ];
     let range = tape.eval_interval(region);
-    if !range.nan && range.lo > 0.0 {
+    let (inside, outside) = if range.nan || range.lo <= 0.0 && range.hi >= 0.0 {
+        sampled_side(omega, lo, hi)
+    } else {
+        (range.lo > 0.0, range.hi < 0.0)
+    };
+    if inside {
         let area = (hi[0] - lo[0]) * (hi[1] - lo[1]);
         for &(gy, wy) in &GAUSS4 {
             for &(gx, wx) in &GAUSS4 {
@@ -120,7 +125,7 @@ fn cell(
         }
         return;
     }
-    if !range.nan && range.hi < 0.0 {
+    if outside {
         return;
     }
     if depth > 0 {
@@ -137,6 +142,38 @@ fn cell(
     }
     clip_cell(omega, lo, hi, q);
 }
+
+/// Whether a cell is wholly inside or wholly outside, judged from samples where
+/// interval arithmetic could not tell (it is loose on deep R-function compositions):
+/// the centre's value must exceed [`SAMPLE_MARGIN`] times what its gradient could
+/// change over the half diagonal, with the corners on the same side. For a
+/// distance-like omega (sec. 2.1.2) the boundary is then farther than the cell reaches.
+fn sampled_side(
+    omega: &mut dyn FnMut([f64; 2]) -> Jet2,
+    lo: [f64; 2],
+    hi: [f64; 2],
+) -> (bool, bool) {
+    let c = omega([0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])]);
+    let reach = SAMPLE_MARGIN * c.dx.hypot(c.dy) * 0.5 * (hi[0] - lo[0]).hypot(hi[1] - lo[1]);
+    if c.v.is_nan() || reach.is_nan() || c.v.abs() <= reach {
+        return (false, false);
+    }
+    let corners = [
+        [lo[0], lo[1]],
+        [hi[0], lo[1]],
+        [lo[0], hi[1]],
+        [hi[0], hi[1]],
+    ];
+    let same = corners.iter().all(|&p| {
+        let v = omega(p).v;
+        if c.v > 0.0 { v > 0.0 } else { v < 0.0 }
+    });
+    (same && c.v > 0.0, same && c.v < 0.0)
+}
+
+/// How many times the first-order change over the half diagonal the centre's value must
+/// exceed for [`sampled_side`] to call a cell uncut.
+const SAMPLE_MARGIN: f64 = 2.0;
 
 /// A vertex of a clipped polygon: a corner inside, or a crossing where the boundary
 /// leaves (`exit`) or enters the polygon along the walk.
