@@ -3,18 +3,14 @@
 //! back (CSV parsed, PNG decoded, JSON parsed), bad input that must fail with one line;
 //! and `implicit eval` of a material document.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+use common::{ok, tools as run};
 use sculpt_core::assert_near;
 use sculpt_core::tolerance::{IMPLICIT_F32_REL, RFM_RING_PROBE_K};
-
-fn run(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sculpt-tools"))
-        .args(args)
-        .output()
-        .expect("spawn sculpt-tools")
-}
 
 fn data(name: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -22,15 +18,6 @@ fn data(name: &str) -> String {
         .join(name)
         .to_string_lossy()
         .into_owned()
-}
-
-fn ok(out: &Output) -> String {
-    assert!(
-        out.status.success(),
-        "stderr: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout.clone()).unwrap()
 }
 
 fn fails(out: &Output, needle: &str) {
@@ -68,7 +55,7 @@ fn read_probes(path: &Path) -> Vec<[f64; 3]> {
 fn ring_writes_probes_picture_and_report() {
     let dir = tempfile::tempdir().unwrap();
     let out: PathBuf = dir.path().join("ring");
-    ok(&run(&[
+    ok(&[
         "rfm",
         "heat",
         &data("ring.toml"),
@@ -76,7 +63,7 @@ fn ring_writes_probes_picture_and_report() {
         &data("ring-probes.csv"),
         "--out",
         out.to_str().unwrap(),
-    ]));
+    ]);
     let probes = read_probes(&out.join("probes.csv"));
     assert_eq!(probes.len(), 20);
     for [x, y, t] in &probes {
@@ -189,13 +176,13 @@ fn implicit_eval_of_a_material_field() {
     let dir = tempfile::tempdir().unwrap();
     let pts = dir.path().join("p.csv");
     std::fs::write(&pts, "x,y\n0.5,0\n0,-1\n0.75,0\n0,0.75\n").unwrap();
-    let text = ok(&run(&[
+    let text = ok(&[
         "implicit",
         "eval",
         &data("ring-material.json"),
         "--points",
         pts.to_str().unwrap(),
-    ]));
+    ]);
     let v: Vec<f64> = text.lines().map(|l| l.parse().unwrap()).collect();
     assert_near!(v[0], 1073.0, 1073.0 * IMPLICIT_F32_REL);
     assert_near!(v[1], 1573.0, 1573.0 * IMPLICIT_F32_REL);

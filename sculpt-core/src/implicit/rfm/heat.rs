@@ -735,4 +735,18 @@ mod tests {
         let lumped = (0.05 * 150.0 * 353.15 + 0.06 * 30.0 * 293.15) / (0.05 * 150.0 + 0.06 * 30.0);
         assert!((means[0] - lumped).abs() < 0.1, "{} vs {lumped}", means[0]);
     }
+
+    /// A singular system is refused (a rank-1 matrix, and one with no energy at all),
+    /// and a regular one is solved.
+    #[test]
+    fn singular_systems_are_refused() {
+        let rank1 = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0]);
+        let b = DVector::from_row_slice(&[1.0, 2.0]);
+        assert_eq!(solve_spd(rank1, b.clone()).unwrap_err(), RfmError::Singular);
+        assert_eq!(solve_spd(DMatrix::zeros(2, 2), b.clone()).unwrap_err(), RfmError::Singular);
+        let (c, active) = solve_spd(DMatrix::from_row_slice(2, 2, &[2.0, 0.0, 1.0, 2.0]), b).unwrap();
+        assert_eq!(active, 2);
+        // [[2, 1], [1, 2]] c = [1, 2]: c = [0, 1].
+        crate::assert_near!(c.as_slice(), [0.0, 1.0].as_slice(), crate::tolerance::EXACT_EPS);
+    }
 }
