@@ -743,10 +743,18 @@ mod tests {
         let rank1 = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0]);
         let b = DVector::from_row_slice(&[1.0, 2.0]);
         assert_eq!(solve_spd(rank1, b.clone()).unwrap_err(), RfmError::Singular);
-        assert_eq!(solve_spd(DMatrix::zeros(2, 2), b.clone()).unwrap_err(), RfmError::Singular);
-        let (c, active) = solve_spd(DMatrix::from_row_slice(2, 2, &[2.0, 0.0, 1.0, 2.0]), b).unwrap();
+        assert_eq!(
+            solve_spd(DMatrix::zeros(2, 2), b.clone()).unwrap_err(),
+            RfmError::Singular
+        );
+        let (c, active) =
+            solve_spd(DMatrix::from_row_slice(2, 2, &[2.0, 0.0, 1.0, 2.0]), b).unwrap();
         assert_eq!(active, 2);
         // [[2, 1], [1, 2]] c = [1, 2]: c = [0, 1].
-        crate::assert_near!(c.as_slice(), [0.0, 1.0].as_slice(), crate::tolerance::EXACT_EPS);
+        crate::assert_near!(
+            c.as_slice(),
+            [0.0, 1.0].as_slice(),
+            crate::tolerance::EXACT_EPS
+        );
     }
 }

@@ -42,7 +42,8 @@ const GAUSS4: [(f64, f64); 4] = [
     (0.930_568_155_797_026_3, 0.173_927_422_568_726_93),
 ];
 
-/// Gauss-Legendre on `[0, 1]`, 3 points (exact to degree 5), for boundary segments.
+/// Gauss-Legendre on `[0, 1]`, 3 points (exact to degree 5), for boundary segments and
+/// the smaller cells of split ones.
 const GAUSS3: [(f64, f64); 3] = [
     (0.112_701_665_379_258_31, 0.277_777_777_777_777_8),
     (0.5, 0.444_444_444_444_444_4),
@@ -88,7 +89,15 @@ pub fn build(
     let mut q = Quadrature::default();
     for wy in ys.windows(2) {
         for wx in xs.windows(2) {
-            cell(tape, omega, [wx[0], wy[0]], [wx[1], wy[1]], depth, &mut q);
+            cell(
+                tape,
+                omega,
+                [wx[0], wy[0]],
+                [wx[1], wy[1]],
+                depth,
+                depth,
+                &mut q,
+            );
         }
     }
     q
@@ -100,6 +109,7 @@ fn cell(
     lo: [f64; 2],
     hi: [f64; 2],
     depth: u32,
+    top: u32,
     q: &mut Quadrature,
 ) {
     let region = [
@@ -114,9 +124,11 @@ fn cell(
         (range.lo > 0.0, range.hi < 0.0)
     };
     if inside {
+        // A whole knot-span cell gets 4 x 4 points; the smaller cells of a split one 3 x 3.
+        let rule: &[(f64, f64)] = if depth == top { &GAUSS4 } else { &GAUSS3 };
         let area = (hi[0] - lo[0]) * (hi[1] - lo[1]);
-        for &(gy, wy) in &GAUSS4 {
-            for &(gx, wx) in &GAUSS4 {
+        for &(gy, wy) in rule {
+            for &(gx, wx) in rule {
                 q.interior.push(WeightedPoint {
                     p: [lo[0] + gx * (hi[0] - lo[0]), lo[1] + gy * (hi[1] - lo[1])],
                     w: area * wx * wy,
@@ -136,7 +148,7 @@ fn cell(
             ([lo[0], mid[1]], [mid[0], hi[1]]),
             ([mid[0], mid[1]], [hi[0], hi[1]]),
         ] {
-            cell(tape, omega, l, h, depth - 1, q);
+            cell(tape, omega, l, h, depth - 1, top, q);
         }
         return;
     }
