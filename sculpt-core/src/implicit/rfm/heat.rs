@@ -99,7 +99,7 @@ impl Default for HeatSettings {
             degree: 3,
             count: [10, 10],
             system: RSystem::default(),
-            depth: 4,
+            depth: 3,
             bounds: None,
         }
     }
@@ -383,17 +383,49 @@ fn assemble(
     let mut jets = [Jet2::default(); 3];
     let mut loc = LocalBasis::default();
     let mut l = Local::new();
+    // Points come cell by cell, and the points of one knot-span cell share their basis
+    // functions: their products are summed in a dense local block (contiguous rows,
+    // gradients split by component) that is added to `a` when the cell changes.
+    let mut block: Vec<f64> = Vec::new();
+    let mut block_index: Vec<usize> = Vec::new();
+    let (mut gx, mut gy) = (Vec::new(), Vec::new());
+    let flush = |a: &mut DMatrix<f64>, block: &mut Vec<f64>, index: &[usize]| {
+        let m = index.len();
+        for (x, &i) in index.iter().enumerate() {
+            for (y, &j) in index[..=x].iter().enumerate() {
+                a[(i.max(j), i.min(j))] += block[x * m + y];
+            }
+        }
+        block.iter_mut().for_each(|v| *v = 0.0);
+    };
     for wp in &quad.interior {
         fields.eval(wp.p, &mut scratch, &mut jets);
         basis.eval(wp.p, &mut loc);
         l.fill(n, jets[0], jets[1], jets[2], &loc);
+        if block_index != l.index {
+            if !block_index.is_empty() {
+                flush(&mut a, &mut block, &block_index);
+            }
+            block_index.clone_from(&l.index);
+            block.resize(l.index.len() * l.index.len(), 0.0);
+        }
+        let m = l.index.len();
+        gx.clear();
+        gy.clear();
+        gx.extend(l.grad.iter().map(|g| g[0]));
+        gy.extend(l.grad.iter().map(|g| g[1]));
         let k = lambda * wp.w;
-        for (x, (&i, gi)) in l.index.iter().zip(&l.grad).enumerate() {
-            rhs[i] -= k * (gi[0] * l.grad_g[0] + gi[1] * l.grad_g[1]);
-            for (&j, gj) in l.index[..=x].iter().zip(&l.grad) {
-                a[(i.max(j), i.min(j))] += k * (gi[0] * gj[0] + gi[1] * gj[1]);
+        for x in 0..m {
+            let (kx, ky) = (k * gx[x], k * gy[x]);
+            rhs[l.index[x]] -= kx * l.grad_g[0] + ky * l.grad_g[1];
+            let row = &mut block[x * m..x * m + x + 1];
+            for ((r, &u), &v) in row.iter_mut().zip(&gx).zip(&gy) {
+                *r += kx * u + ky * v;
             }
         }
+    }
+    if !block_index.is_empty() {
+        flush(&mut a, &mut block, &block_index);
     }
     for (wp, &piece) in quad.boundary.iter().zip(piece_of) {
         let (alpha, ambient) = pieces[piece];

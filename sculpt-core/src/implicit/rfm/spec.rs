@@ -2,7 +2,7 @@
 //!
 //! ```toml
 //! conductivity = 400.0          # lambda, W/mK
-//! depth = 4                     # optional: refinement levels of cut cells
+//! depth = 3                     # optional: refinement levels of cut cells
 //! bounds = [-1.0, -1.0, 1.0, 1.0] # optional: the basis box; found when missing
 //! [basis]
 //! degree = 3                    # optional, 3 (bicubic)
@@ -41,7 +41,7 @@ fn three() -> usize {
 }
 
 fn default_depth() -> u32 {
-    4
+    3
 }
 
 /// One boundary piece.
@@ -196,7 +196,7 @@ film = 100.0
         assert_eq!(spec.boundary.len(), 2);
         assert_eq!(spec.basis.count, [10, 10]);
         let s = spec.settings().unwrap();
-        assert_eq!((s.degree, s.depth, s.bounds), (3, 4, None));
+        assert_eq!((s.degree, s.depth, s.bounds), (3, 3, None));
     }
 
     #[test]
