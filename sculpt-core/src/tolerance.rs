@@ -680,6 +680,33 @@ pub const CRITICAL_DOUBLE_ROOT_EPS: f64 = 1e-5;
 /// the analytic ones.
 pub const CRITICAL_POSITION_EPS: f64 = 1e-9;
 
+// Mesh-free heat analysis and heterogeneous material (R-function method, Shin, Kim
+// and Sheen 2007, sec. 2.3 and 3): sculpt_core::implicit::rfm, implicit::material.
+// ---------------------------------------------------------------------------------
+
+/// Step of the central differences that check second-order jets (a compromise between
+/// truncation, O(h^2), and rounding, O(eps / h^2), for second derivatives).
+pub const RFM_FD_STEP: f64 = 1e-3;
+/// Second-order jets agree with central differences of step [`RFM_FD_STEP`] to this,
+/// relative to the size of the derivative.
+pub const RFM_JET_FD_REL: f64 = 1e-4;
+/// A boundary crossing on a quadrature cell's edge is located to this fraction of the
+/// edge (regula falsi, Illinois variant).
+pub const RFM_ROOT_REL: f64 = 1e-12;
+/// A basis function whose energy (the stiffness diagonal) is below this fraction of the
+/// largest is left out of the system: its support barely meets the domain, and keeping
+/// it would only add rounding (the extended B-spline idea of Hoellig's web-splines).
+pub const RFM_DROP_REL: f64 = 1e-10;
+/// The ring's probes agree with the exact solution `C + D ln r` to this with the
+/// paper's 10 x 10 bicubic basis (the bound, kelvin).
+pub const RFM_RING_PROBE_K: f64 = 1.0;
+/// Transfinite and inverse-distance interpolation reproduce the given values on their
+/// boundaries and points, and the weights sum to one, to this (relative).
+pub const MATERIAL_EXACT_REL: f64 = 1e-12;
+/// After Jacobi scaling, a Cholesky pivot below this fraction of the largest means the
+/// Ritz system is singular to working precision (the solve is refused).
+pub const RFM_SINGULAR_REL: f64 = 1e-14;
+
 #[cfg(test)]
 mod tests {
     use super::*;

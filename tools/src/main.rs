@@ -75,6 +75,9 @@ enum Command {
     /// Implicit solids (`.vm` or solid documents): evaluate at points or on a grid,
     /// or mesh them.
     Implicit(cmd::implicit::ImplicitArgs),
+    /// Mesh-free analysis by the R-function method: steady heat conduction with film
+    /// conditions on an implicit domain (docs/implicit.md).
+    Rfm(cmd::rfm::RfmArgs),
 }
 
 fn main() -> ExitCode {
@@ -88,6 +91,7 @@ fn main() -> ExitCode {
         Command::Reconstruct(args) => cmd::reconstruct::run(args),
         Command::Volume(args) => cmd::volume::run(args),
         Command::Implicit(args) => cmd::implicit::run(args),
+        Command::Rfm(args) => cmd::rfm::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

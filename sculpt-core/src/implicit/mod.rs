@@ -30,6 +30,8 @@ pub mod contour;
 pub mod dual;
 pub mod expr;
 pub mod interval;
+pub mod material;
+pub mod rfm;
 pub mod rfunc;
 pub mod solid;
 pub mod tape;

@@ -13,6 +13,9 @@
 //! MODEL is a `.vm` file (Fidget's SSA text, negative inside) or a solid document
 //! (JSON, omega >= 0 inside, recognised by its leading `{`). Values written are
 //! always negative inside (Fidget's convention): a solid document's omega is negated.
+//! `implicit eval` also takes a material document (JSON with a top-level `material`:
+//! values interpolated from points and implicit boundaries, `implicit::material`) and
+//! writes its field's values as they are.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -20,10 +23,11 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 use sculpt_core::formats::MeshFormat;
-use sculpt_core::implicit::Model;
 use sculpt_core::implicit::contour::contour;
 use sculpt_core::implicit::dual::dual_contour;
+use sculpt_core::implicit::material::{self, MaterialDocument};
 use sculpt_core::implicit::tape::Grid;
+use sculpt_core::implicit::{Model, Tape};
 
 use super::io;
 
@@ -177,9 +181,22 @@ fn read_points(path: &Path) -> Result<Vec<[f32; 3]>> {
     Ok(points)
 }
 
+/// The tape `implicit eval` evaluates: a model's in Fidget's convention (negative
+/// inside), or a material document's field as it is (a material has no inside).
+fn eval_tape(path: &Path) -> Result<Tape> {
+    let text = io::read_input(path)?;
+    if material::is_material_document(&text) {
+        return MaterialDocument::from_json(&text)
+            .and_then(|doc| doc.tape())
+            .with_context(|| format!("{}: invalid material document", io::display_name(path)));
+    }
+    Model::from_text(&text)
+        .map(|m| m.tape_negative_inside())
+        .with_context(|| format!("{}: invalid model", io::display_name(path)))
+}
+
 fn eval(args: &EvalArgs) -> Result<()> {
-    let model = read_model(&args.model)?;
-    let tape = model.tape_negative_inside();
+    let tape = eval_tape(&args.model)?;
     if let Some(points) = &args.points {
         io::check_one_stdin(&[&args.model, points])?;
         let pts = read_points(points)?;

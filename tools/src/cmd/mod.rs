@@ -8,6 +8,7 @@ pub mod io;
 pub mod mesh;
 pub mod project;
 pub mod reconstruct;
+pub mod rfm;
 pub mod tilt2poselog;
 pub mod volume;
 pub mod volume_apps;

@@ -66,7 +66,7 @@ fn colour(op: OpKind) -> RGBColor {
 }
 
 /// Encodes an RGB buffer as PNG.
-fn png_bytes(rgb: &[u8], (w, h): (u32, u32)) -> Result<Vec<u8>> {
+pub(crate) fn png_bytes(rgb: &[u8], (w, h): (u32, u32)) -> Result<Vec<u8>> {
     use image::ImageEncoder as _;
     let mut png = Vec::new();
     image::codecs::png::PngEncoder::new(&mut png)
