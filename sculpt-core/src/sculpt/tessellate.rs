@@ -891,12 +891,14 @@ impl TargetTessellation {
         sink.begin_patch(self.patch_key(root));
         // The normals written for each input vertex, with their output indices: the
         // first in `written`, any others (creases, rims) in `more_written`.
+        // (`more_written` is keyed by vertex, in the order written: a list scanned for
+        // every corner made a patch's time grow with the square of its creases.)
         let mut written: Vec<Option<(DVec3, u32)>> = vec![None; verts.len()];
-        let mut more_written: Vec<(u32, DVec3, u32)> = Vec::new();
+        let mut more_written: FxMap<u32, Vec<(DVec3, u32)>> = FxMap::default();
         // Per input vertex, the gradient segment of each stroke asked so far.
         let mut segments = GradientSegments {
             first: vec![None; verts.len()],
-            more: Vec::new(),
+            more: FxMap::default(),
         };
         for t in tris {
             let normals = corner_normals(strokes, self.poles, verts, *t, &mut segments);
@@ -907,9 +909,9 @@ impl TargetTessellation {
                 let same = match written[t[k] as usize] {
                     Some((n, i)) if close(&n) => Some(i),
                     Some(_) => more_written
-                        .iter()
-                        .find(|(w, n, _)| *w == t[k] && close(n))
-                        .map(|m| m.2),
+                        .get(&t[k])
+                        .and_then(|m| m.iter().find(|(n, _)| close(n)))
+                        .map(|m| m.1),
                     None => None,
                 };
                 out[k] = match same {
@@ -924,7 +926,10 @@ impl TargetTessellation {
                         });
                         match written[t[k] as usize] {
                             None => written[t[k] as usize] = Some((normals[k], i)),
-                            Some(_) => more_written.push((t[k], normals[k], i)),
+                            Some(_) => more_written
+                                .entry(t[k])
+                                .or_default()
+                                .push((normals[k], i)),
                         }
                         i
                     }
@@ -1070,18 +1075,15 @@ fn corner_normals(
 /// the first stroke's in `first`, others (where grooves meet) in `more`.
 struct GradientSegments {
     first: Vec<Option<(usize, Option<usize>)>>,
-    more: Vec<(u32, usize, Option<usize>)>,
+    /// The later strokes' segments, by (vertex, stroke); the first one put wins.
+    more: FxMap<(u32, usize), Option<usize>>,
 }
 
 impl GradientSegments {
     fn get(&self, vertex: u32, stroke: usize) -> Option<Option<usize>> {
         match self.first[vertex as usize] {
             Some((k, seg)) if k == stroke => Some(seg),
-            Some(_) => self
-                .more
-                .iter()
-                .find(|m| m.0 == vertex && m.1 == stroke)
-                .map(|m| m.2),
+            Some(_) => self.more.get(&(vertex, stroke)).copied(),
             None => None,
         }
     }
@@ -1089,7 +1091,9 @@ impl GradientSegments {
     fn put(&mut self, vertex: u32, stroke: usize, segment: Option<usize>) {
         match self.first[vertex as usize] {
             None => self.first[vertex as usize] = Some((stroke, segment)),
-            Some(_) => self.more.push((vertex, stroke, segment)),
+            Some(_) => {
+                self.more.entry((vertex, stroke)).or_insert(segment);
+            }
         }
     }
 }
