@@ -45,6 +45,7 @@ use crate::tolerance::{
     MESH_ZERO_COORD, NORMAL_MERGE, POLE_RING_PARAM, POLE_SIDE_REL, UV_PAD,
 };
 use glam::{DVec2, DVec3};
+use rustc_hash::FxHasher;
 use spade::handles::FixedVertexHandle;
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
 use std::collections::HashMap;
@@ -1347,29 +1348,9 @@ type EvalCache = HashMap<(u64, u64), Evaluated, BuildHasherDefault<FxHasher>>;
 /// (see [`PatchVertex::deepest`]).
 type Evaluated = (DVec3, DVec3, f64, Option<(u64, usize)>);
 
-/// A hash map with the [`FxHasher`].
+/// A hash map with rustc's [`FxHasher`] (Fx: parameters are not adversarial, and
+/// SipHash dominated the cache's cost).
 type FxMap<K, V> = HashMap<K, V, BuildHasherDefault<FxHasher>>;
-
-/// The multiply-rotate hash of rustc (Fx): parameters are not adversarial, and SipHash
-/// dominated the cache's cost.
-#[derive(Default)]
-struct FxHasher(u64);
-
-impl Hasher for FxHasher {
-    fn write(&mut self, bytes: &[u8]) {
-        for chunk in bytes.chunks(8) {
-            let mut b = [0u8; 8];
-            b[..chunk.len()].copy_from_slice(chunk);
-            self.write_u64(u64::from_le_bytes(b));
-        }
-    }
-    fn write_u64(&mut self, x: u64) {
-        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
-    }
-    fn finish(&self) -> u64 {
-        self.0
-    }
-}
 
 struct PatchInput {
     rect: Rect,
