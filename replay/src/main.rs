@@ -247,6 +247,18 @@ fn run(cli: Cli) -> Result<ExitCode> {
         outcome.timing.speed_ratio,
         out.display()
     );
+    if m.frames.receive_timed > 0 {
+        println!(
+            "{name}: {} frames had no ts and were timed by their receive time: a live run of this log may differ from this replay",
+            m.frames.receive_timed
+        );
+    }
+    if m.frames.clock_breaks > 0 {
+        println!(
+            "{name}: {} frames broke the tracker clock (restart or ts jump); each continued one frame period on",
+            m.frames.clock_breaks
+        );
+    }
     if let Some(check) = &cli.check {
         let expected: serde_json::Value = serde_json::from_slice(
             &std::fs::read(check).with_context(|| format!("reading {}", check.display()))?,

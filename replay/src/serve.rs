@@ -676,4 +676,81 @@ mod tests {
         assert!(text.ends_with("fr 399\r\n\r\n"), "{text}");
         assert!(text.starts_with("fr "));
     }
+
+    /// Regression (issue 31, item 3): records written on connections the receiver
+    /// refused (accepted, then closed with the record unread) were counted as sent, and
+    /// the run said nothing was missed. They are now unconfirmed, every record is
+    /// counted once, and the report says the run lost data.
+    #[test]
+    fn records_written_to_refused_connections_are_unconfirmed() {
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        let addr = listener.local_addr().unwrap();
+        let receiver = std::thread::spawn(move || {
+            for _ in 0..3 {
+                let (s, _) = listener.accept().unwrap();
+                // Refuse once a record is queued, leaving it unread (a reset).
+                let mut probe = [0u8; 1];
+                let _ = s.peek(&mut probe);
+                drop(s);
+            }
+            let (mut s, _) = listener.accept().unwrap();
+            let mut got = Vec::new();
+            s.read_to_end(&mut got).unwrap();
+            got
+        });
+        let records = recs(300, 2);
+        let report = serve(
+            &records,
+            &Endpoint::Connect(addr),
+            ServeOptions {
+                speed: 1.0,
+                ..ServeOptions::default()
+            },
+        )
+        .unwrap();
+        let got = receiver.join().unwrap();
+        assert_eq!(report.unconfirmed, 3, "{report:?}");
+        assert_eq!(report.sent + report.missed, 300, "{report:?}");
+        assert_eq!(report.connections, 4, "{report:?}");
+        assert!(report.lost_data() && report.losses().starts_with("DATA LOST"));
+        // The last receiver read exactly the records not counted lost.
+        let frames = String::from_utf8(got).unwrap().matches("fr ").count();
+        assert_eq!(frames, 300 - report.lost(), "{report:?}");
+    }
+
+    /// Regression (issue 31, item 3): a second client that connected while the session
+    /// went to the first got nothing, and the run reported success. It is now closed at
+    /// once and counted, and the run lost data.
+    #[test]
+    fn a_second_client_while_serving_is_turned_away_and_counted() {
+        let (tx, rx) = std::sync::mpsc::channel();
+        let clients = std::thread::spawn(move || {
+            let addr: SocketAddr = rx.recv().unwrap();
+            let mut first = TcpStream::connect(addr).unwrap();
+            std::thread::sleep(Duration::from_millis(100));
+            let mut second = TcpStream::connect(addr).unwrap();
+            let mut got = Vec::new();
+            let _ = second.read_to_end(&mut got);
+            let mut all = Vec::new();
+            first.read_to_end(&mut all).unwrap();
+            (got.len(), all.len())
+        });
+        let mut on_listening = |a: SocketAddr| tx.send(a).unwrap();
+        let report = serve(
+            &recs(200, 2),
+            &Endpoint::Listen("127.0.0.1:0".parse().unwrap()),
+            ServeOptions {
+                speed: 1.0,
+                on_listening: Some(&mut on_listening),
+                ..ServeOptions::default()
+            },
+        )
+        .unwrap();
+        let (second, first) = clients.join().unwrap();
+        assert_eq!(second, 0);
+        assert!(first > 0);
+        assert_eq!(report.other_clients, 1, "{report:?}");
+        assert_eq!((report.sent, report.lost()), (200, 0), "{report:?}");
+        assert!(report.lost_data(), "{report:?}");
+    }
 }
