@@ -60,6 +60,10 @@ struct Cli {
     /// With --serve/--connect: time scale (1 original timing, 0 as fast as possible).
     #[arg(long, default_value_t = 1.0)]
     speed: f64,
+    /// With --connect (or --serve): a file whose first line is the display server's
+    /// tracking `secret`; every connection starts with its hello line.
+    #[arg(long, value_name = "FILE")]
+    secret_file: Option<PathBuf>,
     /// With --serve/--connect: seconds to wait for the display server.
     #[arg(long, default_value_t = 30.0)]
     wait: f64,
@@ -116,6 +120,9 @@ fn renderer(
     let r = SceneRenderer::new(&display, w, h)?;
     Ok(Some((times, r)))
 }
+
+/// The exit status of a run that lost data (records a receiver did not get).
+const EXIT_LOST_DATA: u8 = 3;
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -240,6 +247,18 @@ fn run(cli: Cli) -> Result<ExitCode> {
         outcome.timing.speed_ratio,
         out.display()
     );
+    if m.frames.receive_timed > 0 {
+        println!(
+            "{name}: {} frames had no ts and were timed by their receive time: a live run of this log may differ from this replay",
+            m.frames.receive_timed
+        );
+    }
+    if m.frames.clock_breaks > 0 {
+        println!(
+            "{name}: {} frames broke the tracker clock (restart or ts jump); each continued one frame period on",
+            m.frames.clock_breaks
+        );
+    }
     if let Some(check) = &cli.check {
         let expected: serde_json::Value = serde_json::from_slice(
             &std::fs::read(check).with_context(|| format!("reading {}", check.display()))?,
@@ -330,6 +349,21 @@ fn serve(cli: &Cli, bytes: &[u8], target: &str, listen: bool) -> Result<ExitCode
     if !(cli.wait.is_finite() && cli.wait >= 0.0) {
         bail!("--wait must be a non-negative number of seconds");
     }
+    let hello = match &cli.secret_file {
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("reading the secret file {}", p.display()))?;
+            let secret = text.lines().next().unwrap_or("").trim();
+            if !tracking::config::valid_secret(secret) {
+                bail!(
+                    "{}: the secret must be 1 to 256 printable characters without spaces",
+                    p.display()
+                );
+            }
+            Some(tracking::config::hello_line(secret))
+        }
+        None => None,
+    };
     let bar = progress_bar(cli.quiet, "serving");
     let mut on_listening = |addr: std::net::SocketAddr| {
         // Tests and scripts read this line to find an ephemeral port.
@@ -350,18 +384,28 @@ fn serve(cli: &Cli, bytes: &[u8], target: &str, listen: bool) -> Result<ExitCode
             reconnect_timeout: Duration::from_secs_f64(cli.wait),
             on_listening: Some(&mut on_listening),
             on_progress: Some(&mut on_progress),
+            hello,
         },
     )?;
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
     println!(
-        "sent {} records ({} bytes) over {} connection(s); {} missed while disconnected; {}",
-        report.sent, report.bytes, report.connections, report.missed, report.delivery
+        "sent {} records ({} bytes) over {} connection(s); {} missed while disconnected; {} unconfirmed (written on connections that broke); {}; {}",
+        report.sent,
+        report.bytes,
+        report.connections,
+        report.missed,
+        report.unconfirmed,
+        report.losses(),
+        report.delivery
     );
-    if report.delivery.failed() {
-        eprintln!("replay: the receiver did not take the session");
-        return Ok(ExitCode::FAILURE);
+    if report.lost_data() {
+        eprintln!("replay: the run lost data: {}", report.losses());
+        if report.delivery.failed() {
+            eprintln!("replay: the receiver did not take the session");
+        }
+        return Ok(ExitCode::from(EXIT_LOST_DATA));
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -62,6 +62,19 @@ pub struct FrameMetrics {
     pub other_kinds: usize,
     /// The log ended in the middle of a line.
     pub truncated_tail: bool,
+    /// Frames without a `ts` field, timed by their receive time: where this is not
+    /// zero, a live run of the log may differ from this replay (written only then).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub receive_timed: usize,
+    /// Frames whose `ts` broke the stream's clock (a restarted tracker, `ts` jumps),
+    /// each continued one frame period on (written only when not zero).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub clock_breaks: usize,
+}
+
+/// Whether a count is zero (such counts are left out of `metrics.json`).
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// Tracking-loss counts.
@@ -490,6 +503,8 @@ impl Replayer {
         m.frames.without_wand = stage.without_wand;
         m.frames.corrupt_lines = corrupt_lines;
         m.frames.truncated_tail = truncated_tail;
+        m.frames.receive_timed = stage.receive_timed;
+        m.frames.clock_breaks = stage.clock_breaks;
         m.tracking.losses = stage.losses;
         m.tracking.timeouts = stage.timeouts;
         m.tracking.lost_s = stage.lost_s;

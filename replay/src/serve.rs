@@ -24,6 +24,20 @@
 //! ([`Delivery::NotTaken`]). Whether the receiver then *applied* the frames is beyond
 //! what DTrack2 can say. A serial line cannot tell at all ([`Delivery::Unknown`]).
 //!
+//! **Exact counts.** Every record lands in exactly one count of the [`ServeReport`]:
+//! written on a connection that ended well or could not tell (`sent - unconfirmed`),
+//! written on a connection the receiver closed or reset before the end
+//! ([`ServeReport::unconfirmed`]: a refused connection, a receiver that crashed; some
+//! may have been read, none is known to have been), or due while no receiver was
+//! connected ([`ServeReport::missed`]). When listening, a further client that connects
+//! while the session goes to the first is closed at once and counted
+//! ([`ServeReport::other_clients`]): it got none of the session, and if it was the
+//! display server, a client that connected first (a stray `nc`) took its frames.
+//! [`ServeReport::lost_data`] says whether any of that happened; `replay` then exits 3.
+//! Before each write the sender checks, without blocking, that the receiver has not
+//! closed or reset the connection, so a record is never written to a receiver known
+//! to be gone.
+//!
 //! ```
 //! use std::io::Read;
 //! use std::time::Duration;
@@ -106,6 +120,9 @@ pub struct ServeOptions<'a> {
     pub on_listening: Option<&'a mut dyn FnMut(SocketAddr)>,
     /// Called after each record with (records done, total).
     pub on_progress: Option<&'a mut dyn FnMut(usize, usize)>,
+    /// Written first on every TCP connection: the display server's hello line
+    /// (`tracking::config::hello_line`) when its source has a `secret`.
+    pub hello: Option<Vec<u8>>,
 }
 
 impl Default for ServeOptions<'_> {
@@ -116,11 +133,12 @@ impl Default for ServeOptions<'_> {
             reconnect_timeout: Duration::from_secs(30),
             on_listening: None,
             on_progress: None,
+            hello: None,
         }
     }
 }
 
-/// What a serve run did.
+/// What a serve run did (see "Exact counts" in the module docs).
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
 pub struct ServeReport {
     /// Records written to a client.
@@ -129,6 +147,14 @@ pub struct ServeReport {
     pub bytes: u64,
     /// Records that fell due while no client was connected.
     pub missed: usize,
+    /// Of `sent`, the records written on a connection that the receiver then closed or
+    /// reset before the end (refused, crashed): not known to have been read.
+    pub unconfirmed: usize,
+    /// Listening: clients that connected while the session went to another one, and
+    /// were closed with none of it (the first few addresses in `other_peers`).
+    pub other_clients: usize,
+    /// The first [`OTHER_PEERS_KEPT`] of those clients' addresses.
+    pub other_peers: Vec<SocketAddr>,
     /// Connections made (1 without reconnects).
     pub connections: usize,
     /// What the last connection says about the receiver taking the data.
@@ -163,6 +189,54 @@ pub enum NotTaken {
     Missed(usize),
     /// It went away and did not come back within this time.
     GoneAway(Duration),
+}
+
+/// How many addresses of turned-away clients a report keeps.
+pub const OTHER_PEERS_KEPT: usize = 8;
+
+impl ServeReport {
+    /// Records not known to have reached a receiver: missed, or written on a
+    /// connection that broke.
+    pub fn lost(&self) -> usize {
+        self.missed + self.unconfirmed
+    }
+
+    /// Whether the run lost data: records lost, a receiver known not to have taken the
+    /// stream, or another client turned away while the session went to the first.
+    pub fn lost_data(&self) -> bool {
+        self.lost() > 0 || self.other_clients > 0 || self.delivery.failed()
+    }
+
+    /// One line for the summary: what was lost, or that nothing was.
+    pub fn losses(&self) -> String {
+        let mut parts = Vec::new();
+        if self.missed > 0 {
+            parts.push(format!(
+                "{} records fell due while no receiver was connected",
+                self.missed
+            ));
+        }
+        if self.unconfirmed > 0 {
+            parts.push(format!(
+                "{} records went to connections the receiver closed or reset before the end",
+                self.unconfirmed
+            ));
+        }
+        if self.other_clients > 0 {
+            let peers: Vec<String> = self.other_peers.iter().map(|p| p.to_string()).collect();
+            parts.push(format!(
+                "{} other client connection(s) ({}) got none of the session: a client that \
+                 connected first took it",
+                self.other_clients,
+                peers.join(", ")
+            ));
+        }
+        if parts.is_empty() {
+            "nothing lost".into()
+        } else {
+            format!("DATA LOST: {}", parts.join("; "))
+        }
+    }
 }
 
 impl std::fmt::Display for NotTaken {
@@ -249,6 +323,32 @@ enum Sink {
 }
 
 impl Sink {
+    /// Whether the receiver has closed or reset the connection (checked without
+    /// blocking; a serial device cannot tell).
+    fn gone(&mut self) -> bool {
+        let Sink::Tcp(s) = self else { return false };
+        if s.set_nonblocking(true).is_err() {
+            return true;
+        }
+        let mut probe = [0u8; 64];
+        let gone = loop {
+            match s.peek(&mut probe) {
+                Ok(0) => break true,
+                // The receiver has nothing to say; anything it sends is ignored.
+                Ok(_) => {
+                    use std::io::Read;
+                    if s.read(&mut probe).is_err() {
+                        break true;
+                    }
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break false,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(_) => break true,
+            }
+        };
+        gone || s.set_nonblocking(false).is_err()
+    }
+
     fn write_all(&mut self, b: &[u8]) -> std::io::Result<()> {
         match self {
             Sink::Tcp(s) => s.write_all(b),
@@ -261,6 +361,8 @@ impl Sink {
 struct Opener {
     endpoint: Endpoint,
     listener: Option<TcpListener>,
+    /// Written first on every TCP connection.
+    hello: Option<Vec<u8>>,
 }
 
 impl Opener {
@@ -289,7 +391,21 @@ impl Opener {
         Ok(Self {
             endpoint: endpoint.clone(),
             listener,
+            hello: None,
         })
+    }
+
+    /// Listening: accepts and closes every client waiting now (the session goes to
+    /// the one it has), counting them in `report`.
+    fn turn_away(&self, report: &mut ServeReport) {
+        let Some(l) = &self.listener else { return };
+        while let Ok((s, peer)) = l.accept() {
+            drop(s);
+            report.other_clients += 1;
+            if report.other_peers.len() < OTHER_PEERS_KEPT {
+                report.other_peers.push(peer);
+            }
+        }
     }
 
     /// Tries to get a sink until `deadline`; `None` when it passes.
@@ -316,6 +432,12 @@ impl Opener {
                     .ok()
                     .map(Sink::File),
                 (Endpoint::Listen(_), None) => None,
+            };
+            let got = match (got, &self.hello) {
+                (Some(Sink::Tcp(mut s)), Some(hello)) => std::io::Write::write_all(&mut s, hello)
+                    .ok()
+                    .map(|()| Sink::Tcp(s)),
+                (got, _) => got,
             };
             if got.is_some() {
                 return got;
@@ -344,7 +466,8 @@ pub fn serve(
             speed: options.speed,
         }));
     }
-    let opener = Opener::new(endpoint, options.on_listening.take())?;
+    let mut opener = Opener::new(endpoint, options.on_listening.take())?;
+    opener.hello = options.hello.take();
     let mut report = ServeReport::default();
     let mut sink = opener.open(Instant::now() + options.connect_timeout);
     if sink.is_none() {
@@ -364,6 +487,12 @@ pub fn serve(
         }
     };
     let mut i = 0;
+    // Records written on the current connection (unconfirmed if it breaks).
+    let mut on_connection = 0;
+    // A broken connection: its records are not known to have been read.
+    let broke = |report: &mut ServeReport, on_connection: &mut usize| {
+        report.unconfirmed += std::mem::take(on_connection);
+    };
     while i < records.len() {
         let (t, bytes) = &records[i];
         let when = due(*t);
@@ -371,14 +500,27 @@ pub fn serve(
         if when > now {
             std::thread::sleep(when - now);
         }
+        if sink.as_mut().is_some_and(Sink::gone) {
+            sink = None;
+            broke(&mut report, &mut on_connection);
+        }
+        if sink.is_some() {
+            opener.turn_away(&mut report);
+        }
         match sink.as_mut() {
             Some(s) => match s.write_all(bytes) {
                 Ok(()) => {
                     report.sent += 1;
                     report.bytes += bytes.len() as u64;
+                    on_connection += 1;
                     i += 1;
                 }
-                Err(_) => sink = None,
+                Err(_) => {
+                    sink = None;
+                    // The failed record goes to the next connection; those before it
+                    // on this one are unconfirmed.
+                    broke(&mut report, &mut on_connection);
+                }
             },
             None => {
                 // Wait for a client; records falling due meanwhile are missed.
@@ -413,6 +555,13 @@ pub fn serve(
         Some(Sink::File(_)) => Delivery::Unknown,
         None => Delivery::NotTaken(NotTaken::GoneAway(options.reconnect_timeout)),
     };
+    if matches!(
+        report.delivery,
+        Delivery::NotTaken(NotTaken::ClosedEarly | NotTaken::Reset(_) | NotTaken::Failed(_))
+    ) {
+        broke(&mut report, &mut on_connection);
+    }
+    opener.turn_away(&mut report);
     Ok(report)
 }
 
@@ -526,5 +675,82 @@ mod tests {
         let text = String::from_utf8(got).unwrap();
         assert!(text.ends_with("fr 399\r\n\r\n"), "{text}");
         assert!(text.starts_with("fr "));
+    }
+
+    /// Regression (issue 31, item 3): records written on connections the receiver
+    /// refused (accepted, then closed with the record unread) were counted as sent, and
+    /// the run said nothing was missed. They are now unconfirmed, every record is
+    /// counted once, and the report says the run lost data.
+    #[test]
+    fn records_written_to_refused_connections_are_unconfirmed() {
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        let addr = listener.local_addr().unwrap();
+        let receiver = std::thread::spawn(move || {
+            for _ in 0..3 {
+                let (s, _) = listener.accept().unwrap();
+                // Refuse once a record is queued, leaving it unread (a reset).
+                let mut probe = [0u8; 1];
+                let _ = s.peek(&mut probe);
+                drop(s);
+            }
+            let (mut s, _) = listener.accept().unwrap();
+            let mut got = Vec::new();
+            s.read_to_end(&mut got).unwrap();
+            got
+        });
+        let records = recs(300, 2);
+        let report = serve(
+            &records,
+            &Endpoint::Connect(addr),
+            ServeOptions {
+                speed: 1.0,
+                ..ServeOptions::default()
+            },
+        )
+        .unwrap();
+        let got = receiver.join().unwrap();
+        assert_eq!(report.unconfirmed, 3, "{report:?}");
+        assert_eq!(report.sent + report.missed, 300, "{report:?}");
+        assert_eq!(report.connections, 4, "{report:?}");
+        assert!(report.lost_data() && report.losses().starts_with("DATA LOST"));
+        // The last receiver read exactly the records not counted lost.
+        let frames = String::from_utf8(got).unwrap().matches("fr ").count();
+        assert_eq!(frames, 300 - report.lost(), "{report:?}");
+    }
+
+    /// Regression (issue 31, item 3): a second client that connected while the session
+    /// went to the first got nothing, and the run reported success. It is now closed at
+    /// once and counted, and the run lost data.
+    #[test]
+    fn a_second_client_while_serving_is_turned_away_and_counted() {
+        let (tx, rx) = std::sync::mpsc::channel();
+        let clients = std::thread::spawn(move || {
+            let addr: SocketAddr = rx.recv().unwrap();
+            let mut first = TcpStream::connect(addr).unwrap();
+            std::thread::sleep(Duration::from_millis(100));
+            let mut second = TcpStream::connect(addr).unwrap();
+            let mut got = Vec::new();
+            let _ = second.read_to_end(&mut got);
+            let mut all = Vec::new();
+            first.read_to_end(&mut all).unwrap();
+            (got.len(), all.len())
+        });
+        let mut on_listening = |a: SocketAddr| tx.send(a).unwrap();
+        let report = serve(
+            &recs(200, 2),
+            &Endpoint::Listen("127.0.0.1:0".parse().unwrap()),
+            ServeOptions {
+                speed: 1.0,
+                on_listening: Some(&mut on_listening),
+                ..ServeOptions::default()
+            },
+        )
+        .unwrap();
+        let (second, first) = clients.join().unwrap();
+        assert_eq!(second, 0);
+        assert!(first > 0);
+        assert_eq!(report.other_clients, 1, "{report:?}");
+        assert_eq!((report.sent, report.lost()), (200, 0), "{report:?}");
+        assert!(report.lost_data(), "{report:?}");
     }
 }

@@ -122,6 +122,12 @@ pub enum ConfigError {
     /// The stage's loss timeout is not positive.
     #[error("stage timeout_s must be > 0, got {0}")]
     StageTimeout(f64),
+    /// The shared secret is empty, too long, or has spaces or control bytes.
+    #[error("secret: want 1 to 256 printable ASCII characters without spaces")]
+    Secret,
+    /// An `[expect]` value is out of range.
+    #[error("expect: need rate_hz >= 0, identify_ms > 0, frames <= 10000")]
+    Expect,
     /// A device id is neither `bodyN` nor `wandN` (the text as given).
     #[error("device id `{0}`: want bodyN or wandN")]
     DeviceId(String),

@@ -4,19 +4,27 @@
 //!
 //! Rules, in the order a frame meets them:
 //! 1. **time**: a frame's time is its DTrack `ts` field when present (else its receive
-//!    time), re-based so the stage clock never runs backwards (after a tracker restart,
-//!    or a switch between `ts` and receive times, it continues from the last time by
-//!    the receive-time gap). A live run,
-//!    where receive times differ, and an offline replay of its log therefore give the
-//!    same sample times;
+//!    time), re-based so the stage clock never runs backwards. Where a frame has a
+//!    `ts` field, its time depends on the stream alone (counters and `ts`), never on
+//!    when it arrived: while `ts` runs on, the stage clock follows it; at a
+//!    discontinuity (a restarted tracker whose `ts` starts again, `ts` going back, a
+//!    step forward of more than [`MAX_CLOCK_STEP_S`], or a `ts` that cannot be
+//!    believed: non-finite or beyond [`MAX_TRACKER_TIME_S`], e.g. `1e300`) it
+//!    continues one frame period after the last frame, the period being the stream's
+//!    last plausible `ts` step ([`DEFAULT_FRAME_PERIOD_S`] before there is one), and an
+//!    unbelievable `ts` moves no anchor, so the next good one continues where the
+//!    stream left off. A live run, where receive times differ, and an offline replay
+//!    of its log therefore give the same sample times. Only frames without a `ts`
+//!    field are timed by their arrival (counted in [`StageMetrics::receive_timed`]):
+//!    there a live run can differ from its replay;
 //! 2. **order**: a frame whose counter is not newer than the last accepted one is
 //!    dropped as out of order, unless it is more than [`REORDER_WINDOW`] behind or its
-//!    tracker time `ts` went back by [`COUNTER_RESET_AFTER`] or more (a restarted
-//!    tracker counts, and clocks, from the start again). The rule reads the frames'
-//!    contents only, never their arrival times, so a live run served at any speed
-//!    keeps the frames an offline replay of the same log keeps. Only frames without a
-//!    `ts` (whose time is their arrival anyway) fall back to a receive-time gap of
-//!    [`COUNTER_RESET_AFTER`] since the last accepted frame;
+//!    tracker time `ts` went back by [`COUNTER_RESET_AFTER`] or more from the last
+//!    believed one (a restarted tracker counts, and clocks, from the start again). The
+//!    rule reads the frames' contents only, never their arrival times, so a live run
+//!    served at any speed keeps the frames an offline replay of the same log keeps.
+//!    Only frames without a `ts` field (whose time is their arrival anyway) fall back
+//!    to a receive-time gap of [`COUNTER_RESET_AFTER`] since the last accepted frame;
 //! 3. **timeout**: when more than [`StageConfig::timeout_s`] passed since the last wand
 //!    report, the wand was lost at that report's time plus the timeout. The caller's
 //!    [`FrameStage::idle`] detects the same gap while no frame arrives at all;
@@ -163,6 +171,13 @@ pub const MAX_TRACKER_TIME_S: f64 = 1e11;
 /// continues by the receive-time gap.
 pub const MAX_CLOCK_STEP_S: f64 = 3600.0;
 
+/// The frame period the stage assumes at a clock discontinuity before the stream has
+/// shown one (seconds): DTrack2's common 60 Hz.
+pub const DEFAULT_FRAME_PERIOD_S: f64 = 1.0 / 60.0;
+/// The longest `ts` step (seconds) the stage takes as the stream's frame period; a
+/// longer one is a gap in the data, not the rate.
+pub const MAX_FRAME_PERIOD_S: f64 = 0.25;
+
 /// What the stage emits, in time order.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub enum StageEvent {
@@ -206,6 +221,15 @@ pub struct StageMetrics {
     /// Seconds the wand was lost in all (up to the last report; see
     /// [`FrameStage::metrics_until`]).
     pub lost_s: f64,
+    /// Accepted frames without a `ts` field, timed by their arrival: where this is not
+    /// zero, a live run may differ from the offline replay of its log.
+    #[serde(default)]
+    pub receive_timed: usize,
+    /// Accepted frames whose `ts` broke the stream's clock (a restarted tracker, `ts`
+    /// going back or jumping ahead, or a `ts` that cannot be believed): each continued
+    /// one frame period after the frame before.
+    #[serde(default)]
+    pub clock_breaks: usize,
 }
 
 /// The frame stage (see the module docs).
@@ -217,8 +241,15 @@ pub struct FrameStage {
     metrics: StageMetrics,
     /// Counter and receive time of the last accepted frame.
     last_frame: Option<(u64, Duration)>,
-    /// Stage time of the last accepted frame, its raw time and whether that was `ts`.
-    clock: Option<(f64, f64, bool)>,
+    /// Stage time of the last accepted frame.
+    last_t: Option<f64>,
+    /// The clock's anchor: the stage time of the last frame whose raw time could be
+    /// used, that raw time, and whether it was `ts` (else a receive time).
+    anchor: Option<(f64, f64, bool)>,
+    /// The last believed `ts` accepted (the order rule's reference).
+    last_ts: Option<f64>,
+    /// The stream's frame period: its last plausible `ts` step, seconds.
+    period: f64,
     /// Receive time (seconds) of the last accepted frame, to map `idle` times.
     last_receive_s: f64,
     /// Stage time of the last wand report, and whether its gap was already handled.
@@ -242,7 +273,10 @@ impl FrameStage {
             config,
             metrics: StageMetrics::default(),
             last_frame: None,
-            clock: None,
+            last_t: None,
+            anchor: None,
+            last_ts: None,
+            period: DEFAULT_FRAME_PERIOD_S,
             last_receive_s: 0.0,
             last_wand: None,
             timed_out: false,
@@ -281,7 +315,7 @@ impl FrameStage {
 
     /// The stage time of the last accepted frame.
     pub fn time(&self) -> Option<f64> {
-        self.clock.map(|c| c.0)
+        self.last_t
     }
 
     /// Counts a frame the caller could not decode.
@@ -375,9 +409,12 @@ impl FrameStage {
     /// a `ts` on both, a receive-time gap of that much since the last accepted frame.
     fn restarted(&self, frame: &Frame, last_receive: Duration) -> bool {
         let reset_s = COUNTER_RESET_AFTER.as_secs_f64();
-        match (tracker_time(frame), self.clock) {
-            (Some(ts), Some((_, last_ts, true))) => last_ts - ts >= reset_s,
-            _ => frame.receive_time.saturating_sub(last_receive) >= COUNTER_RESET_AFTER,
+        match (frame.tracker_time, tracker_time(frame), self.last_ts) {
+            (_, Some(ts), Some(last_ts)) => last_ts - ts >= reset_s,
+            // A `ts` field that cannot be believed, or none before it to compare with:
+            // the counter alone decides (never the arrival).
+            (Some(_), _, _) => false,
+            (None, _, _) => frame.receive_time.saturating_sub(last_receive) >= COUNTER_RESET_AFTER,
         }
     }
 
@@ -386,7 +423,7 @@ impl FrameStage {
     /// exceeds the timeout, a lost sample is emitted at that report's time plus the
     /// timeout (once per gap). Returns whether it emitted one.
     pub fn idle(&mut self, now: Duration, out: &mut Vec<StageEvent>) -> bool {
-        let (Some(prev), Some((stage_t, _, _))) = (self.last_wand, self.clock) else {
+        let (Some(prev), Some(stage_t)) = (self.last_wand, self.last_t) else {
             return false;
         };
         if self.timed_out {
@@ -460,36 +497,63 @@ impl FrameStage {
         (w.position_m.is_finite() && w.tool_m.is_finite() && w.orientation.is_finite()).then_some(w)
     }
 
-    /// The frame's stage time: `ts` when present and finite, else the receive time,
-    /// shifted so it continues from the last time (by the receive-time gap) when the
-    /// clock restarts or switches.
+    /// The frame's stage time (see rule 1 of the module docs): `ts` when present and
+    /// believable, continuing from the anchor while it runs on; one frame period after
+    /// the last time at a discontinuity; the receive time only for frames without a
+    /// `ts` field.
     ///
     /// An implausible `ts` never reaches the clock: one beyond
-    /// [`MAX_TRACKER_TIME_S`] counts as absent (the receive time is used), and a step
-    /// forward of more than [`MAX_CLOCK_STEP_S`] counts as a restarted clock. One frame
-    /// with `ts 1e300` once froze the clock at 1e300, where 1/60 s steps vanish in the
-    /// rounding, so every later stroke was "too short".
+    /// [`MAX_TRACKER_TIME_S`] counts as a break, and a step forward of more than
+    /// [`MAX_CLOCK_STEP_S`] counts as a restarted clock. One frame with `ts 1e300` once
+    /// froze the clock at 1e300, where 1/60 s steps vanish in the rounding, so every
+    /// later stroke was "too short".
     fn stage_time(&mut self, frame: &Frame) -> f64 {
-        let (raw, is_ts) = match tracker_time(frame) {
-            Some(ts) => (ts, true),
-            None => (frame.receive_time.as_secs_f64(), false),
+        let believed = tracker_time(frame);
+        let raw = match (frame.tracker_time, believed) {
+            (_, Some(ts)) => Some((ts, true)),
+            (Some(_), None) => None,
+            (None, _) => {
+                self.metrics.receive_timed += 1;
+                Some((frame.receive_time.as_secs_f64(), false))
+            }
         };
-        let t = match self.clock {
-            None => raw,
-            Some((last_t, last_raw, last_is_ts)) => {
-                if is_ts == last_is_ts && raw >= last_raw && raw - last_raw <= MAX_CLOCK_STEP_S {
-                    last_t + (raw - last_raw)
-                } else {
-                    // Restarted or switched clock: continue by the receive-time gap.
-                    let gap = frame.receive_time.as_secs_f64() - self.last_receive_s;
-                    last_t + if gap.is_finite() { gap.max(0.0) } else { 0.0 }
+        let continued = match (self.anchor, raw) {
+            (Some((a_t, a_raw, a_is_ts)), Some((raw, is_ts)))
+                if is_ts == a_is_ts && raw >= a_raw && raw - a_raw <= MAX_CLOCK_STEP_S =>
+            {
+                if is_ts && raw > a_raw && raw - a_raw <= MAX_FRAME_PERIOD_S {
+                    self.period = raw - a_raw;
                 }
+                Some(a_t + (raw - a_raw))
+            }
+            _ => None,
+        };
+        let t = match (continued, self.last_t, raw) {
+            (Some(t), _, _) => t,
+            // The first frame: its own time, or zero when its `ts` cannot be believed.
+            (None, None, raw) => raw.map_or(0.0, |r| r.0),
+            // No `ts` field: continue by the receive-time gap (arrival, documented).
+            (None, Some(last_t), Some((_, false))) => {
+                let gap = frame.receive_time.as_secs_f64() - self.last_receive_s;
+                last_t + if gap.is_finite() { gap.max(0.0) } else { 0.0 }
+            }
+            // A break in the stream's clock: one frame period on, from the stream alone.
+            (None, Some(last_t), _) => {
+                self.metrics.clock_breaks += 1;
+                last_t + self.period
             }
         };
         // Never before a time already emitted (a timeout sample from `idle` while the
-        // network stalled and `ts` then shows a shorter gap).
-        let t = t.max(self.emitted);
-        self.clock = Some((t, raw, is_ts));
+        // network stalled and `ts` then shows a shorter gap), nor before the last frame
+        // (a `ts` that continues the anchor after unbelievable ones moved the clock on).
+        let t = t.max(self.emitted).max(self.last_t.unwrap_or(t));
+        if let Some((raw, is_ts)) = raw {
+            self.anchor = Some((t, raw, is_ts));
+        }
+        if believed.is_some() {
+            self.last_ts = believed;
+        }
+        self.last_t = Some(t);
         t
     }
 }

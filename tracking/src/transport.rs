@@ -8,14 +8,24 @@
 //! connection), and decoders cap line and frame sizes so memory stays bounded.
 //!
 //! Trust: anyone on the machine can open a loopback connection, so a listening source
-//! keeps one active peer. A `tcp-listen` source holds at most
-//! [`TrackingConfig::max_connections`] connections (1 by default): a further one is
-//! closed at once and logged, so a second peer can neither press buttons nor
-//! interleave frames. A `udp` source takes datagrams from one peer at a time (the
-//! first, until it goes quiet for the read timeout). With [`TrackingConfig::allow`]
-//! set, connections and datagrams from any other address are refused before a byte is
-//! read. Refused peers are counted in [`SourceStats::refused`](crate::hub::SourceStats)
-//! and never open, feed or close the source, so they cannot end a session either.
+//! keeps one active peer, and only a plausible one. A `tcp-listen` source accepts
+//! every connection at once and identifies each concurrently (at most
+//! [`MAX_CANDIDATES`] at a time): with a [`TrackingConfig::secret`] the peer must first
+//! send its [hello line](hello_line) (compared in constant time), then it must send
+//! decodable DTrack2 frames carrying the devices, at the rate, that
+//! [`TrackingConfig::expect`] names, within `identify_ms` (1 s by default). The first
+//! peer to do so becomes the source's connection (up to
+//! [`TrackingConfig::max_connections`], 1 by default) and its frames, those read while
+//! it was identified included, are applied; every other peer is closed, counted and
+//! logged. So a squatter that connects first, or keeps reconnecting, sending nothing
+//! or garbage, cannot lock the tracker out, and a second peer can neither press
+//! buttons nor interleave frames. A `udp` source takes datagrams from one peer at a
+//! time (the first, until it goes quiet for the read timeout). With
+//! [`TrackingConfig::allow`] set, connections and datagrams from any other address
+//! (loopback excepted unless [`TrackingConfig::allow_loopback`] is false) are refused
+//! before a byte is read. Refused peers are counted in
+//! [`SourceStats::refused`](crate::hub::SourceStats) and never open, feed or close the
+//! source, so they cannot end a session either.
 //!
 //! ```no_run
 //! # async fn demo() -> tracking::Result<()> {
@@ -28,9 +38,11 @@
 //! # Ok(()) }
 //! ```
 
-use crate::config::{SourceConfig, TrackingConfig, peer_allowed};
+pub use crate::config::{HELLO_PREFIX, HelloError, MAX_HELLO, MAX_SECRET, check_hello, hello_line};
+use crate::config::{PeerPolicy, SourceConfig, TrackingConfig};
 use crate::dtrack::{DTrackDecoder, Decoded, DecoderLimits};
 use crate::error::{Result, TrackingError};
+use crate::frame::DeviceId;
 use crate::hub::{Hub, SourceId};
 use crate::poselog::{PoseLogHeader, PoseLogWriter, RecordKind};
 use crate::serial::SerialDecoder;
@@ -60,8 +72,37 @@ pub struct TransportOptions {
     pub max_connections: usize,
 }
 
-/// The peers a listening source accepts (empty: any).
-type AllowList = Arc<[std::net::IpAddr]>;
+/// Who a listening source admits, and how it tells the tracker (see the module docs).
+#[derive(Debug)]
+struct Admission {
+    policy: PeerPolicy,
+    secret: Option<Vec<u8>>,
+    devices: Vec<DeviceId>,
+    rate_hz: f64,
+    frames: usize,
+    identify: Duration,
+}
+
+type AllowList = Arc<Admission>;
+
+impl Admission {
+    fn new(config: &TrackingConfig) -> Result<Self> {
+        Ok(Self {
+            policy: config.peer_policy(),
+            secret: config.secret.as_ref().map(|s| s.as_bytes().to_vec()),
+            devices: config.expect.device_ids()?,
+            rate_hz: config.expect.rate_hz,
+            frames: config.expect.frames_needed(),
+            identify: Duration::from_millis(config.expect.identify_ms),
+        })
+    }
+}
+
+/// Most peers of one listening source being identified at once; more are refused.
+pub const MAX_CANDIDATES: usize = 64;
+/// Most frames buffered from a peer while it is identified; more without becoming
+/// plausible is a refusal.
+pub const MAX_IDENTIFY_FRAMES: usize = 4096;
 
 impl From<&TrackingConfig> for TransportOptions {
     fn from(c: &TrackingConfig) -> Self {
@@ -123,7 +164,7 @@ pub async fn start_with_hub(hub: Hub, config: &TrackingConfig) -> Result<Running
         hub.set_recorder(PoseLogWriter::create(path, &header)?);
     }
     let opts = TransportOptions::from(config);
-    let allow: AllowList = config.allow.clone().into();
+    let allow: AllowList = Arc::new(Admission::new(config)?);
     let mut running = Running {
         hub: hub.clone(),
         local_addrs: Vec::new(),
@@ -239,10 +280,22 @@ pub async fn pump_dtrack<R: AsyncRead + Unpin>(
 async fn pump_dtrack_open<R: AsyncRead + Unpin>(
     hub: &Hub,
     src: SourceId,
-    mut reader: R,
+    reader: R,
     opts: &TransportOptions,
 ) -> StreamEnd {
-    let mut decoder = DTrackDecoder::new(opts.limits).keep_raw(hub.is_recording());
+    let decoder = DTrackDecoder::new(opts.limits).keep_raw(hub.is_recording());
+    pump_dtrack_with(hub, src, reader, opts, decoder).await
+}
+
+/// [`pump_dtrack_open`] going on with a decoder that has already read part of the
+/// stream (an identified peer's).
+async fn pump_dtrack_with<R: AsyncRead + Unpin>(
+    hub: &Hub,
+    src: SourceId,
+    mut reader: R,
+    opts: &TransportOptions,
+    mut decoder: DTrackDecoder,
+) -> StreamEnd {
     let mut buf = vec![0u8; READ_BUF];
     let mut last_frame = Instant::now();
     let end = loop {
@@ -289,28 +342,49 @@ async fn tcp_listen(
     src: SourceId,
     listener: TcpListener,
     opts: TransportOptions,
-    allow: AllowList,
+    admission: AllowList,
 ) {
     let slots = Arc::new(Semaphore::new(opts.max_connections));
+    let candidates = Arc::new(Semaphore::new(MAX_CANDIDATES));
     loop {
         let Ok((stream, peer)) = listener.accept().await else {
             tokio::time::sleep(opts.backoff_min).await;
             continue;
         };
-        if !peer_allowed(&allow, peer.ip()) {
+        if !admission.policy.allows(peer.ip()) {
             refuse(&hub, src, peer, "not on the allow-list");
             continue;
         }
-        let Ok(permit) = slots.clone().try_acquire_owned() else {
+        if slots.available_permits() == 0 {
             refuse(&hub, src, peer, "the source already has its connection");
+            continue;
+        }
+        let Ok(candidate) = candidates.clone().try_acquire_owned() else {
+            refuse(&hub, src, peer, "too many peers being identified");
             continue;
         };
         let _ = stream.set_nodelay(true);
-        let hub = hub.clone();
+        let (hub, slots, admission) = (hub.clone(), slots.clone(), admission.clone());
+        // Every peer is identified on its own task, so one that sends nothing cannot
+        // hold up the tracker behind it.
         tokio::spawn(async move {
             let mut stream = stream;
+            let identified = identify(&hub, &mut stream, &opts, &admission).await;
+            drop(candidate);
+            let found = match identified {
+                Ok(found) => found,
+                Err(why) => return refuse(&hub, src, peer, &why),
+            };
+            let Ok(permit) = slots.try_acquire_owned() else {
+                return refuse(&hub, src, peer, "the source already has its connection");
+            };
+            tracing::info!("tracker connection from {peer}: identified");
             hub.connection_opened(src);
-            let end = pump_dtrack_open(&hub, src, &mut stream, &opts).await;
+            // The frames read while it was identified, in order, at their arrival.
+            for (d, now) in found.frames {
+                deliver(&hub, src, d, now);
+            }
+            let end = pump_dtrack_with(&hub, src, &mut stream, &opts, found.decoder).await;
             tracing::info!("tracker connection from {peer} ended: {end:?}");
             // The slot is free before the peer sees the close or the source reads as
             // closed, so a tracker that reconnects on either is never refused.
@@ -318,6 +392,115 @@ async fn tcp_listen(
             drop(stream);
             hub.connection_closed(src, hub.now());
         });
+    }
+}
+
+/// A peer that identified itself as the tracker: its decoder and the frames read so
+/// far, each with its arrival on the hub clock.
+struct Identified {
+    decoder: DTrackDecoder,
+    frames: Vec<(Decoded, Duration)>,
+}
+
+/// Reads a new peer until it is plausible (see the module docs) or `identify` passes:
+/// the hello line first when a secret is set, then frames.
+async fn identify<R: AsyncRead + Unpin>(
+    hub: &Hub,
+    reader: &mut R,
+    opts: &TransportOptions,
+    adm: &Admission,
+) -> std::result::Result<Identified, String> {
+    let deadline = Instant::now() + adm.identify;
+    let left = || deadline.saturating_duration_since(Instant::now());
+    let late = |what: &str| format!("{what} within {} ms", adm.identify.as_millis());
+    let mut buf = vec![0u8; READ_BUF];
+    let mut rest = Vec::new();
+    if let Some(secret) = &adm.secret {
+        let mut line = Vec::new();
+        let newline = loop {
+            if let Some(nl) = memchr::memchr(b'\n', &line) {
+                break nl;
+            }
+            if line.len() > MAX_HELLO {
+                return Err("hello line too long".into());
+            }
+            match read_within(reader, &mut buf, left()).await {
+                Ok(n) => line.extend_from_slice(&buf[..n]),
+                Err(StreamEnd::TimedOut) => return Err(late("no hello")),
+                Err(end) => return Err(format!("no hello: {end:?}")),
+            }
+        };
+        rest = line.split_off(newline + 1);
+        check_hello(&line, secret).map_err(|e| e.to_string())?;
+    }
+    let mut decoder = DTrackDecoder::new(opts.limits).keep_raw(hub.is_recording());
+    let mut frames: Vec<(Decoded, Duration)> = Vec::new();
+    // Tracker times and arrivals of the frames that carry every expected device.
+    let mut good: Vec<(Option<f64>, Instant)> = Vec::new();
+    let mut chunk = rest;
+    loop {
+        let now = hub.now();
+        let arrived = Instant::now();
+        decoder.push(&chunk, &mut |d| {
+            if let Decoded::Frame(f, _) = &d
+                && adm.devices.iter().all(|&id| carries(f, id))
+            {
+                good.push((f.tracker_time, arrived));
+            }
+            frames.push((d, now));
+        });
+        if plausible(&good, adm) {
+            return Ok(Identified { decoder, frames });
+        }
+        if frames.len() > MAX_IDENTIFY_FRAMES {
+            return Err(format!("{} frames, none plausible", frames.len()));
+        }
+        match read_within(reader, &mut buf, left()).await {
+            Ok(n) => chunk = buf[..n].to_vec(),
+            Err(StreamEnd::TimedOut) => {
+                return Err(late(&format!(
+                    "nothing plausible ({} frames, {} with the expected devices)",
+                    frames.len(),
+                    good.len()
+                )));
+            }
+            Err(end) => return Err(format!("closed before it was plausible: {end:?}")),
+        }
+    }
+}
+
+/// Whether a frame carries `id` (a wand as a Flystick, a body as a standard body).
+fn carries(f: &crate::Frame, id: DeviceId) -> bool {
+    match id {
+        DeviceId::Wand(n) => f.wand(n).is_some(),
+        DeviceId::Body(n) => f.body(n).is_some(),
+    }
+}
+
+/// Whether the last frames with the expected devices make a plausible tracker: enough
+/// of them and, with a rate, the median `ts` step (or, without `ts`, the arrival
+/// spacing) fitting it.
+fn plausible(good: &[(Option<f64>, Instant)], adm: &Admission) -> bool {
+    if good.len() < adm.frames {
+        return false;
+    }
+    if adm.rate_hz <= 0.0 {
+        return true;
+    }
+    let last = &good[good.len() - adm.frames..];
+    let period = 1.0 / adm.rate_hz;
+    let mut steps: Vec<f64> = last
+        .windows(2)
+        .filter_map(|w| Some(w[1].0? - w[0].0?))
+        .collect();
+    if steps.len() + 1 == last.len() {
+        steps.sort_by(f64::total_cmp);
+        let median = steps[steps.len() / 2];
+        (0.5 * period..=2.0 * period).contains(&median)
+    } else {
+        // No tracker times: the frames came no slower than half the rate.
+        let spread = last[last.len() - 1].1 - last[0].1;
+        spread.as_secs_f64() <= 2.0 * period * (last.len() - 1) as f64
     }
 }
 
@@ -371,7 +554,7 @@ async fn udp(hub: Hub, src: SourceId, sock: UdpSocket, opts: TransportOptions, a
                 tracing::debug!("udp receive: {e}");
                 tokio::time::sleep(opts.backoff_min).await;
             }
-            Ok(Ok((_, peer))) if !peer_allowed(&allow, peer.ip()) => {
+            Ok(Ok((_, peer))) if !allow.policy.allows(peer.ip()) => {
                 refuse(&hub, src, peer, "not on the allow-list");
             }
             Ok(Ok((_, peer))) if active.is_some_and(|a| a != peer) => {

@@ -4,7 +4,7 @@
 use glam::{DMat3, DQuat, DVec3};
 use proptest::prelude::*;
 use sculpt_core::assert_near;
-use sculpt_core::tolerance::{DURATION_EPS, EXACT_EPS, FILTERED_UNIT_EPS, SIM_END_TOL, TIME_EPS};
+use sculpt_core::tolerance::{EXACT_EPS, FILTERED_UNIT_EPS, SIM_END_TOL, TIME_EPS};
 use std::collections::BTreeMap;
 use std::time::Duration;
 use tracking::calibration::Calibration;
@@ -44,26 +44,75 @@ fn rframe(n: u64, ts: Option<f64>, x_mm: f64) -> Frame {
     f
 }
 
+/// Regression (issue 31, item 4): after a tracker restart (counter and `ts` both from
+/// the start) the stage clock continued by the receive-time gap, so a live run and
+/// the offline replay of its log (and two live runs) gave stroke 2 different sample
+/// times (3.2666666 offline, 3.2666444 and 3.2666327 live). The restart now continues
+/// one frame period (the stream's last `ts` step) after the last frame, whatever the
+/// arrival: here once after a quiet 9.76 s and once with no gap at all.
 #[test]
 fn the_stage_clock_continues_across_a_tracker_restart() {
-    let mut s = FrameStage::new(StageConfig::default()).unwrap();
+    let run = |restart_receive: f64| {
+        let mut s = FrameStage::new(StageConfig::default()).unwrap();
+        let mut out = Vec::new();
+        s.push(&rframe(1, Some(10.0), 0.0), &mut out);
+        s.push(&rframe(2, Some(10.01), 0.0), &mut out);
+        // The tracker restarts: counter and ts from the start.
+        let mut f = rframe(1, Some(0.0), 0.0);
+        f.receive_time = Duration::from_secs_f64(restart_receive);
+        assert!(s.push(&f, &mut out));
+        let mut f = rframe(2, Some(0.01), 0.0);
+        f.receive_time = Duration::from_secs_f64(restart_receive + 0.01);
+        s.push(&f, &mut out);
+        assert_eq!(s.metrics().clock_breaks, 1);
+        assert_eq!(s.metrics().receive_timed, 0);
+        wands(&out).iter().map(|w| w.t).collect::<Vec<f64>>()
+    };
+    let quiet = run(20.0);
+    assert_eq!(quiet, run(10.27), "arrival timing changed the sample times");
+    assert_eq!(quiet.len(), 4, "{quiet:?}");
+    assert_near!(quiet[2], 10.02, TIME_EPS, "one period on: {quiet:?}");
+    assert_near!(quiet[3] - quiet[2], 0.01, TIME_EPS, "{quiet:?}");
+}
+
+/// Issue 31, item 4: jumps of `ts` (+1e15, back to negative, 1e300, NaN) are timed
+/// from the stream alone: the same frames received with different arrival jitter give
+/// the same sample times, and frames without `ts` are counted as timed by arrival.
+#[test]
+fn ts_jumps_are_timed_from_the_stream_alone() {
+    let dt = 1.0 / 60.0;
+    for jump in [1e15, -5.0, 1e300, f64::NAN, 10.0 + 7200.0] {
+        let run = |jitter: f64| {
+            let mut s = FrameStage::new(unfiltered()).unwrap();
+            let mut out = Vec::new();
+            for n in 1..=12_u64 {
+                let ts = match n {
+                    5 | 6 => jump + (n - 5) as f64 * dt,
+                    _ => 10.0 + n as f64 * dt,
+                };
+                let mut f = wand_frame(n, 0.0, DVec3::new(n as f64, 1000.0, 0.0), 0);
+                f.tracker_time = Some(ts);
+                f.receive_time =
+                    Duration::from_secs_f64(n as f64 * dt + jitter * ((n * 7) % 5) as f64);
+                s.push(&f, &mut out);
+            }
+            assert_eq!(s.metrics().receive_timed, 0);
+            wands(&out).iter().map(|w| w.t).collect::<Vec<f64>>()
+        };
+        let a = run(0.0);
+        assert_eq!(a, run(0.003), "ts jump {jump}: arrival changed the times");
+        // Twelve samples, and a timeout sample where the stream's own clock shows a
+        // gap (back to -5 s, then forward 15 s: a gap by the stream's word).
+        assert!((12..=13).contains(&a.len()), "ts jump {jump}: {a:?}");
+        assert!(a.windows(2).all(|w| w[1] > w[0]), "ts jump {jump}: {a:?}");
+    }
+    // Without `ts`, arrival is all there is: counted, so the report can say so.
+    let mut s = FrameStage::new(unfiltered()).unwrap();
     let mut out = Vec::new();
-    s.push(&rframe(1, Some(10.0), 0.0), &mut out);
-    s.push(&rframe(2, Some(10.01), 0.0), &mut out);
-    // The tracker restarts: counter and ts from the start, after a quiet second.
-    let mut f = rframe(1, Some(0.0), 0.0);
-    f.receive_time = Duration::from_secs(20);
-    assert!(s.push(&f, &mut out));
-    let mut f = rframe(2, Some(0.01), 0.0);
-    f.receive_time = Duration::from_secs_f64(20.01);
-    s.push(&f, &mut out);
-    let t: Vec<f64> = wands(&out).iter().map(|w| w.t).collect();
-    assert_eq!(t.len(), 5, "a timeout sample, then the restarted frames");
-    assert!(t.windows(2).all(|w| w[1] >= w[0]), "{t:?}");
-    assert_near!(t[2], 10.51, TIME_EPS, "lost at the timeout: {t:?}");
-    // Restart 9.76 s (receive time) after the last frame, then 10 ms on.
-    assert_near!(t[3], 10.01 + 9.74, DURATION_EPS, "{t:?}");
-    assert_near!(t[4] - t[3], 0.01, TIME_EPS, "{t:?}");
+    for n in 1..=3_u64 {
+        s.push(&rframe(n, None, 0.0), &mut out);
+    }
+    assert_eq!(s.metrics().receive_timed, 3);
 }
 
 /// Regression (issue 15, item 1): one frame with `ts 1e300` (or any `ts` of 1e15 or

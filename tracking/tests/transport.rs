@@ -351,6 +351,9 @@ async fn a_second_peer_on_a_listening_source_is_refused_and_presses_nothing() {
 async fn peers_off_the_allow_list_cannot_take_the_trackers_slot() {
     let mut config = cfg(listen_any());
     config.allow = vec!["127.0.0.2".parse().unwrap()];
+    // Loopback passes an allow-list by default (issue 31, item 11); here the strays
+    // are loopback peers, so the list must hold without that exception.
+    config.allow_loopback = false;
     let running = start(&config).await.unwrap();
     let addr = running.local_addrs[0].unwrap();
     let mut wand = running.hub.watch(DeviceId::Wand(0));

@@ -88,6 +88,15 @@ pub enum VrError {
     /// than its cap (checked before it was read).
     #[error(transparent)]
     File(#[from] fsio::FsError),
+    /// The run lost data: the operator log stopped being written (a full disk), so
+    /// it is not reported as written and the run does not end as a success.
+    #[error("the run lost data: the operator log {path} could not be written ({reason})")]
+    OperatorLogLost {
+        /// The operator log.
+        path: String,
+        /// The write error.
+        reason: String,
+    },
     /// A file could not be read or written.
     #[error("{path}")]
     Io {

@@ -7,7 +7,11 @@
 //! frame's DTrack `ts`, calibration with the tool tip, filter, loss and timeout), then
 //! to the interaction as wand events stamped with the stage's time. Nothing is
 //! sampled "latest only", so a live session builds the same document as the offline
-//! replay of its pose log.
+//! replay of its pose log, across a tracker restart or `ts` jumps too (the stage's
+//! order and clock rules read the stream alone where frames carry `ts`). Frames
+//! without `ts` are timed by their arrival, and a silence in arrival longer than the
+//! stage timeout is a loss live only: there the two may differ
+//! (`docs/formats/tracking-config.md`).
 //!
 //! When no frame arrives for longer than the stage timeout, [`FrameStage::idle`]
 //! reports the wand lost; a stroke paused by that loss ends `pause_timeout` later

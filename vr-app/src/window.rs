@@ -352,7 +352,21 @@ pub fn run_windowed(app: AppState, input: WindowInput, frames: Option<u64>) -> V
     }
     // Never lose work on a clean exit.
     wa.app.session.autosave()?;
-    result
+    result?;
+    // Sculpting went on after a failed operator-log write; the run still lost data.
+    match wa.app.session.oplog_failure() {
+        None => Ok(()),
+        Some(reason) => Err(VrError::OperatorLogLost {
+            path: wa
+                .app
+                .session
+                .dir()
+                .join(crate::session::OPLOG_FILE)
+                .display()
+                .to_string(),
+            reason: reason.to_string(),
+        }),
+    }
 }
 
 /// A cluster render node in a window (its screen's projector or monitor): each frame
