@@ -927,10 +927,7 @@ impl TargetTessellation {
                         });
                         match written[t[k] as usize] {
                             None => written[t[k] as usize] = Some((normals[k], i)),
-                            Some(_) => more_written
-                                .entry(t[k])
-                                .or_default()
-                                .push((normals[k], i)),
+                            Some(_) => more_written.entry(t[k]).or_default().push((normals[k], i)),
                         }
                         i
                     }
