@@ -387,6 +387,10 @@ fn dual_box_minus_cylinder_is_closed_with_sharp_edges() {
         "marching tetrahedra already on the edges: {mt_vertex}"
     );
     assert!(
+        dc_surface <= DUAL_EDGE_CELL_FRAC * cell,
+        "dual contouring: the edges lie {dc_surface} from the mesh"
+    );
+    assert!(
         dc_surface < mt_surface,
         "dual contouring cuts the edges more: {dc_surface} vs {mt_surface}"
     );

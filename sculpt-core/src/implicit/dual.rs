@@ -9,9 +9,10 @@
 //! manifold variants split such cells. Here the cells are split by construction:
 //!
 //! 1. [`contour_cells`] gives the marching-tetrahedra mesh (closed, manifold,
-//!    oriented) with the cell of each triangle and the edge of each vertex; the
-//!    Hermite data are the zero crossings on those edges (by bisection) with unit
-//!    normals by forward-mode differentiation;
+//!    oriented) with the cell of each triangle and the edge of each vertex; each
+//!    vertex moves to the zero crossing on its edge (by bisection; the topology is
+//!    unchanged), which with the unit normal there (forward-mode differentiation) is
+//!    the Hermite data;
 //! 2. the triangles of a cell are split into connected patches (one per sheet);
 //! 3. each patch that is a disk (Euler characteristic 1, one simple boundary loop) is
 //!    replaced by a fan from one new vertex, at the QEF minimiser of the patch's
@@ -37,7 +38,7 @@ use super::ImplicitError;
 use super::contour::contour_cells;
 use super::tape::Tape;
 use crate::mesh::{MeshVertex, WeldedMesh};
-use crate::tolerance::DUAL_QEF_SVD_REL;
+use crate::tolerance::{CONTOUR_EDGE_T_MIN, DUAL_QEF_SVD_REL};
 
 /// Halvings of an edge that find a Hermite sample (2^-24 of the edge: f32 resolution).
 pub const DUAL_BISECTIONS: usize = 24;
@@ -76,7 +77,10 @@ pub fn dual_contour(
         .zip(&extra.edges)
         .map(|(v, &ends)| hermite_sample(tape, *v, ends))
         .collect();
-    let mut vertices = mesh.vertices;
+    // The mesh's vertices move to their Hermite samples (along their own edges, so
+    // the topology is unchanged): on the surface, faces meet the feature vertices
+    // without folds.
+    let mut vertices = hermite;
     let mut triangles: Vec<[u32; 3]> = Vec::with_capacity(mesh.triangles.len());
     // For each fan vertex: its QEF rank.
     let mut rank: HashMap<u32, usize> = HashMap::new();
@@ -105,7 +109,7 @@ pub fn dual_contour(
             let used: HashSet<u32> = faces.iter().flatten().copied().collect();
             let mut used: Vec<u32> = used.into_iter().collect();
             used.sort_unstable();
-            let (x, r) = qef_vertex(&hermite, &used, box_lo, h);
+            let (x, r) = qef_vertex(&vertices, &used, box_lo, h);
             let xf = x.map(|c| c as f32);
             let (_, g) = tape.eval_grad(xf);
             let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
@@ -157,7 +161,9 @@ fn hermite_sample(tape: &Tape, v: MeshVertex, ends: [[f64; 3]; 2]) -> MeshVertex
             b = m;
         }
     }
-    let p = at(0.5 * (a + b)).map(|c| c as f32);
+    // As marching tetrahedra keep them: off the edge's ends, so no two coincide.
+    let t = (0.5 * (a + b)).clamp(CONTOUR_EDGE_T_MIN, 1.0 - CONTOUR_EDGE_T_MIN);
+    let p = at(t).map(|c| c as f32);
     let (_, g) = tape.eval_grad(p);
     let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
     if !(len.is_finite() && len > 0.0) {
@@ -329,8 +335,8 @@ fn flip_feature_edges(
         }
     }
     let pos = |i: u32| Vector3::from(vertices[i as usize].position.map(f64::from));
-    // Best candidate per pair of fan vertices.
-    let mut best: HashMap<FanPair, Candidate> = HashMap::new();
+    // The candidates of each pair of fan vertices.
+    let mut candidates: HashMap<FanPair, Vec<Candidate>> = HashMap::new();
     for (k, t) in triangles.iter().enumerate() {
         let (xa, a, b) = (t[0], t[1], t[2]);
         if !is_feature(xa) {
@@ -346,35 +352,64 @@ fn flip_feature_edges(
         let xb = o[0];
         let key = (xa.min(xb), xa.max(xb));
         let score = segment_distance([pos(a), pos(b)], [pos(xa), pos(xb)]);
-        let entry = best.entry(key).or_insert((f64::INFINITY, a, b));
-        if score < entry.0 || (score == entry.0 && (a, b) < (entry.1, entry.2)) {
-            *entry = (score, a, b);
-        }
+        candidates.entry(key).or_default().push((score, a, b));
     }
-    // Candidate edges, in the order of their fan pairs (deterministic).
-    let mut pairs: Vec<(FanPair, Candidate)> = best.into_iter().collect();
+    // Pairs in a deterministic order; each pair's candidates nearest first, the first
+    // that passes the checks flipped.
+    let mut pairs: Vec<(FanPair, Vec<Candidate>)> = candidates.into_iter().collect();
     pairs.sort_by_key(|p| p.0);
     let mut touched: HashSet<usize> = HashSet::new();
     let mut flips = 0;
-    for (_, (_, a, b)) in pairs {
+    for (_, mut list) in pairs {
+        list.sort_by(|x, y| x.0.total_cmp(&y.0).then((x.1, x.2).cmp(&(y.1, y.2))));
+        for (_, a, b) in list {
+            if try_flip(
+                vertices,
+                triangles,
+                &mut owner,
+                &mut valence,
+                &mut touched,
+                a,
+                b,
+            ) {
+                flips += 1;
+                break;
+            }
+        }
+    }
+    flips
+}
+
+/// Flips the edge `a -> b` between the fan triangles `(xa, a, b)` and `(xb, b, a)` to
+/// `xa xb` when the checks of step 4 (module docs) pass; returns whether it did.
+fn try_flip(
+    vertices: &[MeshVertex],
+    triangles: &mut [[u32; 3]],
+    owner: &mut HashMap<(u32, u32), usize>,
+    valence: &mut HashMap<u32, usize>,
+    touched: &mut HashSet<usize>,
+    a: u32,
+    b: u32,
+) -> bool {
+    {
         let (Some(&t1), Some(&t2)) = (owner.get(&(a, b)), owner.get(&(b, a))) else {
-            continue;
+            return false;
         };
         if touched.contains(&t1) || touched.contains(&t2) {
-            continue;
+            return false;
         }
         let (xa, xb) = (triangles[t1][0], triangles[t2][0]);
         if owner.contains_key(&(xa, xb)) || owner.contains_key(&(xb, xa)) {
-            continue;
+            return false;
         }
         if valence[&a] < 4 || valence[&b] < 4 {
-            continue;
+            return false;
         }
         let old = face_normal(vertices, triangles[t1]) + face_normal(vertices, triangles[t2]);
         let (n1, n2) = ([xa, a, xb], [xb, b, xa]);
         if face_normal(vertices, n1).dot(&old) <= 0.0 || face_normal(vertices, n2).dot(&old) <= 0.0
         {
-            continue;
+            return false;
         }
         for e in [[xa, a, b], [xb, b, a]] {
             for i in 0..3 {
@@ -394,9 +429,8 @@ fn flip_feature_edges(
         *valence.entry(xb).or_default() += 1;
         touched.insert(t1);
         touched.insert(t2);
-        flips += 1;
+        true
     }
-    flips
 }
 
 /// Drops the vertices no triangle uses and renumbers.
