@@ -369,14 +369,22 @@ async fn tcp_listen(
         // hold up the tracker behind it.
         tokio::spawn(async move {
             let mut stream = stream;
+            let connected = Instant::now();
             let identified = identify(&hub, &mut stream, &opts, &admission).await;
             drop(candidate);
             let found = match identified {
                 Ok(found) => found,
                 Err(why) => return refuse(&hub, src, peer, &why),
             };
-            let Ok(permit) = slots.try_acquire_owned() else {
-                return refuse(&hub, src, peer, "the source already has its connection");
+            // A plausible peer waits out the rest of its identify window for the slot:
+            // a peer that is just leaving (a stray that sent a frame and closed) must
+            // not cost the tracker behind it its session. The slot's queue is first
+            // come, first served; a peer still waiting when the window ends is refused
+            // (the tracker holds the slot for the session).
+            let window = admission.identify.saturating_sub(connected.elapsed());
+            let permit = match tokio::time::timeout(window, slots.acquire_owned()).await {
+                Ok(Ok(permit)) => permit,
+                _ => return refuse(&hub, src, peer, "the source already has its connection"),
             };
             tracing::info!("tracker connection from {peer}: identified");
             hub.connection_opened(src);
