@@ -12,7 +12,8 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     if let Ok(spec) = HeatSpec::from_toml(text) {
-        spec.settings().expect("an accepted spec has valid settings");
+        spec.settings()
+            .expect("an accepted spec has valid settings");
         let again = HeatSpec::from_toml(&spec.to_toml()).expect("a written spec must read back");
         assert_eq!(spec, again, "write-read changed the spec");
     }

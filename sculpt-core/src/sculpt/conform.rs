@@ -223,7 +223,7 @@ pub fn cells_for(surface: &dyn ParamSurface, goal: f64) -> u32 {
 
 impl NetworkPlan {
     /// Plans every patch for the detail's chord tolerance relative to the object's size
-    /// ([`object_size`]), with [`GRID_MARGIN`] as the per-target grids have.
+    /// ([`object_size`]), with `GRID_MARGIN` as the per-target grids have.
     pub fn new(surfaces: &[&NurbsSurface], network: &Network, detail: Detail) -> Self {
         let goal = detail.tolerance(object_size(surfaces)) * GRID_MARGIN;
         let cells: Vec<u32> = surfaces

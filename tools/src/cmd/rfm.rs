@@ -41,7 +41,7 @@ pub enum RfmCommand {
 /// Arguments of `rfm heat`.
 #[derive(Debug, Args)]
 pub struct HeatArgs {
-    /// The problem (TOML: conductivity, [basis], [[boundary]]).
+    /// The problem (TOML: `conductivity`, `[basis]`, `[[boundary]]`).
     pub spec: PathBuf,
     /// CSV of probe points `x,y`.
     #[arg(long)]

@@ -35,7 +35,7 @@
 //! the symmetric positive definite system
 //! `sum_j (int lambda grad psi_i . grad psi_j dA + int alpha psi_i psi_j ds) c_j =
 //!  -int lambda grad psi_i . grad g dA + int alpha (T_env - g) psi_i ds`,
-//! integrated by the domain-adapted [`quadrature`](super::quadrature) and solved by
+//! integrated by the domain-adapted [`quadrature`] and solved by
 //! Cholesky factorisation.
 
 use nalgebra::{DMatrix, DVector};
