@@ -97,15 +97,6 @@ fn bucket(x: f64) -> usize {
     ((x * GRID as f64).floor().max(0.0) as usize).min(GRID - 1)
 }
 
-fn bounds_of(contours: &[Vec<DVec2>]) -> Option<Rect> {
-    contours
-        .iter()
-        .flatten()
-        .fold(None, |acc: Option<Rect>, &p| {
-            Some(acc.map_or(Rect::new(p, p), |r| Rect::new(r.min.min(p), r.max.max(p))))
-        })
-}
-
 fn widen(r: &Rect, by: f64) -> Rect {
     Rect::new(r.min - DVec2::splat(by), r.max + DVec2::splat(by))
 }
@@ -157,7 +148,7 @@ impl HiddenRegion {
             removed: Vec::new(),
             added: Vec::new(),
         };
-        if let Some(b) = bounds_of(footprint.contours()) {
+        if let Some(b) = footprint.bounds() {
             step.removed = self.live_near(&widen(&b, HIDDEN_COMPONENT_MARGIN));
             // The replaced components, then the footprint: the order of a union of the
             // whole region (`stroke::union(&[previous, footprint])`).
@@ -178,11 +169,11 @@ impl HiddenRegion {
             for shape in domain_overlay(&subject, &[], OverlayRule::Subject) {
                 // The same orientation as `region_from_shapes`: outer contour
                 // counter-clockwise, holes clockwise.
-                let shape_region = super::stroke::region_from_shapes(vec![shape]);
-                let contours = shape_region.contours().to_vec();
-                let Some(bounds) = bounds_of(&contours) else {
+                let shape = super::stroke::region_from_shapes(vec![shape]);
+                let Some(bounds) = shape.bounds() else {
                     continue;
                 };
+                let contours = shape.contours().to_vec();
                 let slot = self.insert(Component { contours, bounds });
                 self.set_live(slot, true);
                 step.added.push(slot);

@@ -171,6 +171,11 @@ impl Region {
         Self::new(Vec::new())
     }
 
+    /// The bounding rectangle of the outline (`None` when empty).
+    pub fn bounds(&self) -> Option<Rect> {
+        self.bounds
+    }
+
     /// True when the region has no contours.
     pub fn is_empty(&self) -> bool {
         self.contours.is_empty()
