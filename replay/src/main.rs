@@ -353,14 +353,10 @@ fn serve(cli: &Cli, bytes: &[u8], target: &str, listen: bool) -> Result<ExitCode
         Some(p) => {
             let text = std::fs::read_to_string(p)
                 .with_context(|| format!("reading the secret file {}", p.display()))?;
-            let secret = text.lines().next().unwrap_or("").trim();
-            if !tracking::config::valid_secret(secret) {
-                bail!(
-                    "{}: the secret must be 1 to 256 printable characters without spaces",
-                    p.display()
-                );
-            }
-            Some(tracking::config::hello_line(secret))
+            Some(
+                tracking::config::hello_from_secret_text(&text)
+                    .with_context(|| p.display().to_string())?,
+            )
         }
         None => None,
     };

@@ -317,6 +317,21 @@ pub enum HelloError {
     /// The secret does not match.
     #[error("wrong secret")]
     WrongSecret,
+    /// A secret file's first line is not a secret that can be sent.
+    #[error("the secret must be 1 to {MAX_SECRET} printable characters without spaces")]
+    BadSecret,
+}
+
+/// The hello line for a secret file's text: its first line, trimmed, must be a
+/// [valid secret](valid_secret). What `wandtrack --secret-file` and
+/// `replay --secret-file` send first.
+pub fn hello_from_secret_text(text: &str) -> std::result::Result<Vec<u8>, HelloError> {
+    let secret = text.lines().next().unwrap_or("").trim();
+    if valid_secret(secret) {
+        Ok(hello_line(secret))
+    } else {
+        Err(HelloError::BadSecret)
+    }
 }
 
 /// Checks one hello line (with or without its CR/LF) against `secret`, in time that

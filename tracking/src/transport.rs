@@ -20,7 +20,9 @@
 //! logged. So a squatter that connects first, or keeps reconnecting, sending nothing
 //! or garbage, cannot lock the tracker out, and a second peer can neither press
 //! buttons nor interleave frames. A `udp` source takes datagrams from one peer at a
-//! time (the first, until it goes quiet for the read timeout). With
+//! time: peers are identified the same way (without a hello: a DTrack2 controller
+//! cannot send one), and the first plausible one is the source's peer until it goes
+//! quiet for the read timeout. With
 //! [`TrackingConfig::allow`] set, connections and datagrams from any other address
 //! (loopback excepted unless [`TrackingConfig::allow_loopback`] is false) are refused
 //! before a byte is read. Refused peers are counted in
@@ -46,6 +48,7 @@ use crate::frame::DeviceId;
 use crate::hub::{Hub, SourceId};
 use crate::poselog::{PoseLogHeader, PoseLogWriter, RecordKind};
 use crate::serial::SerialDecoder;
+use std::collections::HashMap;
 use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -544,40 +547,127 @@ async fn tcp_connect(hub: Hub, src: SourceId, addr: SocketAddr, opts: TransportO
     }
 }
 
-async fn udp(hub: Hub, src: SourceId, sock: UdpSocket, opts: TransportOptions, allow: AllowList) {
-    let mut decoder = DTrackDecoder::new(opts.limits).keep_raw(hub.is_recording());
+/// A UDP peer being identified: its own decoder, the frames it sent so far (each with
+/// its arrival on the hub clock) and the arrivals of those carrying every expected
+/// device, as for a TCP peer (see the module docs).
+struct UdpCandidate {
+    decoder: DTrackDecoder,
+    frames: Vec<(Decoded, Duration)>,
+    good: Vec<(Option<f64>, Instant)>,
+    since: Instant,
+}
+
+impl UdpCandidate {
+    fn new(hub: &Hub, opts: &TransportOptions) -> Self {
+        Self {
+            decoder: DTrackDecoder::new(opts.limits).keep_raw(hub.is_recording()),
+            frames: Vec::new(),
+            good: Vec::new(),
+            since: Instant::now(),
+        }
+    }
+
+    /// Decodes one datagram into the candidate's buffer.
+    fn push(&mut self, datagram: &[u8], now: Duration, adm: &Admission) {
+        let arrived = Instant::now();
+        let (frames, good) = (&mut self.frames, &mut self.good);
+        let mut sink = |d: Decoded| {
+            if let Decoded::Frame(f, _) = &d
+                && adm.devices.iter().all(|&id| carries(f, id))
+            {
+                good.push((f.tracker_time, arrived));
+            }
+            frames.push((d, now));
+        };
+        self.decoder.push(datagram, &mut sink);
+        self.decoder.end_datagram(&mut sink);
+    }
+}
+
+/// A UDP source: datagrams from one identified peer at a time. A new peer is a
+/// candidate until its datagrams are plausible (the `[expect]` devices at the rate,
+/// within `identify_ms`, as for TCP); the first plausible one becomes the source's
+/// peer, its buffered frames are applied in order, and the others are refused until it
+/// goes quiet for the read timeout. So a squatter sending garbage (or nothing the
+/// config expects) never holds the port, however early or often it sends.
+async fn udp(hub: Hub, src: SourceId, sock: UdpSocket, opts: TransportOptions, adm: AllowList) {
     let mut buf = vec![0u8; READ_BUF];
-    // The one peer this source takes datagrams from, until it goes quiet.
-    let mut active: Option<SocketAddr> = None;
+    // The identified peer and its decoder, until it goes quiet.
+    let mut active: Option<(SocketAddr, DTrackDecoder)> = None;
+    let mut candidates: HashMap<SocketAddr, UdpCandidate> = HashMap::new();
     let mut last_datagram = Instant::now();
     loop {
         let left = opts.read_timeout.saturating_sub(last_datagram.elapsed());
-        match tokio::time::timeout(left, sock.recv_from(&mut buf)).await {
+        let (n, peer) = match tokio::time::timeout(left, sock.recv_from(&mut buf)).await {
             Err(_) => {
-                active = None;
+                if active.take().is_some() {
+                    hub.set_connected(src, false, hub.now());
+                }
+                candidates.clear();
                 last_datagram = Instant::now();
-                hub.set_connected(src, false, hub.now());
+                continue;
             }
             Ok(Err(e)) => {
                 tracing::debug!("udp receive: {e}");
                 tokio::time::sleep(opts.backoff_min).await;
+                continue;
             }
-            Ok(Ok((_, peer))) if !allow.policy.allows(peer.ip()) => {
-                refuse(&hub, src, peer, "not on the allow-list");
-            }
-            Ok(Ok((_, peer))) if active.is_some_and(|a| a != peer) => {
-                refuse(&hub, src, peer, "the source already has its peer");
-            }
-            Ok(Ok((n, peer))) => {
-                active = Some(peer);
+            Ok(Ok(got)) => got,
+        };
+        if !adm.policy.allows(peer.ip()) {
+            refuse(&hub, src, peer, "not on the allow-list");
+            continue;
+        }
+        let now = hub.now();
+        match &mut active {
+            Some((a, decoder)) if *a == peer => {
                 last_datagram = Instant::now();
-                let now = hub.now();
                 let mut sink = |d| {
                     deliver(&hub, src, d, now);
                 };
                 decoder.push(&buf[..n], &mut sink);
                 decoder.end_datagram(&mut sink);
+                continue;
             }
+            Some(_) => {
+                refuse(&hub, src, peer, "the source already has its peer");
+                continue;
+            }
+            None => {}
+        }
+        // Candidates whose identify window passed are refused and start over.
+        candidates.retain(|&p, c| {
+            let open = c.since.elapsed() <= adm.identify;
+            if !open {
+                refuse(&hub, src, p, "nothing plausible within the identify window");
+            }
+            open
+        });
+        if !candidates.contains_key(&peer) && candidates.len() >= MAX_CANDIDATES {
+            refuse(&hub, src, peer, "too many peers being identified");
+            continue;
+        }
+        let candidate = candidates
+            .entry(peer)
+            .or_insert_with(|| UdpCandidate::new(&hub, &opts));
+        candidate.push(&buf[..n], now, &adm);
+        if plausible(&candidate.good, &adm) {
+            let Some(found) = candidates.remove(&peer) else {
+                continue;
+            };
+            for (p, _) in candidates.drain() {
+                refuse(&hub, src, p, "another peer identified as the tracker");
+            }
+            tracing::info!("tracker datagrams from {peer}: identified");
+            hub.set_connected(src, true, now);
+            for (d, at) in found.frames {
+                deliver(&hub, src, d, at);
+            }
+            active = Some((peer, found.decoder));
+            last_datagram = Instant::now();
+        } else if candidate.frames.len() > MAX_IDENTIFY_FRAMES {
+            candidates.remove(&peer);
+            refuse(&hub, src, peer, "too many frames, none plausible");
         }
     }
 }

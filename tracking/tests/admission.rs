@@ -216,6 +216,49 @@ async fn an_implausible_peer_is_dropped_and_the_tracker_admitted() {
     assert_eq!(stats(&running).frames, 20);
 }
 
+/// Regression (issue 31, item 11, UDP): a UDP source took the first sender as its peer
+/// for as long as it kept sending, so a squatter sending garbage every 20 ms held the
+/// port and the tracker's frames were all refused (0 applied). UDP peers are now
+/// identified like TCP ones: garbage, and frames without the expected devices, never
+/// identify, and the tracker's every frame is applied.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_udp_squatter_cannot_hold_the_port() {
+    let mut config = TrackingConfig {
+        sources: vec![SourceConfig::Udp {
+            addr: "127.0.0.1:0".parse().unwrap(),
+        }],
+        ..TrackingConfig::default()
+    };
+    config.expect.devices = vec!["wand0".into(), "body0".into()];
+    config.expect.rate_hz = 60.0;
+    let running = start(&config).await.unwrap();
+    let addr = running.local_addrs[0].unwrap();
+    let mut wand = running.hub.watch(DeviceId::Wand(0));
+    let squatter = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
+    let stranger = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
+    let noise = tokio::spawn(async move {
+        for n in 1u64.. {
+            let _ = squatter.send_to(b"hello?\r\n", addr).await;
+            // Valid DTrack2, but only a body 5, never the wand.
+            let frame = format!("fr {n}\r\n6d 1 [5 1.000][0 0 0][1 0 0 0 1 0 0 0 1]\r\n\r\n");
+            let _ = stranger.send_to(frame.as_bytes(), addr).await;
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+    });
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    let tracker = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
+    for f in tracker_frames(1, 40) {
+        tracker.send_to(&f, addr).await.unwrap();
+        tokio::time::sleep(Duration::from_millis(2)).await;
+    }
+    wait_for(&mut wand, "tracker frame 40", |s| s.frame == 40).await;
+    noise.abort();
+    let st = stats(&running);
+    assert_eq!(st.frames, 40, "every tracker frame is applied: {st:?}");
+    assert_eq!(st.connections, 1, "only the tracker fed the source: {st:?}");
+    assert!(st.refused >= 2, "the squatters were refused: {st:?}");
+}
+
 /// Regression (issue 31, item 11): `allow = ["10.9.9.9"]` refused every loopback
 /// peer, so an allow-list could not be used with a local tracker emulator. Loopback
 /// now passes unless `allow_loopback = false`, and entries may be CIDR blocks.
@@ -267,7 +310,7 @@ allow_loopback = false"#,
 mod parsers {
     use proptest::prelude::*;
     use std::net::{IpAddr, Ipv4Addr, Ipv6Addr};
-    use tracking::config::{AllowEntry, check_hello, hello_line};
+    use tracking::config::{AllowEntry, check_hello, hello_from_secret_text, hello_line};
 
     proptest! {
         /// Any text parses to an entry or a clear error, never a panic.
@@ -305,6 +348,19 @@ mod parsers {
                 check_hello(&hello_line(&other), secret.as_bytes()).is_ok(),
                 other == secret
             );
+        }
+
+        /// A secret file's text never panics; a valid first line (surrounding blanks
+        /// trimmed) gives the hello its secret passes, anything else is refused.
+        #[test]
+        fn secret_files(text in "\\PC{0,80}", secret in "[!-~]{1,40}", pad in "[ \t]{0,3}") {
+            match hello_from_secret_text(&text) {
+                Ok(line) => prop_assert!(check_hello(&line, text.lines().next().unwrap().trim().as_bytes()).is_ok()),
+                Err(_) => prop_assert!(!tracking::config::valid_secret(text.lines().next().unwrap_or("").trim())),
+            }
+            let file = format!("{pad}{secret}{pad}\nsecond line\n");
+            let line = hello_from_secret_text(&file).unwrap();
+            prop_assert!(check_hello(&line, secret.as_bytes()).is_ok());
         }
     }
 

@@ -8,6 +8,7 @@ use glam::DVec3;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::time::Duration;
+use tokio::io::AsyncWriteExt;
 use tokio::net::{TcpListener, TcpStream, UdpSocket};
 use tracking::calibration::{Calibration, FitOptions, fit};
 use tracking::config::TrackingConfig;
@@ -42,6 +43,29 @@ struct Output {
     stdout: bool,
 }
 
+/// Options for the network outputs.
+#[derive(Args)]
+struct Hello {
+    /// With --tcp-connect: a file whose first line is the display server's tracking
+    /// `secret`; the connection starts with its hello line.
+    #[arg(long, value_name = "FILE")]
+    secret_file: Option<PathBuf>,
+}
+
+impl Hello {
+    /// The hello line to send first, if a secret file was given.
+    fn line(&self) -> Result<Option<Vec<u8>>> {
+        let Some(p) = &self.secret_file else {
+            return Ok(None);
+        };
+        let text = std::fs::read_to_string(p)
+            .with_context(|| format!("reading the secret file {}", p.display()))?;
+        let hello = tracking::config::hello_from_secret_text(&text)
+            .with_context(|| p.display().to_string())?;
+        Ok(Some(hello))
+    }
+}
+
 #[derive(Subcommand)]
 enum Cmd {
     /// Run the tracker simulator on a script.
@@ -63,6 +87,8 @@ enum Cmd {
         speed: f64,
         #[command(flatten)]
         out: Output,
+        #[command(flatten)]
+        hello: Hello,
     },
     /// Run the configured sources; print events and states as JSON lines.
     Listen {
@@ -89,6 +115,8 @@ enum Cmd {
         speed: f64,
         #[command(flatten)]
         out: Output,
+        #[command(flatten)]
+        hello: Hello,
     },
     /// Check a pose log: counts, corrupt lines with line numbers, truncated tail.
     /// Exits with status 1 when anything is corrupt.
@@ -142,10 +170,15 @@ async fn emit(
     items: Vec<(Duration, Vec<u8>)>,
     speed: f64,
     out: &Output,
+    hello: &Hello,
     source: &str,
 ) -> Result<()> {
     if speed.is_nan() || speed.is_infinite() || speed < 0.0 {
         bail!("--speed must be a finite number >= 0 (0: as fast as possible)");
+    }
+    let hello = hello.line()?;
+    if hello.is_some() && out.tcp_connect.is_none() {
+        bail!("--secret-file goes with --tcp-connect only");
     }
     if let Some(path) = &out.log {
         let mut w = tracking::poselog::PoseLogWriter::create(path, &PoseLogHeader::new(source))?;
@@ -158,6 +191,11 @@ async fn emit(
             .await
             .with_context(|| format!("connect {addr}"))?;
         s.set_nodelay(true)?;
+        if let Some(line) = &hello {
+            s.write_all(line)
+                .await
+                .with_context(|| format!("hello to {addr}"))?;
+        }
         let n = send_paced(&mut s, items, speed).await?;
         eprintln!("sent {n} bytes to {addr}");
     } else if let Some(addr) = out.tcp_listen {
@@ -213,6 +251,7 @@ async fn run() -> Result<()> {
             seed,
             speed,
             out,
+            hello,
         } => {
             let script = match script {
                 Some(p) => toml::from_str(
@@ -234,7 +273,7 @@ async fn run() -> Result<()> {
             }
             let source = format!("wandtrack sim rate={} seed={}", cfg.rate_hz, cfg.seed);
             let items: Vec<_> = frames_as_items(Simulator::new(&script, cfg)?).collect();
-            emit(items, speed, &out, &source).await
+            emit(items, speed, &out, &hello, &source).await
         }
         Cmd::Listen {
             config,
@@ -287,6 +326,7 @@ async fn run() -> Result<()> {
             input: log,
             speed,
             out,
+            hello,
         } => {
             let l = PoseLog::read(&log)?;
             for e in &l.corrupt {
@@ -302,6 +342,7 @@ async fn run() -> Result<()> {
                 items,
                 speed,
                 &out,
+                &hello,
                 &format!("wandtrack play {}", log.display()),
             )
             .await
