@@ -214,9 +214,10 @@ fn patches_meshed_apart_leave_open_edges() {
     assert!(s.open > 0, "{s:?}");
 }
 
-/// The live view of a network through a stroke and its undo: the carved patch leaves
-/// the network (it is meshed on its own grid, with its groove) and its neighbours stay;
-/// undone, the sink holds the same watertight surface as before the stroke.
+/// The live view of a network through a stroke and its undo: the carved patch is
+/// meshed by its own tessellation (its root patches, with its groove) and its
+/// neighbours stay network patches, the surface watertight; undone, the sink holds the
+/// same watertight surface as before the stroke.
 #[test]
 fn a_stroke_and_its_undo_keep_the_live_view_in_step() {
     use sculpt_core::editor::{self, Applied};
@@ -248,6 +249,11 @@ fn a_stroke_and_its_undo_keep_the_live_view_in_step() {
         Applied::Stroke { .. }
     ));
     doc.tessellate(Detail::Interactive, &mut live);
+    // Issue 30, watertight after strokes: the carved patch's shared sides are the
+    // network's, so the live view stays one closed surface.
+    let after = count(&triangles(&live));
+    assert!(after.is_closed_manifold(), "{after:?}");
+    assert_eq!((after.bodies, after.euler()), (1, 0), "{after:?}");
     let carved = keys(&live);
     assert!(!carved.contains(&conform_key(0)));
     // Target 0's own root patches, and every other target still one network patch.
@@ -267,4 +273,82 @@ fn a_stroke_and_its_undo_keep_the_live_view_in_step() {
     again.sort_by(order);
     first.sort_by(order);
     assert_eq!(again, first);
+}
+
+/// A straight stroke of `samples + 1` samples on target `k` of `doc` from `(u0, v0)` to
+/// `(u1, v1)` of its surface, applied through the editor.
+fn carve(
+    doc: &mut sculpt_core::sculpt::document::Document,
+    k: usize,
+    from: (f64, f64),
+    to: (f64, f64),
+) {
+    use sculpt_core::editor::{self, Applied};
+    use sculpt_core::interaction::{Edit, StrokeEdit, StrokeSample};
+    use sculpt_core::sculpt::stroke::Tool;
+    let surface = doc.targets()[k].surface.clone();
+    let samples = (0..=20)
+        .map(|i| {
+            let f = f64::from(i) / 20.0;
+            StrokeSample {
+                t: 0.01 * f64::from(i),
+                position: surface.point(from.0 + (to.0 - from.0) * f, from.1 + (to.1 - from.1) * f),
+            }
+        })
+        .collect();
+    let tool = Tool {
+        width: 0.01,
+        ..Tool::default()
+    };
+    let edit = Edit::Stroke(StrokeEdit::new(doc.targets()[k].id, tool, samples));
+    assert!(matches!(editor::apply(doc, &edit), Applied::Stroke { .. }));
+}
+
+/// The deepest vertex of `mesh` below the torus `(major, minor)` (distance inside the
+/// tube), to see that a groove was carved.
+fn deepest_below_torus(mesh: &PatchMesh, major: f64, minor: f64) -> f64 {
+    triangles(mesh)
+        .iter()
+        .flatten()
+        .map(|p| {
+            let p = DVec3::from(p.map(f64::from));
+            let core = DVec3::new(p.x, p.y, 0.0).normalize() * major;
+            minor - p.distance(core)
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Issue 30, watertight after strokes: a torus network with strokes on two patches
+/// (one in the middle of its patch, one running up to a shared side) is one closed,
+/// oriented surface of Euler characteristic 0 at both details, live and afresh, with
+/// its grooves carved.
+#[test]
+fn a_carved_network_stays_one_closed_surface() {
+    let (major, minor) = (0.2, 0.08);
+    let mut doc = scan_document(torus(4000, major, minor, 7), 30);
+    let mut live = [PatchMesh::new(), PatchMesh::new()];
+    for (mesh, detail) in live.iter_mut().zip([Detail::Interactive, Detail::Final]) {
+        doc.tessellate(detail, mesh);
+    }
+    carve(&mut doc, 0, (0.32, 0.47), (0.71, 0.52));
+    carve(&mut doc, 5, (0.47, 0.43), (0.52, 1.0));
+    for (mesh, detail) in live.iter_mut().zip([Detail::Interactive, Detail::Final]) {
+        doc.tessellate(detail, mesh);
+        let s = count(&triangles(mesh));
+        eprintln!(
+            "{detail:?} after strokes (live): {s:?}, Euler {}",
+            s.euler()
+        );
+        assert!(s.is_closed_manifold(), "{detail:?}: {s:?}");
+        assert_eq!((s.bodies, s.euler()), (1, 0), "{detail:?}: {s:?}");
+        assert_eq!(*mesh, doc.mesh(detail), "{detail:?}");
+        let depth = deepest_below_torus(mesh, major, minor);
+        assert!(depth > 0.003, "{detail:?}: deepest {depth}");
+    }
+    // Afresh (new sinks), with the fold check.
+    doc.forget_sinks();
+    check_whole(doc, 0, |p| {
+        let core = DVec3::new(p.x, p.y, 0.0).normalize() * major;
+        (p - core).normalize()
+    });
 }

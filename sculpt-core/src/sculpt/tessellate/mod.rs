@@ -42,12 +42,15 @@ mod normals;
 mod patch;
 mod poles;
 mod roots;
+mod sides;
 #[cfg(test)]
 mod tests;
 
 pub(crate) use grid::GRID_MARGIN;
 pub use grid::{GridPlan, MAX_GRID, MAX_REFINE, MIN_GRID, chord_errors};
 pub use height::height;
+pub(crate) use poles::pole_height;
+pub use sides::{FixedSides, SideVertex};
 
 use super::hidden::HiddenRegion;
 use super::jordan::{Rect, Region};
@@ -146,6 +149,10 @@ pub struct TargetTessellation {
     root_strokes: Vec<Vec<u64>>,
     signatures: Vec<Option<u64>>,
     triangles: Vec<usize>,
+    /// Vertices fixed along the sides of the square ([`Self::set_fixed_sides`]).
+    fixed: FixedSides,
+    /// The fixed sides changed since the last pass (their cells are rewritten).
+    fixed_changed: [bool; 4],
 }
 
 impl TargetTessellation {
@@ -182,6 +189,8 @@ impl TargetTessellation {
             map,
             hidden: HiddenRegion::default(),
             touched: HashMap::new(),
+            fixed: Default::default(),
+            fixed_changed: [false; 4],
         }
     }
 
@@ -200,6 +209,11 @@ impl TargetTessellation {
     /// Triangles in the current mesh of this target.
     pub fn triangle_count(&self) -> usize {
         self.triangles.iter().sum()
+    }
+
+    /// True before the first update (nothing written yet).
+    pub fn is_fresh(&self) -> bool {
+        self.signatures.iter().all(Option::is_none)
     }
 
     /// The level of detail.
@@ -330,8 +344,11 @@ impl TargetTessellation {
                 pole_rows.push(side);
             }
         }
+        let fixed_changed = std::mem::take(&mut self.fixed_changed);
         for r in 0..n * n {
-            if pole_rows.iter().any(|&side| self.root_on_side(r, side)) {
+            if pole_rows.iter().any(|&side| self.root_on_side(r, side))
+                || (0..4).any(|side| fixed_changed[side] && self.root_on_side(r, side))
+            {
                 dirty[r as usize] = true;
             }
         }
@@ -369,6 +386,7 @@ impl TargetTessellation {
             for side in (0..4).filter(|&k| self.root_on_side(root, k) && self.poles[k]) {
                 self.pole_heights[side].hash(&mut h);
             }
+            self.hash_fixed(root, &mut h);
             let sig = h.finish();
             if self.signatures[root as usize] == Some(sig) {
                 continue;

@@ -11,7 +11,7 @@ use super::{StrokeRef, TargetTessellation};
 use crate::mesh::{MeshSink, MeshVertex};
 use crate::sculpt::jordan::{NodeClass, Rect};
 use crate::sculpt::surface::ParamSurface;
-use crate::tolerance::NORMAL_MERGE;
+use crate::tolerance::{MESH_MERGE_EPS, NORMAL_MERGE};
 use glam::{DVec2, DVec3};
 use rustc_hash::FxHasher;
 use spade::Triangulation;
@@ -132,6 +132,16 @@ impl TargetTessellation {
                     DVec2::new(fixed, p)
                 }
             };
+            // A fixed side: its given vertices only (see `sides`).
+            if let Some(list) = self.fixed_here(root, side) {
+                for v in list
+                    .iter()
+                    .filter(|v| v.t >= lo - MESH_MERGE_EPS && v.t <= hi + MESH_MERGE_EPS)
+                {
+                    input.point(at(v.t), Kind::Plain);
+                }
+                continue;
+            }
             let mut params: Vec<(f64, Kind)> = corners
                 .into_iter()
                 .filter(|&p| p >= lo && p <= hi && off_strips(at(p)))
@@ -185,6 +195,10 @@ impl TargetTessellation {
         for &k in &segments.by_root[root as usize] {
             let (s, kind) = segments.segs[k as usize];
             if let Some((a, b)) = clip_segment(s, &rect) {
+                let (a, b) = (
+                    self.snap_to_fixed_sides(root, &rect, a),
+                    self.snap_to_fixed_sides(root, &rect, b),
+                );
                 let ia = input.point(a, kind);
                 let ib = input.point(b, kind);
                 if ia != ib {
@@ -220,17 +234,19 @@ impl TargetTessellation {
         for v in cdt.vertices() {
             let p = v.position();
             let uv = crate::sculpt::surface::clamp_uv(DVec2::new(p.x, p.y));
-            let (s, n, h, deepest) = evaluate(cache, surface, strokes, self.poles, uv);
-            // A pole takes its one displacement even where an outline reaches it.
-            let on_rim =
-                rims.contains(&(p.x.to_bits(), p.y.to_bits())) && pole_of(self.poles, uv).is_none();
+            let rim = rims.contains(&(p.x.to_bits(), p.y.to_bits()));
+            let (s, n, h, deepest, fixed) = self.vertex_at(cache, surface, strokes, uv);
+            // A pole takes its one displacement even where an outline reaches it, and a
+            // fixed vertex its given one.
+            let on_rim = rim && fixed.is_none() && pole_of(self.poles, uv).is_none();
             let (h, deepest) = if on_rim { (0.0, None) } else { (h, deepest) };
+            let displaced = fixed.is_some_and(|f| f != 0.0 || rim);
             verts.push(PatchVertex {
                 surface_point: s,
                 normal: n,
                 uv,
                 height: h,
-                sculpted: h != 0.0 || on_rim,
+                sculpted: h != 0.0 || on_rim || displaced,
                 deepest,
             });
         }
@@ -331,7 +347,7 @@ impl TargetTessellation {
             .iter()
             .map(|(p, _)| {
                 let uv = *p;
-                let (s, n, h, deepest) = evaluate(cache, surface, strokes, self.poles, uv);
+                let (s, n, h, deepest, _) = self.vertex_at(cache, surface, strokes, uv);
                 PatchVertex {
                     surface_point: s,
                     normal: n,
@@ -350,6 +366,41 @@ impl TargetTessellation {
         };
         self.emit_patch(root, &v, &tris, strokes, sink);
         2
+    }
+
+    /// [`evaluate`], or the fixed vertex at `uv` ([`Self::fixed_at`]): its written
+    /// position as the surface point with no displacement (`s + n * 0.0` is `s` bit for
+    /// bit, [`super::SideVertex::position`] having no `-0.0`), and its displacement last.
+    fn vertex_at(
+        &self,
+        cache: &mut EvalCache,
+        surface: &dyn ParamSurface,
+        strokes: &[StrokeRef<'_>],
+        uv: DVec2,
+    ) -> (DVec3, DVec3, f64, Option<(u64, usize)>, Option<f64>) {
+        match self.fixed_at(uv) {
+            Some(v) => (v.position(), v.normal, 0.0, None, Some(v.height)),
+            None => {
+                let (s, n, h, deepest) = evaluate(cache, surface, strokes, self.poles, uv);
+                (s, n, h, deepest, None)
+            }
+        }
+    }
+
+    /// `p` (a constraint's end in root `root`) moved onto the nearest fixed vertex of
+    /// the root's span when it lies on a fixed side.
+    fn snap_to_fixed_sides(&self, root: u32, rect: &Rect, p: DVec2) -> DVec2 {
+        (0u8..4).fold(p, |p, side| {
+            if self.fixed_here(root, side).is_none() {
+                return p;
+            }
+            let (lo, hi) = if side < 2 {
+                (rect.min.y, rect.max.y)
+            } else {
+                (rect.min.x, rect.max.x)
+            };
+            self.snap_to_fixed(side as usize, p, lo, hi)
+        })
     }
 }
 

@@ -146,7 +146,7 @@ pub(super) fn pole_point(
     (p, n, pole_height(strokes, p))
 }
 
-pub(super) fn pole_height(strokes: &[StrokeRef<'_>], p: DVec3) -> f64 {
+pub(crate) fn pole_height(strokes: &[StrokeRef<'_>], p: DVec3) -> f64 {
     let mut h: f64 = 0.0;
     for (_, s) in strokes {
         let d = s.depth_at_point(p);
