@@ -352,3 +352,128 @@ fn a_carved_network_stays_one_closed_surface() {
         (p - core).normalize()
     });
 }
+
+/// How much deeper `after` lies than `before` along the torus's inward normal at `p`
+/// (a point of the network near the torus): where a ray from outside, aimed at `p`,
+/// first meets each mesh.
+fn carved_depth(before: &PatchMesh, after: &PatchMesh, p: DVec3, major: f64) -> f64 {
+    let core = DVec3::new(p.x, p.y, 0.0).normalize() * major;
+    let n = (p - core).normalize();
+    let origin = p + n * 0.02;
+    let hit = |m: &PatchMesh| {
+        m.first_hit(origin.to_array(), (-n).to_array())
+            .expect("the ray meets the mesh")
+    };
+    hit(after) - hit(before)
+}
+
+/// Issue 30, strokes across patch boundaries: a stroke drawn from the middle of one
+/// patch of a torus network to the middle of its neighbour is projected onto the
+/// network and carved as one groove in two pieces, one on each patch, meeting on the
+/// shared side; at final detail the network stays one closed surface, and the groove's
+/// depth measured on the mesh along its bottom is the tool's on both sides of the side
+/// and on it: no notch where the patches meet (a piece tapered at the side, as a
+/// stroke ending there is, would go to zero depth).
+#[test]
+fn a_stroke_across_a_patch_boundary_carves_one_continuous_groove() {
+    use sculpt_core::editor::{self, Applied};
+    use sculpt_core::interaction::{Edit, StrokeEdit, StrokeSample};
+    use sculpt_core::sculpt::stroke::Tool;
+
+    let (major, minor) = (0.2, 0.08);
+    let mut doc = scan_document(torus(4000, major, minor, 7), 30);
+    let network = doc.network();
+    let [(a, ka), (b, kb)] = network.sides[0];
+    let side_uv = |k: usize, t: f64| match k {
+        0 => (0.0, t),
+        1 => (1.0, t),
+        2 => (t, 0.0),
+        _ => (t, 1.0),
+    };
+    let (sa, sb) = (
+        doc.targets()[a].surface.clone(),
+        doc.targets()[b].surface.clone(),
+    );
+    let lerp =
+        |p: (f64, f64), q: (f64, f64), f: f64| (p.0 + (q.0 - p.0) * f, p.1 + (q.1 - p.1) * f);
+    let on_a = side_uv(ka, 0.5);
+    // The side's middle, whichever way `b` runs it.
+    let on_b = side_uv(kb, 0.5);
+    // Along the surfaces: the middle of `a` to the side's middle, then on to the middle
+    // of `b`.
+    let mut path: Vec<DVec3> = (0..=20)
+        .map(|i| {
+            let (u, v) = lerp((0.5, 0.5), on_a, f64::from(i) / 20.0);
+            sa.point(u, v)
+        })
+        .collect();
+    path.extend((1..=20).map(|i| {
+        let (u, v) = lerp(on_b, (0.5, 0.5), f64::from(i) / 20.0);
+        sb.point(u, v)
+    }));
+    let samples = path
+        .iter()
+        .enumerate()
+        .map(|(i, &position)| StrokeSample {
+            t: 0.01 * i as f64,
+            position,
+        })
+        .collect();
+    let tool = Tool {
+        width: 0.01,
+        ..Tool::default()
+    };
+    let (depth, tool_width) = (tool.depth, tool.width);
+    let edit = Edit::Stroke(StrokeEdit::new(doc.targets()[a].id, tool, samples));
+    let before = doc.mesh(Detail::Final);
+    let Applied::Stroke { id, .. } = editor::apply(&mut doc, &edit) else {
+        panic!("the stroke was not carved");
+    };
+    // One stroke, a piece on each patch, each in its own UV map.
+    let on: Vec<usize> = (0..doc.targets().len())
+        .filter(|&k| !doc.strokes_on(doc.targets()[k].id).is_empty())
+        .collect();
+    assert_eq!(on, {
+        let mut v = vec![a, b];
+        v.sort();
+        v
+    });
+    assert_eq!(doc.strokes().len(), 1);
+    assert!(doc.stroke(id).expect("built").pieces.len() >= 2);
+    let mut live = PatchMesh::new();
+    doc.tessellate(Detail::Final, &mut live);
+    let s = count(&triangles(&live));
+    eprintln!("across: {s:?}, Euler {}", s.euler());
+    assert!(s.is_closed_manifold(), "{s:?}");
+    assert_eq!((s.bodies, s.euler()), (1, 0), "{s:?}");
+    assert_eq!(live, doc.mesh(Detail::Final));
+    // The depth carved along the groove's bottom near the side, from the mesh (the
+    // difference of the meshes before and after the stroke, by rays at the
+    // centreline): the last centreline points of `a`'s piece, which ends on the side,
+    // then the first of `b`'s, which starts there; about a centimetre each way.
+    let piece = |k: usize| doc.strokes_on(doc.targets()[k].id)[0].1.clone();
+    let (pa, pb) = (piece(a), piece(b));
+    let joint = pa.centre.last().unwrap().distance(pb.centre[0]);
+    assert!(
+        joint <= 0.1 * tool_width,
+        "the pieces meet at the side: {joint}"
+    );
+    let bottom: Vec<DVec3> = pa.centre[pa.centre.len() - 5..]
+        .iter()
+        .chain(&pb.centre[1..5])
+        .copied()
+        .collect();
+    let depths: Vec<f64> = bottom
+        .iter()
+        .map(|&c| carved_depth(&before, &live, c, major))
+        .collect();
+    eprintln!("groove depth along its bottom across the side: {depths:?} (tool {depth})");
+    for d in &depths {
+        assert!((d - depth).abs() <= 0.1 * depth, "{depths:?}");
+    }
+    let jump = depths
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .fold(0.0, f64::max);
+    assert!(jump <= 0.05 * depth, "{depths:?}");
+}

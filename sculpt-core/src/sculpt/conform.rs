@@ -35,7 +35,7 @@ use super::surface::{ParamSurface, extent_sampled, normal_from};
 use super::tessellate::{Detail, GRID_MARGIN, MAX_GRID, SideVertex, chord_errors};
 use crate::mesh::{MeshSink, MeshVertex, PatchKey};
 use crate::nurbs::NurbsSurface;
-use crate::tolerance::{CONFORM_KNOT_EPS, MESH_MERGE_EPS};
+use crate::tolerance::{CONFORM_KNOT_EPS, FIXED_SIDE_SNAP};
 
 /// Where a patch side lies in the network: the shared side's id and whether the patch
 /// runs it against the canonical direction (its first holder's).
@@ -331,7 +331,10 @@ pub fn shared_sides(
 
 /// The vertices of shared side `id`: `side_cells + 1` uniform samples, plus the
 /// canonical parameters `extra` (each with its parameter running the other way; one
-/// within `MESH_MERGE_EPS` of a parameter already there, or at an end, is left out),
+/// within [`FIXED_SIDE_SNAP`] of a parameter already there, or at an end, is left out:
+/// the two holders' ends of one groove crossing the side, each projected onto its own
+/// patch, differ by the inverters' convergence and become one vertex, onto which both
+/// tessellations move their ends),
 /// each at the canonical holder's point (a corner: its control point) with the mean of
 /// both patches' normals, displaced along it by `height(point)` (zero at the side's
 /// ends, the corners, which every patch meeting there holds).
@@ -358,7 +361,7 @@ pub fn shared_side(
         let near = |j: usize| {
             params
                 .get(j)
-                .is_some_and(|q| (q.0 - t).abs() <= MESH_MERGE_EPS)
+                .is_some_and(|q| (q.0 - t).abs() <= FIXED_SIDE_SNAP)
         };
         if t > 0.0 && t < 1.0 && !near(k) && !(k > 0 && near(k - 1)) {
             params.insert(k, (t, back));

@@ -66,6 +66,7 @@ use super::conform::{
     Network, NetworkPlan, SharedSide, holder_params, shared_side, write_network_with,
 };
 use super::jordan::Rect;
+use super::network_stroke::build_on_network;
 use super::stroke::{StrokeInput, StrokePieces, Tool};
 use super::stroke_surface::StrokeSurface;
 use super::surface::{TargetSurface, extent};
@@ -252,12 +253,31 @@ pub fn conform_key(target: usize) -> u64 {
 struct Built {
     keys: Vec<u64>,
     pieces: StrokePieces,
+    /// Per piece, the target it is carved into: the stroke's own, or on a patch
+    /// network the patch its run fell on ([`super::network_stroke`]).
+    targets: Vec<TargetId>,
 }
 
 impl Built {
     /// The pieces with their keys.
     fn refs(&self) -> impl Iterator<Item = StrokeRef<'_>> {
         self.keys.iter().copied().zip(&self.pieces.pieces)
+    }
+
+    /// The pieces carved into `target`, with their keys.
+    fn refs_on(&self, target: TargetId) -> impl Iterator<Item = StrokeRef<'_>> {
+        self.refs()
+            .zip(&self.targets)
+            .filter(move |(_, t)| **t == target)
+            .map(|(r, _)| r)
+    }
+
+    /// Each piece's target and footprint bounds.
+    fn areas(&self) -> impl Iterator<Item = (TargetId, Rect)> + '_ {
+        self.targets
+            .iter()
+            .copied()
+            .zip(self.pieces.pieces.iter().map(|p| p.bounds))
     }
 }
 
@@ -270,9 +290,8 @@ fn pieces_on<'a>(
 ) -> impl Iterator<Item = StrokeRef<'a>> {
     strokes
         .iter()
-        .filter(move |s| s.target == target)
         .filter_map(|s| built.get(&s.id))
-        .flat_map(Built::refs)
+        .flat_map(move |b| b.refs_on(target))
 }
 
 /// The pieces the tessellator carves into `target` at `detail`: the document's, and
@@ -288,8 +307,8 @@ fn strokes_at<'a>(
         .chain(
             preview
                 .iter()
-                .filter(|(t, _)| detail == Detail::Interactive && *t == target)
-                .flat_map(|(_, built)| built.refs()),
+                .filter(|_| detail == Detail::Interactive)
+                .flat_map(move |(_, built)| built.refs_on(target)),
         )
         .collect()
 }
@@ -558,16 +577,20 @@ impl Document {
                     kind: "target",
                     id: record.target,
                 })?;
-        let snap = snap_distance(&record.input.tool, target.surface.size());
-        let pieces = StrokePieces::build(&target.target, &record.input, snap)?;
+        let (pieces, targets) = self.build_pieces(target, &record.input)?;
         let keys: Vec<u64> = std::iter::once(record.id)
             .chain((1..pieces.pieces.len()).map(|_| {
                 self.piece_serial += 1;
                 PIECE_KEYS + self.piece_serial
             }))
             .collect();
-        self.mark_dirty(record.target, pieces.bounds());
-        self.built.insert(record.id, Built { keys, pieces });
+        let built = Built {
+            keys,
+            pieces,
+            targets,
+        };
+        self.mark_built_dirty(&built);
+        self.built.insert(record.id, built);
         self.next_id = self.next_id.max(record.id + 1);
         self.samples_total += record.input.samples.len();
         self.strokes.push(record);
@@ -583,9 +606,16 @@ impl Document {
                 surfaces.remove(key);
             }
             drop(surfaces);
-            self.mark_dirty(s.target, built.pieces.bounds());
+            self.mark_built_dirty(&built);
         }
         Some(Step::Stroke(s))
+    }
+
+    /// Marks the area of every piece of `built` dirty on its target.
+    fn mark_built_dirty(&mut self, built: &Built) {
+        for (t, area) in built.areas() {
+            self.mark_dirty(t, area);
+        }
     }
 
     fn mark_dirty(&mut self, target: TargetId, area: Rect) {
@@ -613,23 +643,27 @@ impl Document {
                 kind: "target",
                 id: target,
             })?;
-        let snap = snap_distance(&input.tool, record.surface.size());
-        let pieces = StrokePieces::build(&record.target, input, snap)?;
+        let (pieces, targets) = self.build_pieces(record, input)?;
         let keys = (0..pieces.pieces.len())
             .map(|_| {
                 self.preview_serial += 1;
                 PREVIEW_IDS + self.preview_serial
             })
             .collect();
-        self.mark_dirty(target, pieces.bounds());
-        self.preview = Some((target, Built { keys, pieces }));
+        let built = Built {
+            keys,
+            pieces,
+            targets,
+        };
+        self.mark_built_dirty(&built);
+        self.preview = Some((target, built));
         Ok(())
     }
 
     /// Removes the preview stroke, if any.
     pub fn clear_preview(&mut self) {
-        if let Some((target, built)) = self.preview.take() {
-            self.mark_dirty(target, built.pieces.bounds());
+        if let Some((_, built)) = self.preview.take() {
+            self.mark_built_dirty(&built);
         }
     }
 
@@ -734,7 +768,10 @@ impl Document {
             .enumerate()
             .map(|(k, t)| {
                 let previewed = detail == Detail::Interactive
-                    && self.preview.as_ref().is_some_and(|(id, _)| *id == t.id);
+                    && self
+                        .preview
+                        .as_ref()
+                        .is_some_and(|(_, b)| b.targets.contains(&t.id));
                 network.holds(k)
                     && !previewed
                     && pieces_on(&self.strokes, &self.built, t.id).next().is_none()
@@ -1061,12 +1098,53 @@ impl Document {
             .unwrap_or_else(|| format!("stroke{key}"))
     }
 
-    /// The target of the stroke one of whose pieces has key `key`.
+    /// The target of the stroke piece with key `key` (the one it is carved into).
     fn piece_target(&self, key: u64) -> Option<TargetId> {
-        self.strokes
-            .iter()
-            .find(|s| self.built.get(&s.id).is_some_and(|b| b.keys.contains(&key)))
-            .map(|s| s.target)
+        self.strokes.iter().find_map(|s| {
+            let b = self.built.get(&s.id)?;
+            let k = b.keys.iter().position(|&x| x == key)?;
+            b.targets.get(k).copied()
+        })
+    }
+
+    /// Builds a stroke's pieces on `target` and the target of each: on a patch network
+    /// the stroke is projected onto the whole network ([`build_on_network`]), otherwise
+    /// onto `target` alone ([`StrokePieces::build`]). The snap distance is `target`'s.
+    fn build_pieces(
+        &self,
+        target: &TargetRecord,
+        input: &StrokeInput,
+    ) -> Result<(StrokePieces, Vec<TargetId>)> {
+        let snap = snap_distance(&input.tool, target.surface.size());
+        let network = self.network();
+        let index = self.targets.iter().position(|t| t.id == target.id);
+        match index.filter(|&k| network.holds(k)) {
+            Some(k) => {
+                let patches: Vec<&TargetSurface> = self.targets.iter().map(|t| &t.target).collect();
+                let built = build_on_network(&patches, k, input, snap)?;
+                let mut pieces = Vec::new();
+                let mut targets = Vec::new();
+                for (patch, part) in built.parts {
+                    targets.extend(std::iter::repeat_n(
+                        self.targets[patch].id,
+                        part.pieces.len(),
+                    ));
+                    pieces.extend(part.pieces);
+                }
+                Ok((
+                    StrokePieces {
+                        pieces,
+                        dropped: built.dropped,
+                    },
+                    targets,
+                ))
+            }
+            None => {
+                let pieces = StrokePieces::build(&target.target, input, snap)?;
+                let targets = vec![target.id; pieces.pieces.len()];
+                Ok((pieces, targets))
+            }
+        }
     }
 
     /// The stroke surface of a stroke piece (by its key, see [`Self::strokes_on`]; a
