@@ -606,6 +606,17 @@ pub const CONFORM_KNOT_EPS: f64 = 1e-12;
 pub const FOLD_AREA_FRACTION: f64 = 1e-3;
 
 // ---------------------------------------------------------------------------------
+// Carved patches of a network (fixed sides, `sculpt::tessellate::sides`, issue 30).
+// ---------------------------------------------------------------------------------
+
+/// Distance (normalised parameter units) within which a stroke's point (a constraint's
+/// end) counts as lying on a fixed side of its patch: the projection of a stroke that
+/// runs up to a patch's side clamps its feet onto the side only up to the inverter's
+/// convergence, and a point left a few `1e-8` inside would make a sliver whose corners
+/// are one vertex in `f32`. Such a point is moved onto the side.
+pub const FIXED_SIDE_SNAP: f64 = 1e-6;
+
+// ---------------------------------------------------------------------------------
 // GPU evaluation of implicit tapes (vr_app::gpu_eval, issue 34).
 // ---------------------------------------------------------------------------------
 

@@ -214,9 +214,10 @@ fn patches_meshed_apart_leave_open_edges() {
     assert!(s.open > 0, "{s:?}");
 }
 
-/// The live view of a network through a stroke and its undo: the carved patch leaves
-/// the network (it is meshed on its own grid, with its groove) and its neighbours stay;
-/// undone, the sink holds the same watertight surface as before the stroke.
+/// The live view of a network through a stroke and its undo: the carved patch is
+/// meshed by its own tessellation (its root patches, with its groove) and its
+/// neighbours stay network patches, the surface watertight; undone, the sink holds the
+/// same watertight surface as before the stroke.
 #[test]
 fn a_stroke_and_its_undo_keep_the_live_view_in_step() {
     use sculpt_core::editor::{self, Applied};
@@ -248,6 +249,11 @@ fn a_stroke_and_its_undo_keep_the_live_view_in_step() {
         Applied::Stroke { .. }
     ));
     doc.tessellate(Detail::Interactive, &mut live);
+    // Issue 30, watertight after strokes: the carved patch's shared sides are the
+    // network's, so the live view stays one closed surface.
+    let after = count(&triangles(&live));
+    assert!(after.is_closed_manifold(), "{after:?}");
+    assert_eq!((after.bodies, after.euler()), (1, 0), "{after:?}");
     let carved = keys(&live);
     assert!(!carved.contains(&conform_key(0)));
     // Target 0's own root patches, and every other target still one network patch.
@@ -267,4 +273,207 @@ fn a_stroke_and_its_undo_keep_the_live_view_in_step() {
     again.sort_by(order);
     first.sort_by(order);
     assert_eq!(again, first);
+}
+
+/// A straight stroke of `samples + 1` samples on target `k` of `doc` from `(u0, v0)` to
+/// `(u1, v1)` of its surface, applied through the editor.
+fn carve(
+    doc: &mut sculpt_core::sculpt::document::Document,
+    k: usize,
+    from: (f64, f64),
+    to: (f64, f64),
+) {
+    use sculpt_core::editor::{self, Applied};
+    use sculpt_core::interaction::{Edit, StrokeEdit, StrokeSample};
+    use sculpt_core::sculpt::stroke::Tool;
+    let surface = doc.targets()[k].surface.clone();
+    let samples = (0..=20)
+        .map(|i| {
+            let f = f64::from(i) / 20.0;
+            StrokeSample {
+                t: 0.01 * f64::from(i),
+                position: surface.point(from.0 + (to.0 - from.0) * f, from.1 + (to.1 - from.1) * f),
+            }
+        })
+        .collect();
+    let tool = Tool {
+        width: 0.01,
+        ..Tool::default()
+    };
+    let edit = Edit::Stroke(StrokeEdit::new(doc.targets()[k].id, tool, samples));
+    assert!(matches!(editor::apply(doc, &edit), Applied::Stroke { .. }));
+}
+
+/// The deepest vertex of `mesh` below the torus `(major, minor)` (distance inside the
+/// tube), to see that a groove was carved.
+fn deepest_below_torus(mesh: &PatchMesh, major: f64, minor: f64) -> f64 {
+    triangles(mesh)
+        .iter()
+        .flatten()
+        .map(|p| {
+            let p = DVec3::from(p.map(f64::from));
+            let core = DVec3::new(p.x, p.y, 0.0).normalize() * major;
+            minor - p.distance(core)
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Issue 30, watertight after strokes: a torus network with strokes on two patches
+/// (one in the middle of its patch, one running up to a shared side) is one closed,
+/// oriented surface of Euler characteristic 0 at both details, live and afresh, with
+/// its grooves carved.
+#[test]
+fn a_carved_network_stays_one_closed_surface() {
+    let (major, minor) = (0.2, 0.08);
+    let mut doc = scan_document(torus(4000, major, minor, 7), 30);
+    let mut live = [PatchMesh::new(), PatchMesh::new()];
+    for (mesh, detail) in live.iter_mut().zip([Detail::Interactive, Detail::Final]) {
+        doc.tessellate(detail, mesh);
+    }
+    carve(&mut doc, 0, (0.32, 0.47), (0.71, 0.52));
+    carve(&mut doc, 5, (0.47, 0.43), (0.52, 1.0));
+    for (mesh, detail) in live.iter_mut().zip([Detail::Interactive, Detail::Final]) {
+        doc.tessellate(detail, mesh);
+        let s = count(&triangles(mesh));
+        eprintln!(
+            "{detail:?} after strokes (live): {s:?}, Euler {}",
+            s.euler()
+        );
+        assert!(s.is_closed_manifold(), "{detail:?}: {s:?}");
+        assert_eq!((s.bodies, s.euler()), (1, 0), "{detail:?}: {s:?}");
+        assert_eq!(*mesh, doc.mesh(detail), "{detail:?}");
+        let depth = deepest_below_torus(mesh, major, minor);
+        assert!(depth > 0.003, "{detail:?}: deepest {depth}");
+    }
+    // Afresh (new sinks), with the fold check.
+    doc.forget_sinks();
+    check_whole(doc, 0, |p| {
+        let core = DVec3::new(p.x, p.y, 0.0).normalize() * major;
+        (p - core).normalize()
+    });
+}
+
+/// How much deeper `after` lies than `before` along the torus's inward normal at `p`
+/// (a point of the network near the torus): where a ray from outside, aimed at `p`,
+/// first meets each mesh.
+fn carved_depth(before: &PatchMesh, after: &PatchMesh, p: DVec3, major: f64) -> f64 {
+    let core = DVec3::new(p.x, p.y, 0.0).normalize() * major;
+    let n = (p - core).normalize();
+    let origin = p + n * 0.02;
+    let hit = |m: &PatchMesh| {
+        m.first_hit(origin.to_array(), (-n).to_array())
+            .expect("the ray meets the mesh")
+    };
+    hit(after) - hit(before)
+}
+
+/// Issue 30, strokes across patch boundaries: a stroke drawn from the middle of one
+/// patch of a torus network to the middle of its neighbour is projected onto the
+/// network and carved as one groove in two pieces, one on each patch, meeting on the
+/// shared side; at final detail the network stays one closed surface, and the groove's
+/// depth measured on the mesh along its bottom is the tool's on both sides of the side
+/// and on it: no notch where the patches meet (a piece tapered at the side, as a
+/// stroke ending there is, would go to zero depth).
+#[test]
+fn a_stroke_across_a_patch_boundary_carves_one_continuous_groove() {
+    use sculpt_core::editor::{self, Applied};
+    use sculpt_core::interaction::{Edit, StrokeEdit, StrokeSample};
+    use sculpt_core::sculpt::stroke::Tool;
+
+    let (major, minor) = (0.2, 0.08);
+    let mut doc = scan_document(torus(4000, major, minor, 7), 30);
+    let network = doc.network();
+    let [(a, ka), (b, kb)] = network.sides[0];
+    let side_uv = |k: usize, t: f64| match k {
+        0 => (0.0, t),
+        1 => (1.0, t),
+        2 => (t, 0.0),
+        _ => (t, 1.0),
+    };
+    let (sa, sb) = (
+        doc.targets()[a].surface.clone(),
+        doc.targets()[b].surface.clone(),
+    );
+    let lerp =
+        |p: (f64, f64), q: (f64, f64), f: f64| (p.0 + (q.0 - p.0) * f, p.1 + (q.1 - p.1) * f);
+    let on_a = side_uv(ka, 0.5);
+    // The side's middle, whichever way `b` runs it.
+    let on_b = side_uv(kb, 0.5);
+    // Along the surfaces: the middle of `a` to the side's middle, then on to the middle
+    // of `b`.
+    let mut path: Vec<DVec3> = (0..=20)
+        .map(|i| {
+            let (u, v) = lerp((0.5, 0.5), on_a, f64::from(i) / 20.0);
+            sa.point(u, v)
+        })
+        .collect();
+    path.extend((1..=20).map(|i| {
+        let (u, v) = lerp(on_b, (0.5, 0.5), f64::from(i) / 20.0);
+        sb.point(u, v)
+    }));
+    let samples = path
+        .iter()
+        .enumerate()
+        .map(|(i, &position)| StrokeSample {
+            t: 0.01 * i as f64,
+            position,
+        })
+        .collect();
+    let tool = Tool {
+        width: 0.01,
+        ..Tool::default()
+    };
+    let (depth, tool_width) = (tool.depth, tool.width);
+    let edit = Edit::Stroke(StrokeEdit::new(doc.targets()[a].id, tool, samples));
+    let before = doc.mesh(Detail::Final);
+    let Applied::Stroke { id, .. } = editor::apply(&mut doc, &edit) else {
+        panic!("the stroke was not carved");
+    };
+    // One stroke, a piece on each patch, each in its own UV map.
+    let on: Vec<usize> = (0..doc.targets().len())
+        .filter(|&k| !doc.strokes_on(doc.targets()[k].id).is_empty())
+        .collect();
+    assert_eq!(on, {
+        let mut v = vec![a, b];
+        v.sort();
+        v
+    });
+    assert_eq!(doc.strokes().len(), 1);
+    assert!(doc.stroke(id).expect("built").pieces.len() >= 2);
+    let mut live = PatchMesh::new();
+    doc.tessellate(Detail::Final, &mut live);
+    let s = count(&triangles(&live));
+    eprintln!("across: {s:?}, Euler {}", s.euler());
+    assert!(s.is_closed_manifold(), "{s:?}");
+    assert_eq!((s.bodies, s.euler()), (1, 0), "{s:?}");
+    assert_eq!(live, doc.mesh(Detail::Final));
+    // The depth carved along the groove's bottom near the side, from the mesh (the
+    // difference of the meshes before and after the stroke, by rays at the
+    // centreline): the last centreline points of `a`'s piece, which ends on the side,
+    // then the first of `b`'s, which starts there; about a centimetre each way.
+    let piece = |k: usize| doc.strokes_on(doc.targets()[k].id)[0].1.clone();
+    let (pa, pb) = (piece(a), piece(b));
+    let joint = pa.centre.last().unwrap().distance(pb.centre[0]);
+    assert!(
+        joint <= 0.1 * tool_width,
+        "the pieces meet at the side: {joint}"
+    );
+    let bottom: Vec<DVec3> = pa.centre[pa.centre.len() - 5..]
+        .iter()
+        .chain(&pb.centre[1..5])
+        .copied()
+        .collect();
+    let depths: Vec<f64> = bottom
+        .iter()
+        .map(|&c| carved_depth(&before, &live, c, major))
+        .collect();
+    eprintln!("groove depth along its bottom across the side: {depths:?} (tool {depth})");
+    for d in &depths {
+        assert!((d - depth).abs() <= 0.1 * depth, "{depths:?}");
+    }
+    let jump = depths
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .fold(0.0, f64::max);
+    assert!(jump <= 0.05 * depth, "{depths:?}");
 }

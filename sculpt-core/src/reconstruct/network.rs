@@ -1637,7 +1637,7 @@ mod tests {
     }
 
     #[test]
-    fn a_stroke_across_a_patch_boundary_stays_on_its_patch() {
+    fn a_stroke_across_a_patch_boundary_carves_both_patches() {
         use crate::editor::{self, Applied};
         use crate::interaction::{Edit, StrokeEdit, StrokeSample};
         use crate::sculpt::stroke::Tool;
@@ -1676,31 +1676,34 @@ mod tests {
             panic!("stroke refused");
         };
         assert_eq!(target, doc.targets()[qa].id);
-        // It stays on A: B gets nothing.
-        assert!(doc.strokes_on(doc.targets()[qb].id).is_empty());
-        let [stroke] = doc.stroke(id).unwrap().pieces.as_slice() else {
-            panic!("the stroke falls into pieces");
-        };
-        let side_mid = net.surfaces[qa].point_uv(sa_mid);
-        // It reaches A's edge (the last foot is on the domain's boundary) and goes no
-        // further.
-        let last = *stroke.centre_uv.last().unwrap();
+        // Issue 30: projected onto the network, it carves both patches, one piece
+        // each, each in its own UV map.
+        let on_a = doc.strokes_on(doc.targets()[qa].id);
+        let on_b = doc.strokes_on(doc.targets()[qb].id);
+        assert_eq!((on_a.len(), on_b.len()), (1, 1));
+        assert_eq!(doc.stroke(id).unwrap().pieces.len(), 2);
+        let (a, b) = (on_a[0].1, on_b[0].1);
+        // A's piece reaches A's edge (its last foot on the domain's boundary) at full
+        // depth (no taper where the stroke runs on), and B's starts where it ends.
+        let last = *a.centre_uv.last().unwrap();
         let edge_gap = last.min_element().min(1.0 - last.max_element());
         assert!(edge_gap.abs() < crate::tolerance::UV_PAD, "{last}");
+        assert_eq!(a.depth.last().copied(), Some(tool.depth));
+        assert_eq!(b.depth.first().copied(), Some(tool.depth));
+        let joint = a.centre.last().unwrap().distance(b.centre[0]);
+        assert!(joint <= 0.25 * tool.width, "{joint}");
+        // B's piece runs on to B's centre, and each stays in its square.
         let b_centre = net.surfaces[qb].point_uv(centre);
-        let reach = side_mid.distance(b_centre);
-        assert!(
-            stroke
-                .centre
-                .iter()
-                .all(|p| p.distance(b_centre) > 0.5 * reach)
-        );
-        assert!(
-            stroke
-                .centre_uv
-                .iter()
-                .all(|uv| uv.cmpge(DVec2::ZERO).all() && uv.cmple(DVec2::ONE).all())
-        );
+        let end = b.centre.last().unwrap().distance(b_centre);
+        assert!(end <= 0.5 * tool.width, "{end}");
+        for piece in [a, b] {
+            assert!(
+                piece
+                    .centre_uv
+                    .iter()
+                    .all(|uv| uv.cmpge(DVec2::ZERO).all() && uv.cmple(DVec2::ONE).all())
+            );
+        }
     }
 
     #[test]

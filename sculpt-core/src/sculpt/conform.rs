@@ -32,10 +32,10 @@ use glam::{DVec2, DVec3};
 use spade::{DelaunayTriangulation, Point2, Triangulation};
 
 use super::surface::{ParamSurface, extent_sampled, normal_from};
-use super::tessellate::{Detail, GRID_MARGIN, MAX_GRID, chord_errors};
+use super::tessellate::{Detail, GRID_MARGIN, MAX_GRID, SideVertex, chord_errors};
 use crate::mesh::{MeshSink, MeshVertex, PatchKey};
 use crate::nurbs::NurbsSurface;
-use crate::tolerance::CONFORM_KNOT_EPS;
+use crate::tolerance::{CONFORM_KNOT_EPS, FIXED_SIDE_SNAP};
 
 /// Where a patch side lies in the network: the shared side's id and whether the patch
 /// runs it against the canonical direction (its first holder's).
@@ -278,42 +278,167 @@ fn sample(s: &NurbsSurface, uv: DVec2) -> Sample {
     (p, normal_from(s, uv, &sp))
 }
 
-/// The samples of patch `p`'s side `k` in its own direction, `count + 1` of them: from
-/// the canonical holder when the side is shared, with normals averaged over both
-/// patches (a shared side's list is made once, in `cache`).
-fn side_samples(
+/// The vertices of one shared side, in its canonical direction (its first holder's),
+/// with the parameter of each for a holder running the side the other way.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SharedSide {
+    /// The vertices, by increasing canonical parameter, from `t = 0` to `t = 1`.
+    pub vertices: Vec<SideVertex>,
+    /// Per vertex, its parameter along the side running the other way.
+    pub back: Vec<f64>,
+}
+
+impl SharedSide {
+    /// The vertices in the direction patch `p` runs side `k` (`None`: the side is not
+    /// shared).
+    pub fn own(
+        sides: &[SharedSide],
+        network: &Network,
+        p: usize,
+        k: usize,
+    ) -> Option<Vec<SideVertex>> {
+        let link = network.links.get(p)?[k]?;
+        let side = sides.get(link.side)?;
+        Some(if link.reversed {
+            side.vertices
+                .iter()
+                .zip(&side.back)
+                .rev()
+                .map(|(v, &t)| SideVertex { t, ..*v })
+                .collect()
+        } else {
+            side.vertices.clone()
+        })
+    }
+}
+
+/// The vertices of every shared side ([`shared_side`] with `extra[side]` and
+/// `height(side, point)`).
+pub fn shared_sides(
     surfaces: &[&NurbsSurface],
     network: &Network,
     plan: &NetworkPlan,
-    cache: &mut HashMap<usize, Vec<Sample>>,
+    extra: &[Vec<(f64, f64)>],
+    height: impl Fn(usize, DVec3) -> f64,
+) -> Vec<SharedSide> {
+    (0..network.sides.len())
+        .map(|id| {
+            let extra = extra.get(id).map(Vec::as_slice).unwrap_or(&[]);
+            shared_side(surfaces, network, plan, id, extra, |p| height(id, p))
+        })
+        .collect()
+}
+
+/// The vertices of shared side `id`: `side_cells + 1` uniform samples, plus the
+/// canonical parameters `extra` (each with its parameter running the other way; one
+/// within [`FIXED_SIDE_SNAP`] of a parameter already there, or at an end, is left out:
+/// the two holders' ends of one groove crossing the side, each projected onto its own
+/// patch, differ by the inverters' convergence and become one vertex, onto which both
+/// tessellations move their ends),
+/// each at the canonical holder's point (a corner: its control point) with the mean of
+/// both patches' normals, displaced along it by `height(point)` (zero at the side's
+/// ends, the corners, which every patch meeting there holds).
+pub fn shared_side(
+    surfaces: &[&NurbsSurface],
+    network: &Network,
+    plan: &NetworkPlan,
+    id: usize,
+    extra: &[(f64, f64)],
+    height: impl Fn(DVec3) -> f64,
+) -> SharedSide {
+    let [(pa, ka), (pb, kb)] = network.sides[id];
+    let count = plan.side_cells[id];
+    let mut params: Vec<(f64, f64)> = (0..=count)
+        .map(|i| {
+            (
+                f64::from(i) / f64::from(count),
+                f64::from(count - i) / f64::from(count),
+            )
+        })
+        .collect();
+    for &(t, back) in extra {
+        let k = params.partition_point(|q| q.0 < t);
+        let near = |j: usize| {
+            params
+                .get(j)
+                .is_some_and(|q| (q.0 - t).abs() <= FIXED_SIDE_SNAP)
+        };
+        if t > 0.0 && t < 1.0 && !near(k) && !(k > 0 && near(k - 1)) {
+            params.insert(k, (t, back));
+        }
+    }
+    let flip = network.links[pb][kb].is_some_and(|l| l.reversed);
+    let vertices = params
+        .iter()
+        .map(|&(t, _)| {
+            let (point, na) = sample(surfaces[pa], side_uv(ka, t));
+            let tb = if flip { 1.0 - t } else { t };
+            let nb = sample(surfaces[pb], side_uv(kb, tb)).1;
+            let normal = (na + nb).try_normalize().unwrap_or(na);
+            let h = if t > 0.0 && t < 1.0 {
+                height(point)
+            } else {
+                0.0
+            };
+            SideVertex {
+                t,
+                point,
+                normal,
+                height: if h.is_finite() { h } else { 0.0 },
+            }
+        })
+        .collect();
+    SharedSide {
+        vertices,
+        back: params.into_iter().map(|q| q.1).collect(),
+    }
+}
+
+/// The canonical parameters (with their parameters running the other way) that the
+/// holders of shared side `id` add to it: `own(patch, side)`, in the holder's own
+/// direction, for the holders that give any (a carved patch: its cells' corners).
+pub fn holder_params(
+    network: &Network,
+    id: usize,
+    own: impl Fn(usize, usize) -> Option<Vec<f64>>,
+) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    for (p, k) in network.sides[id] {
+        let reversed = network.links[p][k].is_some_and(|l| l.reversed);
+        for t in own(p, k).unwrap_or_default() {
+            out.push(if reversed { (1.0 - t, t) } else { (t, 1.0 - t) });
+        }
+    }
+    out.sort_by(|a, b| a.0.total_cmp(&b.0));
+    out
+}
+
+/// The vertices of patch `p`'s side `k` in its own direction: the shared side's, or
+/// `cells + 1` uniform samples of its own where the side is not shared.
+fn side_vertices(
+    surfaces: &[&NurbsSurface],
+    network: &Network,
+    plan: &NetworkPlan,
+    sides: &[SharedSide],
     p: usize,
     k: usize,
-) -> Vec<Sample> {
-    let count = plan.side_count(network, p, k);
-    let own = |s: &NurbsSurface, k: usize, t: f64| sample(s, side_uv(k, t));
-    let Some(link) = network.links[p][k] else {
-        return (0..=count)
-            .map(|i| own(surfaces[p], k, f64::from(i) / f64::from(count)))
-            .collect();
-    };
-    let list = cache.entry(link.side).or_insert_with(|| {
-        let [(pa, ka), (pb, kb)] = network.sides[link.side];
-        let flip = network.links[pb][kb].is_some_and(|l| l.reversed);
-        (0..=count)
-            .map(|i| {
-                let t = f64::from(i) / f64::from(count);
-                let (pt, na) = own(surfaces[pa], ka, t);
-                let tb = if flip { 1.0 - t } else { t };
-                let nb = sample(surfaces[pb], side_uv(kb, tb)).1;
-                (pt, (na + nb).try_normalize().unwrap_or(na))
-            })
-            .collect()
-    });
-    if link.reversed {
-        list.iter().rev().copied().collect()
-    } else {
-        list.clone()
+) -> Vec<SideVertex> {
+    if let Some(own) = SharedSide::own(sides, network, p, k) {
+        return own;
     }
+    let count = plan.side_count(network, p, k);
+    (0..=count)
+        .map(|i| {
+            let t = f64::from(i) / f64::from(count);
+            let (point, normal) = sample(surfaces[p], side_uv(k, t));
+            SideVertex {
+                t,
+                point,
+                normal,
+                height: 0.0,
+            }
+        })
+        .collect()
 }
 
 /// The triangles of one patch: its vertices (position, normal, uv) and index triples,
@@ -325,24 +450,23 @@ fn patch_triangles(
     surfaces: &[&NurbsSurface],
     network: &Network,
     plan: &NetworkPlan,
-    cache: &mut HashMap<usize, Vec<Sample>>,
+    sides: &[SharedSide],
     p: usize,
 ) -> PatchTriangles {
     let s = surfaces[p];
     let n = plan.cells[p].max(1);
-    let sides: [Vec<Sample>; 4] =
-        std::array::from_fn(|k| side_samples(surfaces, network, plan, cache, p, k));
+    let sides: [Vec<SideVertex>; 4] =
+        std::array::from_fn(|k| side_vertices(surfaces, network, plan, sides, p, k));
     let mut verts: Vec<(DVec3, DVec3, DVec2)> = Vec::new();
     // Boundary, counter-clockwise from (0, 0): side 2 forward, 1 forward, 3 back, 0 back
-    // (each side's last sample is the next side's first and is skipped).
+    // (each side's last vertex is the next side's first and is skipped).
     let walk: [(usize, bool); 4] = [(2, false), (1, false), (3, true), (0, true)];
     for (k, back) in walk {
         let list = &sides[k];
         let m = list.len() - 1;
         for i in 0..m {
-            let idx = if back { m - i } else { i };
-            let t = idx as f64 / m as f64;
-            verts.push((list[idx].0, list[idx].1, side_uv(k, t)));
+            let v = list[if back { m - i } else { i }];
+            verts.push((v.position(), v.normal, side_uv(k, v.t)));
         }
     }
     let boundary = verts.len();
@@ -435,10 +559,24 @@ pub fn write_network(
     key_of: impl Fn(usize) -> PatchKey,
     sink: &mut dyn MeshSink,
 ) -> Vec<usize> {
-    let mut cache: HashMap<usize, Vec<Sample>> = HashMap::new();
+    let sides = shared_sides(surfaces, network, plan, &[], |_, _| 0.0);
+    write_network_with(surfaces, network, plan, &sides, which, key_of, sink)
+}
+
+/// [`write_network`] with the shared sides' vertices given ([`shared_sides`]: where
+/// carved patches add their cells' corners and displace the sides).
+pub fn write_network_with(
+    surfaces: &[&NurbsSurface],
+    network: &Network,
+    plan: &NetworkPlan,
+    sides: &[SharedSide],
+    which: &[usize],
+    key_of: impl Fn(usize) -> PatchKey,
+    sink: &mut dyn MeshSink,
+) -> Vec<usize> {
     let made: Vec<(usize, PatchTriangles)> = which
         .iter()
-        .map(|&p| (p, patch_triangles(surfaces, network, plan, &mut cache, p)))
+        .map(|&p| (p, patch_triangles(surfaces, network, plan, sides, p)))
         .collect();
     // Corners: the mean normal over every patch meeting there (they share the corner
     // control point, bit for bit).
@@ -450,8 +588,9 @@ pub fn write_network(
         }
         for c in corners {
             let (pt, nm) = sample(s, c);
+            // Keyed as the corner is written (`SideVertex::position`: no `-0.0`).
             *corner_normals
-                .entry(pt.to_array().map(f64::to_bits))
+                .entry((pt + DVec3::ZERO).to_array().map(f64::to_bits))
                 .or_insert(DVec3::ZERO) += nm;
         }
     }

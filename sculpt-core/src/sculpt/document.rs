@@ -62,12 +62,17 @@
 //! other versions, duplicate ids, dangling targets and strokes that the sculpting rules
 //! reject are errors that say which entry is wrong. Scene files are documents.
 
-use super::conform::{Network, NetworkPlan, write_network};
+use super::conform::{
+    Network, NetworkPlan, SharedSide, holder_params, shared_side, write_network_with,
+};
 use super::jordan::Rect;
+use super::network_stroke::build_on_network;
 use super::stroke::{StrokeInput, StrokePieces, Tool};
 use super::stroke_surface::StrokeSurface;
 use super::surface::{TargetSurface, extent};
-use super::tessellate::{Detail, GridPlan, StrokeRef, TargetTessellation, TessStats};
+use super::tessellate::{
+    Detail, FixedSides, GridPlan, StrokeRef, TargetTessellation, TessStats, pole_height,
+};
 use crate::error::{ControlNetError, DocumentError, Error, Result, StrokeRejection};
 use crate::formats::iges::{Face, IgesSurface, NurbsPatch};
 use crate::mesh::{MeshSink, PatchMesh};
@@ -229,6 +234,11 @@ struct ConformState {
     /// Per target index, the triangles of its conforming patch in the sink (`None`:
     /// not written).
     written: Vec<Option<usize>>,
+    /// The shared sides' vertices as last written (empty before the first pass).
+    sides: Vec<SharedSide>,
+    /// Per target index, whether it was carved (meshed by its own tessellation, with
+    /// fixed shared sides) in the last pass.
+    carved: Vec<bool>,
 }
 
 /// The key of a target's one patch when it is tessellated as part of a network (its
@@ -243,12 +253,31 @@ pub fn conform_key(target: usize) -> u64 {
 struct Built {
     keys: Vec<u64>,
     pieces: StrokePieces,
+    /// Per piece, the target it is carved into: the stroke's own, or on a patch
+    /// network the patch its run fell on ([`super::network_stroke`]).
+    targets: Vec<TargetId>,
 }
 
 impl Built {
     /// The pieces with their keys.
     fn refs(&self) -> impl Iterator<Item = StrokeRef<'_>> {
         self.keys.iter().copied().zip(&self.pieces.pieces)
+    }
+
+    /// The pieces carved into `target`, with their keys.
+    fn refs_on(&self, target: TargetId) -> impl Iterator<Item = StrokeRef<'_>> {
+        self.refs()
+            .zip(&self.targets)
+            .filter(move |(_, t)| **t == target)
+            .map(|(r, _)| r)
+    }
+
+    /// Each piece's target and footprint bounds.
+    fn areas(&self) -> impl Iterator<Item = (TargetId, Rect)> + '_ {
+        self.targets
+            .iter()
+            .copied()
+            .zip(self.pieces.pieces.iter().map(|p| p.bounds))
     }
 }
 
@@ -261,9 +290,33 @@ fn pieces_on<'a>(
 ) -> impl Iterator<Item = StrokeRef<'a>> {
     strokes
         .iter()
-        .filter(move |s| s.target == target)
         .filter_map(|s| built.get(&s.id))
-        .flat_map(Built::refs)
+        .flat_map(move |b| b.refs_on(target))
+}
+
+/// The pieces the tessellator carves into `target` at `detail`: the document's, and
+/// at interactive detail the preview's.
+fn strokes_at<'a>(
+    strokes: &'a [StrokeRecord],
+    built: &'a HashMap<StrokeId, Built>,
+    preview: &'a Option<(TargetId, Built)>,
+    target: TargetId,
+    detail: Detail,
+) -> Vec<StrokeRef<'a>> {
+    pieces_on(strokes, built, target)
+        .chain(
+            preview
+                .iter()
+                .filter(|_| detail == Detail::Interactive)
+                .flat_map(move |(_, built)| built.refs_on(target)),
+        )
+        .collect()
+}
+
+/// The fixed sides of network patch `k`: its shared sides' vertices in its own
+/// direction.
+fn fixed_sides(sides: &[SharedSide], network: &Network, k: usize) -> FixedSides {
+    std::array::from_fn(|s| SharedSide::own(sides, network, k, s))
 }
 
 /// A stroke piece's cached surface: the pieces (keys, document order, itself included)
@@ -524,16 +577,20 @@ impl Document {
                     kind: "target",
                     id: record.target,
                 })?;
-        let snap = snap_distance(&record.input.tool, target.surface.size());
-        let pieces = StrokePieces::build(&target.target, &record.input, snap)?;
+        let (pieces, targets) = self.build_pieces(target, &record.input)?;
         let keys: Vec<u64> = std::iter::once(record.id)
             .chain((1..pieces.pieces.len()).map(|_| {
                 self.piece_serial += 1;
                 PIECE_KEYS + self.piece_serial
             }))
             .collect();
-        self.mark_dirty(record.target, pieces.bounds());
-        self.built.insert(record.id, Built { keys, pieces });
+        let built = Built {
+            keys,
+            pieces,
+            targets,
+        };
+        self.mark_built_dirty(&built);
+        self.built.insert(record.id, built);
         self.next_id = self.next_id.max(record.id + 1);
         self.samples_total += record.input.samples.len();
         self.strokes.push(record);
@@ -549,9 +606,16 @@ impl Document {
                 surfaces.remove(key);
             }
             drop(surfaces);
-            self.mark_dirty(s.target, built.pieces.bounds());
+            self.mark_built_dirty(&built);
         }
         Some(Step::Stroke(s))
+    }
+
+    /// Marks the area of every piece of `built` dirty on its target.
+    fn mark_built_dirty(&mut self, built: &Built) {
+        for (t, area) in built.areas() {
+            self.mark_dirty(t, area);
+        }
     }
 
     fn mark_dirty(&mut self, target: TargetId, area: Rect) {
@@ -579,23 +643,27 @@ impl Document {
                 kind: "target",
                 id: target,
             })?;
-        let snap = snap_distance(&input.tool, record.surface.size());
-        let pieces = StrokePieces::build(&record.target, input, snap)?;
+        let (pieces, targets) = self.build_pieces(record, input)?;
         let keys = (0..pieces.pieces.len())
             .map(|_| {
                 self.preview_serial += 1;
                 PREVIEW_IDS + self.preview_serial
             })
             .collect();
-        self.mark_dirty(target, pieces.bounds());
-        self.preview = Some((target, Built { keys, pieces }));
+        let built = Built {
+            keys,
+            pieces,
+            targets,
+        };
+        self.mark_built_dirty(&built);
+        self.preview = Some((target, built));
         Ok(())
     }
 
     /// Removes the preview stroke, if any.
     pub fn clear_preview(&mut self) {
-        if let Some((target, built)) = self.preview.take() {
-            self.mark_dirty(target, built.pieces.bounds());
+        if let Some((_, built)) = self.preview.take() {
+            self.mark_built_dirty(&built);
         }
     }
 
@@ -633,7 +701,12 @@ impl Document {
             }
             let key = (t.id, detail);
             let changed = self.dirty.remove(&key);
-            let fresh = !self.views.contains_key(&key);
+            // A carved network patch's view is made by the conform pass: fresh until
+            // its first update.
+            let fresh = self
+                .views
+                .get(&key)
+                .is_none_or(TargetTessellation::is_fresh);
             if !fresh && changed.is_none() {
                 stats.triangles_total += self.views[&key].triangle_count();
                 continue;
@@ -642,14 +715,7 @@ impl Document {
             let view = self.views.entry(key).or_insert_with(|| {
                 TargetTessellation::with_grid(&t.surface, k as u32, detail, &plan)
             });
-            let strokes: Vec<StrokeRef<'_>> = pieces_on(&self.strokes, &self.built, t.id)
-                .chain(
-                    self.preview
-                        .iter()
-                        .filter(|(target, _)| detail == Detail::Interactive && *target == t.id)
-                        .flat_map(|(_, built)| built.refs()),
-                )
-                .collect();
+            let strokes = strokes_at(&self.strokes, &self.built, &self.preview, t.id, detail);
             let s = view.update_strokes(&t.surface, &strokes, sink);
             stats.patches_written += s.patches_written;
             stats.triangles_written += s.triangles_written;
@@ -702,7 +768,10 @@ impl Document {
             .enumerate()
             .map(|(k, t)| {
                 let previewed = detail == Detail::Interactive
-                    && self.preview.as_ref().is_some_and(|(id, _)| *id == t.id);
+                    && self
+                        .preview
+                        .as_ref()
+                        .is_some_and(|(_, b)| b.targets.contains(&t.id));
                 network.holds(k)
                     && !previewed
                     && pieces_on(&self.strokes, &self.built, t.id).next().is_none()
@@ -748,6 +817,8 @@ impl Document {
                     network,
                     plan,
                     written,
+                    sides: Vec::new(),
+                    carved: Vec::new(),
                 },
             );
         }
@@ -755,6 +826,7 @@ impl Document {
             return Vec::new();
         };
         let conformal = self.conformal(&state.network, detail);
+        self.carve_sides(detail, &mut state, &conformal);
         let mut to_write = Vec::new();
         for (k, t) in self.targets.iter().enumerate() {
             if conformal.get(k) == Some(&true) {
@@ -775,10 +847,11 @@ impl Document {
         }
         if !to_write.is_empty() {
             let surfaces: Vec<&NurbsSurface> = self.targets.iter().map(|t| &t.surface).collect();
-            let tris = write_network(
+            let tris = write_network_with(
                 &surfaces,
                 &state.network,
                 &state.plan,
+                &state.sides,
                 &to_write,
                 conform_key,
                 sink,
@@ -794,6 +867,110 @@ impl Document {
         conformal
     }
 
+    /// The shared sides of the network for this pass (issue 30, watertight after
+    /// strokes). A network patch that carries strokes (or the preview) is *carved*: it
+    /// is meshed by its own tessellation with its shared sides fixed to the network's
+    /// vertices, to which its cells' corners along them are added, displaced by the
+    /// strokes of both holders ([`pole_height`]: the depth from the 3D point). The sides
+    /// of carved patches (now or in the last pass) are recomputed when the carved set
+    /// changed or one of their holders is dirty; the conformal patches along a side that
+    /// changed are rewritten, the carved ones take their sides
+    /// ([`TargetTessellation::set_fixed_sides`]) and are marked dirty when they changed.
+    fn carve_sides(&mut self, detail: Detail, state: &mut ConformState, conformal: &[bool]) {
+        let count = self.targets.len();
+        let carved: Vec<bool> = (0..count)
+            .map(|k| state.network.holds(k) && conformal.get(k) == Some(&false))
+            .collect();
+        for (k, t) in self.targets.iter().enumerate().filter(|(k, _)| carved[*k]) {
+            let plan = grid_of(&self.grids, t, detail);
+            self.views.entry((t.id, detail)).or_insert_with(|| {
+                TargetTessellation::with_grid(&t.surface, k as u32, detail, &plan)
+            });
+        }
+        let first = state.sides.len() != state.network.sides.len();
+        let set_changed = carved != state.carved;
+        let stirred = |k: usize| {
+            (carved[k] || state.carved.get(k) == Some(&true))
+                && (set_changed || self.dirty.contains_key(&(self.targets[k].id, detail)))
+        };
+        let surfaces: Vec<&NurbsSurface> = self.targets.iter().map(|t| &t.surface).collect();
+        let mut changed = vec![false; count];
+        for id in 0..state.network.sides.len() {
+            let [(a, _), (b, _)] = state.network.sides[id];
+            if !(first || stirred(a) || stirred(b)) {
+                continue;
+            }
+            let side = self.side_of(&surfaces, state, &carved, id, Some(detail), |k| {
+                self.views.get(&(self.targets[k].id, detail))
+            });
+            if state.sides.get(id) != Some(&side) {
+                changed[a] = true;
+                changed[b] = true;
+                match state.sides.get_mut(id) {
+                    Some(s) => *s = side,
+                    None => state.sides.push(side),
+                }
+            }
+        }
+        for k in 0..count {
+            if !changed[k] {
+                continue;
+            }
+            if carved[k] {
+                let id = self.targets[k].id;
+                let sides = fixed_sides(&state.sides, &state.network, k);
+                if let Some(view) = self.views.get_mut(&(id, detail))
+                    && view.set_fixed_sides(sides)
+                {
+                    self.dirty.entry((id, detail)).or_insert(None);
+                }
+            } else if conformal.get(k) == Some(&true) && state.written[k].is_some() {
+                // Rewritten below, with the new sides (the sink replaces it by key).
+                state.written[k] = None;
+            }
+        }
+        state.carved = carved;
+    }
+
+    /// Shared side `id` for the carved set `carved`: the carved holders' side parameters
+    /// ([`TargetTessellation::side_params`], from `view_of`) added, displaced by both
+    /// holders' strokes (with the preview where `preview_at` names the detail).
+    fn side_of<'v>(
+        &self,
+        surfaces: &[&NurbsSurface],
+        state: &ConformState,
+        carved: &[bool],
+        id: usize,
+        preview_at: Option<Detail>,
+        view_of: impl Fn(usize) -> Option<&'v TargetTessellation>,
+    ) -> SharedSide {
+        let on = |k: usize| -> Vec<StrokeRef<'_>> {
+            let id = self.targets[k].id;
+            match preview_at {
+                Some(detail) => strokes_at(&self.strokes, &self.built, &self.preview, id, detail),
+                None => pieces_on(&self.strokes, &self.built, id).collect(),
+            }
+        };
+        let extra = holder_params(&state.network, id, |p, k| {
+            carved[p]
+                .then(|| view_of(p).map(|v| v.side_params(k, &on(p))))
+                .flatten()
+        });
+        let [(a, _), (b, _)] = state.network.sides[id];
+        let strokes: Vec<StrokeRef<'_>> = [a, b]
+            .into_iter()
+            .filter(|&k| carved[k])
+            .flat_map(on)
+            .collect();
+        shared_side(surfaces, &state.network, &state.plan, id, &extra, |p| {
+            if strokes.is_empty() {
+                0.0
+            } else {
+                pole_height(&strokes, p)
+            }
+        })
+    }
+
     /// The root grid of a target at a detail (chosen when the target was added).
     fn grid(&self, t: &TargetRecord, detail: Detail) -> std::borrow::Cow<'_, GridPlan> {
         grid_of(&self.grids, t, detail)
@@ -804,19 +981,56 @@ impl Document {
         let mut mesh = PatchMesh::new();
         let network = self.network();
         let conformal = self.conformal(&network, detail);
-        let which: Vec<usize> = (0..conformal.len()).filter(|&k| conformal[k]).collect();
-        if !which.is_empty() {
-            let surfaces: Vec<&NurbsSurface> = self.targets.iter().map(|t| &t.surface).collect();
-            let plan = NetworkPlan::new(&surfaces, &network, detail);
-            write_network(&surfaces, &network, &plan, &which, conform_key, &mut mesh);
-        }
+        let carved: Vec<bool> = (0..self.targets.len())
+            .map(|k| network.holds(k) && conformal.get(k) == Some(&false))
+            .collect();
+        let mut views: HashMap<usize, TargetTessellation> = HashMap::new();
         for (k, t) in self.targets.iter().enumerate() {
             if conformal.get(k) == Some(&true) {
                 continue;
             }
             let plan = self.grid(t, detail);
-            let mut view = TargetTessellation::with_grid(&t.surface, k as u32, detail, &plan);
-            view.update_strokes(&t.surface, &self.strokes_on(t.id), &mut mesh);
+            views.insert(
+                k,
+                TargetTessellation::with_grid(&t.surface, k as u32, detail, &plan),
+            );
+        }
+        if !network.is_empty() {
+            let surfaces: Vec<&NurbsSurface> = self.targets.iter().map(|t| &t.surface).collect();
+            let state = ConformState {
+                ids: Vec::new(),
+                plan: NetworkPlan::new(&surfaces, &network, detail),
+                network,
+                written: Vec::new(),
+                sides: Vec::new(),
+                carved: Vec::new(),
+            };
+            let sides: Vec<SharedSide> = (0..state.network.sides.len())
+                .map(|id| self.side_of(&surfaces, &state, &carved, id, None, |k| views.get(&k)))
+                .collect();
+            let which: Vec<usize> = (0..conformal.len()).filter(|&k| conformal[k]).collect();
+            write_network_with(
+                &surfaces,
+                &state.network,
+                &state.plan,
+                &sides,
+                &which,
+                conform_key,
+                &mut mesh,
+            );
+            for (k, view) in views.iter_mut() {
+                if carved[*k] {
+                    view.set_fixed_sides(fixed_sides(&sides, &state.network, *k));
+                }
+            }
+        }
+        for (k, t) in self.targets.iter().enumerate() {
+            if conformal.get(k) == Some(&true) {
+                continue;
+            }
+            if let Some(view) = views.get_mut(&k) {
+                view.update_strokes(&t.surface, &self.strokes_on(t.id), &mut mesh);
+            }
         }
         mesh
     }
@@ -884,12 +1098,53 @@ impl Document {
             .unwrap_or_else(|| format!("stroke{key}"))
     }
 
-    /// The target of the stroke one of whose pieces has key `key`.
+    /// The target of the stroke piece with key `key` (the one it is carved into).
     fn piece_target(&self, key: u64) -> Option<TargetId> {
-        self.strokes
-            .iter()
-            .find(|s| self.built.get(&s.id).is_some_and(|b| b.keys.contains(&key)))
-            .map(|s| s.target)
+        self.strokes.iter().find_map(|s| {
+            let b = self.built.get(&s.id)?;
+            let k = b.keys.iter().position(|&x| x == key)?;
+            b.targets.get(k).copied()
+        })
+    }
+
+    /// Builds a stroke's pieces on `target` and the target of each: on a patch network
+    /// the stroke is projected onto the whole network ([`build_on_network`]), otherwise
+    /// onto `target` alone ([`StrokePieces::build`]). The snap distance is `target`'s.
+    fn build_pieces(
+        &self,
+        target: &TargetRecord,
+        input: &StrokeInput,
+    ) -> Result<(StrokePieces, Vec<TargetId>)> {
+        let snap = snap_distance(&input.tool, target.surface.size());
+        let network = self.network();
+        let index = self.targets.iter().position(|t| t.id == target.id);
+        match index.filter(|&k| network.holds(k)) {
+            Some(k) => {
+                let patches: Vec<&TargetSurface> = self.targets.iter().map(|t| &t.target).collect();
+                let built = build_on_network(&patches, k, input, snap)?;
+                let mut pieces = Vec::new();
+                let mut targets = Vec::new();
+                for (patch, part) in built.parts {
+                    targets.extend(std::iter::repeat_n(
+                        self.targets[patch].id,
+                        part.pieces.len(),
+                    ));
+                    pieces.extend(part.pieces);
+                }
+                Ok((
+                    StrokePieces {
+                        pieces,
+                        dropped: built.dropped,
+                    },
+                    targets,
+                ))
+            }
+            None => {
+                let pieces = StrokePieces::build(&target.target, input, snap)?;
+                let targets = vec![target.id; pieces.pieces.len()];
+                Ok((pieces, targets))
+            }
+        }
     }
 
     /// The stroke surface of a stroke piece (by its key, see [`Self::strokes_on`]; a

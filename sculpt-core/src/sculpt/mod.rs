@@ -4,6 +4,7 @@ pub mod conform;
 pub mod document;
 pub mod hidden;
 pub mod jordan;
+pub mod network_stroke;
 pub mod ray;
 pub mod stroke;
 pub mod stroke_surface;

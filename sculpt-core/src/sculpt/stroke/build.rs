@@ -31,12 +31,28 @@ impl StrokePieces {
     /// surface for the sample to count as on it (metres). A stroke with no piece left
     /// is rejected.
     pub fn build(target: &TargetSurface, input: &StrokeInput, snap: f64) -> Result<Self> {
+        Self::build_ends(target, input, snap, [true, true])
+    }
+
+    /// [`Self::build`] with the stroke's start and end tapered only where `taper` says
+    /// (a piece of a stroke on a patch network ends bluntly, at full depth, where the
+    /// stroke runs on into the neighbouring patch, so that the groove is continuous
+    /// across the shared side). Pieces split off at basin jumps taper at the jumps.
+    pub fn build_ends(
+        target: &TargetSurface,
+        input: &StrokeInput,
+        snap: f64,
+        taper: [bool; 2],
+    ) -> Result<Self> {
         let (tool, closed, runs) = project_runs(target, input, snap)?;
+        let first = runs.iter().position(|r| !r.is_empty());
+        let last = runs.iter().rposition(|r| !r.is_empty());
         let min_len = tool.width * crate::tolerance::MIN_STROKE_LEN_REL;
         let mut pieces = Vec::new();
         let mut dropped = 0;
         let mut refused = None;
-        for run in runs.iter().filter(|r| !r.is_empty()) {
+        for (k, run) in runs.iter().enumerate().filter(|(_, r)| !r.is_empty()) {
+            let ends = [taper[0] || Some(k) != first, taper[1] || Some(k) != last];
             let mut run = through_poles(run);
             let run_len: f64 = run.windows(2).map(|w| w[0].1.distance(w[1].1)).sum();
             if run.len() < 2 || run_len <= min_len {
@@ -52,7 +68,7 @@ impl StrokePieces {
             if is_loop && first.1.distance(last.1) > crate::tolerance::POINT_EPS {
                 run.push((unwrap_near(first.0, last.0, closed), first.1));
             }
-            match Stroke::from_centreline(target, tool.clone(), run, closed, is_loop) {
+            match Stroke::from_centreline(target, tool.clone(), run, closed, is_loop, ends) {
                 Ok(piece) => pieces.push(piece),
                 Err(e) => {
                     dropped += 1;
@@ -80,12 +96,15 @@ impl Stroke {
         }
     }
 
+    /// The piece along the feet `run`; `ends` says which of its ends taper (an end that
+    /// does not is blunt, with a round cap).
     fn from_centreline(
         target: &TargetSurface,
         tool: Tool,
         run: Vec<(DVec2, DVec3)>,
         closed: [bool; 2],
         is_loop: bool,
+        ends: [bool; 2],
     ) -> Result<Self> {
         let surface: &dyn ParamSurface = target;
         let n = run.len();
@@ -110,7 +129,13 @@ impl Stroke {
             if taper_len <= 0.0 {
                 return 1.0;
             }
-            let x = (s.min(total - s) / taper_len).clamp(0.0, 1.0);
+            let from_end = match ends {
+                [true, true] => s.min(total - s),
+                [true, false] => s,
+                [false, true] => total - s,
+                [false, false] => return 1.0,
+            };
+            let x = (from_end / taper_len).clamp(0.0, 1.0);
             x * x * (3.0 - 2.0 * x)
         };
         let half_width: Vec<f64> = cum.iter().map(|&s| 0.5 * tool.width * taper(s)).collect();
@@ -141,8 +166,8 @@ impl Stroke {
             polys.push(vec![l[i], l[i + 1], c[1], c[0]]);
             polys.push(vec![r[i], c[0], c[1], r[i + 1]]);
         }
-        if taper_len <= 0.0 {
-            for (end, next) in [(0, 1), (n - 1, n - 2)] {
+        for (end, next, tapered) in [(0, 1, ends[0]), (n - 1, n - 2, ends[1])] {
+            if taper_len <= 0.0 || !tapered {
                 let t = (centre[end] - centre[next]).normalize_or_zero();
                 let side = normals[end].cross(t).normalize_or_zero();
                 let sp = surface.eval(wrap_uv(centre_uv[end]));
