@@ -33,7 +33,12 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ConfigError, VrError, VrResult};
 use crate::output::OutputMode;
-use crate::projection::{HeadPose, Screen, StereoRig};
+use crate::projection::{HeadPose, StereoRig};
+
+pub mod cluster;
+mod screen;
+
+pub use screen::ScreenConfig;
 
 /// The whole configuration.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
@@ -58,7 +63,7 @@ pub struct Config {
     /// Journal, autosave and output files.
     pub files: FilesConfig,
     /// The CAVE cluster / shared sculpting over NATS (`wandsculpt --cluster`).
-    pub cluster: Option<crate::cluster::ClusterSection>,
+    pub cluster: Option<cluster::ClusterSection>,
 }
 
 /// Output settings.
@@ -118,40 +123,6 @@ impl Default for RenderConfig {
             material: Default::default(),
             msaa: 4,
         }
-    }
-}
-
-/// The screen rectangle, display frame metres.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ScreenConfig {
-    /// Lower-left corner.
-    pub lower_left: [f64; 3],
-    /// Lower-right corner.
-    pub lower_right: [f64; 3],
-    /// Upper-left corner.
-    pub upper_left: [f64; 3],
-}
-
-impl Default for ScreenConfig {
-    fn default() -> Self {
-        // A 27" monitor (0.6 m x 0.34 m) whose bottom edge is at y = 1.0 m.
-        Self {
-            lower_left: [-0.3, 1.0, 0.0],
-            lower_right: [0.3, 1.0, 0.0],
-            upper_left: [-0.3, 1.34, 0.0],
-        }
-    }
-}
-
-impl ScreenConfig {
-    /// The validated screen.
-    pub fn screen(&self) -> VrResult<Screen> {
-        Screen::new(
-            self.lower_left.into(),
-            self.lower_right.into(),
-            self.upper_left.into(),
-        )
     }
 }
 

@@ -3,6 +3,12 @@
 use std::path::PathBuf;
 use thiserror::Error;
 
+mod cluster;
+
+#[cfg(feature = "nats")]
+pub use cluster::NatsFailure;
+pub use cluster::{ClusterConfigError, ClusterError};
+
 /// Everything that can go wrong in the display server's library parts.
 #[derive(Debug, Error)]
 #[non_exhaustive]
@@ -123,7 +129,7 @@ pub enum VrError {
     Core(#[from] sculpt_core::Error),
     /// A cluster problem (NATS connection, JetStream stream, barrier).
     #[error("cluster: {0}")]
-    Cluster(#[from] crate::cluster::ClusterError),
+    Cluster(#[from] ClusterError),
 }
 
 /// Why no GPU adapter could be used.
@@ -160,8 +166,8 @@ pub enum GpuError {
         "image size {width}x{height} is out of range: each side 1 to {} and at most {} \
          pixels (3840x2160) per image, which bounds the memory a headless run takes; \
          give a smaller --size",
-        crate::render::MAX_OFFSCREEN_SIDE,
-        crate::render::MAX_OFFSCREEN_PIXELS
+        crate::render::limits::MAX_OFFSCREEN_SIDE,
+        crate::render::limits::MAX_OFFSCREEN_PIXELS
     )]
     OffscreenSize {
         /// Width asked for.

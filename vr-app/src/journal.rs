@@ -75,10 +75,18 @@ pub const MAX_LINE: usize = 64 << 20;
 /// The id of a document, as a journal names the document it belongs to: the 64-bit
 /// FNV-1a hash of its [`Document::to_json`] bytes, `fnv1a64:` and 16 hex digits.
 pub fn document_id(doc: &Document) -> String {
-    format!(
-        "fnv1a64:{:016x}",
-        crate::cluster::snapshot::fnv1a64(&doc.to_json())
-    )
+    format!("fnv1a64:{:016x}", fnv1a64(&doc.to_json()))
+}
+
+/// FNV-1a, 64 bits (Fowler, Noll, Vo; offset basis `0xcbf29ce484222325`, prime
+/// `0x100000001b3`): the [`document_id`] hash, and the checksum of a cluster's document
+/// snapshots. It detects damage, not forgery.
+pub fn fnv1a64(bytes: &[u8]) -> u64 {
+    const OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+    const PRIME: u64 = 0x0000_0100_0000_01b3;
+    bytes
+        .iter()
+        .fold(OFFSET, |h, &b| (h ^ u64::from(b)).wrapping_mul(PRIME))
 }
 
 /// The header line of a [`VERSION`] journal of the document `document`.

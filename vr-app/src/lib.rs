@@ -4,17 +4,22 @@
 //! (projection maths, configuration, the operation journal) and the headless GPU
 //! renderer, so that `replay` and tests can use them without a window.
 //!
-//! Features: `window` (default) adds [`window`] (winit windows, desktop mode) and the
-//! `wandsculpt` binary; without it (`default-features = false`, as `replay` uses it)
-//! nothing links a window system. `openxr` adds the head-mounted display runtime.
+//! Features: `window` (default) adds `window` (winit windows, desktop mode) and the
+//! `wandsculpt` binary; `nats` (default, and part of `window`: a cluster node can run
+//! in a window) adds `cluster` (NATS JetStream roles). Without them
+//! (`default-features = false`, as `replay` uses it) nothing links a window system or
+//! the NATS client; the `[cluster]` config section is still read and checked.
+//! `openxr` adds the head-mounted display runtime.
 //!
 //! Layers (`use crate::` edges between the app's modules, a DAG; any module may also
 //! use the leaves):
-//! * leaves: [`error`], [`projection`], [`output`] ([`OutputMode`](output::OutputMode)),
+//! * leaves: [`error`] (it quotes `render::limits`), [`projection`], [`output`]
+//!   ([`OutputMode`](output::OutputMode)),
 //!   [`input`] (session [`Input`](input::Input)s and
 //!   [`TrackingState`](input::TrackingState)), [`journal`], [`preview`];
 //! * [`config`] -> output, `render::material` (pure) (it also holds
-//!   [`Playback`](config::Playback));
+//!   [`Playback`](config::Playback), the screen and the `[cluster]` section,
+//!   [`config::cluster`]);
 //! * [`session`] -> config, journal;
 //! * [`study`] (`--study`: trials into a study's logs) -> session;
 //! * [`scene`] (a frame as plain values: cameras, overlay lines, the meshes of a
@@ -25,8 +30,8 @@
 //! * [`app`] ([`AppState`](app::AppState)) -> config, session, study, scene, input,
 //!   [`desktop_view`] (the desktop camera), [`desktop_wand`];
 //! * [`live`] (tracking hub on tokio) -> config, input;
-//! * [`cluster`] (NATS JetStream roles: ingest, node, frame barrier) -> config, live,
-//!   app, headless, session;
+//! * `cluster` (feature `nats`: NATS JetStream roles: ingest, node, frame barrier) ->
+//!   config, live, app, headless, session, journal;
 //! * [`headless`] -> app, render, session, journal, input, output; `window` -> app,
 //!   render, output, input, [`desktop_wand`];
 //! * [`xr`] (pure: views to cameras, session lifecycle, bindings, controllers as
@@ -45,6 +50,7 @@
 #![warn(missing_docs)]
 
 pub mod app;
+#[cfg(feature = "nats")]
 pub mod cluster;
 pub mod config;
 pub mod demo;

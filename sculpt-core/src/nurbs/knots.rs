@@ -10,12 +10,7 @@
 
 use crate::error::{Error, KnotError, Result};
 
-/// The highest degree the kernel supports (basis functions live in stack arrays).
-pub const MAX_DEGREE: usize = 9;
-/// `MAX_DEGREE + 1`: the length of the stack arrays for basis values.
-pub const MAX_ORDER: usize = MAX_DEGREE + 1;
-/// The highest derivative order the evaluation routines compute.
-pub const MAX_DERIV: usize = 2;
+pub use super::limits::{MAX_DEGREE, MAX_DERIV, MAX_ORDER};
 
 /// The `p + 1` non-zero basis values on one knot span; entries past `p` are zero.
 pub type Basis = [f64; MAX_ORDER];

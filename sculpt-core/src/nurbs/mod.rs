@@ -67,16 +67,18 @@
 
 pub mod construct;
 pub mod curve;
+mod direction;
 mod distance_net;
 pub mod fit;
 pub mod invert;
 pub mod knots;
+pub(crate) mod limits;
 mod power;
 pub mod refine;
 pub mod surface;
 
 pub use curve::{CurveDerivs, NurbsCurve};
+pub use direction::Direction;
 pub use invert::{Certificate, CurveProjection, Projection, SurfaceInverter};
 pub use knots::{KnotVector, MAX_DEGREE};
-pub use refine::Direction;
 pub use surface::{FundamentalForms, NurbsSurface, SurfaceDerivs};

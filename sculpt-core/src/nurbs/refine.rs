@@ -10,6 +10,7 @@
 use glam::DVec4;
 
 use super::curve::NurbsCurve;
+pub use super::direction::Direction;
 use super::knots::KnotVector;
 use super::surface::NurbsSurface;
 use crate::error::{Error, ParameterError, Result};
@@ -205,15 +206,6 @@ impl NurbsCurve {
         };
         Ok(q.truncate() / q.w)
     }
-}
-
-/// Which parametric direction of a surface.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Direction {
-    /// Along `u` (across rows `i`).
-    U,
-    /// Along `v` (across columns `j`).
-    V,
 }
 
 impl NurbsSurface {

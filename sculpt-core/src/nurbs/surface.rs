@@ -8,8 +8,8 @@ use glam::{DVec2, DVec3, DVec4};
 use serde::{Deserialize, Serialize};
 
 use super::curve::{check_point, check_weight};
+use super::direction::Direction;
 use super::knots::KnotVector;
-use super::refine::Direction;
 use crate::error::{ControlNetError, Error, NetIndex, Result, WeightError};
 
 /// A NURBS surface `S(u,v) = sum_i sum_j N_{i,p}(u) N_{j,q}(v) w_ij P_ij / sum sum N N w`.

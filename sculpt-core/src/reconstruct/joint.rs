@@ -16,8 +16,8 @@ use std::collections::BTreeMap;
 use glam::{DVec2, DVec3};
 use nalgebra::DMatrix;
 
-use super::network::{BoundaryKey, Grid, Side, boundary_key, sides};
 use super::polygon::QuadCorner;
+use super::quads::{BoundaryKey, Grid, Side, boundary_key, par_map, sides};
 use crate::nurbs::KnotVector;
 use crate::tolerance::{CG_MAX_ITERATIONS, CG_REL_TOL};
 
@@ -168,7 +168,7 @@ pub(super) fn solve(
     c: usize,
 ) -> Option<usize> {
     let pairs: Vec<(&Normal, &Vec<Row>)> = base.iter().zip(rows).collect();
-    let locals: Vec<Local> = super::network::par_map(&pairs, |(base, rows)| {
+    let locals: Vec<Local> = par_map(&pairs, |(base, rows)| {
         let mut n = (*base).clone();
         n.add(rows, knots, c);
         Local::from(n)
@@ -197,7 +197,7 @@ pub(super) fn solve(
     let patches: Vec<usize> = (0..locals.len()).collect();
     let product = |v: &[DVec3]| {
         let mut out = vec![DVec3::ZERO; n];
-        let parts = super::network::par_map(&patches, |&q| {
+        let parts = par_map(&patches, |&q| {
             let idx = &unknowns.index[q];
             let mut part = vec![DVec3::ZERO; idx.len()];
             for &(r, s, a) in &locals[q].normal {

@@ -7,9 +7,10 @@
 //! 2. [`kmeans`]: generalised Lloyd clustering into K patches and their adjacency;
 //!    [`segment`] runs stages 1 and 2 together.
 //! 3. [`polygon`]: the polygonal model (faces where patches meet) and its quads;
-//!    [`network`]: their corners on the data, then stages 4 to 6 (local grids,
-//!    the NURBS patch network with G1 across sides, refitted to the data as one
-//!    least-squares system by `joint`, errors, the document);
+//!    `quads` places their corners on the data and makes each quad's local grid
+//!    (stage 4); [`network`] (which re-exports those) fits stages 5 and 6: the NURBS
+//!    patch network with G1 across sides, refitted to the data as one least-squares
+//!    system by `joint`, errors, the document;
 //!    [`pipeline`] runs everything.
 //!
 //! [`sample`] makes seeded point sets with known surfaces (the paper's torus).
@@ -21,6 +22,7 @@ pub mod network;
 pub mod normals;
 pub mod pipeline;
 pub mod polygon;
+mod quads;
 pub mod read;
 pub mod sample;
 pub mod segment;

@@ -175,14 +175,8 @@ pub enum StoreFailure {
 }
 
 /// FNV-1a, 64 bits: the record's checksum (it detects damage, not forgery; the
-/// server's credentials keep strangers out).
-pub fn fnv1a64(bytes: &[u8]) -> u64 {
-    const OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
-    const PRIME: u64 = 0x0000_0100_0000_01b3;
-    bytes
-        .iter()
-        .fold(OFFSET, |h, &b| (h ^ u64::from(b)).wrapping_mul(PRIME))
-}
+/// server's credentials keep strangers out). The journal's document id uses it too.
+pub use crate::journal::fnv1a64;
 
 /// Reads `n` bytes at `*at`, or says how many were needed.
 fn take<'a>(bytes: &'a [u8], at: &mut usize, n: u64) -> Result<&'a [u8], SnapshotError> {

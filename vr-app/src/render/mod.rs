@@ -36,6 +36,7 @@
 
 pub mod gpu;
 pub mod hud;
+pub(crate) mod limits;
 pub mod material;
 pub mod mesh_store;
 
@@ -44,6 +45,7 @@ use std::time::{Duration, Instant};
 use bytemuck::{Pod, Zeroable};
 
 pub use gpu::Gpu;
+pub use limits::{MAX_OFFSCREEN_PIXELS, MAX_OFFSCREEN_SIDE};
 pub use mesh_store::{GpuMeshStore, GpuVertex, UploadStats};
 use sculpt_core::sculpt::tessellate::Detail;
 
@@ -128,14 +130,6 @@ struct ComposeUniform {
     focal_px: f32,
     pad: f32,
 }
-
-/// Longest side of an offscreen image (pixels).
-pub const MAX_OFFSCREEN_SIDE: u32 = 8192;
-/// Most pixels of one offscreen image: 4K UHD, 3840 x 2160. A headless run's peak
-/// memory grows with its pixels (multisampled colour and depth targets, both eyes and
-/// the composite, their readbacks and the encoded PNGs), so this caps it: 8192 x 8192
-/// in dual mode peaked at 12.7 GB.
-pub const MAX_OFFSCREEN_PIXELS: u64 = 3840 * 2160;
 
 /// Checks an offscreen image size against [`MAX_OFFSCREEN_SIDE`] and
 /// [`MAX_OFFSCREEN_PIXELS`] ([`GpuError::OffscreenSize`] otherwise), before anything is
