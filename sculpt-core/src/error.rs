@@ -99,6 +99,11 @@ pub enum Error {
     /// Reading points or reconstructing patches from them failed.
     #[error("reconstruct: {0}")]
     Reconstruct(#[from] crate::reconstruct::ReconstructError),
+
+    // Lattice deformation.
+    /// A lattice or a deformation was refused; the reason says why.
+    #[error("lattice: {0}")]
+    Lattice(#[from] crate::lattice::LatticeError),
 }
 
 fn knots_prefix(direction: Option<Direction>) -> &'static str {
@@ -1072,6 +1077,13 @@ pub enum DocumentError {
         /// The cap.
         max: usize,
     },
+    /// The document's history already holds
+    /// [`MAX_DEFORMS`](crate::sculpt::document::MAX_DEFORMS) deformations.
+    #[error("more than {max} lattice deformations")]
+    TooManyDeforms {
+        /// The cap.
+        max: usize,
+    },
     /// The document already holds [`MAX_STROKES`](crate::sculpt::document::MAX_STROKES)
     /// strokes.
     #[error("more than {max} strokes")]
@@ -1217,6 +1229,15 @@ pub enum InteractionError {
     /// outside `[0, 1]`).
     #[error("tool profile: {0}")]
     Profile(StrokeRejection),
+    /// A lattice grab radius is not in `(0, MAX_REACH_M]`.
+    #[error(
+        "lattice radius {radius} m must be positive and at most {} m",
+        crate::lattice::MAX_REACH_M
+    )]
+    LatticeRadius {
+        /// The radius asked for.
+        radius: f64,
+    },
 }
 
 /// Which [`InteractionConfig`](crate::interaction::InteractionConfig) setting is out
@@ -1251,6 +1272,9 @@ pub enum InteractionConfigError {
     /// A button index is 32 or more.
     #[error("button indices must be below 32")]
     ButtonIndex,
+    /// The lattice's degree or counts are out of range.
+    #[error("lattice: {0}")]
+    Lattice(crate::lattice::LatticeError),
 }
 
 /// A JSON syntax or schema error with its position, shared so that [`Error`](enum@Error) stays
