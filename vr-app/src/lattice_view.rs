@@ -7,7 +7,7 @@
 //! and undone like a stroke. While the drag is live the cage is drawn with the grabbed
 //! group moved; the surfaces follow when it is released.
 //!
-//! - **Desktop**: the pointer snaps the tip onto the cage control point nearest its ray
+//! - **Desktop**: the pointer snaps the tip onto the first cage control point along its ray
 //!   (within [`PICK_M`]); while the button is held the tip slides on the plane through
 //!   the grabbed point facing the viewer ([`lattice_tip`]).
 //! - **Wall and headset**: the tracked tip is the wand; the cage is drawn the same way.
@@ -87,8 +87,8 @@ pub fn cage_lines(doc: &Document, interaction: &Interaction, out: &mut Vec<LineV
 
 /// The desktop wand tip in lattice mode for the pointer's `ray` (display frame) and
 /// the viewer's `facing` direction: during a drag, on the plane through the grabbed
-/// point facing the viewer; otherwise on the cage control point nearest the ray when
-/// it passes within [`PICK_M`], else on the plane through the cage's centre (a press
+/// point facing the viewer; otherwise on the first cage control point along the ray
+/// that it passes within [`PICK_M`] of, else on the plane through the cage's centre (a press
 /// there grabs nothing, and the session says so). `None` when the ray misses every
 /// plane.
 pub fn lattice_tip(
@@ -101,17 +101,19 @@ pub fn lattice_tip(
         return plane_hit(ray, grab, facing);
     }
     let lattice = rest_cage(doc, interaction)?;
-    let nearest = lattice
+    // Of the points the ray passes within reach, the first along it (the one in
+    // front, as the viewer sees the cage).
+    let first = lattice
         .control_points()
         .into_iter()
         .filter_map(|p| {
             let s = (p - ray.origin).dot(ray.dir);
-            (s > 0.0).then(|| (ray.at(s).distance(p), p))
+            (s > 0.0 && ray.at(s).distance(p) <= PICK_M).then_some((s, p))
         })
         .min_by(|a, b| a.0.total_cmp(&b.0));
-    match nearest {
-        Some((d, p)) if d <= PICK_M => Some(p),
-        _ => {
+    match first {
+        Some((_, p)) => Some(p),
+        None => {
             let (lo, hi) = lattice.bounds();
             plane_hit(ray, 0.5 * (lo + hi), facing)
         }
@@ -153,7 +155,9 @@ mod tests {
         let doc = default_document();
         let i = lattice_mode();
         let cage = rest_cage(&doc, &i).unwrap();
-        let target = cage.control_points()[21];
+        // The front point of a column: the ray passes the whole column, the front
+        // point first.
+        let target = cage.control_points()[cage.flat([1, 1, 3])];
         let eye = target + DVec3::new(0.01, 0.0, 1.0);
         let ray = Ray::through(eye, target + DVec3::new(0.0, 0.01, 0.0)).unwrap();
         let tip = lattice_tip(&doc, &i, &ray, DVec3::Z).unwrap();
