@@ -153,6 +153,10 @@ pub struct GestureMetrics {
     pub undos: usize,
     /// Redo commands that redid something.
     pub redos: usize,
+    /// Lattice deformations applied (left out of `metrics.json` while zero, so the
+    /// metrics of sessions without any are as they were).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub deforms: usize,
 }
 
 /// `metrics.json`: everything here is deterministic.
@@ -436,6 +440,7 @@ impl Replayer {
         match applied {
             Applied::Stroke { .. } => g.strokes_applied += 1,
             Applied::Sketch { .. } => g.sketches += 1,
+            Applied::Deform { .. } => g.deforms += 1,
             Applied::Undone => g.undos += 1,
             Applied::Redone => g.redos += 1,
             Applied::Unchanged => {}

@@ -29,6 +29,7 @@ use glam::DVec3;
 
 use crate::error::FitError;
 use crate::interaction::{Edit, InteractionMode, OperatorEvent, StrokeEdit};
+use crate::lattice::{DeformEdit, Lattice};
 use crate::nurbs::NurbsSurface;
 use crate::oplog::{EventKind, TrackingState};
 use crate::sculpt::document::{Document, StrokeId, TargetId};
@@ -176,6 +177,15 @@ pub enum Applied {
         /// The new target.
         target: TargetId,
     },
+    /// Targets were deformed through a lattice (one operation).
+    Deform {
+        /// The step's id in the document's history.
+        id: u64,
+        /// The deformed targets.
+        targets: Vec<TargetId>,
+        /// Lattice control points moved.
+        points: usize,
+    },
     /// The last step was undone.
     Undone,
     /// The last undone step was redone.
@@ -192,7 +202,11 @@ impl Applied {
     pub fn changed(&self) -> bool {
         matches!(
             self,
-            Applied::Stroke { .. } | Applied::Sketch { .. } | Applied::Undone | Applied::Redone
+            Applied::Stroke { .. }
+                | Applied::Sketch { .. }
+                | Applied::Deform { .. }
+                | Applied::Undone
+                | Applied::Redone
         )
     }
 }
@@ -237,10 +251,38 @@ pub fn apply(doc: &mut Document, edit: &Edit) -> Applied {
                 Err(e) => Applied::Rejected(e),
             }
         }
+        Edit::Deform(d) => match apply_deform(doc, d) {
+            Ok(applied) => applied,
+            Err(e) => Applied::Rejected(e),
+        },
         Edit::Undo if doc.undo() => Applied::Undone,
         Edit::Redo if doc.redo() => Applied::Redone,
         Edit::Undo | Edit::Redo | Edit::SelectTarget { .. } | Edit::Save => Applied::Unchanged,
     }
+}
+
+/// A lattice deformation ([`DeformEdit`]): the lattice is fitted around the targets
+/// the edit names, its control points within the radius of the grab point moved, and
+/// the targets mapped through it as one undoable step
+/// ([`Document::apply_deform`]).
+pub fn apply_deform(doc: &mut Document, edit: &DeformEdit) -> Result<Applied> {
+    edit.validate()?;
+    let mut surfaces = Vec::with_capacity(edit.targets.len());
+    for &id in &edit.targets {
+        let t = doc
+            .target(id)
+            .ok_or(Error::NotFound { kind: "target", id })?;
+        surfaces.push(&t.surface);
+    }
+    let mut lattice = Lattice::around(edit.lattice, &surfaces)?;
+    let group = lattice.group(edit.grab, edit.radius)?;
+    lattice.displace(&group, edit.displacement)?;
+    let id = doc.apply_deform(&edit.targets, &lattice)?;
+    Ok(Applied::Deform {
+        id,
+        targets: edit.targets.clone(),
+        points: group.len(),
+    })
 }
 
 /// Checks an edit against the document's size caps before it is journalled or applied
@@ -255,6 +297,17 @@ pub fn check_caps(doc: &Document, edit: &Edit) -> Result<()> {
                 max: crate::sculpt::document::MAX_TARGETS,
             }),
         ),
+        Edit::Deform(d) => {
+            d.validate()?;
+            if doc.deforms().len() >= crate::sculpt::document::MAX_DEFORMS {
+                return Err(Error::Document(
+                    crate::error::DocumentError::TooManyDeforms {
+                        max: crate::sculpt::document::MAX_DEFORMS,
+                    },
+                ));
+            }
+            Ok(())
+        }
         _ => Ok(()),
     }
 }
@@ -276,8 +329,9 @@ pub fn tool_name(tool: &Tool) -> &'static str {
 /// The operator-log event for what an edit did, when it says more than the operator
 /// events around it: a stroke carved in several pieces, or with pieces dropped, is a
 /// `marker` labelled `stroke <id>: <n> pieces, <m> dropped` (the GOMS harness reads no
-/// markers, so its operators are unchanged). `None` for everything else, a stroke
-/// carved in one piece included.
+/// markers, so its operators are unchanged); a lattice deformation is a `marker`
+/// labelled `deform <id>: <n> lattice points, <m> targets`. `None` for everything
+/// else, a stroke carved in one piece included.
 pub fn oplog_applied(applied: &Applied) -> Option<EventKind> {
     match applied {
         Applied::Stroke {
@@ -287,6 +341,16 @@ pub fn oplog_applied(applied: &Applied) -> Option<EventKind> {
             ..
         } if *pieces > 1 || *dropped > 0 => Some(EventKind::Marker {
             label: format!("stroke {id}: {pieces} pieces, {dropped} dropped"),
+        }),
+        Applied::Deform {
+            id,
+            targets,
+            points,
+        } => Some(EventKind::Marker {
+            label: format!(
+                "deform {id}: {points} lattice points, {} targets",
+                targets.len()
+            ),
         }),
         _ => None,
     }
@@ -325,7 +389,7 @@ pub fn oplog_event(event: &OperatorEvent) -> EventKind {
             Edit::SelectTarget { target } => EventKind::Marker {
                 label: format!("select-target {target}"),
             },
-            Edit::Sketch { .. } | Edit::Stroke(_) => EventKind::Marker {
+            Edit::Sketch { .. } | Edit::Stroke(_) | Edit::Deform(_) => EventKind::Marker {
                 label: "edit".into(),
             },
         },

@@ -115,6 +115,11 @@ pub enum Error {
     /// Reading points or reconstructing patches from them failed.
     #[error("reconstruct: {0}")]
     Reconstruct(#[from] ReconstructError),
+
+    // Lattice deformation.
+    /// A lattice or a deformation was refused; the reason says why.
+    #[error("lattice: {0}")]
+    Lattice(#[from] crate::lattice::LatticeError),
 }
 
 fn knots_prefix(direction: Option<Direction>) -> &'static str {
@@ -175,6 +180,13 @@ pub enum DocumentError {
     /// targets.
     #[error("more than {max} targets")]
     TooManyTargets {
+        /// The cap.
+        max: usize,
+    },
+    /// The document's history already holds
+    /// [`MAX_DEFORMS`](crate::sculpt::document::MAX_DEFORMS) deformations.
+    #[error("more than {max} lattice deformations")]
+    TooManyDeforms {
         /// The cap.
         max: usize,
     },

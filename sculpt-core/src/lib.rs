@@ -14,6 +14,7 @@ pub mod error;
 pub mod formats;
 pub mod implicit;
 pub mod interaction;
+pub mod lattice;
 pub mod mesh;
 pub mod nurbs;
 pub mod oplog;

@@ -719,6 +719,14 @@ pub const MATERIAL_EXACT_REL: f64 = 1e-12;
 /// Ritz system is singular to working precision (the solve is refused).
 pub const RFM_SINGULAR_REL: f64 = 1e-14;
 
+// ---------------------------------------------------------------------------
+// Lattice deformation (sculpt_core::lattice).
+
+/// The test bend of `docs/lattice.md` (the default sheet, a 0.1 m pull of a 4 x 4 x 4
+/// lattice) stays this fraction of the pull from the exact composition `F(S(u, v))`:
+/// mapping control points approximates the composition (measured: see that page).
+pub const LATTICE_BEND_MAX_REL: f64 = 0.1;
+
 #[cfg(test)]
 mod tests {
     use super::*;

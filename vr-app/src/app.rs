@@ -48,6 +48,8 @@ pub struct AppState {
     /// The other sculptors' wands (a cluster node sets them each frame, see
     /// [`crate::cluster::wand`]), drawn with the own cursor.
     pub peer_wand_lines: Vec<LineVertex>,
+    /// Lattice mode: whether the cage is drawn ([`crate::lattice_view`]).
+    pub cage: bool,
 }
 
 impl AppState {
@@ -80,6 +82,7 @@ impl AppState {
             scene: SceneState::default(),
             quadtree: None,
             peer_wand_lines: Vec::new(),
+            cage: true,
         };
         app.reset_view();
         Ok(app)
@@ -126,10 +129,24 @@ impl AppState {
             eye: self.head.position,
             view: self.view.as_ref(),
         };
+        let q = self.view.map_or(DQuat::IDENTITY, |v| v.rotation());
+        if self.session.interaction.mode() == InteractionMode::Lattice {
+            // Lattice mode: the tip snaps onto the cage (see `lattice_view`).
+            let tip = self
+                .pointer
+                .ray(rig, pixel, size)
+                .and_then(|(ray, facing)| {
+                    let s = &self.session;
+                    crate::lattice_view::lattice_tip(&s.doc, &s.interaction, &ray, facing)
+                });
+            return match tip {
+                Some(p) => WandSample::tracked(p, q, buttons),
+                None => WandSample::lost(buttons),
+            };
+        }
         let aim = self
             .pointer
             .aim(&self.session.doc, rig, pixel, size, follow);
-        let q = self.view.map_or(DQuat::IDENTITY, |v| v.rotation());
         match aim.tip() {
             Some(p) => WandSample::tracked(p, q, buttons),
             None => WandSample::lost(buttons),
@@ -232,6 +249,10 @@ impl AppState {
             lines.extend_from_slice(self.quadtree_lines());
         }
         lines.extend_from_slice(&self.peer_wand_lines);
+        if self.cage {
+            let s = &self.session;
+            crate::lattice_view::cage_lines(&s.doc, &s.interaction, &mut lines);
+        }
         lines
     }
 
@@ -297,6 +318,7 @@ impl AppState {
             ),
         ];
         lines.extend(self.study.as_ref().map(crate::study::StudyRun::hud_line));
+        lines.extend(crate::lattice_view::hud_line(i, self.cage));
         if self.view.is_some() {
             let follow = self.pointer_follows_surface();
             lines.extend(self.pointer.hud_line(&self.session.doc, t, follow));

@@ -122,7 +122,7 @@ impl EmulatedWand {
 
 /// Where `ray` meets the plane through `point` with unit normal `normal`; `None` when
 /// it runs parallel to the plane or the plane is behind it.
-fn plane_hit(ray: &Ray, point: DVec3, normal: DVec3) -> Option<DVec3> {
+pub(crate) fn plane_hit(ray: &Ray, point: DVec3, normal: DVec3) -> Option<DVec3> {
     let denom = ray.dir.dot(normal);
     if denom.abs() < sculpt_core::tolerance::PARALLEL_COS_EPS {
         return None;
@@ -222,6 +222,26 @@ impl DesktopPointer {
         aim
     }
 
+    /// The pointer's ray in the display frame for the pointer `pixel` of a window of
+    /// `size` pixels, and the direction the viewer faces (the screen's normal as seen).
+    /// `None` where the ray is undefined.
+    pub fn ray(
+        &self,
+        rig: PointerRig<'_>,
+        pixel: (f64, f64),
+        size: (u32, u32),
+    ) -> Option<(Ray, DVec3)> {
+        let ray_in_rig = self.wand.ray(rig.screen, rig.eye, pixel, size)?;
+        let ray = Ray::through(
+            rig.display_from_rig(ray_in_rig.origin),
+            rig.display_from_rig(ray_in_rig.at(1.0)),
+        )?;
+        let facing = rig.view.map_or(rig.screen.basis().2, |v| {
+            v.rotation() * rig.screen.basis().2
+        });
+        Some((ray, facing))
+    }
+
     fn aim_at(
         &mut self,
         doc: &Document,
@@ -230,14 +250,9 @@ impl DesktopPointer {
         size: (u32, u32),
         follow_surface: bool,
     ) -> Aim {
-        let Some(ray_in_rig) = self.wand.ray(rig.screen, rig.eye, pixel, size) else {
+        let Some((ray, facing)) = self.ray(rig, pixel, size) else {
             return Aim::Lost;
         };
-        let ray = Ray::through(
-            rig.display_from_rig(ray_in_rig.origin),
-            rig.display_from_rig(ray_in_rig.at(1.0)),
-        );
-        let Some(ray) = ray else { return Aim::Lost };
         if follow_surface {
             if let Some(hit) = cast_document(doc, &ray) {
                 self.last_hit = Some(hit.hit.point);
@@ -249,9 +264,6 @@ impl DesktopPointer {
                 };
             }
             // The plane through the last hit, facing the viewer.
-            let facing = rig.view.map_or(rig.screen.basis().2, |v| {
-                v.rotation() * rig.screen.basis().2
-            });
             if let Some(tip) = self.last_hit.and_then(|p| plane_hit(&ray, p, facing)) {
                 return Aim::Air { tip };
             }

@@ -61,6 +61,7 @@ pub mod gpu_eval;
 pub mod headless;
 pub mod input;
 pub mod journal;
+pub mod lattice_view;
 pub mod live;
 pub mod output;
 pub mod preview;

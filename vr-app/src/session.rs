@@ -112,16 +112,19 @@ fn check_journal_targets(stored: &journal::Stored, doc: &Document, path: &Path) 
     let targets = doc.targets();
     for (i, entry) in stored.entries.iter().enumerate() {
         let named = match &entry.edit {
-            Edit::Stroke(s) => s.target,
-            Edit::SelectTarget { target } => *target,
+            Edit::Stroke(s) => vec![s.target],
+            Edit::SelectTarget { target } => vec![*target],
+            Edit::Deform(d) => d.targets.clone(),
             Edit::Sketch { .. } | Edit::Undo | Edit::Redo | Edit::Save => continue,
         };
-        let known = if stored.version == 1 {
-            usize::try_from(named).is_ok_and(|p| p < targets.len())
-        } else {
-            targets.iter().any(|t| t.id == named)
-        };
-        if !known {
+        let unknown = named.into_iter().find(|&named| {
+            !if stored.version == 1 {
+                usize::try_from(named).is_ok_and(|p| p < targets.len())
+            } else {
+                targets.iter().any(|t| t.id == named)
+            }
+        });
+        if let Some(named) = unknown {
             return Err(VrError::Journal {
                 path: path.display().to_string(),
                 reason: JournalError::UnknownTarget {

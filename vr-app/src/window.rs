@@ -54,6 +54,12 @@ pub enum KeyAction {
     Save,
     /// Select the next target.
     NextTarget,
+    /// Lattice mode: show or hide the cage.
+    Cage,
+    /// Lattice mode: grab radius down by a factor 1.5.
+    SmallerGroup,
+    /// Lattice mode: grab radius up by a factor 1.5.
+    LargerGroup,
     /// Toggle the wireframe.
     Wireframe,
     /// Toggle the UV quadtree overlay.
@@ -128,6 +134,34 @@ pub const KEYS: &[KeyBinding] = &[
         KeyAction::Mode(InteractionMode::EMBOSS),
         "emboss mode",
     ),
+    bind(
+        "4",
+        "4",
+        false,
+        KeyAction::Mode(InteractionMode::Lattice),
+        "lattice mode: drag a cage point to bend the targets",
+    ),
+    bind(
+        "L",
+        "l",
+        false,
+        KeyAction::Cage,
+        "lattice cage shown / hidden",
+    ),
+    bind(
+        ",",
+        ",",
+        false,
+        KeyAction::SmallerGroup,
+        "smaller lattice grab radius",
+    ),
+    bind(
+        ".",
+        ".",
+        false,
+        KeyAction::LargerGroup,
+        "larger lattice grab radius",
+    ),
     bind("V", "v", false, KeyAction::Profile(Profile::V), "V profile"),
     bind("U", "u", false, KeyAction::Profile(Profile::U), "U profile"),
     bind("[", "[", false, KeyAction::Narrower, "narrower tool"),
@@ -190,7 +224,7 @@ pub const MOUSE: &[(&str, &str)] = &[
     ),
     (
         "left button",
-        "carve, emboss or sketch (a press selects the target under it)",
+        "carve, emboss or sketch (a press selects the target under it); lattice: drag a cage point",
     ),
     (
         "wheel",
@@ -597,6 +631,16 @@ impl<'n> WindowApp<'n> {
             KeyAction::Deeper => self.command(Command::SetDepth {
                 depth: (tool.depth * 1.25).min(0.1),
             }),
+            KeyAction::Cage => self.app.cage = !self.app.cage,
+            KeyAction::SmallerGroup | KeyAction::LargerGroup => {
+                let r = self.app.session.interaction.lattice_radius();
+                let radius = if action == KeyAction::LargerGroup {
+                    (r * 1.5).min(1.0)
+                } else {
+                    (r / 1.5).max(0.005)
+                };
+                self.command(Command::SetLatticeRadius { radius });
+            }
             KeyAction::Wireframe => {
                 if let Some(r) = &mut self.running {
                     r.renderer.wireframe = !r.renderer.wireframe;

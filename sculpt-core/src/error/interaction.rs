@@ -33,6 +33,15 @@ pub enum InteractionError {
     /// outside `[0, 1]`).
     #[error("tool profile: {0}")]
     Profile(StrokeRejection),
+    /// A lattice grab radius is not in `(0, MAX_REACH_M]`.
+    #[error(
+        "lattice radius {radius} m must be positive and at most {} m",
+        crate::lattice::MAX_REACH_M
+    )]
+    LatticeRadius {
+        /// The radius asked for.
+        radius: f64,
+    },
 }
 
 /// Which [`InteractionConfig`](crate::interaction::InteractionConfig) setting is out
@@ -67,4 +76,7 @@ pub enum InteractionConfigError {
     /// A button index is 32 or more.
     #[error("button indices must be below 32")]
     ButtonIndex,
+    /// The lattice's degree or counts are out of range.
+    #[error("lattice: {0}")]
+    Lattice(crate::lattice::LatticeError),
 }

@@ -36,7 +36,12 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, InteractionConfigError, InteractionError, Result, StrokeRejection};
 
+use crate::lattice::{DeformEdit, LatticeSpec};
 use crate::sculpt::document::Document;
+
+/// The default lattice grab radius (metres): about a fingertip's reach around the wand
+/// tip, so a drag takes the one control point it starts on.
+pub const DEFAULT_LATTICE_RADIUS: f64 = 0.05;
 pub use crate::sculpt::document::{TargetId, TargetIndex};
 /// Carve or emboss: the sculpting layer's [`Mode`](crate::sculpt::stroke::Mode), named
 /// for what it is beside [`InteractionMode`].
@@ -56,6 +61,10 @@ pub enum InteractionMode {
     /// Strokes cut grooves ([`StrokeMode::Carve`]) or raise ridges
     /// ([`StrokeMode::Emboss`]).
     Stroke(StrokeMode),
+    /// Drag a lattice control point (or the group within
+    /// [`InteractionConfig::lattice_radius`] of it) to deform the targets
+    /// ([`Edit::Deform`]). Not in the mode button's cycle: a command selects it.
+    Lattice,
 }
 
 impl InteractionMode {
@@ -64,29 +73,31 @@ impl InteractionMode {
     /// Embossing strokes.
     pub const EMBOSS: Self = Self::Stroke(StrokeMode::Emboss);
 
-    /// The next mode in the cycle sketch -> carve -> emboss -> sketch.
+    /// The next mode in the cycle sketch -> carve -> emboss -> sketch; lattice mode
+    /// (outside the cycle) goes on to carve.
     pub fn next(self) -> Self {
         match self {
-            Self::Sketch => Self::CARVE,
+            Self::Sketch | Self::Lattice => Self::CARVE,
             Self::Stroke(StrokeMode::Carve) => Self::EMBOSS,
             Self::Stroke(StrokeMode::Emboss) => Self::Sketch,
         }
     }
 
-    /// The stroke mode, or `None` when sketching.
+    /// The stroke mode, or `None` when sketching or in lattice mode.
     pub fn stroke_mode(self) -> Option<StrokeMode> {
         match self {
-            Self::Sketch => None,
+            Self::Sketch | Self::Lattice => None,
             Self::Stroke(mode) => Some(mode),
         }
     }
 
-    /// The mode's name, as it is written: `sketch`, `carve` or `emboss`.
+    /// The mode's name, as it is written: `sketch`, `carve`, `emboss` or `lattice`.
     pub fn name(self) -> &'static str {
         match self {
             Self::Sketch => "sketch",
             Self::Stroke(StrokeMode::Carve) => "carve",
             Self::Stroke(StrokeMode::Emboss) => "emboss",
+            Self::Lattice => "lattice",
         }
     }
 }
@@ -104,6 +115,7 @@ enum ModeName {
     Sketch,
     Carve,
     Emboss,
+    Lattice,
 }
 
 impl From<ModeName> for InteractionMode {
@@ -112,6 +124,7 @@ impl From<ModeName> for InteractionMode {
             ModeName::Sketch => Self::Sketch,
             ModeName::Carve => Self::CARVE,
             ModeName::Emboss => Self::EMBOSS,
+            ModeName::Lattice => Self::Lattice,
         }
     }
 }
@@ -122,6 +135,7 @@ impl From<InteractionMode> for ModeName {
             InteractionMode::Sketch => Self::Sketch,
             InteractionMode::Stroke(StrokeMode::Carve) => Self::Carve,
             InteractionMode::Stroke(StrokeMode::Emboss) => Self::Emboss,
+            InteractionMode::Lattice => Self::Lattice,
         }
     }
 }
@@ -204,6 +218,12 @@ pub enum Command {
     },
     /// Select the next target surface.
     SelectNextTarget,
+    /// Change the lattice grab radius (metres): a drag in lattice mode moves the
+    /// lattice control points within it ([`InteractionConfig::lattice_radius`]).
+    SetLatticeRadius {
+        /// The new radius.
+        radius: f64,
+    },
     /// Save the document.
     Save,
 }
@@ -363,6 +383,8 @@ pub enum Edit {
     },
     /// A carve or emboss stroke.
     Stroke(StrokeEdit),
+    /// A lattice deformation of one or more targets.
+    Deform(DeformEdit),
     /// Undo the last edit.
     Undo,
     /// Redo.
@@ -393,7 +415,7 @@ impl Edit {
         match &mut self {
             Edit::Stroke(s) => s.target = resolve(s.target),
             Edit::SelectTarget { target } => *target = resolve(*target),
-            Edit::Sketch { .. } | Edit::Undo | Edit::Redo | Edit::Save => {}
+            Edit::Sketch { .. } | Edit::Deform(_) | Edit::Undo | Edit::Redo | Edit::Save => {}
         }
         self
     }
@@ -503,6 +525,9 @@ pub struct ButtonMap {
     pub redo: u8,
     /// Select the next target.
     pub select: u8,
+    /// Lattice mode on and off ([`InteractionMode::Lattice`]; off goes back to the
+    /// stroke mode).
+    pub lattice: u8,
 }
 
 impl Default for ButtonMap {
@@ -514,6 +539,7 @@ impl Default for ButtonMap {
             undo: 3,
             redo: 4,
             select: 5,
+            lattice: 6,
         }
     }
 }
@@ -545,6 +571,11 @@ pub struct InteractionConfig {
     pub max_samples: usize,
     /// Emit a pose operator event every n-th tracked sample (1 = all).
     pub pose_every: u32,
+    /// Lattice mode: a drag moves the lattice control points within this distance of
+    /// where it starts (metres).
+    pub lattice_radius: f64,
+    /// Lattice mode: the lattice's degree and control point counts.
+    pub lattice: LatticeSpec,
 }
 
 impl Default for InteractionConfig {
@@ -561,6 +592,8 @@ impl Default for InteractionConfig {
             min_sketch_rows: 4,
             max_samples: 200_000,
             pose_every: 1,
+            lattice_radius: DEFAULT_LATTICE_RADIUS,
+            lattice: LatticeSpec::default(),
         }
     }
 }
@@ -593,6 +626,18 @@ impl InteractionConfig {
         if self.max_samples < 2 {
             return bad(InteractionConfigError::MaxSamples);
         }
+        if !(self.lattice_radius.is_finite()
+            && self.lattice_radius > 0.0
+            && self.lattice_radius <= crate::lattice::MAX_REACH_M)
+        {
+            return bad(InteractionConfigError::NotPositive {
+                setting: "lattice_radius",
+                value: self.lattice_radius,
+            });
+        }
+        if let Err(e) = self.lattice.validate() {
+            return bad(InteractionConfigError::Lattice(e));
+        }
         if !(2..=64).contains(&self.sketch_columns) || !(2..=10_000).contains(&self.min_sketch_rows)
         {
             return bad(InteractionConfigError::SketchSize);
@@ -603,9 +648,11 @@ impl InteractionConfig {
             return bad(InteractionConfigError::SketchAxis);
         }
         let b = self.buttons;
-        if [b.action, b.mode, b.profile, b.undo, b.redo, b.select]
-            .iter()
-            .any(|&x| x >= 32)
+        if [
+            b.action, b.mode, b.profile, b.undo, b.redo, b.select, b.lattice,
+        ]
+        .iter()
+        .any(|&x| x >= 32)
         {
             return bad(InteractionConfigError::ButtonIndex);
         }
@@ -625,6 +672,12 @@ enum Gesture {
         last_tip: DVec3,
         paused_since: Option<f64>,
     },
+    /// A lattice drag: where it grabbed and where the tip is now.
+    Lattice {
+        grab: DVec3,
+        tip: DVec3,
+        paused_since: Option<f64>,
+    },
     /// A gesture ended early; wait for the action button to come up.
     Spent,
 }
@@ -636,8 +689,10 @@ pub const DEFAULT_TARGET: TargetId = crate::sculpt::document::FIRST_ID;
 #[derive(Debug, Clone, PartialEq)]
 pub struct Interaction {
     config: InteractionConfig,
-    /// Sketching; otherwise stroking in `tool.mode`.
+    /// Sketching; otherwise stroking in `tool.mode` (unless `lattice`).
     sketching: bool,
+    /// Lattice mode (before `sketching`).
+    lattice: bool,
     tool: Tool,
     /// The document's target ids, in document order (never empty).
     targets: Vec<TargetId>,
@@ -673,6 +728,7 @@ impl Interaction {
         Self {
             config,
             sketching: mode == InteractionMode::Sketch,
+            lattice: mode == InteractionMode::Lattice,
             tool,
             targets: vec![DEFAULT_TARGET],
             target: DEFAULT_TARGET,
@@ -687,7 +743,9 @@ impl Interaction {
 
     /// Current mode.
     pub fn mode(&self) -> InteractionMode {
-        if self.sketching {
+        if self.lattice {
+            InteractionMode::Lattice
+        } else if self.sketching {
             InteractionMode::Sketch
         } else {
             InteractionMode::Stroke(self.tool.mode)
@@ -730,7 +788,7 @@ impl Interaction {
     pub fn gesture_active(&self) -> bool {
         matches!(
             self.gesture,
-            Gesture::Stroke { .. } | Gesture::Sketch { .. }
+            Gesture::Stroke { .. } | Gesture::Sketch { .. } | Gesture::Lattice { .. }
         )
     }
 
@@ -744,8 +802,30 @@ impl Interaction {
             } | Gesture::Sketch {
                 paused_since: Some(_),
                 ..
+            } | Gesture::Lattice {
+                paused_since: Some(_),
+                ..
             }
         )
+    }
+
+    /// The live lattice drag: where it grabbed and how far the tip has moved since
+    /// (for drawing the cage as it will be).
+    pub fn live_lattice(&self) -> Option<(DVec3, DVec3)> {
+        match &self.gesture {
+            Gesture::Lattice { grab, tip, .. } => Some((*grab, *tip - *grab)),
+            _ => None,
+        }
+    }
+
+    /// The lattice grab radius (metres).
+    pub fn lattice_radius(&self) -> f64 {
+        self.config.lattice_radius
+    }
+
+    /// The lattice's shape.
+    pub fn lattice_spec(&self) -> LatticeSpec {
+        self.config.lattice
     }
 
     /// The live stroke so far (for the preview), if a stroke is in progress.
@@ -838,9 +918,9 @@ impl Interaction {
 
     fn tick_inner(&mut self, t: f64, out: &mut Vec<Output>) {
         let paused = match &self.gesture {
-            Gesture::Stroke { paused_since, .. } | Gesture::Sketch { paused_since, .. } => {
-                *paused_since
-            }
+            Gesture::Stroke { paused_since, .. }
+            | Gesture::Sketch { paused_since, .. }
+            | Gesture::Lattice { paused_since, .. } => *paused_since,
             _ => None,
         };
         if let Some(since) = paused
@@ -852,6 +932,17 @@ impl Interaction {
 
     fn check_command(&self, c: &Command) -> Result<()> {
         let tool = match c {
+            Command::SetLatticeRadius { radius } => {
+                let ok =
+                    radius.is_finite() && *radius > 0.0 && *radius <= crate::lattice::MAX_REACH_M;
+                return if ok {
+                    Ok(())
+                } else {
+                    Err(Error::Interaction(InteractionError::LatticeRadius {
+                        radius: *radius,
+                    }))
+                };
+            }
             Command::SetWidth { width } => Tool {
                 width: *width,
                 ..self.tool.clone()
@@ -913,6 +1004,11 @@ impl Interaction {
             }
             Command::SelectNextTarget => self.select_next(t, out),
             Command::Save => self.command_edit(t, Edit::Save, out),
+            Command::SetLatticeRadius { radius } => {
+                if !self.gesture_active() {
+                    self.config.lattice_radius = radius;
+                }
+            }
         }
     }
 
@@ -949,12 +1045,14 @@ impl Interaction {
                 to: mode,
             },
         });
+        self.lattice = mode == InteractionMode::Lattice;
         match mode {
             InteractionMode::Sketch => self.sketching = true,
             InteractionMode::Stroke(stroke_mode) => {
                 self.sketching = false;
                 self.tool.mode = stroke_mode;
             }
+            InteractionMode::Lattice => self.sketching = false,
         }
     }
 
@@ -1017,8 +1115,9 @@ impl Interaction {
     }
 
     fn pause_gesture(&mut self, t: f64) {
-        if let Gesture::Stroke { paused_since, .. } | Gesture::Sketch { paused_since, .. } =
-            &mut self.gesture
+        if let Gesture::Stroke { paused_since, .. }
+        | Gesture::Sketch { paused_since, .. }
+        | Gesture::Lattice { paused_since, .. } = &mut self.gesture
             && paused_since.is_none()
         {
             *paused_since = Some(t);
@@ -1029,9 +1128,9 @@ impl Interaction {
         let last_p = self.last_good.map(|(_, p, _)| p);
         let resume_ok = last_p.is_some_and(|lp| (p - lp).length() <= self.config.max_resume_jump);
         let paused = match &mut self.gesture {
-            Gesture::Stroke { paused_since, .. } | Gesture::Sketch { paused_since, .. } => {
-                paused_since
-            }
+            Gesture::Stroke { paused_since, .. }
+            | Gesture::Sketch { paused_since, .. }
+            | Gesture::Lattice { paused_since, .. } => paused_since,
             _ => return,
         };
         if paused.is_some() {
@@ -1062,6 +1161,7 @@ impl Interaction {
                 }
                 too_long = rows.len() >= cap;
             }
+            Gesture::Lattice { tip, .. } => *tip = p,
             _ => {}
         }
         if too_long {
@@ -1115,6 +1215,14 @@ impl Interaction {
         if down & self.bit(map.select) != 0 {
             self.select_next(t, out);
         }
+        if down & self.bit(map.lattice) != 0 {
+            let to = if self.lattice {
+                InteractionMode::Stroke(self.tool.mode)
+            } else {
+                InteractionMode::Lattice
+            };
+            self.set_mode(t, to, out);
+        }
     }
 
     fn start_gesture(&mut self, t: f64, out: &mut Vec<Output>) {
@@ -1139,6 +1247,11 @@ impl Interaction {
             },
             InteractionMode::Stroke(_) => Gesture::Stroke {
                 samples: vec![StrokeSample { t, position: p }],
+                paused_since: None,
+            },
+            InteractionMode::Lattice => Gesture::Lattice {
+                grab: p,
+                tip: p,
                 paused_since: None,
             },
         };
@@ -1176,6 +1289,26 @@ impl Interaction {
                 }
                 (rows.len() >= self.config.min_sketch_rows as usize)
                     .then_some(Edit::Sketch { rows })
+            }
+            Gesture::Lattice { grab, tip, .. } => {
+                // A drag shorter than a stroke would be is a click: nothing moves.
+                let length = tip.distance(grab);
+                let min = self.config.min_stroke_length;
+                if length < min {
+                    dropped = Some(StrokeRejection::TooShort {
+                        length_m: length,
+                        min_m: min,
+                    });
+                }
+                (length >= min).then(|| {
+                    Edit::Deform(DeformEdit {
+                        targets: self.targets.clone(),
+                        lattice: self.config.lattice,
+                        grab,
+                        radius: self.config.lattice_radius,
+                        displacement: tip - grab,
+                    })
+                })
             }
             idle @ (Gesture::Idle | Gesture::Spent) => {
                 self.gesture = idle;

@@ -188,13 +188,19 @@ pub struct StrokeRecord {
 enum Step {
     Target(TargetRecord),
     Stroke(StrokeRecord),
+    Deform(DeformRecord),
 }
+
+mod deform;
+pub use deform::{DeformRecord, MAX_DEFORMS};
 
 /// Targets, strokes, history and the derived sculpting state.
 #[derive(Debug, Clone, Default)]
 pub struct Document {
     targets: Vec<TargetRecord>,
     strokes: Vec<StrokeRecord>,
+    /// Lattice deformations applied since the base, in order ([`Self::apply_deform`]).
+    deforms: Vec<DeformRecord>,
     redo: Vec<Step>,
     next_id: u64,
     /// Steps with ids up to this are the document's base (made before its first edit,
@@ -491,12 +497,17 @@ impl Document {
         let floor = self.history_floor;
         let last_stroke = self.strokes.last().map(|s| s.id).filter(|&id| id > floor);
         let last_target = self.targets.last().map(|t| t.id).filter(|&id| id > floor);
+        let last_deform = self.deforms.last().map(|d| d.id).filter(|&id| id > floor);
         // Steps are strictly ordered by id: undo whichever came last.
-        let step = match (last_stroke, last_target) {
-            (Some(s), Some(t)) if s > t => self.pop_stroke(),
-            (Some(_), None) => self.pop_stroke(),
-            (_, Some(_)) => self.pop_target(),
-            (None, None) => None,
+        let last = [(last_stroke, 0), (last_target, 1), (last_deform, 2)]
+            .into_iter()
+            .filter_map(|(id, kind)| id.map(|id| (id, kind)))
+            .max();
+        let step = match last {
+            Some((_, 0)) => self.pop_stroke(),
+            Some((_, 1)) => self.pop_target(),
+            Some(_) => self.pop_deform(),
+            None => None,
         };
         match step {
             Some(step) => {
@@ -518,6 +529,7 @@ impl Document {
                 // It was valid when first applied and nothing under it changed.
                 self.push_stroke(s).is_ok()
             }
+            Some(Step::Deform(d)) => self.push_deform(d),
             None => false,
         }
     }
@@ -527,6 +539,7 @@ impl Document {
         let floor = self.history_floor;
         self.strokes.last().is_some_and(|s| s.id > floor)
             || self.targets.last().is_some_and(|t| t.id > floor)
+            || self.deforms.last().is_some_and(|d| d.id > floor)
     }
 
     /// True when [`Self::redo`] would do something.

@@ -823,7 +823,7 @@ pub fn feedback(edits: &[sculpt_core::interaction::Edit], rejected: usize) -> Op
         Some(Feedback::Rejected)
     } else if edits
         .iter()
-        .any(|e| matches!(e, Edit::Stroke(_) | Edit::Sketch { .. }))
+        .any(|e| matches!(e, Edit::Stroke(_) | Edit::Sketch { .. } | Edit::Deform(_)))
     {
         Some(Feedback::Applied)
     } else {
