@@ -1,0 +1,234 @@
+//! The replica: a node's copy of the document, changed only by the operation stream
+//! in order; an owner proposes its edits through the stream.
+
+use std::collections::BTreeSet;
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use async_nats::HeaderMap;
+use async_nats::jetstream;
+use sculpt_core::interaction::Edit;
+
+use super::APPLY_LOG_CAP;
+use super::snapshots::Snapshots;
+use super::stream::{ACK_WAIT, OpMsg, OpRecord};
+use crate::app::AppState;
+use crate::cluster::{
+    ClusterError, HDR_KIND, HDR_OWNER, HDR_SENT, KIND_EDIT, KIND_END, NatsFailure, Subjects,
+    unix_ns,
+};
+use crate::error::VrResult;
+use crate::input::Input;
+
+/// The running node.
+pub(super) struct Node {
+    pub(super) rt: tokio::runtime::Runtime,
+    pub(super) js: jetstream::Context,
+    pub(super) subjects: Subjects,
+    pub(super) name: String,
+    pub(super) owner: bool,
+    pub(super) owners: BTreeSet<String>,
+    pub(super) commit_timeout: Duration,
+    pub(super) run_id: u64,
+    pub(super) proposed: u64,
+    pub(super) ops: mpsc::Receiver<OpMsg>,
+    pub(super) applied_seq: u64,
+    pub(super) applied: u64,
+    pub(super) committed: u64,
+    pub(super) garbage_ops: u64,
+    pub(super) ends: BTreeSet<String>,
+    pub(super) commit_ms: Vec<f64>,
+    pub(super) apply_ms: Vec<f64>,
+    /// Stream position -> proposer's publish to applied here (ms), for the figure
+    /// "applied on every node" (the slowest node per operation).
+    pub(super) apply_by_seq: Vec<(u64, f64)>,
+    pub(super) snap: Snapshots,
+}
+
+impl Node {
+    /// Applies one stream message (once: a message seen again after the consumer was
+    /// recreated is skipped).
+    pub(super) fn take(&mut self, app: &mut AppState, m: OpMsg) -> VrResult<()> {
+        if m.seq <= self.applied_seq {
+            return Ok(());
+        }
+        self.applied_seq = m.seq;
+        match m.kind.as_deref() {
+            Some(KIND_END) => {
+                if let Some(o) = m.owner {
+                    tracing::info!(owner = %o, seq = m.seq, "end of an owner's session");
+                    self.ends.insert(o);
+                } else {
+                    self.garbage_ops += 1;
+                }
+            }
+            Some(KIND_EDIT) => match serde_json::from_slice::<OpRecord>(&m.payload) {
+                Ok(rec) => {
+                    if rec.edit == Edit::Undo
+                        && self.snap.loaded.is_some()
+                        && !app.session.doc.can_undo()
+                    {
+                        // The step to undo is older than the snapshot, whose document
+                        // has no history: rebuild from the whole stream first.
+                        self.rebuild(app, m.seq - 1)?;
+                    }
+                    app.session.apply_committed(rec.t, &rec.edit)?;
+                    self.applied += 1;
+                    if let Some(sent) = m.sent_ns {
+                        let ms = unix_ns().saturating_sub(sent) as f64 / 1e6;
+                        self.apply_ms.push(ms);
+                        if self.apply_by_seq.len() < APPLY_LOG_CAP {
+                            self.apply_by_seq.push((m.seq, ms));
+                        }
+                    }
+                }
+                Err(e) => {
+                    tracing::warn!(
+                        seq = m.seq,
+                        "ignoring an operation that does not decode: {e}"
+                    );
+                    self.garbage_ops += 1;
+                }
+            },
+            _ => {
+                tracing::warn!(
+                    seq = m.seq,
+                    "ignoring a stream message that is not an operation"
+                );
+                self.garbage_ops += 1;
+            }
+        }
+        Ok(())
+    }
+
+    /// Applies what the stream has delivered so far.
+    pub(super) fn drain(&mut self, app: &mut AppState) -> VrResult<()> {
+        while let Ok(m) = self.ops.try_recv() {
+            self.take(app, m)?;
+        }
+        Ok(())
+    }
+
+    /// Waits until the stream position `seq` is applied (or `deadline` passes).
+    pub(super) fn wait_applied(
+        &mut self,
+        app: &mut AppState,
+        seq: u64,
+        deadline: Instant,
+    ) -> VrResult<()> {
+        while self.applied_seq < seq {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return Err(ClusterError::CommitTimeout(self.commit_timeout).into());
+            }
+            match self.ops.recv_timeout(left) {
+                Ok(m) => self.take(app, m)?,
+                Err(mpsc::RecvTimeoutError::Timeout) => {}
+                Err(mpsc::RecvTimeoutError::Disconnected) => {
+                    return Err(ClusterError::JetStream {
+                        what: "operation stream",
+                        source: NatsFailure::ConsumerEnded,
+                    }
+                    .into());
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Publishes one message to the stream and waits for JetStream's acknowledgement,
+    /// retrying (with the same message id, so a retry is never stored twice) through a
+    /// server restart. Returns the stream position.
+    pub(super) fn publish(
+        &mut self,
+        kind: &str,
+        payload: Vec<u8>,
+        deadline: Instant,
+    ) -> VrResult<u64> {
+        self.proposed += 1;
+        let msg_id = format!("{}-{:x}-{}", self.name, self.run_id, self.proposed);
+        loop {
+            let mut headers = HeaderMap::new();
+            headers.insert(async_nats::header::NATS_MESSAGE_ID, msg_id.as_str());
+            headers.insert(HDR_KIND, kind);
+            headers.insert(HDR_OWNER, self.name.as_str());
+            headers.insert(HDR_SENT, unix_ns().to_string().as_str());
+            let js = self.js.clone();
+            let subject = self.subjects.ops.clone();
+            let body = payload.clone();
+            let acked = self.rt.block_on(async move {
+                let ack = js
+                    .publish_with_headers(subject, headers, body.into())
+                    .await?;
+                tokio::time::timeout(ACK_WAIT, ack)
+                    .await
+                    .map_err(|_| NatsFailure::NoAck(ACK_WAIT))?
+                    .map_err(NatsFailure::from)
+            });
+            match acked {
+                Ok(ack) => return Ok(ack.sequence),
+                Err(source) => {
+                    if Instant::now() >= deadline {
+                        return Err(ClusterError::Publish {
+                            subject: self.subjects.ops.clone(),
+                            source,
+                        }
+                        .into());
+                    }
+                    tracing::warn!("operation not acknowledged ({source}); retrying");
+                    std::thread::sleep(Duration::from_millis(200));
+                }
+            }
+        }
+    }
+
+    /// Commits edits proposed by this (owner) node, one at a time: each is stored and
+    /// applied (through the stream) before the next input, as a local edit would be.
+    pub(super) fn commit(&mut self, app: &mut AppState, t: f64, edits: Vec<Edit>) -> VrResult<()> {
+        for edit in edits {
+            let started = Instant::now();
+            let deadline = started + self.commit_timeout;
+            let body = serde_json::to_vec(&OpRecord { t, edit }).map_err(|cause| {
+                ClusterError::Encode {
+                    what: "an operation",
+                    cause,
+                }
+            })?;
+            let seq = self.publish(KIND_EDIT, body, deadline)?;
+            self.committed += 1;
+            self.wait_applied(app, seq, deadline)?;
+            self.commit_ms.push(started.elapsed().as_secs_f64() * 1e3);
+        }
+        Ok(())
+    }
+
+    /// Feeds one input: edits are committed by an owner and dropped by other nodes
+    /// (whose documents follow the stream only).
+    pub(super) fn input(
+        &mut self,
+        app: &mut AppState,
+        input: Input,
+        last_t: &mut f64,
+    ) -> VrResult<()> {
+        match input {
+            Input::Wand(ev) => {
+                let edits = app.session.propose(&ev)?;
+                if ev.t.is_finite() {
+                    *last_t = last_t.max(ev.t);
+                }
+                if self.owner {
+                    self.commit(app, ev.t, edits)?;
+                }
+            }
+            Input::Head(h) => app.set_head(h),
+            Input::Tracking(t) => app.tracking = t,
+            Input::Tick(t) => {
+                let edits = app.session.propose_tick(t)?;
+                if self.owner {
+                    self.commit(app, t, edits)?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
