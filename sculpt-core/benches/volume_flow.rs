@@ -2,7 +2,12 @@
 //! sec. 5.2): 1,000 streamlines of 1,000 Dormand-Prince steps each, in a trivariate
 //! cubic rational volume (7 x 7 x 7 net, curved, 6 attributes: `x, y, z` and the
 //! velocity of a rigid rotation, so no line leaves the volume and every line takes
-//! exactly its 1,000 steps). One core, no threads.
+//! exactly its 1,000 steps).
+//!
+//! Three measurements of the same work: wall time on one thread, the CPU time of that
+//! thread (`.._cpu`, the figure that means something on a shared machine), and wall
+//! time with the seeds split over two threads (`.._2threads`, as `sculpt-tools volume
+//! streamlines` splits them over the cores; the library itself runs no threads).
 //!
 //! `cargo bench -p sculpt-core --bench volume_flow`
 
@@ -11,6 +16,9 @@ use std::time::Duration;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use sculpt_core::volume::{FlowField, StreamlineEnd, StreamlineOptions, Volume};
+
+#[path = "support/cpu_time.rs"]
+mod cpu_time;
 
 /// Lines per iteration.
 const LINES: usize = 1000;
@@ -75,14 +83,25 @@ fn streamlines(c: &mut Criterion) {
     group.sample_size(10);
     group.measurement_time(Duration::from_secs(20));
     group.throughput(Throughput::Elements((LINES * STEPS) as u64));
-    group.bench_function("streamlines_1000x1000", |b| {
+    let trace_all = |seeds: &[[f64; 3]]| {
+        let mut acc = 0.0;
+        for s in seeds {
+            let line = field.trace(black_box(*s), &opts).expect("a valid seed");
+            acc += line.points[STEPS].x;
+        }
+        acc
+    };
+    group.bench_function("streamlines_1000x1000", |b| b.iter(|| trace_all(&seeds)));
+    group.bench_function("streamlines_1000x1000_cpu", |b| {
+        b.iter_custom(|iters| cpu_time::thread_cpu_of(iters, || trace_all(&seeds)))
+    });
+    group.bench_function("streamlines_1000x1000_2threads", |b| {
         b.iter(|| {
-            let mut acc = 0.0;
-            for s in &seeds {
-                let line = field.trace(black_box(*s), &opts).expect("a valid seed");
-                acc += line.points[STEPS].x;
-            }
-            acc
+            let (a, c) = seeds.split_at(LINES / 2);
+            std::thread::scope(|scope| {
+                let other = scope.spawn(|| trace_all(c));
+                trace_all(a) + other.join().expect("no panic")
+            })
         })
     });
     group.finish();

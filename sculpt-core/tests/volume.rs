@@ -845,6 +845,61 @@ fn inverse_map_returns_the_parameters_and_rejects_outside_points() {
 // Construction (Park 2005, sec. 3).
 // ---------------------------------------------------------------------------------
 
+/// The least-squares fit (sparse normal equations, preconditioned CG) against the
+/// pseudo-inverse of the dense collocation matrix `N` (nalgebra's SVD), built here
+/// from the kernel's one-dimensional basis rows. The samples leave a corner of the
+/// domain empty, so the control points there are reached by no sample: the
+/// minimum-norm least-squares solution is zero on them, and the fit must agree
+/// (regression guard for the tensor-product preconditioner, whose scaling has to
+/// vanish on such rows).
+#[test]
+fn scattered_least_squares_matches_the_dense_pseudo_inverse_with_an_empty_corner() {
+    let mut rng = Rng(0x5CA7_7E2D);
+    let m = 700;
+    let mut params = Vec::with_capacity(m * 3);
+    // Pins so the knots span [0, 1] in every direction, outside the empty corner.
+    params.extend([0.0, 0.0, 0.0, 1.0, 0.5, 1.0, 0.5, 1.0, 0.0]);
+    while params.len() < m * 3 {
+        let u = [rng.next(), rng.next(), rng.next()];
+        if u[0] > 0.6 && u[1] > 0.6 {
+            continue;
+        }
+        params.extend(u);
+    }
+    let values: Vec<f64> = params
+        .chunks(3)
+        .flat_map(|u| [(3.0 * u[0]).sin() + u[1] * u[2], (u[0] - u[2]).exp()])
+        .collect();
+    let names = vec!["a".to_string(), "b".to_string()];
+    let counts = [5, 5, 4];
+    let vol = Volume::fit_scattered(&params, &values, names, &[2, 2, 2], &counts).unwrap();
+    let total: usize = counts.iter().product();
+    let n_mat = nalgebra::DMatrix::from_fn(m, total, |s, flat| {
+        let u = &params[s * 3..s * 3 + 3];
+        let idx = [flat / 20, flat / 4 % 5, flat % 4];
+        (0..3)
+            .map(|d| vol.knots(d).basis_row(u[d])[idx[d]])
+            .product::<f64>()
+    });
+    let rhs = nalgebra::DMatrix::from_fn(m, 2, |s, c| values[s * 2 + c]);
+    let reference = n_mat
+        .svd(true, true)
+        .solve(&rhs, sculpt_core::tolerance::SINGULAR_REL)
+        .unwrap();
+    let mut worst: f64 = 0.0;
+    for flat in 0..total {
+        let got = vol.control_values(flat);
+        let want = vec![reference[(flat, 0)], reference[(flat, 1)]];
+        worst = worst.max((got[0] - want[0]).abs().max((got[1] - want[1]).abs()));
+        assert_near!(got, want, FIT_EPS * 100.0, "control point {flat}");
+    }
+    eprintln!("largest difference from the dense pseudo-inverse: {worst:e}");
+    // The corner column (i1 = 4, i2 = 4) is reached by no sample: exactly zero.
+    for l in 0..4 {
+        assert_eq!(vol.control_values(4 * 20 + 4 * 4 + l), vec![0.0, 0.0]);
+    }
+}
+
 #[test]
 fn scattered_fit_reproduces_a_function_in_the_space_and_interpolates_when_underdetermined() {
     let mut rng = Rng(0xF17_0033);

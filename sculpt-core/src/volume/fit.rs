@@ -14,22 +14,28 @@
 //!
 //! - Least squares: the normal matrix is sparse (a control point couples only with
 //!   those within `p_d` indices in every direction: at most `prod (2 p_d + 1)` entries a
-//!   row, 343 for cubics), assembled into compressed rows and solved by conjugate
-//!   gradients with a Jacobi preconditioner, all `k` attributes at once. A control point
-//!   no sample reaches has a zero row; CG started at zero leaves it at zero (the
-//!   least-squares solution of smallest norm in those unknowns).
+//!   row, 343 for cubics). It is assembled cell by cell: the samples are bucketed by
+//!   knot-span cell and each cell's block `B^T B` (`B` the cell's samples x
+//!   `prod (p_d + 1)` basis products) is one dense matrix product, added once into
+//!   compressed rows. The system is solved by preconditioned conjugate gradients, all
+//!   `k` attributes at once, with a scaled tensor-product preconditioner: the Kronecker
+//!   product of the per-direction Gram matrices of the samples' marginals, rescaled
+//!   row by row to the normal matrix's diagonal (Jacobi when a direction's Gram matrix
+//!   is singular). A control point no sample reaches has a zero row and a zero scale;
+//!   CG started at zero leaves it at zero (the least-squares solution of smallest norm
+//!   in those unknowns).
 //! - Minimum norm: `N N^T` is `M x M` with `M < N`; it is assembled through the control
 //!   points each sample touches and factored by nalgebra's dense Cholesky (the SVD
 //!   pseudo-inverse when samples repeat and it is singular).
 //! - Grid interpolation: one collocation matrix per direction (banded, bandwidth `p`),
 //!   LU-factored once by nalgebra and applied to every grid line of that direction.
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DMatrixView};
 use thiserror::Error;
 
 use super::vtk::StructuredGrid;
 use super::{MAX_COMPONENTS, MAX_CONTROL_POINTS, MAX_DIRECTIONS, Volume, VolumeError};
-use crate::nurbs::knots::{KnotVector, MAX_DEGREE};
+use crate::nurbs::knots::{KnotVector, MAX_DEGREE, MAX_ORDER};
 
 /// Why a fit or interpolation failed.
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -131,6 +137,13 @@ struct Csr {
 }
 
 impl Csr {
+    /// The diagonal entry of row `r` (0 when it is not stored).
+    fn diagonal(&self, r: usize) -> f64 {
+        (self.start[r]..self.start[r + 1])
+            .find(|&e| self.col[e] == r)
+            .map_or(0.0, |e| self.val[e])
+    }
+
     /// `y = A x` for `k` right-hand sides stored point-major (`x[i * k + c]`).
     fn mul(&self, x: &[f64], y: &mut [f64], k: usize) {
         for (r, w) in self.start.windows(2).enumerate() {
@@ -146,21 +159,150 @@ impl Csr {
     }
 }
 
-/// Preconditioned conjugate gradients for `A X = B` with `k` columns solved together
-/// (each column has its own step lengths), Jacobi preconditioner.
-fn pcg(a: &Csr, b: &[f64], k: usize) -> Result<Vec<f64>, FitError> {
-    let n = a.start.len() - 1;
-    let inv: Vec<f64> = (0..n)
-        .map(|r| {
-            let d = (a.start[r]..a.start[r + 1])
-                .find(|&e| a.col[e] == r)
-                .map_or(0.0, |e| a.val[e]);
-            if d > 0.0 { 1.0 / d } else { 0.0 }
+/// A preconditioner `z = P^{-1} r` for `k` right-hand sides stored point-major.
+trait Preconditioner {
+    /// Writes `P^{-1} r` into `z`.
+    fn apply(&self, r: &[f64], z: &mut [f64], k: usize);
+}
+
+/// The Jacobi preconditioner `P = diag(A)` (zero where the diagonal is).
+struct Jacobi(Vec<f64>);
+
+impl Jacobi {
+    fn new(a: &Csr) -> Self {
+        let n = a.start.len() - 1;
+        Self(
+            (0..n)
+                .map(|r| {
+                    let d = a.diagonal(r);
+                    if d > 0.0 { 1.0 / d } else { 0.0 }
+                })
+                .collect(),
+        )
+    }
+}
+
+impl Preconditioner for Jacobi {
+    fn apply(&self, r: &[f64], z: &mut [f64], k: usize) {
+        for ((zs, rs), &s) in z.chunks_mut(k).zip(r.chunks(k)).zip(&self.0) {
+            for (zi, ri) in zs.iter_mut().zip(rs) {
+                *zi = s * ri;
+            }
+        }
+    }
+}
+
+/// The scaled tensor-product preconditioner `P^{-1} = S (G_1 (x) .. (x) G_n)^{-1} S`.
+///
+/// `G_d = sum_s b_d(s) b_d(s)^T` is the Gram matrix of direction `d`'s basis over the
+/// samples' `d`-th parameters (the marginal of the normal matrix: for samples spread
+/// independently in each direction, `E[N^T N]` is proportional to the Kronecker
+/// product of the `G_d`). `S = diag(sqrt(K_II / A_II))` rescales it to the actual
+/// normal matrix `A` row by row (the local sample density), and is zero on the rows
+/// no sample reaches, which CG then leaves at zero. `K^{-1}` is applied one direction
+/// at a time, each line of the net multiplied by the dense `G_d^{-1}`
+/// (`count_d <= 128`).
+struct Tensor {
+    /// `G_d^{-1}`, row-major `count_d x count_d`.
+    inv: Vec<Vec<f64>>,
+    counts: Vec<usize>,
+    /// `S` per control point.
+    scale: Vec<f64>,
+}
+
+impl Tensor {
+    /// The preconditioner of `a` from the per-direction Gram matrices `grams`
+    /// (`count_d x count_d`, row-major); `None` when one of them is singular (too few
+    /// distinct parameters in that direction): the caller uses [`Jacobi`].
+    fn new(a: &Csr, grams: &[Vec<f64>], counts: &[usize]) -> Option<Self> {
+        let mut inv = Vec::with_capacity(grams.len());
+        for (g, &c) in grams.iter().zip(counts) {
+            // A basis function no sample's parameter reaches: an identity row (the
+            // matching rows of A are zero, and S removes them).
+            let mut g = nalgebra::DMatrix::from_row_slice(c, c, g);
+            for i in 0..c {
+                if g[(i, i)] == 0.0 {
+                    g[(i, i)] = 1.0;
+                }
+            }
+            let gi = g.cholesky()?.inverse();
+            inv.push((0..c * c).map(|e| gi[(e / c, e % c)]).collect());
+        }
+        let n = counts.len();
+        let total: usize = counts.iter().product();
+        let mut scale = vec![0.0; total];
+        let mut idx = vec![0usize; n];
+        for (r, s) in scale.iter_mut().enumerate() {
+            let mut rest = r;
+            for d in (0..n).rev() {
+                idx[d] = rest % counts[d];
+                rest /= counts[d];
+            }
+            let a_rr = a.diagonal(r);
+            if a_rr > 0.0 {
+                // K_II, the product of the G_d diagonals (positive: A_II > 0 means
+                // some sample reaches every one of the point's basis functions).
+                let k_rr: f64 = (0..n)
+                    .map(|d| grams[d][idx[d] * counts[d] + idx[d]])
+                    .product();
+                *s = (k_rr / a_rr).sqrt();
+            }
+        }
+        Some(Self {
+            inv,
+            counts: counts.to_vec(),
+            scale,
         })
-        .collect();
+    }
+}
+
+impl Preconditioner for Tensor {
+    fn apply(&self, r: &[f64], z: &mut [f64], k: usize) {
+        for ((zs, rs), &s) in z.chunks_mut(k).zip(r.chunks(k)).zip(&self.scale) {
+            for (zi, ri) in zs.iter_mut().zip(rs) {
+                *zi = s * ri;
+            }
+        }
+        // K^{-1} = G_1^{-1} (x) .. (x) G_n^{-1}: every line of every direction.
+        let total = self.scale.len();
+        let mut line = Vec::new();
+        let mut stride = total;
+        for (d, &c) in self.counts.iter().enumerate() {
+            stride /= c;
+            let inv = &self.inv[d];
+            line.resize(c * k, 0.0);
+            for outer in 0..total / (c * stride) {
+                for inner in 0..stride {
+                    let at = |i: usize| ((outer * c + i) * stride + inner) * k;
+                    for i in 0..c {
+                        line[i * k..(i + 1) * k].copy_from_slice(&z[at(i)..at(i) + k]);
+                    }
+                    for i in 0..c {
+                        let out = &mut z[at(i)..at(i) + k];
+                        out.iter_mut().for_each(|v| *v = 0.0);
+                        for (j, &g) in inv[i * c..(i + 1) * c].iter().enumerate() {
+                            for (o, l) in out.iter_mut().zip(&line[j * k..(j + 1) * k]) {
+                                *o += g * l;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        for (zs, &s) in z.chunks_mut(k).zip(&self.scale) {
+            zs.iter_mut().for_each(|v| *v *= s);
+        }
+    }
+}
+
+/// Preconditioned conjugate gradients for `A X = B` with `k` columns solved together
+/// (each column has its own step lengths).
+fn pcg(a: &Csr, b: &[f64], k: usize, pre: &dyn Preconditioner) -> Result<Vec<f64>, FitError> {
+    let n = a.start.len() - 1;
     let mut x = vec![0.0; n * k];
     let mut r = b.to_vec();
-    let mut z: Vec<f64> = (0..n * k).map(|i| inv[i / k] * r[i]).collect();
+    let mut z = vec![0.0; n * k];
+    pre.apply(&r, &mut z, k);
     let mut p = z.clone();
     let mut ap = vec![0.0; n * k];
     let dot = |u: &[f64], v: &[f64], c: usize| -> f64 {
@@ -195,9 +337,7 @@ fn pcg(a: &Csr, b: &[f64], k: usize) -> Result<Vec<f64>, FitError> {
                 r[i * k + c] -= alpha * ap[i * k + c];
             }
         }
-        for i in 0..n * k {
-            z[i] = inv[i / k] * r[i];
-        }
+        pre.apply(&r, &mut z, k);
         for c in 0..k {
             let new = dot(&r, &z, c);
             let beta = if rz[c] > 0.0 { new / rz[c] } else { 0.0 };
@@ -216,15 +356,6 @@ fn pcg(a: &Csr, b: &[f64], k: usize) -> Result<Vec<f64>, FitError> {
     })
 }
 
-/// For one sample: the flat indices of the control points it touches and their basis
-/// products `N_I(u)`.
-struct SampleRow {
-    /// The flat index of the first local control point.
-    start: usize,
-    /// `prod (p_d + 1)` basis products, in the local odometer order.
-    coef: Vec<f64>,
-}
-
 /// The flat offsets (from the first local point) of the local block, odometer order.
 fn local_offsets(degrees: &[usize], strides: &[usize]) -> Vec<usize> {
     let mut out = vec![0usize];
@@ -237,21 +368,65 @@ fn local_offsets(degrees: &[usize], strides: &[usize]) -> Vec<usize> {
     out
 }
 
-fn sample_row(kvs: &[KnotVector], strides: &[usize], u: &[f64]) -> SampleRow {
-    let mut coef = vec![1.0];
-    let mut start = 0;
-    for (d, kv) in kvs.iter().enumerate() {
-        let t = kv.clamp(u[d]);
-        let s = kv.find_span(t);
-        let b = kv.basis(s, t);
-        let p = kv.degree();
-        start += (s - p) * strides[d];
-        coef = coef
-            .iter()
-            .flat_map(|&c| b[..=p].iter().map(move |&v| c * v))
-            .collect();
+/// The samples' knot spans and basis functions, direction by direction.
+struct SampleBases {
+    /// Per sample: the flat index of its first local control point.
+    start: Vec<usize>,
+    /// Per sample and direction: the first basis index (`span - p_d`).
+    first: Vec<usize>,
+    /// Per sample and direction: the `p_d + 1` non-zero basis functions
+    /// (P&T A2.2), padded to [`MAX_ORDER`].
+    basis: Vec<[f64; MAX_ORDER]>,
+    n: usize,
+}
+
+impl SampleBases {
+    fn new(kvs: &[KnotVector], strides: &[usize], params: &[f64]) -> Self {
+        let n = kvs.len();
+        let m = params.len() / n;
+        let mut out = Self {
+            start: Vec::with_capacity(m),
+            first: Vec::with_capacity(m * n),
+            basis: Vec::with_capacity(m * n),
+            n,
+        };
+        for u in params.chunks_exact(n) {
+            let mut start = 0;
+            for (d, kv) in kvs.iter().enumerate() {
+                let t = kv.clamp(u[d]);
+                let s = kv.find_span(t);
+                let first = s - kv.degree();
+                start += first * strides[d];
+                out.first.push(first);
+                out.basis.push(kv.basis(s, t));
+            }
+            out.start.push(start);
+        }
+        out
     }
-    SampleRow { start, coef }
+
+    fn len(&self) -> usize {
+        self.start.len()
+    }
+
+    /// The `prod (p_d + 1)` basis products `N_I(u)` of sample `s` in the local
+    /// odometer order (last direction fastest), into `coef`.
+    fn products(&self, s: usize, degrees: &[usize], coef: &mut Vec<f64>) {
+        coef.clear();
+        coef.push(1.0);
+        for (d, &p) in degrees.iter().enumerate() {
+            let b = &self.basis[s * self.n + d];
+            let len = coef.len();
+            coef.resize(len * (p + 1), 0.0);
+            // Expand in place from the back so no entry is overwritten before use.
+            for i in (0..len).rev() {
+                let c = coef[i];
+                for (j, &v) in b[..=p].iter().enumerate().rev() {
+                    coef[i * (p + 1) + j] = c * v;
+                }
+            }
+        }
+    }
 }
 
 impl Volume {
@@ -359,9 +534,7 @@ impl Volume {
             strides[d] = strides[d + 1] * counts[d + 1];
         }
         let offsets = local_offsets(degrees, &strides);
-        let rows: Vec<SampleRow> = (0..m)
-            .map(|s| sample_row(&kvs, &strides, &params[s * n..(s + 1) * n]))
-            .collect();
+        let rows = SampleBases::new(&kvs, &strides, params);
         let stencil: usize = degrees.iter().map(|p| 2 * p + 1).product();
         if m >= total && total.saturating_mul(stencil) > MAX_NORMAL_ENTRIES {
             return Err(FitError::Shape {
@@ -378,9 +551,9 @@ impl Volume {
             });
         }
         let coeffs = if m >= total {
-            least_squares(&rows, &offsets, values, total, k, degrees, counts, &strides)?
+            least_squares(&rows, &offsets, values, k, degrees, counts, &strides)?
         } else {
-            minimum_norm(&rows, &offsets, values, total, k)?
+            minimum_norm(&rows, &offsets, values, total, k, degrees)?
         };
         Ok(Volume::new(
             degrees.to_vec(),
@@ -393,18 +566,26 @@ impl Volume {
 }
 
 /// The normal equations `(N^T N) A = N^T P` (Park 2005, eq. 11), sparse, by PCG.
-#[allow(clippy::too_many_arguments)]
+///
+/// Assembly goes cell by cell: the samples are bucketed by their knot-span cell
+/// (counting sort on the cell's first control point), each cell's
+/// `prod (p_d + 1)`-square block `sum_s N(s) N(s)^T` is accumulated densely (upper
+/// triangle, contiguous rows), then added once into the rows' stencils. The system
+/// is solved by conjugate gradients with the scaled tensor-product preconditioner
+/// ([`Tensor`]), or Jacobi when a direction's Gram matrix is singular.
 fn least_squares(
-    rows: &[SampleRow],
+    rows: &SampleBases,
     offsets: &[usize],
     values: &[f64],
-    total: usize,
     k: usize,
     degrees: &[usize],
     counts: &[usize],
     strides: &[usize],
 ) -> Result<Vec<f64>, FitError> {
     let n = degrees.len();
+    let total: usize = counts.iter().product();
+    let m = rows.len();
+    let nl = offsets.len();
     // The stencil of a row: every offset vector in prod [-p_d, p_d].
     let widths: Vec<usize> = degrees.iter().map(|p| 2 * p + 1).collect();
     let stencil: usize = widths.iter().product();
@@ -413,7 +594,7 @@ fn least_squares(
         sstrides[d] = sstrides[d + 1] * widths[d + 1];
     }
     // local index -> multi-index within the block.
-    let local: Vec<Vec<usize>> = (0..offsets.len())
+    let local: Vec<Vec<usize>> = (0..nl)
         .map(|mut l| {
             let mut idx = vec![0; n];
             for d in (0..n).rev() {
@@ -423,36 +604,77 @@ fn least_squares(
             idx
         })
         .collect();
-    // slot[a][b]: where N_a N_b goes in row a's stencil.
-    let slot: Vec<Vec<usize>> = local
+    // slot[a * nl + b]: where N_a N_b goes in row a's stencil.
+    let sstrides = &sstrides;
+    let slot: Vec<usize> = local
         .iter()
-        .map(|a| {
-            local
-                .iter()
-                .map(|b| {
-                    (0..n)
-                        .map(|d| (b[d] + degrees[d] - a[d]) * sstrides[d])
-                        .sum()
-                })
-                .collect()
+        .flat_map(|a| {
+            local.iter().map(move |b| {
+                (0..n)
+                    .map(|d| (b[d] + degrees[d] - a[d]) * sstrides[d])
+                    .sum::<usize>()
+            })
         })
         .collect();
+    // Bucket the samples by cell (counting sort on the first control point).
+    let mut bucket = vec![0usize; total + 1];
+    for &st in &rows.start {
+        bucket[st + 1] += 1;
+    }
+    for i in 0..total {
+        bucket[i + 1] += bucket[i];
+    }
+    let mut order = vec![0usize; m];
+    let mut fill = bucket.clone();
+    for (s, &st) in rows.start.iter().enumerate() {
+        order[fill[st]] = s;
+        fill[st] += 1;
+    }
     let mut ata = vec![0.0; total * stencil];
     let mut atb = vec![0.0; total * k];
-    for (s, row) in rows.iter().enumerate() {
-        let val = &values[s * k..(s + 1) * k];
-        for (a, (&oa, &ca)) in offsets.iter().zip(&row.coef).enumerate() {
-            if ca == 0.0 {
-                continue;
+    // Per-direction Gram matrices of the marginals (for the preconditioner).
+    let mut grams: Vec<Vec<f64>> = counts.iter().map(|&c| vec![0.0; c * c]).collect();
+    let mut block = DMatrix::<f64>::zeros(nl, nl);
+    // The cell's samples' basis products, one column per sample.
+    let mut products: Vec<f64> = Vec::new();
+    let mut coef = Vec::with_capacity(nl);
+    for cell in 0..total {
+        let samples = &order[bucket[cell]..bucket[cell + 1]];
+        if samples.is_empty() {
+            continue;
+        }
+        products.clear();
+        for &s in samples {
+            rows.products(s, degrees, &mut coef);
+            products.extend_from_slice(&coef);
+            let val = &values[s * k..(s + 1) * k];
+            for (a, &ca) in coef.iter().enumerate() {
+                let ia = cell + offsets[a];
+                for (t, v) in atb[ia * k..(ia + 1) * k].iter_mut().zip(val) {
+                    *t += ca * v;
+                }
             }
-            let ia = row.start + oa;
-            let base = ia * stencil;
-            let srow = &slot[a];
-            for (b, &cb) in row.coef.iter().enumerate() {
-                ata[base + srow[b]] += ca * cb;
+            for (d, g) in grams.iter_mut().enumerate() {
+                let (c, p) = (counts[d], degrees[d]);
+                let f = rows.first[s * n + d];
+                let b = &rows.basis[s * n + d];
+                for i in 0..=p {
+                    for j in 0..=p {
+                        g[(f + i) * c + f + j] += b[i] * b[j];
+                    }
+                }
             }
-            for (t, v) in atb[ia * k..(ia + 1) * k].iter_mut().zip(val) {
-                *t += ca * v;
+        }
+        // block = B^T B with B the samples x nl matrix of products (a BLAS-3 product,
+        // nalgebra's gemm through matrixmultiply): `bt` holds B^T column-major, and
+        // the view reads the same memory as B.
+        let bt = DMatrixView::from_slice(&products, nl, samples.len());
+        let b = DMatrixView::from_slice_with_strides(&products, samples.len(), nl, nl, 1);
+        block.gemm(1.0, &bt, &b, 0.0);
+        for a in 0..nl {
+            let base = (cell + offsets[a]) * stencil;
+            for b in 0..nl {
+                ata[base + slot[a * nl + b]] += block[(a, b)];
             }
         }
     }
@@ -487,24 +709,31 @@ fn least_squares(
         }
         csr.start.push(csr.col.len());
     }
-    pcg(&csr, &atb, k)
+    drop(ata);
+    match Tensor::new(&csr, &grams, counts) {
+        Some(pre) => pcg(&csr, &atb, k, &pre),
+        None => pcg(&csr, &atb, k, &Jacobi::new(&csr)),
+    }
 }
 
 /// The minimum-norm solution `A = N^T (N N^T)^{-1} P` (Park 2005, eqs. 12 to 15).
 fn minimum_norm(
-    rows: &[SampleRow],
+    rows: &SampleBases,
     offsets: &[usize],
     values: &[f64],
     total: usize,
     k: usize,
+    degrees: &[usize],
 ) -> Result<Vec<f64>, FitError> {
     let m = rows.len();
+    let mut coef = Vec::with_capacity(offsets.len());
     // For each control point, the samples touching it.
     let mut touching: Vec<Vec<(usize, f64)>> = vec![Vec::new(); total];
-    for (s, row) in rows.iter().enumerate() {
-        for (&o, &c) in offsets.iter().zip(&row.coef) {
+    for s in 0..m {
+        rows.products(s, degrees, &mut coef);
+        for (&o, &c) in offsets.iter().zip(&coef) {
             if c != 0.0 {
-                touching[row.start + o].push((s, c));
+                touching[rows.start[s] + o].push((s, c));
             }
         }
     }
@@ -525,9 +754,8 @@ fn minimum_norm(
             .map_err(FitError::Singular)?,
     };
     let mut out = vec![0.0; total * k];
-    for (s, row) in rows.iter().enumerate() {
-        for (&o, &c) in offsets.iter().zip(&row.coef) {
-            let i = row.start + o;
+    for (i, list) in touching.iter().enumerate() {
+        for &(s, c) in list {
             for col in 0..k {
                 out[i * k + col] += c * q[(s, col)];
             }
