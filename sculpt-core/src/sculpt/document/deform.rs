@@ -11,9 +11,7 @@
 
 use glam::DVec2;
 
-use super::{
-    Built, Document, PIECE_KEYS, Step, StrokeId, TargetId, TargetRecord, plan_grid, snap_distance,
-};
+use super::{Built, Document, PIECE_KEYS, Step, StrokeId, TargetId, TargetRecord, plan_grid};
 use crate::error::{DocumentError, Error, Result};
 use crate::lattice::Lattice;
 use crate::nurbs::NurbsSurface;
@@ -149,6 +147,80 @@ impl Document {
             let name = self.targets[pos].name.clone();
             records.push((pos, TargetRecord::new(*id, name, pick(before, after))));
         }
+        // The new surfaces go in first, so each carried stroke is built among them (on
+        // a patch network it may cross onto a neighbour, `build_pieces`); should one
+        // fail, the old surfaces go back and nothing has changed.
+        let mut replaced = Vec::with_capacity(records.len());
+        for (pos, record) in records {
+            replaced.push((pos, std::mem::replace(&mut self.targets[pos], record)));
+        }
+        let built = match self.carried_strokes(d, side) {
+            Ok(built) => built,
+            Err(e) => {
+                for (pos, record) in replaced {
+                    self.targets[pos] = record;
+                }
+                return Err(e);
+            }
+        };
+        self.clear_preview();
+        for &(pos, _) in &replaced {
+            let record = &self.targets[pos];
+            for detail in [Detail::Interactive, Detail::Final] {
+                let key = (record.id, detail);
+                if let Some(view) = self.views.remove(&key) {
+                    let n = view.map().n();
+                    self.removed
+                        .push((detail, (0..n * n).map(|r| view.patch_key(r)).collect()));
+                }
+                self.dirty.insert(key, None);
+                self.grids.insert(key, plan_grid(&record.surface, detail));
+            }
+        }
+        // The patch network is found again from the new surfaces.
+        for state in self.conform.values_mut() {
+            state.ids.clear();
+        }
+        for (pos, input, (pieces, targets)) in built {
+            let sid = self.strokes[pos].id;
+            if let Some(old) = self.built.remove(&sid) {
+                let mut surfaces = self.surfaces.lock();
+                for key in &old.keys {
+                    surfaces.remove(key);
+                }
+                drop(surfaces);
+                self.mark_built_dirty(&old);
+            }
+            let keys: Vec<u64> = std::iter::once(sid)
+                .chain((1..pieces.pieces.len()).map(|_| {
+                    self.piece_serial += 1;
+                    PIECE_KEYS + self.piece_serial
+                }))
+                .collect();
+            self.samples_total =
+                self.samples_total - self.strokes[pos].input.samples.len() + input.samples.len();
+            self.strokes[pos].input = input;
+            let built = Built {
+                keys,
+                pieces,
+                targets,
+            };
+            self.mark_built_dirty(&built);
+            self.built.insert(sid, built);
+        }
+        Ok(())
+    }
+}
+
+impl Document {
+    /// The strokes of `d` at `side`, each built on the targets now in place:
+    /// `(position, input, (pieces, target of each piece))`.
+    #[allow(clippy::type_complexity)]
+    fn carried_strokes(
+        &self,
+        d: &DeformRecord,
+        side: Side,
+    ) -> Result<Vec<(usize, StrokeInput, (StrokePieces, Vec<TargetId>))>> {
         let mut built = Vec::with_capacity(d.strokes.len());
         for (sid, before, after) in &d.strokes {
             let input = match side {
@@ -164,57 +236,17 @@ impl Document {
                     id: *sid,
                 })?;
             let on = self.strokes[pos].target;
-            let target =
-                records
-                    .iter()
-                    .map(|(_, r)| r)
-                    .find(|r| r.id == on)
-                    .ok_or(Error::NotFound {
-                        kind: "target",
-                        id: on,
-                    })?;
-            let snap = snap_distance(&input.tool, target.surface.size());
-            let pieces = StrokePieces::build(&target.target, input, snap)?;
-            built.push((pos, input.clone(), pieces));
+            let target = self
+                .targets
+                .iter()
+                .find(|t| t.id == on)
+                .ok_or(Error::NotFound {
+                    kind: "target",
+                    id: on,
+                })?;
+            built.push((pos, input.clone(), self.build_pieces(target, input)?));
         }
-        self.clear_preview();
-        for (pos, record) in records {
-            for detail in [Detail::Interactive, Detail::Final] {
-                let key = (record.id, detail);
-                if let Some(view) = self.views.remove(&key) {
-                    let n = view.map().n();
-                    self.removed
-                        .push((detail, (0..n * n).map(|r| view.patch_key(r)).collect()));
-                }
-                self.dirty.insert(key, None);
-                self.grids.insert(key, plan_grid(&record.surface, detail));
-            }
-            self.targets[pos] = record;
-        }
-        // The patch network is found again from the new surfaces.
-        for state in self.conform.values_mut() {
-            state.ids.clear();
-        }
-        for (pos, input, pieces) in built {
-            let sid = self.strokes[pos].id;
-            if let Some(old) = self.built.remove(&sid) {
-                let mut surfaces = self.surfaces.lock();
-                for key in &old.keys {
-                    surfaces.remove(key);
-                }
-            }
-            let keys: Vec<u64> = std::iter::once(sid)
-                .chain((1..pieces.pieces.len()).map(|_| {
-                    self.piece_serial += 1;
-                    PIECE_KEYS + self.piece_serial
-                }))
-                .collect();
-            self.samples_total =
-                self.samples_total - self.strokes[pos].input.samples.len() + input.samples.len();
-            self.strokes[pos].input = input;
-            self.built.insert(sid, Built { keys, pieces });
-        }
-        Ok(())
+        Ok(built)
     }
 }
 
