@@ -13,26 +13,32 @@
 //!   byte-identical. A frame barrier ([`barrier::Barrier`]) on `<session>.barrier`
 //!   holds each frame until every live node is ready (software swap lock).
 //!
-//! Subjects are namespaced by the session name (`[cluster] session`); nodes connect
-//! with the user and password of `[cluster]`; the default server is loopback. See
-//! `docs/cluster.md`.
+//! Subjects are namespaced by the session name (`[cluster] session`). Each role
+//! connects with its own credentials ([`auth`]: a user per role, held to its subjects
+//! by the server); an operation's owner is the last token of its subject, and nodes
+//! refuse operations from an owner the config does not name. The default server is
+//! loopback. See `docs/cluster.md`.
 
+pub mod auth;
 pub mod barrier;
 pub mod ingest;
 pub mod node;
 pub mod snapshot;
 pub mod wand;
 
+use std::path::PathBuf;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::config::ScreenConfig;
+use auth::Credentials;
 
 /// Header: what a message is ([`KIND_FRAME`], [`KIND_EDIT`], [`KIND_END`]).
 pub const HDR_KIND: &str = "Ws-Kind";
-/// Header: the proposing node of an operation.
+/// Header: the proposing node of an operation (it must be the owner its subject,
+/// `<session>.ops.<owner>`, names; the subject decides).
 pub const HDR_OWNER: &str = "Ws-Owner";
 /// Header: when the message was sent, Unix time in nanoseconds (for the latency
 /// figures only; nothing depends on it).
@@ -94,6 +100,14 @@ pub enum ClusterError {
         #[source]
         source: NatsFailure,
     },
+    /// The server refused what this role published (its user may not publish there).
+    #[error("the NATS server refused publishing on {subject}: {said}")]
+    Refused {
+        /// The subject.
+        subject: String,
+        /// What the server said.
+        said: String,
+    },
     /// An operation was not acknowledged by JetStream in time.
     #[error("operation not committed within {0:?} (is the NATS server up?)")]
     CommitTimeout(Duration),
@@ -124,6 +138,9 @@ pub enum NatsFailure {
     /// A JetStream publish, or its acknowledgement.
     #[error(transparent)]
     JetStreamPublish(#[from] async_nats::jetstream::context::PublishError),
+    /// Finding the operation stream.
+    #[error(transparent)]
+    GetStream(#[from] async_nats::jetstream::context::GetStreamError),
     /// JetStream did not acknowledge a publish in time.
     #[error("no acknowledgement within {0:?}")]
     NoAck(Duration),
@@ -146,8 +163,20 @@ pub enum ClusterConfigError {
     #[error("session {0:?} must be 1..=64 of A-Z a-z 0-9 - _")]
     Session(String),
     /// Only one of user and password is given.
-    #[error("user and password go together")]
-    Credentials,
+    #[error("{0}: user and password go together")]
+    Credentials(String),
+    /// An nkey and a user are both given.
+    #[error("{0}: give an nkey or a user and password, not both")]
+    NkeyAndUser(String),
+    /// The nkey seed file could not be read.
+    #[error("reading the nkey seed file {path}")]
+    NkeyFile {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
     /// A time or rate is not positive.
     #[error("{name} must be positive, got {value}")]
     NotPositive {
@@ -195,7 +224,8 @@ pub enum ClusterConfigError {
 /// "#)?;
 /// let c = cfg.cluster.unwrap();
 /// assert_eq!(c.url, "nats://127.0.0.1:4222");
-/// assert_eq!(c.subjects().ops, "cave1.ops");
+/// assert_eq!(c.subjects().ops, "cave1.ops.*");
+/// assert_eq!(c.subjects().op("front"), "cave1.ops.front");
 /// # Ok::<(), vr_app::VrError>(())
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -203,10 +233,15 @@ pub enum ClusterConfigError {
 pub struct ClusterSection {
     /// The NATS server (default loopback).
     pub url: String,
-    /// NATS user name (with `password`).
+    /// NATS user name (with `password`): every role's credentials unless its own
+    /// section or the command line gives others.
     pub user: Option<String>,
     /// NATS password.
     pub password: Option<String>,
+    /// A file holding an nkey seed, instead of a user and password.
+    pub nkey: Option<PathBuf>,
+    /// `[cluster.ingest]`: the ingest's credentials.
+    pub ingest: Credentials,
     /// The session: the prefix of every subject and the stream's name.
     pub session: String,
     /// Frame barrier: seconds to wait for a node before dropping it from the barrier.
@@ -241,6 +276,8 @@ impl Default for ClusterSection {
             url: "nats://127.0.0.1:4222".into(),
             user: None,
             password: None,
+            nkey: None,
+            ingest: Credentials::default(),
             session: "wandsculpt".into(),
             barrier_timeout: 0.5,
             frame_rate: 60.0,
@@ -274,6 +311,26 @@ pub struct NodeSection {
     /// Its session directory, replacing `[files] dir` (`--out` wins).
     #[serde(default)]
     pub out: Option<std::path::PathBuf>,
+    /// This node's NATS user (with `password`), replacing `[cluster]`'s.
+    #[serde(default)]
+    pub user: Option<String>,
+    /// This node's NATS password.
+    #[serde(default)]
+    pub password: Option<String>,
+    /// This node's nkey seed file, replacing `[cluster]`'s credentials.
+    #[serde(default)]
+    pub nkey: Option<PathBuf>,
+}
+
+impl NodeSection {
+    /// The credentials of this node's section (empty: `[cluster]`'s apply).
+    pub fn credentials(&self) -> Credentials {
+        Credentials {
+            user: self.user.clone(),
+            password: self.password.clone(),
+            nkey: self.nkey.clone(),
+        }
+    }
 }
 
 fn default_feed() -> String {
@@ -285,7 +342,7 @@ fn default_feed() -> String {
 pub struct Subjects {
     /// The JetStream stream holding the operations.
     pub stream: String,
-    /// Operations (JetStream).
+    /// Every owner's operations (JetStream): the stream's subject filter.
     pub ops: String,
     /// Frame barrier reports (core NATS).
     pub barrier: String,
@@ -297,6 +354,19 @@ pub struct Subjects {
 }
 
 impl Subjects {
+    /// The operations of owner `node` (JetStream): only its user may publish here.
+    pub fn op(&self, node: &str) -> String {
+        format!("{}.ops.{node}", self.prefix)
+    }
+
+    /// The owner an operation's subject names (`<session>.ops.<owner>`), if it is one.
+    pub fn op_owner<'a>(&self, subject: &'a str) -> Option<&'a str> {
+        subject
+            .strip_prefix(self.prefix.as_str())?
+            .strip_prefix(".ops.")
+            .filter(|o| valid_token(o))
+    }
+
     /// The wand poses of owner `node` (core NATS).
     pub fn wand(&self, node: &str) -> String {
         format!("{}.wand.{node}", self.prefix)
@@ -321,7 +391,7 @@ impl ClusterSection {
     pub fn subjects(&self) -> Subjects {
         Subjects {
             stream: format!("WS_{}", self.session),
-            ops: format!("{}.ops", self.session),
+            ops: format!("{}.ops.*", self.session),
             barrier: format!("{}.barrier", self.session),
             snapshots: format!("WS_{}_snap", self.session),
             wands: format!("{}.wand.*", self.session),
@@ -335,8 +405,12 @@ impl ClusterSection {
         if !valid_token(&self.session) {
             return bad(ClusterConfigError::Session(self.session.clone()));
         }
-        if self.user.is_some() != self.password.is_some() {
-            return bad(ClusterConfigError::Credentials);
+        if let Err(e) = self
+            .defaults()
+            .validate("[cluster]")
+            .and_then(|()| self.ingest.validate("[cluster.ingest]"))
+        {
+            return bad(e);
         }
         for (name, v) in [
             ("barrier_timeout", self.barrier_timeout),
@@ -359,6 +433,9 @@ impl ClusterSection {
             }
             if !names.insert(&n.name) {
                 return bad(ClusterConfigError::Duplicate(n.name.clone()));
+            }
+            if let Err(e) = n.credentials().validate(&format!("node {:?}", n.name)) {
+                return bad(e);
             }
         }
         Ok(())
@@ -383,24 +460,85 @@ impl ClusterSection {
             .collect()
     }
 
-    /// Connects with the configured credentials. The client reconnects by itself
-    /// after a server restart; the first connection is not retried, so a refused
-    /// connection (bad credentials) is an error at once.
-    pub async fn connect(&self, name: &str) -> Result<async_nats::Client, ClusterError> {
-        let opts = match (&self.user, &self.password) {
-            (Some(u), Some(p)) => {
-                async_nats::ConnectOptions::with_user_and_password(u.clone(), p.clone())
-            }
-            _ => async_nats::ConnectOptions::new(),
-        };
-        opts.name(name)
-            .connection_timeout(Duration::from_secs(5))
+    /// `[cluster]`'s own credentials (every role's, unless replaced).
+    pub fn defaults(&self) -> Credentials {
+        Credentials {
+            user: self.user.clone(),
+            password: self.password.clone(),
+            nkey: self.nkey.clone(),
+        }
+    }
+
+    /// The ingest's credentials: the command line's (`cli`), else `[cluster.ingest]`,
+    /// else `[cluster]`'s; each place's are taken whole.
+    pub fn ingest_credentials(&self, cli: &Credentials) -> Credentials {
+        cli.clone().or(self.ingest.clone()).or(self.defaults())
+    }
+
+    /// Node `node`'s credentials: the command line's, else its `[[cluster.node]]`'s,
+    /// else `[cluster]`'s.
+    pub fn node_credentials(&self, node: &NodeSection, cli: &Credentials) -> Credentials {
+        cli.clone().or(node.credentials()).or(self.defaults())
+    }
+
+    /// Connects with `credentials`. The client reconnects by itself after a server
+    /// restart; the first connection is not retried, so a refused connection (bad
+    /// credentials) is an error at once. What the server refuses later (a publish
+    /// its permissions do not allow) is logged and noted in `refused`.
+    pub async fn connect(
+        &self,
+        name: &str,
+        credentials: &Credentials,
+        refused: &ServerRefusals,
+    ) -> Result<async_nats::Client, ClusterError> {
+        credentials
+            .validate("credentials")
+            .map_err(ClusterError::Config)?;
+        let noted = refused.clone();
+        credentials
+            .connect_options()?
+            .name(name)
+            .event_callback(move |event| {
+                let noted = noted.clone();
+                async move {
+                    if let async_nats::Event::ServerError(e) = event {
+                        // Said once: a refused publisher hears this for every message.
+                        if noted.note(e.to_string()) == 1 {
+                            tracing::warn!("the NATS server says: {e}");
+                        }
+                    }
+                }
+            })
             .connect(self.url.as_str())
             .await
             .map_err(|source| ClusterError::Connect {
                 url: self.url.clone(),
                 source,
             })
+    }
+}
+
+/// The errors the server sent a connection after it was made (a permissions
+/// violation: a publish its user may not make, which the server drops), shared with
+/// the connection's event handler.
+#[derive(Debug, Clone, Default)]
+pub struct ServerRefusals(std::sync::Arc<std::sync::Mutex<Vec<String>>>);
+
+impl ServerRefusals {
+    /// Notes one error (the first 16 are kept); returns how many were noted so far.
+    fn note(&self, e: String) -> usize {
+        let Ok(mut v) = self.0.lock() else {
+            return 0;
+        };
+        if v.len() < 16 {
+            v.push(e);
+        }
+        v.len()
+    }
+
+    /// The first error the server sent, if any.
+    pub fn first(&self) -> Option<String> {
+        self.0.lock().ok()?.first().cloned()
     }
 }
 
@@ -480,6 +618,9 @@ mod tests {
             owner: false,
             screen: None,
             out: None,
+            user: None,
+            password: None,
+            nkey: None,
         });
         assert!(c.validate().is_err());
         c.nodes[0].name = "left".into();
@@ -491,6 +632,26 @@ mod tests {
         assert_eq!(c.subjects().stream, "WS_s1");
         assert_eq!(c.subjects().snapshots, "WS_s1_snap");
         assert_eq!(c.subjects().wand("left"), "s1.wand.left");
+        assert_eq!(c.subjects().op("left"), "s1.ops.left");
+        let s = c.subjects();
+        assert_eq!(s.op_owner("s1.ops.left"), Some("left"));
+        assert_eq!(s.op_owner("s1.ops"), None);
+        assert_eq!(s.op_owner("s2.ops.left"), None);
+        assert_eq!(s.op_owner("s1.ops.a.b"), None);
+        assert_eq!(s.op_owner("s1.barrier"), None);
+        c.nodes[0].nkey = Some("/k".into());
+        c.nodes[0].user = Some("u".into());
+        c.nodes[0].password = Some("p".into());
+        assert!(
+            matches!(
+                c.validate(),
+                Err(ClusterError::Config(ClusterConfigError::NkeyAndUser(w))) if w.contains("left")
+            ),
+            "an nkey and a user on one node"
+        );
+        c.nodes[0].user = None;
+        c.nodes[0].password = None;
+        assert!(c.validate().is_ok());
         c.wand_rate = 0.0;
         assert!(c.validate().is_err());
     }
