@@ -1,6 +1,8 @@
 //! The CAVE cluster over NATS JetStream, end to end with real processes: a real
-//! `nats-server` (JetStream, file store in a temporary directory, user/password) on a
-//! free loopback port, `replay SESSION --serve` as the tracker, `wandsculpt --cluster
+//! `nats-server` (JetStream, file store in a temporary directory, one user per role
+//! with the subject permissions of `vr_app::cluster::auth::server_authorization`: the
+//! ingest with an nkey, each owner and the render nodes with a password) on a free
+//! loopback port, `replay SESSION --serve` as the tracker, `wandsculpt --cluster
 //! ingest` publishing its frames and headless `wandsculpt --cluster node` render nodes.
 //!
 //! The tests fail (never skip) when `nats-server` is missing and `CI` is set.
@@ -22,8 +24,22 @@ use vr_app::session::{DOCUMENT_FILE, JOURNAL_FILE};
 
 /// Plenty for a few seconds of session on a loaded 2-core CI machine.
 const TIMEOUT: Duration = Duration::from_secs(240);
-const USER: &str = "cave";
-const PASSWORD: &str = "s3cret";
+/// The render nodes' user.
+const RENDER: &str = "render";
+/// The owner users the server knows (each may publish operations on its own
+/// subject). `ghost` is no owner in any test's config: what it publishes, the nodes
+/// must refuse.
+const OWNERS: [&str; 4] = ["front", "wall", "desk", "ghost"];
+
+/// The password of test user `user`.
+fn password(user: &str) -> String {
+    format!("{user}-pw")
+}
+
+/// The session of every test in this process.
+fn session() -> String {
+    format!("s{}", std::process::id())
+}
 
 fn nats_server_bin() -> Option<PathBuf> {
     let found = std::env::var_os("PATH").and_then(|paths| {
@@ -43,12 +59,17 @@ fn nats_server_bin() -> Option<PathBuf> {
     found
 }
 
-/// A nats-server with JetStream and a file store, on a loopback port.
+/// A nats-server with JetStream and a file store, on a loopback port, with a user
+/// per role.
 struct Nats {
     bin: PathBuf,
     dir: PathBuf,
     port: u16,
     child: Option<ChildGuard>,
+    /// The ingest's nkey seed file.
+    ingest_seed: PathBuf,
+    /// The ingest's nkey (public).
+    ingest_public: String,
 }
 
 impl Nats {
@@ -58,11 +79,16 @@ impl Nats {
             .local_addr()
             .unwrap()
             .port();
+        let key = nkeys::KeyPair::new_user();
+        let ingest_seed = dir.join("ingest.nk");
+        std::fs::write(&ingest_seed, format!("{}\n", key.seed().unwrap())).unwrap();
         let mut nats = Self {
             bin,
             dir: dir.to_path_buf(),
             port,
             child: None,
+            ingest_seed,
+            ingest_public: key.public_key(),
         };
         nats.run();
         nats
@@ -74,20 +100,30 @@ impl Nats {
 
     /// Starts (or restarts) the server on the same port and store.
     fn run(&mut self) {
+        use vr_app::cluster::auth::{Principal, RoleUsers, server_authorization};
         let conf = self.dir.join("nats.conf");
         let log = self.dir.join("nats.log");
         let _ = std::fs::remove_file(&log);
+        let with_password = |user: &str| Principal::Password {
+            user: user.into(),
+            password: password(user),
+        };
+        let users = RoleUsers {
+            ingest: vec![Principal::Nkey(self.ingest_public.clone())],
+            owners: OWNERS
+                .iter()
+                .map(|o| (o.to_string(), with_password(o)))
+                .collect(),
+            render: vec![with_password(RENDER)],
+        };
         std::fs::write(
             &conf,
             format!(
-                r#"listen: 127.0.0.1:{port}
-jetstream {{ store_dir: "{store}" }}
-log_file: "{log}"
-authorization {{ users = [ {{ user: "{USER}", password: "{PASSWORD}" }} ] }}
-"#,
+                "listen: 127.0.0.1:{port}\njetstream {{ store_dir: \"{store}\" }}\nlog_file: \"{log}\"\n{auth}",
                 port = self.port,
                 store = self.dir.join("store").display(),
                 log = log.display(),
+                auth = server_authorization(&session(), &users),
             ),
         )
         .unwrap();
@@ -164,25 +200,18 @@ fn rig() -> Option<(PathBuf, tempfile::TempDir)> {
     Some((bin, tempfile::tempdir().unwrap()))
 }
 
-/// `DIR/cave.toml`: the cluster config of most tests (the right password).
+/// `DIR/cave.toml`: the cluster config of most tests.
 fn cave_config(dir: &Path, addr: &str, nats: &Nats, extra: &str, nodes: &[NodeSpec]) -> PathBuf {
-    cluster_config(
-        &dir.join("cave.toml"),
-        addr,
-        &nats.url(),
-        PASSWORD,
-        extra,
-        nodes,
-    )
+    cluster_config(&dir.join("cave.toml"), addr, nats, extra, nodes)
 }
 
 /// The one cluster config: the tracker `addr` (for the ingest), the server, the
-/// session and a section per node.
+/// session, each role's credentials (the render nodes' in `[cluster]`, the ingest's
+/// nkey, each owner's own user) and a section per node.
 fn cluster_config(
     path: &Path,
     addr: &str,
-    url: &str,
-    password: &str,
+    nats: &Nats,
     extra: &str,
     nodes: &[NodeSpec],
 ) -> PathBuf {
@@ -203,13 +232,19 @@ addr = "{addr}"
 
 [cluster]
 url = "{url}"
-user = "{USER}"
-password = "{password}"
-session = "s{}"
+user = "{RENDER}"
+password = "{render_pw}"
+session = "{session}"
 {timeout}
 {extra}
+
+[cluster.ingest]
+nkey = "{seed}"
 "#,
-        std::process::id(),
+        url = nats.url(),
+        render_pw = password(RENDER),
+        session = session(),
+        seed = nats.ingest_seed.display(),
         // Generous for a loaded CI machine, unless the test sets its own.
         timeout = if extra.contains("barrier_timeout") {
             ""
@@ -219,8 +254,17 @@ session = "s{}"
     );
     for n in nodes {
         let [ll, lr, ul] = n.screen;
+        let credentials = if n.owner {
+            format!(
+                "user = \"{}\"\npassword = \"{}\"\n",
+                n.name,
+                password(n.name)
+            )
+        } else {
+            String::new()
+        };
         text.push_str(&format!(
-            "\n[[cluster.node]]\nname = \"{}\"\nowner = {}\nfeed = \"{}\"\n[cluster.node.screen]\nlower_left = {ll:?}\nlower_right = {lr:?}\nupper_left = {ul:?}\n",
+            "\n[[cluster.node]]\nname = \"{}\"\nowner = {}\nfeed = \"{}\"\n{credentials}[cluster.node.screen]\nlower_left = {ll:?}\nlower_right = {lr:?}\nupper_left = {ul:?}\n",
             n.name, n.owner, n.feed
         ));
     }
@@ -254,6 +298,17 @@ fn start_ingest(config: &Path, feed: &str) -> ChildGuard {
             .stdout(Stdio::null())
             .stderr(Stdio::piped()),
     )
+}
+
+/// Starts nodes `front` and `left` of `config` in `dir/front` and `dir/left` and waits
+/// until both are ready: their session directories and processes.
+fn start_front_and_left(config: &Path, dir: &Path) -> (PathBuf, PathBuf, ChildGuard, ChildGuard) {
+    let (front, left) = (dir.join("front"), dir.join("left"));
+    let mut a = start_node(config, "front", &front);
+    let mut b = start_node(config, "left", &left);
+    wait_ready(&mut a, &front);
+    wait_ready(&mut b, &left);
+    (front, left, a, b)
 }
 
 /// Waits until the node has written its ready file.
@@ -416,11 +471,7 @@ fn a_node_killed_mid_session_replays_the_stream_and_converges() {
     let (mut server, addr) = serve_tcp(name, 2.0, TIMEOUT);
     let specs = [node("front", true, FRONT), node("left", false, LEFT)];
     let config = cave_config(dir.path(), &addr, &nats, "", &specs);
-    let (front, left) = (dir.path().join("front"), dir.path().join("left"));
-    let mut a = start_node(&config, "front", &front);
-    let mut b = start_node(&config, "left", &left);
-    wait_ready(&mut a, &front);
-    wait_ready(&mut b, &left);
+    let (front, left, mut a, mut b) = start_front_and_left(&config, dir.path());
     let mut ingest = start_ingest(&config, "main");
     wait_for_journal(&left, 2, &mut b);
     b.0.kill().unwrap(); // SIGKILL
@@ -453,11 +504,7 @@ fn a_nats_server_restart_mid_session_loses_and_duplicates_no_operation() {
     let (mut server, addr) = serve_tcp(name, 2.0, TIMEOUT);
     let specs = [node("front", true, FRONT), node("left", false, LEFT)];
     let config = cave_config(dir.path(), &addr, &nats, "", &specs);
-    let (front, left) = (dir.path().join("front"), dir.path().join("left"));
-    let mut a = start_node(&config, "front", &front);
-    let mut b = start_node(&config, "left", &left);
-    wait_ready(&mut a, &front);
-    wait_ready(&mut b, &left);
+    let (front, left, mut a, mut b) = start_front_and_left(&config, dir.path());
     let mut ingest = start_ingest(&config, "main");
     wait_for_journal(&front, 2, &mut a);
     nats.stop();
@@ -773,22 +820,8 @@ fn two_sculptors_on_two_feeds_each_stroke_is_once_in_every_document() {
         },
     ];
     // One config per ingest (each reads its own tracker); the same cluster.
-    let config_a = cluster_config(
-        &dir.path().join("a.toml"),
-        &addr_a,
-        &nats.url(),
-        PASSWORD,
-        "",
-        &specs,
-    );
-    let config_b = cluster_config(
-        &dir.path().join("b.toml"),
-        &addr_b,
-        &nats.url(),
-        PASSWORD,
-        "",
-        &specs,
-    );
+    let config_a = cluster_config(&dir.path().join("a.toml"), &addr_a, &nats, "", &specs);
+    let config_b = cluster_config(&dir.path().join("b.toml"), &addr_b, &nats, "", &specs);
     let outs: Vec<PathBuf> = specs.iter().map(|s| dir.path().join(s.name)).collect();
     let mut nodes: Vec<ChildGuard> = specs
         .iter()
@@ -855,32 +888,25 @@ fn bad_peers_are_refused_and_garbage_is_counted_and_ignored() {
     let nats = Nats::start(bin, dir.path());
     let (mut server, addr) = serve_tcp(name, 3.0, TIMEOUT);
     let specs = [node("front", true, FRONT), node("left", false, LEFT)];
-    // A peer with the wrong password is refused at once.
-    let intruder = cluster_config(
-        &dir.path().join("intruder.toml"),
-        &addr,
-        &nats.url(),
-        "guess",
-        "",
-        &specs,
-    );
+    let config = cave_config(dir.path(), &addr, &nats, "", &specs);
+    // A peer with the wrong password (given on the command line, which replaces the
+    // config's credentials) is refused at once.
+    let guess = dir.path().join("guess.txt");
+    std::fs::write(&guess, "guess\n").unwrap();
     let refused = Command::new(&bins().wandsculpt)
         .arg("--config")
-        .arg(&intruder)
+        .arg(&config)
         .args(["--cluster", "ingest", "--duration", "5"])
+        .args(["--nats-user", "front", "--nats-password-file"])
+        .arg(&guess)
         .output()
         .unwrap();
     let said = String::from_utf8_lossy(&refused.stderr);
     assert!(!refused.status.success(), "{said}");
     assert!(said.to_lowercase().contains("authorization"), "{said}");
 
-    let config = cave_config(dir.path(), &addr, &nats, "", &specs);
-    let (front, left) = (dir.path().join("front"), dir.path().join("left"));
-    let mut a = start_node(&config, "front", &front);
-    let mut b = start_node(&config, "left", &left);
-    wait_ready(&mut a, &front);
-    wait_ready(&mut b, &left);
-    let session = format!("s{}", std::process::id());
+    let (front, left, mut a, mut b) = start_front_and_left(&config, dir.path());
+    let session = session();
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -895,25 +921,38 @@ fn bad_peers_are_refused_and_garbage_is_counted_and_ignored() {
                 "{e}"
             ),
         }
-        // Garbage on every subject of the session, from a peer with the credentials.
-        let client =
-            async_nats::ConnectOptions::with_user_and_password(USER.into(), PASSWORD.into())
-                .connect(nats.url())
-                .await
-                .unwrap();
-        for subject in ["tracking.main", "ops", "barrier", "wand.front"] {
+        // Garbage on every subject of the session, each from the role that may
+        // publish there.
+        let ingest = async_nats::ConnectOptions::with_nkey(
+            std::fs::read_to_string(&nats.ingest_seed)
+                .unwrap()
+                .trim()
+                .into(),
+        )
+        .connect(nats.url())
+        .await
+        .unwrap();
+        let owner = connect_as(&nats, "front").await;
+        let render = connect_as(&nats, RENDER).await;
+        for (client, subject) in [
+            (&ingest, "tracking.main"),
+            (&owner, "ops.front"),
+            (&render, "barrier"),
+            (&owner, "wand.front"),
+        ] {
             client
                 .publish(format!("{session}.{subject}"), "\u{0}garbage {]".into())
                 .await
                 .unwrap();
+            client.flush().await.unwrap();
         }
-        let js = async_nats::jetstream::new(client.clone());
-        js.publish(format!("{session}.ops"), "{\"t\":1}".into())
+        let js = async_nats::jetstream::new(owner.clone());
+        js.publish(format!("{session}.ops.front"), "{\"t\":1}".into())
             .await
             .unwrap()
             .await
             .unwrap();
-        client.flush().await.unwrap();
+        owner.flush().await.unwrap();
     });
     let mut ingest = start_ingest(&config, "main");
     let report_a = finish(&mut a, "owner");
@@ -929,9 +968,18 @@ fn bad_peers_are_refused_and_garbage_is_counted_and_ignored() {
     }
 }
 
-/// Runs `f` with the session's snapshot bucket on `nats`.
+/// Runs `f` with the session's snapshot bucket on `nats`, as owner `front`.
 fn with_bucket<T>(
     nats: &Nats,
+    f: impl AsyncFnOnce(async_nats::jetstream::object_store::ObjectStore) -> T,
+) -> T {
+    with_bucket_as(nats, "front", f)
+}
+
+/// Runs `f` with the session's snapshot bucket on `nats`, as owner user `user`.
+fn with_bucket_as<T>(
+    nats: &Nats,
+    user: &str,
     f: impl AsyncFnOnce(async_nats::jetstream::object_store::ObjectStore) -> T,
 ) -> T {
     let rt = tokio::runtime::Builder::new_current_thread()
@@ -939,15 +987,18 @@ fn with_bucket<T>(
         .build()
         .unwrap();
     rt.block_on(async {
-        let client =
-            async_nats::ConnectOptions::with_user_and_password(USER.into(), PASSWORD.into())
-                .connect(nats.url())
-                .await
-                .unwrap();
-        let js = async_nats::jetstream::new(client);
-        let bucket = format!("WS_s{}_snap", std::process::id());
+        let js = async_nats::jetstream::new(connect_as(nats, user).await);
+        let bucket = format!("WS_{}_snap", session());
         f(snapshot::bucket(&js, &bucket).await.unwrap()).await
     })
+}
+
+/// A client of test user `user` (its password).
+async fn connect_as(nats: &Nats, user: &str) -> async_nats::Client {
+    async_nats::ConnectOptions::with_user_and_password(user.into(), password(user))
+        .connect(nats.url())
+        .await
+        .unwrap_or_else(|e| panic!("connecting as {user}: {e}"))
 }
 
 /// The stored snapshot, when there is one.
@@ -1078,9 +1129,11 @@ fn a_corrupt_or_truncated_snapshot_is_logged_once_and_the_node_replays_the_whole
     assert_eq!(rec.ends, ["front"]);
     let (r, _) = run_late(&config, &dir.path().join("late-good"));
     assert_eq!(r["snapshot"]["loaded_seq"].as_u64(), Some(rec.seq), "{r}");
+    // Only the snapshot's own attestation follows it in the stream.
+    assert_eq!(rec.attested_at, rec.seq + 1);
     assert_eq!(
         (r["backlog"].as_u64(), r["applied"].as_u64()),
-        (Some(0), Some(0))
+        (Some(1), Some(0))
     );
     assert!(scene(&dir.path().join("late-good")) == expected, "{r}");
 
@@ -1098,7 +1151,7 @@ fn a_corrupt_or_truncated_snapshot_is_logged_once_and_the_node_replays_the_whole
         assert_eq!(r["snapshot"]["loaded_seq"], serde_json::Value::Null, "{r}");
         let fallback = r["snapshot"]["fallback"].as_str().unwrap_or_default();
         assert!(fallback.contains(says), "{what}: {r}");
-        assert_eq!(r["backlog"].as_u64(), Some(rec.seq), "{r}");
+        assert_eq!(r["backlog"].as_u64(), Some(rec.attested_at), "{r}");
         assert_eq!(r["applied"], report_a["committed"], "{r}");
         assert_eq!(
             log.matches("snapshot not used").count(),
@@ -1173,71 +1226,140 @@ fn undoing_past_the_snapshot_rebuilds_the_document_from_the_whole_stream() {
 
 /// Writes `ops` into the session's stream as owner `front` would, then its end
 /// marker; with `snapshot = Some((n, document))`, also a snapshot of `document` at the
-/// `n`-th operation, as the writer would.
-fn write_stream(nats: &Nats, ops: &[Edit], snapshot: Option<(usize, Vec<u8>)>) {
-    use vr_app::cluster::node::OpRecord;
-    use vr_app::cluster::snapshot::StreamId;
-    let session = format!("s{}", std::process::id());
-    let rt = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .unwrap();
-    rt.block_on(async {
-        let client =
-            async_nats::ConnectOptions::with_user_and_password(USER.into(), PASSWORD.into())
-                .connect(nats.url())
+/// `n`-th operation, as the writer would (its attestation in the stream, then the
+/// record). Returns the snapshot record written, if any.
+fn write_stream(
+    nats: &Nats,
+    ops: &[Edit],
+    snapshot: Option<(usize, Vec<u8>)>,
+) -> Option<SnapshotRecord> {
+    let mut w = StreamWriter::open(nats, "front");
+    let mut written = None;
+    for (i, edit) in ops.iter().enumerate() {
+        w.edit(i as f64, edit);
+        if let Some((n, document)) = &snapshot
+            && i + 1 == *n
+        {
+            written = Some(w.snapshot(document.clone()));
+        }
+    }
+    w.publish("end", Vec::new(), None);
+    written
+}
+
+/// Publishes into the session's stream as one owner user (on its own subject),
+/// keeping the stream's ops hash as the nodes do.
+struct StreamWriter {
+    rt: tokio::runtime::Runtime,
+    js: async_nats::jetstream::Context,
+    stream: async_nats::jetstream::stream::Stream,
+    owner: String,
+    /// The ops hash and last position of what this writer saw published.
+    hash: vr_app::cluster::snapshot::OpsHash,
+    seq: u64,
+}
+
+impl StreamWriter {
+    /// Connects as owner user `owner` and creates the stream if it is missing.
+    fn open(nats: &Nats, owner: &str) -> Self {
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        let session = session();
+        let (js, stream) = rt.block_on(async {
+            let js = async_nats::jetstream::new(connect_as(nats, owner).await);
+            let stream = js
+                .get_or_create_stream(async_nats::jetstream::stream::Config {
+                    name: format!("WS_{session}"),
+                    subjects: vec![format!("{session}.ops.*")],
+                    storage: async_nats::jetstream::stream::StorageType::File,
+                    ..Default::default()
+                })
                 .await
                 .unwrap();
-        let js = async_nats::jetstream::new(client);
-        let mut stream = js
-            .get_or_create_stream(async_nats::jetstream::stream::Config {
-                name: format!("WS_{session}"),
-                subjects: vec![format!("{session}.ops")],
-                storage: async_nats::jetstream::stream::StorageType::File,
-                ..Default::default()
-            })
-            .await
-            .unwrap();
-        let publish = async |kind: &str, body: Vec<u8>| {
-            let mut h = async_nats::HeaderMap::new();
-            h.insert("Ws-Kind", kind);
-            h.insert("Ws-Owner", "front");
-            js.publish_with_headers(format!("{session}.ops"), h, body.into())
+            (js, stream)
+        });
+        Self {
+            rt,
+            js,
+            stream,
+            owner: owner.to_string(),
+            hash: vr_app::cluster::snapshot::OpsHash::EMPTY,
+            seq: 0,
+        }
+    }
+
+    /// Publishes one message of `kind` on this owner's subject, its `Ws-Owner` header
+    /// `claims` (this owner when `None`); returns its stream position. The ops hash
+    /// kept is the stream's while this writer is its only one.
+    fn publish(&mut self, kind: &str, body: Vec<u8>, claims: Option<&str>) -> u64 {
+        let subject = format!("{}.ops.{}", session(), self.owner);
+        let mut h = async_nats::HeaderMap::new();
+        h.insert("Ws-Kind", kind);
+        h.insert("Ws-Owner", claims.unwrap_or(&self.owner));
+        let seq = self.rt.block_on(async {
+            self.js
+                .publish_with_headers(subject.clone(), h, body.clone().into())
                 .await
                 .unwrap()
                 .await
                 .unwrap()
                 .sequence
+        });
+        self.seq = seq;
+        self.hash = self.hash.next(seq, &subject, Some(kind), &body);
+        seq
+    }
+
+    /// Publishes one operation.
+    fn edit(&mut self, t: f64, edit: &Edit) -> u64 {
+        use vr_app::cluster::node::OpRecord;
+        let body = serde_json::to_vec(&OpRecord {
+            t,
+            edit: edit.clone(),
+        })
+        .unwrap();
+        self.publish("edit", body, None)
+    }
+
+    /// Stores a snapshot of `document` at the current position as the writer does:
+    /// its attestation into the stream, then the record into the bucket.
+    fn snapshot(&mut self, document: Vec<u8>) -> SnapshotRecord {
+        use vr_app::cluster::snapshot::{Attestation, StreamId, document_hash};
+        let (seq, ops_hash) = (self.seq, self.hash);
+        let attestation = Attestation {
+            seq,
+            ops: ops_hash,
+            doc: document_hash(&document),
         };
-        for (i, edit) in ops.iter().enumerate() {
-            let body = serde_json::to_vec(&OpRecord {
-                t: i as f64,
-                edit: edit.clone(),
-            })
-            .unwrap();
-            let seq = publish("edit", body).await;
-            if let Some((n, document)) = &snapshot
-                && i + 1 == *n
-            {
-                let created = stream.info().await.unwrap().created.unix_timestamp_nanos();
-                let rec = SnapshotRecord {
-                    session: session.clone(),
-                    stream: StreamId {
-                        created_unix_ns: i64::try_from(created).unwrap(),
-                    },
-                    seq,
-                    ends: Vec::new(),
-                    writer: "test".into(),
-                    document: document.clone(),
-                };
-                let b = snapshot::bucket(&js, &format!("WS_{session}_snap"))
-                    .await
-                    .unwrap();
-                snapshot::store(&b, rec.encode().unwrap()).await.unwrap();
-            }
-        }
-        publish("end", Vec::new()).await;
-    });
+        let at = self.publish("snapshot", serde_json::to_vec(&attestation).unwrap(), None);
+        let created = self
+            .rt
+            .block_on(self.stream.info())
+            .unwrap()
+            .created
+            .unix_timestamp_nanos();
+        let rec = SnapshotRecord {
+            session: session(),
+            stream: StreamId {
+                created_unix_ns: i64::try_from(created).unwrap(),
+            },
+            seq,
+            ends: Vec::new(),
+            writer: self.owner.clone(),
+            ops_hash,
+            attested_at: at,
+            document,
+        };
+        let bucket = format!("WS_{}_snap", session());
+        let bytes = rec.encode().unwrap();
+        self.rt.block_on(async {
+            let b = snapshot::bucket(&self.js, &bucket).await.unwrap();
+            snapshot::store(&b, bytes).await.unwrap();
+        });
+        rec
+    }
 }
 
 /// The catch-up figures (`scripts/cluster-figures catchup`; not run by default): a
@@ -1304,4 +1426,277 @@ fn catch_up_after_a_ten_minute_session() {
             },
         })
     );
+}
+
+/// Publishes `body` as user `user` on `subject` (after the session's prefix) to
+/// JetStream with the headers of an operation of `kind` from `claims`: the stream
+/// position, or `None` when it was not stored within 2 s (the server refused it).
+fn try_publish_as(
+    nats: &Nats,
+    user: &str,
+    subject: &str,
+    kind: &str,
+    claims: &str,
+    body: Vec<u8>,
+) -> Option<u64> {
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    rt.block_on(async {
+        let js = async_nats::jetstream::new(connect_as(nats, user).await);
+        let mut h = async_nats::HeaderMap::new();
+        h.insert("Ws-Kind", kind);
+        h.insert("Ws-Owner", claims);
+        let ack = js
+            .publish_with_headers(format!("{}.{subject}", session()), h, body.into())
+            .await
+            .ok()?;
+        tokio::time::timeout(Duration::from_secs(2), ack)
+            .await
+            .ok()?
+            .ok()
+            .map(|a| a.sequence)
+    })
+}
+
+/// The document of `edits` applied in order to the default document.
+fn document_of(edits: &[Edit]) -> Document {
+    let mut doc = editor::default_document();
+    for e in edits {
+        editor::apply(&mut doc, e);
+    }
+    doc
+}
+
+fn undo_body() -> Vec<u8> {
+    serde_json::to_vec(&vr_app::cluster::node::OpRecord {
+        t: 1.0,
+        edit: Edit::Undo,
+    })
+    .unwrap()
+}
+
+/// Regression (issue 31 §10): with valid credentials, undos from an owner not in the
+/// config were applied, and a forged `end` for `front` stopped every node, the owner
+/// included (on the old code this test's node applies ghost's undo, so its document
+/// loses a stroke, and stops at the forged end). Now the server lets an owner's user
+/// publish operations only on its own subject (`<session>.ops.<owner>`) and a render
+/// node's none at all, and every node refuses and logs what an owner the config does
+/// not name publishes, and an end that claims another owner than its subject names.
+#[test]
+fn undos_and_an_end_from_outside_the_configured_owners_are_refused() {
+    let Some((bin, dir)) = rig() else {
+        return;
+    };
+    let strokes = stroke_edits("patch-carve");
+    assert_eq!(strokes.len(), 3);
+    let expected = document_of(&strokes).to_json();
+    let nats = Nats::start(bin, dir.path());
+    // Nobody serves tracking here: the render node only follows the stream, which
+    // this test writes as owner `front` would.
+    let specs = [node("front", true, FRONT), node("left", false, LEFT)];
+    let config = cave_config(dir.path(), "127.0.0.1:9", &nats, "barrier = false", &specs);
+    let mut front = StreamWriter::open(&nats, "front");
+    let out = dir.path().join("left");
+    let mut left = start_node(&config, "left", &out);
+    wait_ready(&mut left, &out);
+    front.edit(0.0, &strokes[0]);
+    wait_for_journal(&out, 1, &mut left);
+    // A render node's user may not publish operations, not even on the owner's
+    // subject: the server stores nothing.
+    for (kind, body) in [("edit", undo_body()), ("end", Vec::new())] {
+        assert_eq!(
+            try_publish_as(&nats, RENDER, "ops.front", kind, "front", body.clone()),
+            None,
+            "a render node's user published {kind} as front"
+        );
+        assert_eq!(
+            try_publish_as(&nats, RENDER, "ops.render", kind, "render", body),
+            None,
+            "a render node's user published {kind}"
+        );
+    }
+    // `ghost` is an owner user of the server but no owner in the config: its undo and
+    // its end claiming to be front's are stored, and refused by the node.
+    let mut ghost = StreamWriter::open(&nats, "ghost");
+    ghost.publish("edit", undo_body(), None);
+    ghost.publish("end", Vec::new(), Some("front"));
+    // The node is still there after the forged end: the owner's next strokes apply.
+    front.edit(1.0, &strokes[1]);
+    wait_for_journal(&out, 2, &mut left);
+    front.edit(2.0, &strokes[2]);
+    ghost.publish("edit", undo_body(), None);
+    ghost.publish("end", Vec::new(), None);
+    front.publish("end", Vec::new(), None);
+    let report = finish(&mut left, "left");
+    assert!(
+        scene(&out) == expected,
+        "the document is not the owner's three strokes\n{report}"
+    );
+    assert_eq!(stroke_inputs(&scene(&out)).len(), 3);
+    assert_eq!(report["applied"], 3, "{report}");
+    assert_eq!(report["refused_ops"], 4, "{report}");
+    assert_eq!(
+        report["ended_owners"],
+        serde_json::json!(["front"]),
+        "{report}"
+    );
+}
+
+/// Regression (issue 31 §10): with valid credentials, injected tracking frames
+/// changed the document (on the old code this test's second tracker, published with a
+/// render node's password, interleaves its strokes with the real ones). Now only the
+/// ingest's user (an nkey here) may publish on `<session>.tracking.*`: the server
+/// refuses the frames of an ingest run with a render node's credentials, that ingest
+/// says so and fails, and every document is the real tracker's.
+#[test]
+fn tracking_frames_from_a_user_other_than_the_ingest_are_refused() {
+    let Some((bin, dir)) = rig() else {
+        return;
+    };
+    let name = "patch-carve";
+    let expected = replay_offline(name, &dir.path().join("offline"), &[]);
+    let nats = Nats::start(bin, dir.path());
+    let (mut server, addr) = serve_tcp(name, 3.0, TIMEOUT);
+    let (mut rogue_server, rogue_addr) = serve_tcp("patch-emboss", 3.0, TIMEOUT);
+    let specs = [node("front", true, FRONT), node("left", false, LEFT)];
+    let config = cave_config(dir.path(), &addr, &nats, "", &specs);
+    let rogue_config = cluster_config(
+        &dir.path().join("rogue.toml"),
+        &rogue_addr,
+        &nats,
+        "",
+        &specs,
+    );
+    let pw = dir.path().join("render.pw");
+    std::fs::write(&pw, password(RENDER)).unwrap();
+    let (front, left, mut a, mut b) = start_front_and_left(&config, dir.path());
+    let mut rogue = ChildGuard::spawn(
+        Command::new(&bins().wandsculpt)
+            .arg("--config")
+            .arg(&rogue_config)
+            .args(["--cluster", "ingest", "--feed", "main"])
+            .args(["--idle-exit", "5.0", "--duration", "200"])
+            .args(["--nats-user", RENDER, "--nats-password-file"])
+            .arg(&pw)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped()),
+    );
+    // Read its log as it comes (a full pipe would stop it).
+    let mut rogue_err = rogue.0.stderr.take().unwrap();
+    let rogue_said = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = std::io::Read::read_to_string(&mut rogue_err, &mut s);
+        s
+    });
+    let mut ingest = start_ingest(&config, "main");
+    let report_a = finish(&mut a, "owner");
+    let report_b = finish(&mut b, "node");
+    assert!(server.wait_for("replay --serve", TIMEOUT).success());
+    assert!(
+        rogue_server
+            .wait_for("rogue replay --serve", TIMEOUT)
+            .success()
+    );
+    assert!(ingest.wait_for("ingest", TIMEOUT).success());
+    let said = rogue_said.join().unwrap();
+    let rogue_status = rogue.wait_for("rogue ingest", TIMEOUT);
+    assert!(
+        !rogue_status.success(),
+        "the rogue ingest exited 0:\n{said}"
+    );
+    assert!(
+        said.to_lowercase().contains("permissions violation"),
+        "{said}"
+    );
+    for (out, r) in [(&front, &report_a), (&left, &report_b)] {
+        assert!(scene(out) == expected, "not the tracker's document\n{r}");
+    }
+    assert_eq!(stroke_inputs(&scene(&front)).len(), 3);
+}
+
+/// Regression (issue 31 §10): a snapshot with one stroke removed and its FNV checksum
+/// recomputed loaded silently, so a late node ended with 2 strokes while the others
+/// had 3 (on the old code this test's late node loads the doctored record). A
+/// snapshot is now checked against the operation stream, which only owners write:
+/// the writer's attestation there names the document's SHA-256 and the ops hash of the
+/// positions it covers. A doctored document, or one vouched for by a user the config
+/// names no owner, is refused, and the late node replays the stream to the 3 strokes.
+#[test]
+fn a_doctored_snapshot_is_refused_and_the_late_node_replays_the_stream() {
+    let Some((bin, dir)) = rig() else {
+        return;
+    };
+    let strokes = stroke_edits("patch-carve");
+    assert_eq!(strokes.len(), 3);
+    let whole = document_of(&strokes).to_json();
+    let two = document_of(&strokes[..2]).to_json();
+    let nats = Nats::start(bin, dir.path());
+    let specs = [node("front", true, FRONT), node("late", false, RIGHT)];
+    let config = cave_config(dir.path(), "127.0.0.1:9", &nats, "barrier = false", &specs);
+    let genuine = write_stream(&nats, &strokes, Some((3, whole.clone()))).expect("written");
+
+    // The genuine snapshot loads.
+    let out = dir.path().join("late-genuine");
+    let (r, _) = run_late(&config, &out);
+    assert_eq!(r["snapshot"]["loaded_seq"].as_u64(), Some(3), "{r}");
+    assert!(scene(&out) == whole, "{r}");
+
+    // One stroke removed, the checksum recomputed (the record decodes), stored by a
+    // user that may write the bucket; and the same with an attestation of the
+    // doctored document from that user, who is no owner in the config.
+    let doctored = SnapshotRecord {
+        document: two.clone(),
+        ..genuine.clone()
+    };
+    let mut ghost = StreamWriter::open(&nats, "ghost");
+    let forged_at = ghost.publish(
+        "snapshot",
+        serde_json::to_vec(&vr_app::cluster::snapshot::Attestation {
+            seq: genuine.seq,
+            ops: genuine.ops_hash,
+            doc: vr_app::cluster::snapshot::document_hash(&two),
+        })
+        .unwrap(),
+        Some("front"),
+    );
+    let vouched = SnapshotRecord {
+        attested_at: forged_at,
+        ..doctored.clone()
+    };
+    for (what, rec, says) in [
+        ("doctored", doctored, "document sha-256"),
+        (
+            "vouched",
+            vouched,
+            "no configured owner's snapshot attestation",
+        ),
+    ] {
+        let bytes = rec.encode().unwrap();
+        assert_eq!(SnapshotRecord::decode(&bytes).unwrap(), rec);
+        with_bucket_as(&nats, "ghost", async |b| {
+            snapshot::store(&b, bytes).await.unwrap()
+        });
+        let out = dir.path().join(format!("late-{what}"));
+        let (r, log) = run_late(&config, &out);
+        assert_eq!(
+            r["snapshot"]["loaded_seq"],
+            serde_json::Value::Null,
+            "{what}: {r}"
+        );
+        let fallback = r["snapshot"]["fallback"].as_str().unwrap_or_default();
+        assert!(fallback.to_lowercase().contains(says), "{what}: {r}");
+        assert_eq!(
+            log.matches("snapshot not used").count(),
+            1,
+            "{what}:\n{log}"
+        );
+        assert!(
+            scene(&out) == whole,
+            "{what}: not the stream's document\n{r}"
+        );
+        assert_eq!(stroke_inputs(&scene(&out)).len(), 3, "{what}");
+        assert_eq!(r["applied"], 3, "{what}: {r}");
+    }
 }

@@ -99,6 +99,26 @@ struct Cli {
     /// Cluster ingest: the feed to publish (`<session>.tracking.<feed>`).
     #[arg(long, value_name = "NAME", default_value = "main")]
     feed: String,
+    /// Cluster: connect as this NATS user (with --nats-password-file), replacing the
+    /// config's credentials for this role.
+    #[arg(
+        long,
+        value_name = "USER",
+        requires_all = ["nats_password_file", "cluster"]
+    )]
+    nats_user: Option<String>,
+    /// Cluster: the file holding --nats-user's password (its first line).
+    #[arg(long, value_name = "FILE", requires = "nats_user")]
+    nats_password_file: Option<PathBuf>,
+    /// Cluster: connect with the nkey seed in this file, replacing the config's
+    /// credentials for this role.
+    #[arg(
+        long,
+        value_name = "FILE",
+        conflicts_with = "nats_user",
+        requires = "cluster"
+    )]
+    nats_nkey: Option<PathBuf>,
     /// Sculpt in an OpenXR head-mounted display with its controllers as the wand
     /// (feature `openxr`; see docs/openxr.md). With `--frames N`, stop after N frames.
     #[arg(long)]
@@ -413,6 +433,19 @@ fn run_cluster(cli: &Cli, role: ClusterRole, config: Config) -> Result<()> {
     let Some(cluster) = config.cluster.clone() else {
         bail!("--cluster needs a [cluster] section in --config");
     };
+    let password = match &cli.nats_password_file {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading --nats-password-file {}", path.display()))?;
+            Some(text.lines().next().unwrap_or_default().to_string())
+        }
+        None => None,
+    };
+    let credentials = vr_app::cluster::auth::Credentials {
+        user: cli.nats_user.clone(),
+        password,
+        nkey: cli.nats_nkey.clone(),
+    };
     match role {
         ClusterRole::Ingest => {
             let Some(section) = &config.tracking else {
@@ -423,6 +456,7 @@ fn run_cluster(cli: &Cli, role: ClusterRole, config: Config) -> Result<()> {
                 idle_exit: cli.idle_exit,
                 duration: cli.duration,
                 addr_file: cli.addr_file.clone(),
+                credentials,
             };
             let report = ingest::run_ingest(&cluster, section, &opts)?;
             println!("{}", serde_json::to_string_pretty(&report)?);
@@ -443,6 +477,7 @@ fn run_cluster(cli: &Cli, role: ClusterRole, config: Config) -> Result<()> {
                     render_every: 0,
                     realtime: false,
                 },
+                credentials,
             };
             let report = if cli.headless {
                 let gpu = Gpu::headless()?;

@@ -29,6 +29,8 @@ pub struct IngestOptions {
     pub duration: f64,
     /// Write the bound addresses of listening sources here.
     pub addr_file: Option<std::path::PathBuf>,
+    /// Credentials from the command line, replacing the config's.
+    pub credentials: super::auth::Credentials,
 }
 
 /// What an ingest run did.
@@ -77,7 +79,14 @@ async fn ingest(
     section: &TrackingSection,
     opts: &IngestOptions,
 ) -> VrResult<IngestReport> {
-    let client = cluster.connect("wandsculpt-ingest").await?;
+    let refused = super::ServerRefusals::default();
+    let client = cluster
+        .connect(
+            "wandsculpt-ingest",
+            &cluster.ingest_credentials(&opts.credentials),
+            &refused,
+        )
+        .await?;
     let subject = cluster.subjects().tracking(&opts.feed);
     let hub = Hub::new(&section.input);
     let mut frames = hub.subscribe_received();
@@ -180,6 +189,12 @@ async fn ingest(
         subject: subject.clone(),
         source: e.into(),
     })?;
+    // The server answers a refused publish before the flush's pong; its handler may
+    // run a moment later.
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    if let Some(said) = refused.first() {
+        return Err(ClusterError::Refused { subject, said }.into());
+    }
     Ok(IngestReport {
         frames: count,
         subject,

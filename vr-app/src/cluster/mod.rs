@@ -13,26 +13,31 @@
 //!   byte-identical. A frame barrier ([`barrier::Barrier`]) on `<session>.barrier`
 //!   holds each frame until every live node is ready (software swap lock).
 //!
-//! Subjects are namespaced by the session name (`[cluster] session`); nodes connect
-//! with the user and password of `[cluster]`; the default server is loopback. See
-//! `docs/cluster.md`.
+//! Subjects are namespaced by the session name (`[cluster] session`). Each role
+//! connects with its own credentials ([`auth`]: a user per role, held to its subjects
+//! by the server); an operation's owner is the last token of its subject, and nodes
+//! refuse operations from an owner the config does not name. The default server is
+//! loopback. See `docs/cluster.md`.
 
+pub mod auth;
 pub mod barrier;
 pub mod ingest;
 pub mod node;
 pub mod snapshot;
 pub mod wand;
 
-use std::time::{Duration, SystemTime, UNIX_EPOCH};
+use std::time::{SystemTime, UNIX_EPOCH};
 
 use serde::Serialize;
 
 pub use crate::config::cluster::{ClusterSection, NodeSection, Subjects};
 pub use crate::error::{ClusterConfigError, ClusterError, NatsFailure};
+use auth::Credentials;
 
 /// Header: what a message is ([`KIND_FRAME`], [`KIND_EDIT`], [`KIND_END`]).
 pub const HDR_KIND: &str = "Ws-Kind";
-/// Header: the proposing node of an operation.
+/// Header: the proposing node of an operation (it must be the owner its subject,
+/// `<session>.ops.<owner>`, names; the subject decides).
 pub const HDR_OWNER: &str = "Ws-Owner";
 /// Header: when the message was sent, Unix time in nanoseconds (for the latency
 /// figures only; nothing depends on it).
@@ -53,24 +58,64 @@ pub const KIND_EDIT: &str = "edit";
 pub const KIND_END: &str = "end";
 
 impl ClusterSection {
-    /// Connects with the configured credentials. The client reconnects by itself
-    /// after a server restart; the first connection is not retried, so a refused
-    /// connection (bad credentials) is an error at once.
-    pub async fn connect(&self, name: &str) -> Result<async_nats::Client, ClusterError> {
-        let opts = match (&self.user, &self.password) {
-            (Some(u), Some(p)) => {
-                async_nats::ConnectOptions::with_user_and_password(u.clone(), p.clone())
-            }
-            _ => async_nats::ConnectOptions::new(),
-        };
-        opts.name(name)
-            .connection_timeout(Duration::from_secs(5))
+    /// Connects with `credentials`. The client reconnects by itself after a server
+    /// restart; the first connection is not retried, so a refused connection (bad
+    /// credentials) is an error at once. What the server refuses later (a publish
+    /// its permissions do not allow) is logged and noted in `refused`.
+    pub async fn connect(
+        &self,
+        name: &str,
+        credentials: &Credentials,
+        refused: &ServerRefusals,
+    ) -> Result<async_nats::Client, ClusterError> {
+        credentials
+            .validate("credentials")
+            .map_err(ClusterError::Config)?;
+        let noted = refused.clone();
+        credentials
+            .connect_options()?
+            .name(name)
+            .event_callback(move |event| {
+                let noted = noted.clone();
+                async move {
+                    if let async_nats::Event::ServerError(e) = event {
+                        // Said once: a refused publisher hears this for every message.
+                        if noted.note(e.to_string()) == 1 {
+                            tracing::warn!("the NATS server says: {e}");
+                        }
+                    }
+                }
+            })
             .connect(self.url.as_str())
             .await
             .map_err(|source| ClusterError::Connect {
                 url: self.url.clone(),
                 source,
             })
+    }
+}
+
+/// The errors the server sent a connection after it was made (a permissions
+/// violation: a publish its user may not make, which the server drops), shared with
+/// the connection's event handler.
+#[derive(Debug, Clone, Default)]
+pub struct ServerRefusals(std::sync::Arc<std::sync::Mutex<Vec<String>>>);
+
+impl ServerRefusals {
+    /// Notes one error (the first 16 are kept); returns how many were noted so far.
+    fn note(&self, e: String) -> usize {
+        let Ok(mut v) = self.0.lock() else {
+            return 0;
+        };
+        if v.len() < 16 {
+            v.push(e);
+        }
+        v.len()
+    }
+
+    /// The first error the server sent, if any.
+    pub fn first(&self) -> Option<String> {
+        self.0.lock().ok()?.first().cloned()
     }
 }
 
@@ -133,6 +178,7 @@ pub fn header<'a>(msg: &'a async_nats::Message, name: &str) -> Option<&'a str> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::time::Duration;
 
     #[test]
     fn sessions_and_node_names_must_be_subject_tokens() {
@@ -150,6 +196,9 @@ mod tests {
             owner: false,
             screen: None,
             out: None,
+            user: None,
+            password: None,
+            nkey: None,
         });
         assert!(c.validate().is_err());
         c.nodes[0].name = "left".into();
@@ -161,6 +210,26 @@ mod tests {
         assert_eq!(c.subjects().stream, "WS_s1");
         assert_eq!(c.subjects().snapshots, "WS_s1_snap");
         assert_eq!(c.subjects().wand("left"), "s1.wand.left");
+        assert_eq!(c.subjects().op("left"), "s1.ops.left");
+        let s = c.subjects();
+        assert_eq!(s.op_owner("s1.ops.left"), Some("left"));
+        assert_eq!(s.op_owner("s1.ops"), None);
+        assert_eq!(s.op_owner("s2.ops.left"), None);
+        assert_eq!(s.op_owner("s1.ops.a.b"), None);
+        assert_eq!(s.op_owner("s1.barrier"), None);
+        c.nodes[0].nkey = Some("/k".into());
+        c.nodes[0].user = Some("u".into());
+        c.nodes[0].password = Some("p".into());
+        assert!(
+            matches!(
+                c.validate(),
+                Err(ClusterError::Config(ClusterConfigError::NkeyAndUser(w))) if w.contains("left")
+            ),
+            "an nkey and a user on one node"
+        );
+        c.nodes[0].user = None;
+        c.nodes[0].password = None;
+        assert!(c.validate().is_ok());
         c.wand_rate = 0.0;
         assert!(c.validate().is_err());
     }

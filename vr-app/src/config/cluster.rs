@@ -2,6 +2,8 @@
 //! `wandsculpt --cluster` (docs/cluster.md). Read and checked in every build; the
 //! roles that use it need the `nats` feature.
 
+use std::path::PathBuf;
+
 use serde::{Deserialize, Serialize};
 
 use super::screen::ScreenConfig;
@@ -25,7 +27,8 @@ use crate::error::{ClusterConfigError, ClusterError};
 /// "#)?;
 /// let c = cfg.cluster.unwrap();
 /// assert_eq!(c.url, "nats://127.0.0.1:4222");
-/// assert_eq!(c.subjects().ops, "cave1.ops");
+/// assert_eq!(c.subjects().ops, "cave1.ops.*");
+/// assert_eq!(c.subjects().op("front"), "cave1.ops.front");
 /// # Ok::<(), vr_app::VrError>(())
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -33,10 +36,15 @@ use crate::error::{ClusterConfigError, ClusterError};
 pub struct ClusterSection {
     /// The NATS server (default loopback).
     pub url: String,
-    /// NATS user name (with `password`).
+    /// NATS user name (with `password`): every role's credentials unless its own
+    /// section or the command line gives others.
     pub user: Option<String>,
     /// NATS password.
     pub password: Option<String>,
+    /// A file holding an nkey seed, instead of a user and password.
+    pub nkey: Option<PathBuf>,
+    /// `[cluster.ingest]`: the ingest's credentials.
+    pub ingest: Credentials,
     /// The session: the prefix of every subject and the stream's name.
     pub session: String,
     /// Frame barrier: seconds to wait for a node before dropping it from the barrier.
@@ -71,6 +79,8 @@ impl Default for ClusterSection {
             url: "nats://127.0.0.1:4222".into(),
             user: None,
             password: None,
+            nkey: None,
+            ingest: Credentials::default(),
             session: "wandsculpt".into(),
             barrier_timeout: 0.5,
             frame_rate: 60.0,
@@ -104,6 +114,26 @@ pub struct NodeSection {
     /// Its session directory, replacing `[files] dir` (`--out` wins).
     #[serde(default)]
     pub out: Option<std::path::PathBuf>,
+    /// This node's NATS user (with `password`), replacing `[cluster]`'s.
+    #[serde(default)]
+    pub user: Option<String>,
+    /// This node's NATS password.
+    #[serde(default)]
+    pub password: Option<String>,
+    /// This node's nkey seed file, replacing `[cluster]`'s credentials.
+    #[serde(default)]
+    pub nkey: Option<PathBuf>,
+}
+
+impl NodeSection {
+    /// The credentials of this node's section (empty: `[cluster]`'s apply).
+    pub fn credentials(&self) -> Credentials {
+        Credentials {
+            user: self.user.clone(),
+            password: self.password.clone(),
+            nkey: self.nkey.clone(),
+        }
+    }
 }
 
 fn default_feed() -> String {
@@ -115,7 +145,7 @@ fn default_feed() -> String {
 pub struct Subjects {
     /// The JetStream stream holding the operations.
     pub stream: String,
-    /// Operations (JetStream).
+    /// Every owner's operations (JetStream): the stream's subject filter.
     pub ops: String,
     /// Frame barrier reports (core NATS).
     pub barrier: String,
@@ -127,6 +157,19 @@ pub struct Subjects {
 }
 
 impl Subjects {
+    /// The operations of owner `node` (JetStream): only its user may publish here.
+    pub fn op(&self, node: &str) -> String {
+        format!("{}.ops.{node}", self.prefix)
+    }
+
+    /// The owner an operation's subject names (`<session>.ops.<owner>`), if it is one.
+    pub fn op_owner<'a>(&self, subject: &'a str) -> Option<&'a str> {
+        subject
+            .strip_prefix(self.prefix.as_str())?
+            .strip_prefix(".ops.")
+            .filter(|o| valid_token(o))
+    }
+
     /// The wand poses of owner `node` (core NATS).
     pub fn wand(&self, node: &str) -> String {
         format!("{}.wand.{node}", self.prefix)
@@ -151,7 +194,7 @@ impl ClusterSection {
     pub fn subjects(&self) -> Subjects {
         Subjects {
             stream: format!("WS_{}", self.session),
-            ops: format!("{}.ops", self.session),
+            ops: format!("{}.ops.*", self.session),
             barrier: format!("{}.barrier", self.session),
             snapshots: format!("WS_{}_snap", self.session),
             wands: format!("{}.wand.*", self.session),
@@ -165,8 +208,12 @@ impl ClusterSection {
         if !valid_token(&self.session) {
             return bad(ClusterConfigError::Session(self.session.clone()));
         }
-        if self.user.is_some() != self.password.is_some() {
-            return bad(ClusterConfigError::Credentials);
+        if let Err(e) = self
+            .defaults()
+            .validate("[cluster]")
+            .and_then(|()| self.ingest.validate("[cluster.ingest]"))
+        {
+            return bad(e);
         }
         for (name, v) in [
             ("barrier_timeout", self.barrier_timeout),
@@ -190,6 +237,9 @@ impl ClusterSection {
             if !names.insert(&n.name) {
                 return bad(ClusterConfigError::Duplicate(n.name.clone()));
             }
+            if let Err(e) = n.credentials().validate(&format!("node {:?}", n.name)) {
+                return bad(e);
+            }
         }
         Ok(())
     }
@@ -204,6 +254,27 @@ impl ClusterSection {
         })
     }
 
+    /// `[cluster]`'s own credentials (every role's, unless replaced).
+    pub fn defaults(&self) -> Credentials {
+        Credentials {
+            user: self.user.clone(),
+            password: self.password.clone(),
+            nkey: self.nkey.clone(),
+        }
+    }
+
+    /// The ingest's credentials: the command line's (`cli`), else `[cluster.ingest]`,
+    /// else `[cluster]`'s; each place's are taken whole.
+    pub fn ingest_credentials(&self, cli: &Credentials) -> Credentials {
+        cli.clone().or(self.ingest.clone()).or(self.defaults())
+    }
+
+    /// Node `node`'s credentials: the command line's, else its `[[cluster.node]]`'s,
+    /// else `[cluster]`'s.
+    pub fn node_credentials(&self, node: &NodeSection, cli: &Credentials) -> Credentials {
+        cli.clone().or(node.credentials()).or(self.defaults())
+    }
+
     /// The owners' names: the nodes whose end markers close the session.
     pub fn owners(&self) -> Vec<String> {
         self.nodes
@@ -211,5 +282,43 @@ impl ClusterSection {
             .filter(|n| n.owner)
             .map(|n| n.name.clone())
             .collect()
+    }
+}
+
+/// One role's credentials: a user and password, or an nkey seed file (`nk -gen user`
+/// writes one; the server knows the public key). Empty: connect without credentials.
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Credentials {
+    /// NATS user name (with `password`).
+    pub user: Option<String>,
+    /// NATS password.
+    pub password: Option<String>,
+    /// A file holding the role's nkey seed (`SU...`), instead of a user and password.
+    pub nkey: Option<PathBuf>,
+}
+
+impl Credentials {
+    /// Whether nothing is set.
+    pub fn is_empty(&self) -> bool {
+        self.user.is_none() && self.password.is_none() && self.nkey.is_none()
+    }
+
+    /// `self` unless it is empty, else `other`: credentials are taken whole from one
+    /// place, never mixed.
+    pub fn or(self, other: Credentials) -> Credentials {
+        if self.is_empty() { other } else { self }
+    }
+
+    /// Checks that a user comes with a password and that an nkey is not mixed with
+    /// them; `whose` names the place in the config.
+    pub fn validate(&self, whose: &str) -> Result<(), ClusterConfigError> {
+        if self.user.is_some() != self.password.is_some() {
+            return Err(ClusterConfigError::Credentials(whose.to_string()));
+        }
+        if self.nkey.is_some() && self.user.is_some() {
+            return Err(ClusterConfigError::NkeyAndUser(whose.to_string()));
+        }
+        Ok(())
     }
 }

@@ -52,6 +52,14 @@ pub enum ClusterError {
         #[source]
         source: NatsFailure,
     },
+    /// The server refused what this role published (its user may not publish there).
+    #[error("the NATS server refused publishing on {subject}: {said}")]
+    Refused {
+        /// The subject.
+        subject: String,
+        /// What the server said.
+        said: String,
+    },
     /// An operation was not acknowledged by JetStream in time.
     #[error("operation not committed within {0:?} (is the NATS server up?)")]
     CommitTimeout(Duration),
@@ -83,6 +91,9 @@ pub enum NatsFailure {
     /// A JetStream publish, or its acknowledgement.
     #[error(transparent)]
     JetStreamPublish(#[from] async_nats::jetstream::context::PublishError),
+    /// Finding the operation stream.
+    #[error(transparent)]
+    GetStream(#[from] async_nats::jetstream::context::GetStreamError),
     /// JetStream did not acknowledge a publish in time.
     #[error("no acknowledgement within {0:?}")]
     NoAck(Duration),
@@ -105,8 +116,20 @@ pub enum ClusterConfigError {
     #[error("session {0:?} must be 1..=64 of A-Z a-z 0-9 - _")]
     Session(String),
     /// Only one of user and password is given.
-    #[error("user and password go together")]
-    Credentials,
+    #[error("{0}: user and password go together")]
+    Credentials(String),
+    /// An nkey and a user are both given.
+    #[error("{0}: give an nkey or a user and password, not both")]
+    NkeyAndUser(String),
+    /// The nkey seed file could not be read.
+    #[error("reading the nkey seed file {path}")]
+    NkeyFile {
+        /// The file.
+        path: std::path::PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
     /// A time or rate is not positive.
     #[error("{name} must be positive, got {value}")]
     NotPositive {

@@ -14,6 +14,7 @@
 
 use std::path::PathBuf;
 
+use super::auth::Credentials;
 use super::{ClusterConfigError, ClusterError};
 use crate::config::Config;
 use crate::error::{VrError, VrResult};
@@ -53,6 +54,8 @@ pub struct NodeOptions {
     pub duration: f64,
     /// The final pictures.
     pub headless: HeadlessOptions,
+    /// Credentials from the command line, replacing the config's.
+    pub credentials: Credentials,
 }
 
 /// Prepares a node's configuration: its screen and session directory from its

@@ -13,6 +13,7 @@ use super::APPLY_LOG_CAP;
 use super::snapshots::Snapshots;
 use super::stream::{ACK_WAIT, OpMsg, OpRecord};
 use crate::app::AppState;
+use crate::cluster::snapshot::{KIND_SNAPSHOT, OpsHash};
 use crate::cluster::{
     ClusterError, HDR_KIND, HDR_OWNER, HDR_SENT, KIND_EDIT, KIND_END, NatsFailure, Subjects,
     unix_ns,
@@ -36,6 +37,15 @@ pub(super) struct Node {
     pub(super) applied: u64,
     pub(super) committed: u64,
     pub(super) garbage_ops: u64,
+    /// Stream messages refused: not from a configured owner, or claiming another
+    /// owner than their subject names.
+    pub(super) refused_ops: u64,
+    /// The [`OpsHash`] of the stream's positions up to `applied_seq` (the snapshot
+    /// writer's attestation names it).
+    pub(super) chain: OpsHash,
+    /// The last stream position applied that is not a snapshot attestation (the
+    /// writer counts these, so its own attestations never make a snapshot due).
+    pub(super) last_op_seq: u64,
     pub(super) ends: BTreeSet<String>,
     pub(super) commit_ms: Vec<f64>,
     pub(super) apply_ms: Vec<f64>,
@@ -45,22 +55,80 @@ pub(super) struct Node {
     pub(super) snap: Snapshots,
 }
 
+/// Why a stream message is refused.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub(super) enum Refusal {
+    /// Its subject names no owner (`<session>.ops.<owner>`).
+    #[error("subject {0:?} names no owner")]
+    Subject(String),
+    /// Its subject names an owner the config does not.
+    #[error("{0:?} is not an owner in the config")]
+    NotAnOwner(String),
+    /// Its header claims another owner than its subject names.
+    #[error("published as {subject:?} but claims to be {header:?}")]
+    Claims {
+        /// The owner its subject names (whose credentials published it).
+        subject: String,
+        /// The owner its header claims.
+        header: String,
+    },
+}
+
 impl Node {
+    /// The owner whose message `m` is: the one its subject names, which the server
+    /// let publish there; refused when the config names no such owner or the message
+    /// claims another.
+    pub(super) fn accept(&self, m: &OpMsg) -> Result<String, Refusal> {
+        let Some(owner) = self.subjects.op_owner(&m.subject) else {
+            return Err(Refusal::Subject(m.subject.clone()));
+        };
+        if !self.owners.contains(owner) {
+            return Err(Refusal::NotAnOwner(owner.to_string()));
+        }
+        if let Some(h) = &m.owner
+            && h != owner
+        {
+            return Err(Refusal::Claims {
+                subject: owner.to_string(),
+                header: h.clone(),
+            });
+        }
+        Ok(owner.to_string())
+    }
+
     /// Applies one stream message (once: a message seen again after the consumer was
-    /// recreated is skipped).
+    /// recreated is skipped), if a configured owner sent it; any other is refused and
+    /// logged.
     pub(super) fn take(&mut self, app: &mut AppState, m: OpMsg) -> VrResult<()> {
         if m.seq <= self.applied_seq {
             return Ok(());
         }
         self.applied_seq = m.seq;
+        self.chain = self
+            .chain
+            .next(m.seq, &m.subject, m.kind.as_deref(), &m.payload);
+        if m.kind.as_deref() != Some(KIND_SNAPSHOT) {
+            self.last_op_seq = m.seq;
+        }
+        let owner = match self.accept(&m) {
+            Ok(o) => o,
+            Err(why) => {
+                tracing::warn!(
+                    seq = m.seq,
+                    kind = m.kind.as_deref().unwrap_or("none"),
+                    "refusing a stream message: {why}"
+                );
+                self.refused_ops += 1;
+                return Ok(());
+            }
+        };
         match m.kind.as_deref() {
             Some(KIND_END) => {
-                if let Some(o) = m.owner {
-                    tracing::info!(owner = %o, seq = m.seq, "end of an owner's session");
-                    self.ends.insert(o);
-                } else {
-                    self.garbage_ops += 1;
-                }
+                tracing::info!(owner = %owner, seq = m.seq, "end of an owner's session");
+                self.ends.insert(owner);
+            }
+            Some(KIND_SNAPSHOT) => {
+                tracing::debug!(owner = %owner, seq = m.seq, "a snapshot attestation");
             }
             Some(KIND_EDIT) => match serde_json::from_slice::<OpRecord>(&m.payload) {
                 Ok(rec) => {
@@ -154,7 +222,7 @@ impl Node {
             headers.insert(HDR_OWNER, self.name.as_str());
             headers.insert(HDR_SENT, unix_ns().to_string().as_str());
             let js = self.js.clone();
-            let subject = self.subjects.ops.clone();
+            let subject = self.subjects.op(&self.name);
             let body = payload.clone();
             let acked = self.rt.block_on(async move {
                 let ack = js
@@ -170,7 +238,7 @@ impl Node {
                 Err(source) => {
                     if Instant::now() >= deadline {
                         return Err(ClusterError::Publish {
-                            subject: self.subjects.ops.clone(),
+                            subject: self.subjects.op(&self.name),
                             source,
                         }
                         .into());

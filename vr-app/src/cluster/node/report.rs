@@ -31,6 +31,9 @@ pub struct NodeReport {
     pub peer_wands: PeerWandStats,
     /// Stream messages that were not operations (counted and ignored).
     pub garbage_ops: u64,
+    /// Stream messages refused (logged and ignored): from an owner the config does not
+    /// name, or claiming another owner than the subject they were published on.
+    pub refused_ops: u64,
     /// Tracking messages that were not DTrack2 frames (counted and ignored).
     pub garbage_frames: u64,
     /// Tracking frames received.

@@ -11,11 +11,12 @@ use futures_util::StreamExt;
 use super::feed::{FeedStats, follow_feed};
 use super::replica::Node;
 use super::report::{NodeReport, SnapshotReport};
-use super::snapshots::{Snapshots, latest_snapshot, snapshot_writer};
+use super::snapshots::{Snapshots, StreamCheck, snapshot_writer};
 use super::stream::{follow_stream, open_stream};
 use super::{NodeOptions, READY_FILE};
 use crate::app::AppState;
 use crate::cluster::barrier::Barrier;
+use crate::cluster::snapshot::OpsHash;
 use crate::cluster::wand::{PeerWands, WandPose, WandRate, show_peers};
 use crate::cluster::{
     ClusterConfigError, ClusterError, ClusterSection, KIND_END, NatsFailure, NodeSection,
@@ -112,24 +113,33 @@ impl NodeLoop {
         let (hub, feed_src) = live.add_feed(&format!("nats:{}", me.feed));
         let rt = crate::cluster::runtime("wandsculpt-cluster")?;
         let started = Instant::now();
-        let client = rt.block_on(cluster.connect(&format!("wandsculpt-{}", me.name)))?;
+        let credentials = cluster.node_credentials(&me, &opts.credentials);
+        let client = rt.block_on(cluster.connect(
+            &format!("wandsculpt-{}", me.name),
+            &credentials,
+            &crate::cluster::ServerRefusals::default(),
+        ))?;
         let js = jetstream::new(client.clone());
         let jserr =
             |what: &'static str| move |e: NatsFailure| ClusterError::JetStream { what, source: e };
-        let (ops_stream, stream_last, stream_id) = open_stream(&rt, &js, &subjects)?;
+        let commit_timeout = Duration::from_secs_f64(cluster.commit_timeout);
+        let (ops_stream, stream_last, stream_id) =
+            open_stream(&rt, &js, &subjects, me.owner, commit_timeout)?;
 
-        // The latest snapshot, when there is a good one: its document becomes the base
-        // scene and the stream is followed from the position after it.
+        // The latest snapshot, when there is a good one (checked against the stream):
+        // its document becomes the base scene and the stream is followed from the
+        // position after it.
         let base_scene = config.files.scene.clone();
         let (snap_store, loaded, snap_report) = if cluster.snapshots {
-            latest_snapshot(
-                &rt,
-                &js,
-                &cluster,
+            StreamCheck {
+                rt: &rt,
+                cluster: &cluster,
+                ops_stream: &ops_stream,
                 stream_id,
-                stream_last,
-                &mut config.files,
-            )
+                last: stream_last,
+                wait: commit_timeout,
+            }
+            .latest(&js, me.owner, &mut config.files)
         } else {
             (None, None, SnapshotReport::default())
         };
@@ -214,7 +224,7 @@ impl NodeLoop {
             name: me.name.clone(),
             owner: me.owner,
             owners: cluster.owners().into_iter().collect(),
-            commit_timeout: Duration::from_secs_f64(cluster.commit_timeout),
+            commit_timeout,
             run_id: unix_ns(),
             proposed: 0,
             ops: ops_rx,
@@ -222,6 +232,9 @@ impl NodeLoop {
             applied: 0,
             committed: 0,
             garbage_ops: 0,
+            refused_ops: 0,
+            chain: loaded.as_ref().map_or(OpsHash::EMPTY, |r| r.ops_hash),
+            last_op_seq: start_seq,
             ends: loaded
                 .as_ref()
                 .map(|r| r.ends.iter().cloned().collect())
@@ -463,6 +476,7 @@ impl NodeLoop {
             snapshot: node.snap.report.clone(),
             peer_wands: peers.stats(),
             garbage_ops: node.garbage_ops,
+            refused_ops: node.refused_ops,
             garbage_frames: feed.garbage.load(Ordering::Relaxed),
             frames: feed.frames.load(Ordering::Relaxed),
             propagation_ms: Percentiles::of(&mut propagation_ms),

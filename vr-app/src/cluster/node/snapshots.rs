@@ -3,7 +3,9 @@
 
 use std::path::PathBuf;
 use std::sync::mpsc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
+
+use async_nats::HeaderMap;
 
 use async_nats::jetstream::stream;
 
@@ -13,8 +15,12 @@ use super::report::SnapshotReport;
 use super::stream::{OpRecord, follow_stream};
 use crate::app::AppState;
 use crate::cluster::barrier::Barrier;
-use crate::cluster::snapshot::{self, SnapshotError, SnapshotRecord, StreamId};
-use crate::cluster::{ClusterError, ClusterSection, KIND_EDIT, NatsFailure};
+use crate::cluster::snapshot::{
+    self, Attestation, KIND_SNAPSHOT, OpsHash, SnapshotError, SnapshotRecord, StreamId,
+};
+use crate::cluster::{
+    ClusterError, ClusterSection, HDR_KIND, HDR_OWNER, HDR_SENT, KIND_EDIT, NatsFailure, unix_ns,
+};
 use crate::error::{VrError, VrResult};
 
 /// A node's snapshot state.
@@ -66,6 +72,7 @@ impl Node {
             })?;
             seq = m.seq;
             if m.kind.as_deref() == Some(KIND_EDIT)
+                && self.accept(&m).is_ok()
                 && let Ok(rec) = serde_json::from_slice::<OpRecord>(&m.payload)
             {
                 sculpt_core::editor::apply(&mut doc, &rec.edit);
@@ -101,34 +108,59 @@ impl Node {
         }
         let last = self.snap.report.written_seq.unwrap_or_default();
         let due = if end {
-            self.applied_seq > last
+            self.last_op_seq > last
         } else {
-            self.snap.every > 0 && self.applied_seq >= last + self.snap.every
+            self.snap.every > 0 && self.last_op_seq >= last + self.snap.every
         };
         if !due || app.session.doc.can_redo() {
             return;
         }
-        let record = SnapshotRecord {
+        let document = app.session.doc.to_json();
+        let attestation = Attestation {
+            seq: self.applied_seq,
+            ops: self.chain,
+            doc: snapshot::document_hash(&document),
+        };
+        let mut record = SnapshotRecord {
             session: self.snap.session.clone(),
             stream: self.snap.stream,
             seq: self.applied_seq,
             ends: self.ends.iter().cloned().collect(),
             writer: self.name.clone(),
-            document: app.session.doc.to_json(),
+            ops_hash: self.chain,
+            attested_at: 0,
+            document,
         };
-        let bytes = match record.encode() {
+        let body = match serde_json::to_vec(&attestation) {
             Ok(b) => b,
             Err(e) => {
-                tracing::warn!("encoding a snapshot: {}", sculpt_core::error::Chain(&e));
+                tracing::warn!("encoding a snapshot attestation: {e}");
                 return;
             }
         };
-        tracing::info!(seq = record.seq, bytes = bytes.len(), "writing a snapshot");
+        tracing::info!(seq = record.seq, "writing a snapshot");
         self.snap.report.written += 1;
         self.snap.report.written_seq = Some(record.seq);
-        let task = self
-            .rt
-            .spawn(async move { snapshot::store(&store, bytes).await });
+        // First the attestation into the stream (only owners can write there), then
+        // the record naming its position into the bucket.
+        let mut headers = HeaderMap::new();
+        let msg_id = format!("{}-{:x}-snap-{}", self.name, self.run_id, record.seq);
+        headers.insert(async_nats::header::NATS_MESSAGE_ID, msg_id.as_str());
+        headers.insert(HDR_KIND, KIND_SNAPSHOT);
+        headers.insert(HDR_OWNER, self.name.as_str());
+        headers.insert(HDR_SENT, unix_ns().to_string().as_str());
+        let js = self.js.clone();
+        let subject = self.subjects.op(&self.name);
+        let task = self.rt.spawn(async move {
+            let ack = js
+                .publish_with_headers(subject, headers, body.into())
+                .await
+                .map_err(|e| SnapshotError::Attest(e.into()))?
+                .await
+                .map_err(|e| SnapshotError::Attest(e.into()))?;
+            record.attested_at = ack.sequence;
+            snapshot::store(&store, record.encode()?).await
+        });
         if end {
             let timeout = self.commit_timeout;
             // (The timer needs the runtime: build it inside.)
@@ -166,88 +198,172 @@ pub(super) fn snapshot_writer(
             == Some(&node.name)
 }
 
-/// Fetches, checks and keeps the latest snapshot: its document is written to the
-/// session directory ([`SNAPSHOT_SCENE_FILE`]) for the session to open. `Err(None)`:
-/// there is none yet.
-pub(super) async fn load_snapshot(
-    store: &async_nats::jetstream::object_store::ObjectStore,
-    session: &str,
-    stream: StreamId,
-    last: u64,
-    dir: &std::path::Path,
-) -> Result<(SnapshotRecord, PathBuf), Option<SnapshotError>> {
-    let bytes = snapshot::fetch(store).await?.ok_or(None)?;
-    let rec = SnapshotRecord::decode(&bytes)?;
-    rec.check(session, stream, last)?;
-    sculpt_core::sculpt::document::Document::from_json(&rec.document)
-        .map_err(|e| SnapshotError::Document(Box::new(e)))?;
-    let write = |e: VrError| SnapshotError::Write(Box::new(e));
-    crate::session::create_output_dir(dir).map_err(|source| {
-        write(VrError::Io {
-            path: dir.display().to_string(),
-            source,
-        })
-    })?;
-    let path = dir.join(SNAPSHOT_SCENE_FILE);
-    crate::session::write_atomic(&path, &rec.document).map_err(write)?;
-    Ok((rec, path))
+/// What a snapshot is checked against: this session's operation stream.
+pub(super) struct StreamCheck<'a> {
+    pub(super) rt: &'a tokio::runtime::Runtime,
+    pub(super) cluster: &'a ClusterSection,
+    pub(super) ops_stream: &'a stream::Stream,
+    pub(super) stream_id: StreamId,
+    /// The stream's last position.
+    pub(super) last: u64,
+    /// How long reading the stream up to the snapshot may take.
+    pub(super) wait: Duration,
 }
 
-/// The latest good snapshot of the session, when there is one: the bucket (`None`:
-/// it could not be had), the record, and what happened (in the report). A good one's
-/// document becomes the base scene (`files.scene`), written into the session
-/// directory; anything wrong is logged once and the node replays the whole stream.
-pub(super) fn latest_snapshot(
-    rt: &tokio::runtime::Runtime,
-    js: &async_nats::jetstream::Context,
-    cluster: &ClusterSection,
-    stream_id: StreamId,
-    stream_last: u64,
-    files: &mut crate::config::FilesConfig,
-) -> (
-    Option<async_nats::jetstream::object_store::ObjectStore>,
-    Option<SnapshotRecord>,
-    SnapshotReport,
-) {
-    let mut snap_report = SnapshotReport::default();
-    match rt.block_on(snapshot::bucket(js, &cluster.subjects().snapshots)) {
-        Ok(store) => {
-            let mut loaded = None;
-            match rt.block_on(load_snapshot(
-                &store,
-                &cluster.session,
-                stream_id,
-                stream_last,
-                &files.dir,
-            )) {
-                Ok((rec, path)) => {
-                    tracing::info!(
-                        seq = rec.seq,
-                        writer = %rec.writer,
-                        "starting from the snapshot"
-                    );
-                    files.scene = Some(path);
-                    snap_report.loaded_seq = Some(rec.seq);
-                    loaded = Some(rec);
-                }
-                Err(reason) => {
-                    let text = reason.map_or_else(
-                        || "no snapshot stored".to_string(),
-                        |e| sculpt_core::error::Chain(&e).to_string(),
-                    );
-                    if text != "no snapshot stored" {
-                        tracing::warn!("snapshot not used, replaying the whole stream: {text}");
+impl StreamCheck<'_> {
+    /// Whether the message at the record's attestation position is a configured
+    /// owner's attestation of this very record (position, ops hash, document).
+    fn attested(&self, rec: &SnapshotRecord) -> Result<(), SnapshotError> {
+        let at = rec.attested_at;
+        let msg = self
+            .rt
+            .block_on(self.ops_stream.get_raw_message(at))
+            .map_err(|e| SnapshotError::AttestationRead {
+                at,
+                source: Box::new(e),
+            })?;
+        let subject = msg.subject.to_string();
+        let subjects = self.cluster.subjects();
+        let get = |name: &str| msg.headers.get(name).map(|v| v.as_str().to_string());
+        let owner = subjects
+            .op_owner(&subject)
+            .filter(|o| self.cluster.owners().iter().any(|c| c == o));
+        let from_owner = owner.is_some_and(|o| get(HDR_OWNER).is_none_or(|h| h == o));
+        let attestation = serde_json::from_slice::<Attestation>(&msg.payload).ok();
+        match attestation {
+            Some(a) if from_owner && get(HDR_KIND).as_deref() == Some(KIND_SNAPSHOT) => {
+                rec.vouched_by(&a)
+            }
+            _ => Err(SnapshotError::NoAttestation { at, subject }),
+        }
+    }
+
+    /// The [`OpsHash`] of the stream's positions `1..=seq`, read in order.
+    fn ops_hash(&self, seq: u64) -> Result<OpsHash, SnapshotError> {
+        let (tx, rx) = mpsc::channel();
+        let task = self.rt.spawn(follow_stream(
+            self.ops_stream.clone(),
+            self.cluster.subjects().ops,
+            1,
+            tx,
+        ));
+        let deadline = Instant::now() + self.wait;
+        let mut hash = OpsHash::EMPTY;
+        let mut at = 0;
+        let result = loop {
+            if at >= seq {
+                break Ok(hash);
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            match rx.recv_timeout(left) {
+                Ok(m) => {
+                    at = m.seq;
+                    if at <= seq {
+                        hash = hash.next(m.seq, &m.subject, m.kind.as_deref(), &m.payload);
                     }
-                    snap_report.fallback = Some(text);
+                }
+                Err(_) => {
+                    break Err(SnapshotError::StreamRead {
+                        seq,
+                        source: NatsFailure::ConsumerEnded,
+                    });
                 }
             }
-            (Some(store), loaded, snap_report)
+        };
+        task.abort();
+        result
+    }
+
+    /// Fetches the latest snapshot and checks it: its bytes, its session and stream,
+    /// its attestation in the stream and the stream's ops hash up to it; a good one's
+    /// document is written to the session directory ([`SNAPSHOT_SCENE_FILE`]) for the
+    /// session to open. `Err(None)`: there is none yet.
+    fn load(
+        &self,
+        store: &async_nats::jetstream::object_store::ObjectStore,
+        dir: &std::path::Path,
+    ) -> Result<(SnapshotRecord, PathBuf), Option<SnapshotError>> {
+        let bytes = self.rt.block_on(snapshot::fetch(store))?.ok_or(None)?;
+        let rec = SnapshotRecord::decode(&bytes)?;
+        rec.check(&self.cluster.session, self.stream_id, self.last)?;
+        self.attested(&rec)?;
+        let stream = self.ops_hash(rec.seq)?;
+        if stream != rec.ops_hash {
+            return Err(Some(SnapshotError::OpsHash {
+                seq: rec.seq,
+                stream,
+                record: rec.ops_hash,
+            }));
         }
-        Err(e) => {
-            let text = sculpt_core::error::Chain(&e).to_string();
-            tracing::warn!("no snapshot bucket, replaying the whole stream: {text}");
-            snap_report.fallback = Some(text);
-            (None, None, snap_report)
+        sculpt_core::sculpt::document::Document::from_json(&rec.document)
+            .map_err(|e| SnapshotError::Document(Box::new(e)))?;
+        let write = |e: VrError| SnapshotError::Write(Box::new(e));
+        crate::session::create_output_dir(dir).map_err(|source| {
+            write(VrError::Io {
+                path: dir.display().to_string(),
+                source,
+            })
+        })?;
+        let path = dir.join(SNAPSHOT_SCENE_FILE);
+        crate::session::write_atomic(&path, &rec.document).map_err(write)?;
+        Ok((rec, path))
+    }
+
+    /// The latest good snapshot of the session, when there is one: the bucket
+    /// (`None`: it could not be had), the record, and what happened (in the report).
+    /// An owner creates the bucket, a render node only opens it. A good snapshot's
+    /// document becomes the base scene (`files.scene`), written into the session
+    /// directory; anything wrong is logged once and the node replays the whole stream.
+    pub(super) fn latest(
+        &self,
+        js: &async_nats::jetstream::Context,
+        owner: bool,
+        files: &mut crate::config::FilesConfig,
+    ) -> (
+        Option<async_nats::jetstream::object_store::ObjectStore>,
+        Option<SnapshotRecord>,
+        SnapshotReport,
+    ) {
+        let mut snap_report = SnapshotReport::default();
+        let bucket = self.cluster.subjects().snapshots;
+        let store = if owner {
+            self.rt.block_on(snapshot::bucket(js, &bucket))
+        } else {
+            self.rt.block_on(snapshot::open_bucket(js, &bucket))
+        };
+        match store {
+            Ok(store) => {
+                let mut loaded = None;
+                match self.load(&store, &files.dir) {
+                    Ok((rec, path)) => {
+                        tracing::info!(
+                            seq = rec.seq,
+                            writer = %rec.writer,
+                            "starting from the snapshot"
+                        );
+                        files.scene = Some(path);
+                        snap_report.loaded_seq = Some(rec.seq);
+                        loaded = Some(rec);
+                    }
+                    Err(reason) => {
+                        let text = reason.map_or_else(
+                            || "no snapshot stored".to_string(),
+                            |e| sculpt_core::error::Chain(&e).to_string(),
+                        );
+                        if text != "no snapshot stored" {
+                            tracing::warn!("snapshot not used, replaying the whole stream: {text}");
+                        }
+                        snap_report.fallback = Some(text);
+                    }
+                }
+                (Some(store), loaded, snap_report)
+            }
+            Err(e) => {
+                let text = sculpt_core::error::Chain(&e).to_string();
+                tracing::warn!("no snapshot bucket, replaying the whole stream: {text}");
+                snap_report.fallback = Some(text);
+                (None, None, snap_report)
+            }
         }
     }
 }

@@ -18,7 +18,7 @@ pub(super) const STREAM_RETRY: Duration = Duration::from_millis(300);
 /// How long an owner waits for JetStream to acknowledge one publish before retrying.
 pub(super) const ACK_WAIT: Duration = Duration::from_secs(2);
 
-/// One operation in the stream: the body of a `<session>.ops` message.
+/// One operation in the stream: the body of a `<session>.ops.<owner>` message.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OpRecord {
@@ -32,6 +32,8 @@ pub struct OpRecord {
 #[derive(Debug)]
 pub(super) struct OpMsg {
     pub(super) seq: u64,
+    /// `<session>.ops.<owner>`: the owner the server let publish it.
+    pub(super) subject: String,
     pub(super) kind: Option<String>,
     pub(super) owner: Option<String>,
     pub(super) sent_ns: Option<u64>,
@@ -95,6 +97,7 @@ pub(super) async fn follow_stream(
             let get = |name: &str| header(&m.message, name).map(str::to_string);
             let msg = OpMsg {
                 seq,
+                subject: m.message.subject.to_string(),
                 kind: get(HDR_KIND),
                 owner: get(HDR_OWNER),
                 sent_ns: get(HDR_SENT).and_then(|s| s.parse().ok()),
@@ -108,14 +111,17 @@ pub(super) async fn follow_stream(
     }
 }
 
-/// Finds (or creates) the session's operation stream: the stream, its last position
-/// and its identity. Nodes starting together race to create the stream, and a server
-/// just started may not have JetStream ready yet: this retries for a while before
-/// giving up.
+/// Finds (or, for an owner, creates) the session's operation stream: the stream, its
+/// last position and its identity. Nodes starting together race to create the stream,
+/// and a server just started may not have JetStream ready yet: this retries for a
+/// while before giving up. A render node may not create it (its user may not): it
+/// waits up to `wait` for an owner to.
 pub(super) fn open_stream(
     rt: &tokio::runtime::Runtime,
     js: &jetstream::Context,
     subjects: &Subjects,
+    create: bool,
+    wait: Duration,
 ) -> Result<(stream::Stream, u64, StreamId), ClusterError> {
     let jserr =
         |what: &'static str| move |e: NatsFailure| ClusterError::JetStream { what, source: e };
@@ -126,15 +132,30 @@ pub(super) fn open_stream(
         ..Default::default()
     };
     let mut attempt = 0;
+    let deadline = std::time::Instant::now() + wait;
     let mut ops_stream = loop {
-        match rt.block_on(js.get_or_create_stream(stream_config.clone())) {
-            Ok(stream) => break stream,
-            Err(e) if attempt < STREAM_ATTEMPTS => {
-                attempt += 1;
-                tracing::warn!("creating the operation stream: {e}; retrying");
-                std::thread::sleep(STREAM_RETRY);
+        if create {
+            match rt.block_on(js.get_or_create_stream(stream_config.clone())) {
+                Ok(stream) => break stream,
+                Err(e) if attempt < STREAM_ATTEMPTS => {
+                    attempt += 1;
+                    tracing::warn!("creating the operation stream: {e}; retrying");
+                    std::thread::sleep(STREAM_RETRY);
+                }
+                Err(e) => return Err(jserr("stream")(e.into())),
             }
-            Err(e) => return Err(jserr("stream")(e.into())),
+        } else {
+            match rt.block_on(js.get_stream(&subjects.stream)) {
+                Ok(stream) => break stream,
+                Err(e) if std::time::Instant::now() < deadline => {
+                    if attempt == 0 {
+                        tracing::info!("waiting for an owner to create the operation stream: {e}");
+                    }
+                    attempt += 1;
+                    std::thread::sleep(STREAM_RETRY);
+                }
+                Err(e) => return Err(jserr("stream")(e.into())),
+            }
         }
     };
     let info = rt
