@@ -4,8 +4,8 @@
 //! when the session ends.
 //!
 //! The node follows its tracking feed through its own hub and
-//! [`tracking::stage::FrameStage`] (the [`LiveTracking`] of a display server, fed from
-//! NATS instead of a socket) and its own interaction. An owner node publishes the edits
+//! [`tracking::stage::FrameStage`] (the [`LiveTracking`](crate::live::LiveTracking) of
+//! a display server, fed from NATS instead of a socket) and its own interaction. An owner node publishes the edits
 //! its interaction proposes to the JetStream stream and waits until the stream has
 //! stored them and they have come back; every node applies the stream in order, from
 //! its first operation (so a node that starts late or restarts after a crash replays
