@@ -727,6 +727,17 @@ pub const RFM_SINGULAR_REL: f64 = 1e-14;
 /// mapping control points approximates the composition (measured: see that page).
 pub const LATTICE_BEND_MAX_REL: f64 = 0.1;
 
+// ---------------------------------------------------------------------------------
+// GPU evaluation of volumes (vr_app::gpu_volume, issue 33).
+// ---------------------------------------------------------------------------------
+
+/// The GPU's f32 evaluation of a volume on a parameter grid agrees with the CPU's f64
+/// one rounded to f32 to this, relative to the largest absolute control value of the
+/// attribute (the convex hull property bounds the values by it): the basis functions
+/// (P&T A2.2 in f32, a few roundings each), a sum over up to `(p + 1)^n` products and
+/// the division by the weight, each a few f32 ulps (`2^-24`, about `6e-8`).
+pub const VOLUME_GPU_REL: f64 = 4e-6;
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -204,6 +204,39 @@ fn grid_writes_a_vtk_structured_grid_first_index_fastest() {
     }
 }
 
+/// `grid --f32`: raw little-endian f32, every attribute per point, the first index
+/// fastest (the layout `wandsculpt --gpu-volume-eval` writes), each value the f64
+/// evaluation at the uniform parameter rounded once.
+#[test]
+fn grid_f32_writes_every_attribute_first_index_fastest() {
+    let files = Files::new();
+    let vol_path = files.put("v.json", SHELL);
+    let vol = Volume::from_json(SHELL).unwrap();
+    let out = files.path("g.f32");
+    common::ok(&[
+        "volume",
+        "grid",
+        &vol_path,
+        "--res",
+        "5,3,4",
+        "--f32",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let bytes = std::fs::read(&out).unwrap();
+    let values: Vec<f32> = bytes
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect();
+    assert_eq!(values.len(), 5 * 3 * 4 * 4);
+    for (i, j, l) in [(0, 0, 0), (3, 1, 2), (4, 2, 3), (1, 2, 0)] {
+        let at = (i + 5 * (j + 3 * l)) * 4;
+        let u = [i as f64 / 4.0, j as f64 / 2.0, l as f64 / 3.0];
+        let want: Vec<f32> = vol.point(&u).unwrap().iter().map(|&v| v as f32).collect();
+        assert_eq!(values[at..at + 4].to_vec(), want, "({i}, {j}, {l})");
+    }
+}
+
 #[test]
 fn bad_input_gets_one_clear_line() {
     let files = Files::new();

@@ -58,6 +58,7 @@ pub mod desktop_view;
 pub mod desktop_wand;
 pub mod error;
 pub mod gpu_eval;
+pub mod gpu_volume;
 pub mod headless;
 pub mod input;
 pub mod journal;

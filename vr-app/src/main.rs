@@ -4,9 +4,11 @@
 //! default surface and an emulated wand (mouse and keyboard); with a config naming a
 //! tracker it drives a projection wall; `--headless` runs with no window and writes
 //! PNGs; `--demo` plays a built-in session; `--gpu-eval` evaluates an implicit model on
-//! the GPU (docs/implicit.md). See `docs/cli/wandsculpt.md`.
+//! the GPU (docs/implicit.md); `--gpu-volume-eval` a volume's attributes on a parameter
+//! grid (docs/volumes.md). See `docs/cli/wandsculpt.md`.
 
 mod gpu_eval_cli;
+mod gpu_volume_cli;
 
 use std::path::PathBuf;
 
@@ -165,11 +167,20 @@ struct Cli {
         allow_hyphen_values = true
     )]
     bounds: Option<String>,
-    /// With --gpu-eval: evaluate this many times (the file holds the last values) and
-    /// report every GPU time, their median and minimum.
-    #[arg(long, value_name = "N", default_value_t = 1, requires = "gpu_eval",
+    /// With --gpu-eval or --gpu-volume-eval: evaluate this many times (the file holds
+    /// the last values) and report every GPU time, their median and minimum.
+    #[arg(long, value_name = "N", default_value_t = 1,
         value_parser = clap::value_parser!(u32).range(1..=1000))]
     repeat: u32,
+    /// Evaluate a volume (`wandsculpt-volume` JSON) on the GPU at the points of a
+    /// uniform parameter grid (--res), with no window; --out names the little-endian
+    /// f32 file, laid out as `sculpt-tools volume grid --f32` writes it (docs/volumes.md).
+    #[arg(long, value_name = "VOL", requires_all = ["res", "out"],
+        conflicts_with_all = ["gpu_eval", "headless", "demo", "xr", "cluster", "study", "config", "scene"])]
+    gpu_volume_eval: Option<PathBuf>,
+    /// With --gpu-volume-eval: grid points per direction, `R1,..,Rn`.
+    #[arg(long, value_name = "R1,..,Rn", requires = "gpu_volume_eval")]
+    res: Option<String>,
 }
 
 /// `--cluster` roles.
@@ -240,6 +251,16 @@ fn run(cli: Cli) -> Result<()> {
             model,
             grid,
             bounds,
+            out,
+            repeat: cli.repeat as usize,
+        })?;
+        println!("{}", serde_json::to_string_pretty(&report)?);
+        return Ok(());
+    }
+    if let (Some(volume), Some(res), Some(out)) = (&cli.gpu_volume_eval, &cli.res, &cli.out) {
+        let report = gpu_volume_cli::run(&gpu_volume_cli::GpuVolumeArgs {
+            volume,
+            res,
             out,
             repeat: cli.repeat as usize,
         })?;

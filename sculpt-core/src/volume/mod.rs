@@ -66,6 +66,7 @@ pub mod critical;
 mod error;
 mod eval;
 pub mod fit;
+mod grid;
 pub mod integrate;
 pub mod isosurface;
 pub mod json;

@@ -77,12 +77,17 @@ struct GridArgs {
     /// Grid points per direction: `20,10,5` (each at least 2).
     #[arg(long, value_delimiter = ',')]
     res: Vec<usize>,
-    /// The `.vtk` file to write.
+    /// The `.vtk` file to write (with `--f32`: the raw values).
     #[arg(long)]
     out: PathBuf,
     /// Write VTK BINARY (big-endian doubles) instead of ASCII.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "f32")]
     binary: bool,
+    /// Write raw little-endian f32 instead of VTK: every attribute (`k` values per
+    /// point, in the file's order), the first index fastest; the layout of
+    /// `wandsculpt --gpu-volume-eval`, for comparing the two.
+    #[arg(long)]
+    f32: bool,
 }
 
 /// Arguments of `volume eval`.
@@ -319,6 +324,11 @@ fn grid(args: &GridArgs) -> Result<()> {
         );
     }
     let total = total.unwrap_or(0);
+    if args.f32 {
+        let values = vol.eval_grid_f32(&args.res)?;
+        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        return io::write_file(&args.out, &bytes);
+    }
     let mut dims = [1usize; 3];
     dims[..n.min(3)].copy_from_slice(&args.res[..n.min(3)]);
     if n == 4 {
