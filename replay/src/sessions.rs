@@ -12,7 +12,8 @@
 //! sheet of [`default_surface_point`], in the display
 //! frame with the default calibration (tracker millimetres = display metres x 1000).
 //! Buttons follow the interaction's default map: 0 draws, 1 cycles the mode
-//! (carve -> emboss -> sketch), 5 selects the next target.
+//! (carve -> emboss -> sketch), 5 selects the next target, 6 turns lattice mode on and
+//! off.
 //!
 //! ```
 //! let names: Vec<_> = replay::sessions::catalogue().iter().map(|s| s.name).collect();
@@ -62,6 +63,8 @@ pub struct SessionSpec {
     pub trouble: Trouble,
     /// Carving strokes the script draws (what a clean replay should apply).
     pub strokes: usize,
+    /// Lattice drags the script makes (deformations a clean replay should apply).
+    pub deforms: usize,
 }
 
 /// A wand orientation that keeps the sketch axis (wand +x) horizontal.
@@ -201,6 +204,7 @@ pub fn catalogue() -> Vec<SessionSpec> {
         sim: sim.clone(),
         trouble,
         strokes,
+        deforms: 0,
     };
     // Tracking lost mid-stroke: the wand is occluded for 0.2 s in the middle of the
     // second stroke; the stroke pauses and resumes.
@@ -249,6 +253,23 @@ pub fn catalogue() -> Vec<SessionSpec> {
             s = s.hold(60.0 - d);
         }
         s
+    };
+    // A wand with eight buttons: the lattice button (6) is beyond a six-button
+    // Flystick's.
+    let eight_buttons = SimConfig {
+        button_count: 8,
+        ..clean.clone()
+    };
+    let lattice = SessionSpec {
+        deforms: 1,
+        ..spec(
+            "lattice-bend",
+            "a groove, then lattice mode (button 6): drag the cage's top front control point 8 cm out; the sheet and the groove bend",
+            lattice_bend(),
+            &eight_buttons,
+            Trouble::None,
+            1,
+        )
     };
     vec![
         spec(
@@ -355,7 +376,47 @@ pub fn catalogue() -> Vec<SessionSpec> {
             Trouble::None,
             12,
         ),
+        lattice,
     ]
+}
+
+/// The cage control point the lattice session grabs: of the default lattice around
+/// the default sheet, the one at the top front, a third in from the left
+/// (`[1, 3, 3]`).
+pub fn lattice_grab_point() -> DVec3 {
+    let sheet = sculpt_core::editor::default_surface();
+    let lattice = sculpt_core::lattice::Lattice::around(
+        sculpt_core::lattice::LatticeSpec::default(),
+        &[&sheet],
+    )
+    .unwrap_or_else(|e| unreachable!("the default sheet has a lattice: {e}"));
+    lattice.rest_point(lattice.flat([1, 3, 3]))
+}
+
+/// Carve one groove, switch to lattice mode (button 6), drag the cage point of
+/// [`lattice_grab_point`] 8 cm towards the viewer and 3 cm up, switch back.
+fn lattice_bend() -> Script {
+    let s = Sculptor::new().stroke_on_surface(&across(1.27, -0.3, 0.3, 7), 1.2);
+    let grab = lattice_grab_point();
+    let script = s
+        .script
+        .click(6, 0.08)
+        .hold(0.15)
+        .move_to(grab + DVec3::new(0.0, 0.0, 0.05), 0.5)
+        .move_to(grab, 0.25)
+        .hold(0.1)
+        .press(0)
+        .move_to(grab + DVec3::new(0.0, 0.03, 0.08), 0.8)
+        .hold(0.1)
+        .release(0)
+        .hold(0.2)
+        .click(6, 0.08)
+        .hold(0.15);
+    Sculptor {
+        script,
+        hover: 0.05,
+    }
+    .finish()
 }
 
 /// Sketch a surface 12 cm in front of the sheet, select it (button 5), then carve

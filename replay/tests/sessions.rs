@@ -55,12 +55,18 @@ fn every_session_reads_back_with_its_trouble() {
             "{}",
             spec.name
         );
-        // Button-0 presses: one per stroke, plus one for the sketch when there is one.
+        // Button-0 presses: one per stroke and lattice drag, plus one for the sketch
+        // when there is one.
         let presses = frames
             .windows(2)
             .filter(|w| !w[0].wands[0].button(0) && w[1].wands[0].button(0))
             .count();
         let sketches = usize::from(spec.name.starts_with("sketch"));
-        assert_eq!(presses, spec.strokes + sketches, "{}", spec.name);
+        assert_eq!(
+            presses,
+            spec.strokes + spec.deforms + sketches,
+            "{}",
+            spec.name
+        );
     }
 }

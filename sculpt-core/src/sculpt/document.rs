@@ -192,7 +192,7 @@ enum Step {
 }
 
 mod deform;
-pub use deform::{DeformRecord, MAX_DEFORMS};
+pub use deform::{DeformRecord, MAX_DEFORMS, carry_stroke};
 
 /// Targets, strokes, history and the derived sculpting state.
 #[derive(Debug, Clone, Default)]
