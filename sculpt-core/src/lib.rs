@@ -17,6 +17,7 @@ pub mod interaction;
 pub mod mesh;
 pub mod nurbs;
 pub mod oplog;
+pub mod percentile;
 pub mod reconstruct;
 pub mod sculpt;
 pub mod study;
