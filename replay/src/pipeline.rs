@@ -520,7 +520,7 @@ impl Replayer {
         let mut sorted = stroke_apply_us.clone();
         sorted.sort_by(f64::total_cmp);
         let timing = Timing {
-            stroke_apply_median_us: sorted.get(sorted.len() / 2).copied().unwrap_or(0.0),
+            stroke_apply_median_us: sculpt_core::percentile::median(&sorted).unwrap_or(0.0),
             stroke_apply_max_us: sorted.last().copied().unwrap_or(0.0),
             stroke_apply_us,
             ..Timing::default()

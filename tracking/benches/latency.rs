@@ -123,7 +123,7 @@ fn main() {
         println!("tcp->filtered pose latency: no frame was observed");
         std::process::exit(1);
     }
-    let q = |p: f64| lat[((lat.len() - 1) as f64 * p).round() as usize];
+    let q = |p: f64| sculpt_core::percentile::quantile(&lat, p).unwrap_or_default();
     println!(
         "tcp->filtered pose latency at 1 kHz: frames sent {frames}, counted {} ({individually} observed individually, {} readable only through a later frame), lost {}",
         lat.len(),

@@ -506,7 +506,7 @@ fn plausible(good: &[(Option<f64>, Instant)], adm: &Admission) -> bool {
         .collect();
     if steps.len() + 1 == last.len() {
         steps.sort_by(f64::total_cmp);
-        let median = steps[steps.len() / 2];
+        let median = sculpt_core::percentile::median(&steps).unwrap_or(0.0);
         (0.5 * period..=2.0 * period).contains(&median)
     } else {
         // No tracker times: the frames came no slower than half the rate.

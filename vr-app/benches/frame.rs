@@ -116,7 +116,7 @@ fn frame(c: &mut Criterion) {
             continue; // filtered out on the command line
         }
         frames.sort();
-        let at = |q: f64| frames[((frames.len() - 1) as f64 * q).round() as usize];
+        let at = |q: f64| sculpt_core::percentile::quantile(&frames, q).unwrap_or_default();
         report.push(format!(
             "{name}: {} frames, median {:.3} ms, p99 {:.3} ms",
             frames.len(),

@@ -69,16 +69,13 @@ fn ms(d: std::time::Duration) -> f64 {
     d.as_secs_f64() * 1e3
 }
 
-/// The median of `xs` (not empty).
+/// The median of `xs` by the workspace's one percentile rule
+/// ([`sculpt_core::percentile`]: a measured run, the upper middle of an even count);
+/// 0 when empty.
 fn median(xs: &[f64]) -> f64 {
     let mut v = xs.to_vec();
     v.sort_by(f64::total_cmp);
-    let m = v.len() / 2;
-    if v.len() % 2 == 1 {
-        v[m]
-    } else {
-        0.5 * (v[m - 1] + v[m])
-    }
+    sculpt_core::percentile::median(&v).unwrap_or(0.0)
 }
 
 /// Runs `--gpu-eval`; returns the JSON report.
@@ -173,6 +170,8 @@ mod tests {
     #[test]
     fn medians() {
         assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
-        assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), 2.5);
+        // One percentile rule (issue 32): the upper middle of an even count, a run that
+        // was measured, where this report alone used to average the two middles (2.5).
+        assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), 3.0);
     }
 }

@@ -137,10 +137,7 @@ pub fn run_headless(
     // The journal is the record of truth: make sure it reads back.
     let operations = Journal::read(dir.join(JOURNAL_FILE))?.len() as u64;
     frame_times.sort();
-    let median = frame_times
-        .get(frame_times.len() / 2)
-        .copied()
-        .unwrap_or_default();
+    let median = sculpt_core::percentile::median(&frame_times).unwrap_or_default();
     Ok(HeadlessReport {
         adapter: gpu.describe(),
         inputs: count,

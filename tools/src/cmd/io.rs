@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use sculpt_core::nurbs::NurbsSurface;
+use sculpt_core::volume::{Volume, VolumeError};
 
 /// Largest input `read_input` reads (bytes, 1 GiB). A larger file is refused from its
 /// size before it is read, and stdin is cut there, so memory is bounded by this cap.
@@ -67,6 +68,24 @@ pub fn read_surface(path: &Path) -> Result<NurbsSurface> {
             )
         }
         e => anyhow::anyhow!("{}: invalid surface: {e}", display_name(path)),
+    })
+}
+
+/// Reads a volume file; errors name the file (and for JSON errors the line and column).
+pub fn read_volume(path: &Path) -> Result<Volume> {
+    let text = read_input(path)?;
+    Volume::from_json(&text).map_err(|e| match e {
+        VolumeError::Json(json) => {
+            let msg = json.to_string();
+            let msg = msg.split(" at line ").next().unwrap_or(&msg).to_string();
+            anyhow::anyhow!(
+                "{}:{}:{}: invalid volume: {msg}",
+                display_name(path),
+                json.line(),
+                json.column()
+            )
+        }
+        e => anyhow::anyhow!("{}: invalid volume: {e}", display_name(path)),
     })
 }
 

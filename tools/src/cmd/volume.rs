@@ -18,7 +18,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use sculpt_core::volume::{PointArray, StructuredGrid, Volume, VolumeError};
+use sculpt_core::volume::{PointArray, StructuredGrid, Volume};
 
 use super::io;
 
@@ -133,24 +133,6 @@ pub fn run(args: VolumeArgs) -> Result<()> {
     }
 }
 
-/// Reads a volume file; errors name the file (and for JSON errors the line and column).
-pub(super) fn read_volume(path: &Path) -> Result<Volume> {
-    let text = io::read_input(path)?;
-    Volume::from_json(&text).map_err(|e| match e {
-        VolumeError::Json(json) => {
-            let msg = json.to_string();
-            let msg = msg.split(" at line ").next().unwrap_or(&msg).to_string();
-            anyhow::anyhow!(
-                "{}:{}:{}: invalid volume: {msg}",
-                io::display_name(path),
-                json.line(),
-                json.column()
-            )
-        }
-        e => anyhow::anyhow!("{}: invalid volume: {e}", io::display_name(path)),
-    })
-}
-
 /// Parses CSV rows of `n` finite numbers; a first line that does not parse as numbers
 /// is a header and skipped. Errors name the file and the 1-based line.
 fn read_param_rows(path: &Path, n: usize) -> Result<Vec<Vec<f64>>> {
@@ -198,7 +180,7 @@ fn eval(args: &EvalArgs) -> Result<()> {
             args.derivatives
         );
     }
-    let vol = read_volume(&args.volume)?;
+    let vol = io::read_volume(&args.volume)?;
     let n = vol.directions();
     let k = vol.components();
     let rows = read_param_rows(&args.params, n)?;
@@ -228,7 +210,7 @@ fn analyze(args: &AnalyzeArgs) -> Result<()> {
     if args.gauss == 0 || args.gauss > 64 {
         bail!("--gauss {}: use 1 to 64 points per span", args.gauss);
     }
-    let vol = read_volume(&args.volume)?;
+    let vol = io::read_volume(&args.volume)?;
     let totals = vol.integrate(args.gauss);
     let integrals: serde_json::Map<String, serde_json::Value> = vol
         .attributes()
@@ -305,7 +287,7 @@ fn fit(args: &FitArgs) -> Result<()> {
 }
 
 fn grid(args: &GridArgs) -> Result<()> {
-    let vol = read_volume(&args.volume)?;
+    let vol = io::read_volume(&args.volume)?;
     let n = vol.directions();
     if args.res.len() != n {
         bail!(

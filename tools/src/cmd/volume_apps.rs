@@ -25,7 +25,7 @@ use sculpt_core::volume::{
 };
 
 use super::io;
-use super::volume::read_volume;
+use super::io::read_volume;
 
 /// Arguments of `volume streamlines`.
 #[derive(Debug, clap::Args)]

@@ -69,11 +69,9 @@ pub fn bootstrap_ci(xs: &[f64], b: Bootstrap) -> Option<(f64, f64)> {
         .map(|_| (0..n).map(|_| xs[rng.usize(..n)]).sum::<f64>() / n as f64)
         .collect();
     means.sort_by(f64::total_cmp);
-    let at = |q: f64| {
-        let i = ((q * (b.reps - 1) as f64).round() as usize).min(b.reps - 1);
-        means[i]
-    };
-    Some((at(0.025), at(0.975)))
+    // The workspace's one percentile rule: the resampled mean at rank round(q (n - 1)).
+    let at = |q: f64| sculpt_core::percentile::quantile(&means, q);
+    Some((at(0.025)?, at(0.975)?))
 }
 
 /// Describes a sample (`None` when empty).

@@ -138,7 +138,8 @@ pub fn unix_ns() -> u64 {
         .map_or(0, |d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))
 }
 
-/// Median and 99th percentile of samples (sorted in place), in the samples' unit.
+/// Median and 99th percentile of samples (sorted in place), in the samples' unit, by
+/// the workspace's one percentile rule ([`sculpt_core::percentile`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
 pub struct Percentiles {
     /// Samples.
@@ -155,16 +156,10 @@ impl Percentiles {
     /// Of `samples` (sorted here).
     pub fn of(samples: &mut [f64]) -> Self {
         samples.sort_by(f64::total_cmp);
-        let at = |q: f64| {
-            samples
-                .get(((samples.len() as f64 - 1.0) * q).round() as usize)
-                .copied()
-                .unwrap_or_default()
-        };
         Self {
             n: samples.len(),
-            median: at(0.5),
-            p99: at(0.99),
+            median: sculpt_core::percentile::median(samples).unwrap_or_default(),
+            p99: sculpt_core::percentile::p99(samples).unwrap_or_default(),
             max: samples.last().copied().unwrap_or_default(),
         }
     }

@@ -19,6 +19,7 @@
 
 use std::time::Duration;
 
+use sculpt_core::percentile;
 use serde::Serialize;
 
 /// One rendered frame's phases (CPU wall time on the frame loop's thread).
@@ -45,12 +46,13 @@ impl FramePhases {
     }
 }
 
-/// Median and 99th percentile of one phase, microseconds.
+/// Median and 99th percentile of one phase, microseconds, by the workspace's one
+/// percentile rule ([`sculpt_core::percentile`]).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
 pub struct PhaseStats {
     /// The median (the upper middle of an even count, as the headless report).
     pub median_us: f64,
-    /// The 99th percentile (nearest rank).
+    /// The 99th percentile.
     pub p99_us: f64,
     /// The largest.
     pub max_us: f64,
@@ -60,14 +62,11 @@ impl PhaseStats {
     /// The statistics of `samples` (any order); zeros when there are none.
     pub fn of(mut samples: Vec<Duration>) -> Self {
         samples.sort();
-        let us = |d: Option<&Duration>| d.map_or(0.0, |d| d.as_secs_f64() * 1e6);
-        let n = samples.len();
-        // Nearest rank: the smallest sample with at least 99 % of them at or below it.
-        let p99_rank = (n * 99).div_ceil(100).max(1);
+        let us = |d: Option<Duration>| d.map_or(0.0, |d| d.as_secs_f64() * 1e6);
         Self {
-            median_us: us(samples.get(n / 2)),
-            p99_us: us(samples.get(p99_rank - 1)),
-            max_us: us(samples.last()),
+            median_us: us(percentile::median(&samples)),
+            p99_us: us(percentile::p99(&samples)),
+            max_us: us(samples.last().copied()),
         }
     }
 }
