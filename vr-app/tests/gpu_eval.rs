@@ -20,7 +20,7 @@ use sculpt_core::tolerance::{
     GPU_EVAL_ULPS,
 };
 use vr_app::gpu_eval::wgsl::MAX_GPU_TAPE;
-use vr_app::gpu_eval::{GpuEvalError, GpuTape};
+use vr_app::gpu_eval::{GpuEvalError, GpuTape, pruned};
 use vr_app::render::Gpu;
 
 /// The adapter named by `WANDSCULPT_ADAPTER`, else lavapipe; `None` (the test skips)
@@ -377,6 +377,57 @@ fn chunked_grids_equal_one_dispatch() {
         one.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
         at_points.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
     );
+}
+
+/// A union (`min`) of 27 spheres of radius 0.4 on a 3 x 3 x 3 lattice, as `.vm`.
+fn sphere_lattice() -> String {
+    let mut text = String::from("x var-x\ny var-y\nz var-z\nr const 0.4\n");
+    for c in 0..27 {
+        let centre = [c % 3, (c / 3) % 3, c / 9].map(|k| k as f32 - 1.0);
+        for (a, v) in ["x", "y", "z"].iter().enumerate() {
+            text.push_str(&format!(
+                "c{c}{v} const {}\nd{c}{v} sub {v} c{c}{v}\n",
+                centre[a]
+            ));
+            text.push_str(&format!("q{c}{v} square d{c}{v}\n"));
+        }
+        text.push_str(&format!(
+            "s{c}a add q{c}x q{c}y\ns{c}b add s{c}a q{c}z\nl{c} sqrt s{c}b\ne{c} sub l{c} r\n"
+        ));
+        let prev = if c == 0 {
+            "e0".to_string()
+        } else {
+            format!("u{}", c - 1)
+        };
+        text.push_str(&format!("u{c} min {prev} e{c}\n"));
+    }
+    text
+}
+
+/// Tapes pruned per tile on the CPU and sent to the GPU give the CPU's values to f32
+/// rounding, on 3D and 2D grids whose faces cut tiles; pruning really happens.
+#[test]
+fn pruned_tiles_agree_with_the_cpu() {
+    let Some(gpu) = gpu() else { return };
+    let tape = Model::from_vm(&sphere_lattice())
+        .unwrap()
+        .tape_negative_inside();
+    for (n, tile) in [([45, 38, 29], 16), ([300, 170, 1], 64)] {
+        let grid = Grid::new(n, [-1.6; 3], [1.6; 3]).unwrap();
+        let (got, timing, report) = pruned::eval_grid_pruned(&gpu, &tape, &grid, tile).unwrap();
+        let cpu = tape.eval_grid(&grid);
+        assert_eq!(got.len(), cpu.len());
+        let worst = check_tape("sphere lattice (pruned)", &tape, &grid_points(&grid), &got);
+        let tiles = [0, 1, 2].map(|a| n[a].div_ceil(if n[a] == 1 { 1 } else { tile }));
+        assert_eq!(report.tiles, tiles.iter().product::<usize>());
+        assert!(
+            report.tapes > 1 && report.tapes <= report.tiles,
+            "{report:?}"
+        );
+        assert!(report.mean_len < 0.9 * report.full_len as f64, "{report:?}");
+        assert!(timing.chunks >= report.tapes);
+        eprintln!("pruned {n:?} tile {tile}: {report:?}, worst {worst:e}");
+    }
 }
 
 /// A `.vm` chain of `len` clauses: x + 1 + 1 + ... (no two clauses merge).

@@ -1,9 +1,17 @@
 //! Interval arithmetic over the op set, for bounding a model over a box of points.
 //!
-//! An [`Interval`] `[lo, hi]` holds every value the expression can take for points
-//! in the box, with a flag for "may be NaN". Results of rounded operations are
-//! widened outward by a few ulps so the bounds stay sound in f32 (Moore, *Interval
-//! Analysis*, 1966; Fidget prunes with the same arithmetic).
+//! An [`Interval`] `[lo, hi]` holds every value the tape's f32 evaluation can give
+//! for points in the box, with a flag for "may be NaN" (Moore, *Interval Analysis*,
+//! 1966; Fidget prunes with the same arithmetic).
+//!
+//! The bounds are for the f32 evaluation, which is what pruning must not change:
+//! the correctly rounded ops (`+ - * /`, `sqrt`, `square`) need no widening, since
+//! round-to-nearest is monotone, so rounding the exact result at the extreme
+//! arguments bounds the rounded result at every argument between them. Widening
+//! them as well (as this module once did) pushed a lower bound of 0 below zero, so
+//! `sqrt` of a sum of squares was flagged "may be NaN" and nothing under a distance
+//! was ever pruned. libm's transcendental functions are not correctly rounded,
+//! only within a few ulps, and are widened by a few ulps.
 
 use super::expr::{Binary, Unary};
 
@@ -97,11 +105,11 @@ impl Interval {
                     return Self::everything();
                 }
                 let lo = a.lo.max(0.0).sqrt();
-                Self::checked(lo, a.hi.sqrt(), a.nan || a.lo < 0.0).widen(1)
+                Self::checked(lo, a.hi.sqrt(), a.nan || a.lo < 0.0)
             }
             Unary::Square => {
                 let abs = a.unary(Unary::Abs);
-                Self::checked(abs.lo * abs.lo, abs.hi * abs.hi, a.nan).widen(1)
+                Self::checked(abs.lo * abs.lo, abs.hi * abs.hi, a.nan)
             }
             Unary::Floor => a.map_monotone(f32::floor, 0),
             Unary::Ceil => a.map_monotone(f32::ceil, 0),
@@ -173,8 +181,8 @@ impl Interval {
         let a = self;
         let nan = a.nan || b.nan;
         match op {
-            Binary::Add => Self::checked(a.lo + b.lo, a.hi + b.hi, nan).widen(1),
-            Binary::Sub => Self::checked(a.lo - b.hi, a.hi - b.lo, nan).widen(1),
+            Binary::Add => Self::checked(a.lo + b.lo, a.hi + b.hi, nan),
+            Binary::Sub => Self::checked(a.lo - b.hi, a.hi - b.lo, nan),
             Binary::Mul => {
                 let p = [a.lo * b.lo, a.lo * b.hi, a.hi * b.lo, a.hi * b.hi];
                 if p.iter().any(|v| v.is_nan()) {
@@ -183,7 +191,7 @@ impl Interval {
                 }
                 let lo = p.iter().copied().fold(f32::INFINITY, f32::min);
                 let hi = p.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-                Self::checked(lo, hi, nan).widen(1)
+                Self::checked(lo, hi, nan)
             }
             Binary::Div => {
                 if b.contains(0.0) {
@@ -196,7 +204,7 @@ impl Interval {
                 }
                 let lo = p.iter().copied().fold(f32::INFINITY, f32::min);
                 let hi = p.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-                Self::checked(lo, hi, nan).widen(1)
+                Self::checked(lo, hi, nan)
             }
             Binary::Min => Self::checked(a.lo.min(b.lo), a.hi.min(b.hi), nan),
             Binary::Max => Self::checked(a.lo.max(b.lo), a.hi.max(b.hi), nan),

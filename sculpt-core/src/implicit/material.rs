@@ -146,6 +146,11 @@ pub struct Material {
     /// Values at points (inverse-distance weights).
     #[serde(default)]
     pub points: Vec<PointValue>,
+    /// The shape the material fills (omega >= 0 inside), making a heterogeneous
+    /// object with the field (sec. 2.3, Fig. 8); the field itself is defined
+    /// everywhere, the shape says where it is shown.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub domain: Option<Solid>,
 }
 
 /// A material document: a version and the material.
@@ -218,6 +223,9 @@ impl MaterialDocument {
             check_site(at.clone(), b.value, b.mu)?;
             b.solid.check(&format!("{at}.solid"))?;
         }
+        if let Some(d) = &m.domain {
+            d.check("material.domain")?;
+        }
         for (i, p) in m.points.iter().enumerate() {
             let at = format!("material.points[{i}]");
             check_site(at.clone(), p.value, p.mu)?;
@@ -265,6 +273,19 @@ impl MaterialDocument {
     pub fn tape(&self) -> Result<Tape, ImplicitError> {
         let (g, root) = self.to_graph()?;
         Ok(Tape::compile(&g, root))
+    }
+
+    /// The tape of the shape the material fills (omega >= 0 inside), if it has one.
+    pub fn domain_tape(&self) -> Result<Option<Tape>, ImplicitError> {
+        let Some(solid) = &self.material.domain else {
+            return Ok(None);
+        };
+        let doc = SolidDocument {
+            version: 1,
+            solid: solid.clone(),
+        };
+        let (g, root) = doc.to_graph()?;
+        Ok(Some(Tape::compile(&g, root)))
     }
 }
 

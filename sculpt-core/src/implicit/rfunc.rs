@@ -262,6 +262,61 @@ mod tests {
         }
     }
 
+    /// The interval over `x in [x0, x0 + wx]`, `y in [y0, y0 + wy]` of AND or OR as
+    /// the tape evaluates it, and the range of its f32 values sampled on a 17 x 17
+    /// lattice of the box (corners included).
+    fn interval_and_samples(
+        sys: RSystem,
+        and: bool,
+        x0: f32,
+        wx: f32,
+        y0: f32,
+        wy: f32,
+    ) -> (crate::implicit::interval::Interval, f32, f32) {
+        use crate::implicit::interval::Interval;
+        use crate::implicit::tape::Tape;
+        let mut g = Graph::new();
+        let [vx, vy, _] = g.xyz();
+        let r = if and {
+            sys.and(&mut g, vx, vy)
+        } else {
+            sys.or(&mut g, vx, vy)
+        };
+        let tape = Tape::compile(&g, r);
+        let region = [
+            Interval::new(x0, x0 + wx),
+            Interval::new(y0, y0 + wy),
+            Interval::point(0.0),
+        ];
+        let range = tape.eval_interval(region);
+        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+        for i in 0..=16 {
+            for j in 0..=16 {
+                let x = (x0 + wx * i as f32 / 16.0).min(x0 + wx);
+                let y = (y0 + wy * j as f32 / 16.0).min(y0 + wy);
+                let v = tape.eval_point([x, y, 0.0]);
+                lo = lo.min(v);
+                hi = hi.max(v);
+            }
+        }
+        (range, lo, hi)
+    }
+
+    proptest! {
+        /// Interval bounds of the R-function compositions hold every sampled value.
+        /// Their width is not bounded here, because it is not small: where
+        /// `x + y -/+ sqrt(...)` cancels (one argument far from zero, or alpha near
+        /// -1), the interval is as wide as the arguments' magnitudes, and not
+        /// sign-definite even where both arguments are (measured in docs/implicit.md,
+        /// "Interval bounds of R-functions").
+        #[test]
+        fn r_function_intervals_are_sound(sys in system(), and in any::<bool>(),
+                x0 in -4.0f32..4.0, y0 in -4.0f32..4.0, wx in 0.001f32..1.0, wy in 0.001f32..1.0) {
+            let (range, lo, hi) = interval_and_samples(sys, and, x0, wx, y0, wy);
+            prop_assert!(range.lo <= lo && hi <= range.hi, "{range:?} misses [{lo}, {hi}]");
+        }
+    }
+
     #[test]
     fn r_alpha_one_is_min_max() {
         let sys = RSystem::RAlpha { alpha: 1.0 };

@@ -15,7 +15,9 @@
 //! always negative inside (Fidget's convention): a solid document's omega is negated.
 //! `implicit eval` also takes a material document (JSON with a top-level `material`:
 //! values interpolated from points and implicit boundaries, `implicit::material`) and
-//! writes its field's values as they are.
+//! writes its field's values as they are. With a 2D `--grid`, `--png P.png` also
+//! draws the values (one pixel a cell, a colour bar), white outside a material's
+//! `domain` or a solid's inside.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -30,6 +32,7 @@ use sculpt_core::implicit::tape::Grid;
 use sculpt_core::implicit::{Model, Tape};
 
 use super::io;
+use super::rfm::{FieldError, FieldView, render_field};
 
 /// Arguments of `implicit`.
 #[derive(Debug, Args)]
@@ -65,6 +68,10 @@ pub struct EvalArgs {
     /// Output file (required with `--grid`; text to stdout otherwise).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Also draw a 2D grid's values as a PNG with a colour bar (white outside the
+    /// material's domain, or outside the solid for a model).
+    #[arg(long, requires = "grid")]
+    pub png: Option<PathBuf>,
 }
 
 /// Arguments of `implicit mesh`.
@@ -182,21 +189,56 @@ fn read_points(path: &Path) -> Result<Vec<[f32; 3]>> {
 }
 
 /// The tape `implicit eval` evaluates: a model's in Fidget's convention (negative
-/// inside), or a material document's field as it is (a material has no inside).
-fn eval_tape(path: &Path) -> Result<Tape> {
+/// inside), or a material document's field as it is (a material has no inside); and
+/// the region a picture shows, as a tape non-negative there (a model's inside, a
+/// material's domain; `None`: everywhere).
+fn eval_tape(path: &Path) -> Result<(Tape, Option<Tape>)> {
     let text = io::read_input(path)?;
     if material::is_material_document(&text) {
-        return MaterialDocument::from_json(&text)
-            .and_then(|doc| doc.tape())
-            .with_context(|| format!("{}: invalid material document", io::display_name(path)));
+        let context = || format!("{}: invalid material document", io::display_name(path));
+        let doc = MaterialDocument::from_json(&text).with_context(context)?;
+        return Ok((
+            doc.tape().with_context(context)?,
+            doc.domain_tape().with_context(context)?,
+        ));
     }
-    Model::from_text(&text)
-        .map(|m| m.tape_negative_inside())
-        .with_context(|| format!("{}: invalid model", io::display_name(path)))
+    let model = Model::from_text(&text)
+        .with_context(|| format!("{}: invalid model", io::display_name(path)))?;
+    Ok((
+        model.tape_negative_inside(),
+        Some(model.tape_positive_inside()),
+    ))
+}
+
+/// Draws the values of a 2D grid's box, one pixel a cell (`--png`).
+fn picture(tape: &Tape, shown: Option<&Tape>, grid: &Grid, path: &Path) -> Result<()> {
+    let inside =
+        |p: [f64; 2]| shown.is_none_or(|t| t.eval_point([p[0] as f32, p[1] as f32, 0.0]) >= 0.0);
+    let values = |pts: &[[f64; 2]]| {
+        let pts: Vec<[f32; 3]> = pts
+            .iter()
+            .map(|p| [p[0] as f32, p[1] as f32, 0.0])
+            .collect();
+        let mut out = vec![0.0f32; pts.len()];
+        tape.eval_points(&pts, &mut out);
+        out.into_iter().map(f64::from).collect()
+    };
+    let view = FieldView {
+        lo: [grid.lo[0], grid.lo[1]],
+        hi: [grid.hi[0], grid.hi[1]],
+        size: grid.n[0] as u32,
+        label: "value",
+    };
+    let picture = render_field(view, inside, values).map_err(|e| match e {
+        FieldError::NoPixel => anyhow::anyhow!("--png: no cell of the grid is inside the domain"),
+        FieldError::NotFinite => anyhow::anyhow!("--png: no value in the domain is finite"),
+        FieldError::Png(e) => e,
+    })?;
+    io::write_file(path, &picture.png)
 }
 
 fn eval(args: &EvalArgs) -> Result<()> {
-    let tape = eval_tape(&args.model)?;
+    let (tape, shown) = eval_tape(&args.model)?;
     if let Some(points) = &args.points {
         io::check_one_stdin(&[&args.model, points])?;
         let pts = read_points(points)?;
@@ -216,9 +258,24 @@ fn eval(args: &EvalArgs) -> Result<()> {
     // A 2D grid is one layer whose centre is z = 0.
     let (zlo, zhi) = if flat { (-0.5, 0.5) } else { (lo, hi) };
     let grid = Grid::new(n, [lo, lo, zlo], [hi, hi, zhi])?;
+    if args.png.is_some() {
+        if !flat {
+            bail!("--png draws 2D grids (NxM) only");
+        }
+        if !(64..=4096).contains(&n[0]) {
+            bail!(
+                "--png: the grid's {} columns are the picture's width: 64 to 4096",
+                n[0]
+            );
+        }
+    }
     let values = tape.eval_grid(&grid);
     let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
-    io::write_file(out, &bytes)
+    io::write_file(out, &bytes)?;
+    match &args.png {
+        Some(png) => picture(&tape, shown.as_ref(), &grid, png),
+        None => Ok(()),
+    }
 }
 
 fn mesh(args: &MeshArgs) -> Result<()> {

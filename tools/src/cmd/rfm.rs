@@ -152,10 +152,10 @@ fn heat(args: &HeatArgs) -> Result<()> {
     Ok(())
 }
 
-/// A rendered picture and the temperature range its colours span.
-struct Picture {
-    png: Vec<u8>,
-    range: (f64, f64),
+/// A rendered picture and the value range its colours span.
+pub(crate) struct Picture {
+    pub(crate) png: Vec<u8>,
+    pub(crate) range: (f64, f64),
 }
 
 /// Colour stops of the map, cold to hot (a blue-cyan-yellow-red ramp).
@@ -189,6 +189,66 @@ const TICKS: usize = 5;
 /// colour bar and its scale labels.
 fn render(solution: &HeatSolution, size: u32) -> Result<Picture> {
     let (lo, hi) = solution.basis().bounds();
+    let tape = solution.tape();
+    let inside = |p: [f64; 2]| tape.eval_point([p[0] as f32, p[1] as f32, 0.0]) >= 0.0;
+    let mut picture = render_field(
+        FieldView {
+            lo,
+            hi,
+            size,
+            label: "T (K)",
+        },
+        inside,
+        |pts| solution.temperatures(pts),
+    )
+    .map_err(|e| match e {
+        FieldError::NoPixel => {
+            anyhow::anyhow!("the picture has no pixel inside the domain (try a larger --size)")
+        }
+        FieldError::NotFinite => anyhow::anyhow!("the temperature is not finite in the domain"),
+        FieldError::Png(e) => e,
+    })?;
+    picture.range = (
+        picture.range.0.min(solution.range().0),
+        picture.range.1.max(solution.range().1),
+    );
+    Ok(picture)
+}
+
+/// The box and size of a field picture, and its colour bar's title.
+pub(crate) struct FieldView<'a> {
+    pub(crate) lo: [f64; 2],
+    pub(crate) hi: [f64; 2],
+    /// Width of the field in pixels.
+    pub(crate) size: u32,
+    pub(crate) label: &'a str,
+}
+
+/// Why a field picture could not be drawn.
+#[derive(Debug)]
+pub(crate) enum FieldError {
+    /// No pixel centre is inside the domain.
+    NoPixel,
+    /// No value inside the domain is finite.
+    NotFinite,
+    /// PNG encoding failed.
+    Png(anyhow::Error),
+}
+
+/// Renders a scalar field over `view`'s box (white where `inside` is false, the
+/// values of the pixel centres from `values` elsewhere) with a colour bar and its
+/// scale labels.
+pub(crate) fn render_field(
+    view: FieldView<'_>,
+    inside: impl Fn([f64; 2]) -> bool,
+    values: impl FnOnce(&[[f64; 2]]) -> Vec<f64>,
+) -> Result<Picture, FieldError> {
+    let FieldView {
+        lo,
+        hi,
+        size,
+        label,
+    } = view;
     let fw = size;
     let fh =
         ((f64::from(size) * (hi[1] - lo[1]) / (hi[0] - lo[0])).round() as u32).clamp(16, 4 * size);
@@ -196,23 +256,22 @@ fn render(solution: &HeatSolution, size: u32) -> Result<Picture> {
     let height = TITLE + fh + MARGIN;
     // The field, row 0 at the top (largest y).
     let mut field = vec![f64::NAN; (fw * fh) as usize];
-    let tape = solution.tape();
     let mut pts = Vec::new();
     let mut slots = Vec::new();
     for r in 0..fh {
         for c in 0..fw {
             let x = lo[0] + (f64::from(c) + 0.5) * (hi[0] - lo[0]) / f64::from(fw);
             let y = hi[1] - (f64::from(r) + 0.5) * (hi[1] - lo[1]) / f64::from(fh);
-            if tape.eval_point([x as f32, y as f32, 0.0]) >= 0.0 {
+            if inside([x, y]) {
                 pts.push([x, y]);
                 slots.push((r * fw + c) as usize);
             }
         }
     }
     if pts.is_empty() {
-        bail!("the picture has no pixel inside the domain (try a larger --size)");
+        return Err(FieldError::NoPixel);
     }
-    for (s, t) in slots.iter().zip(solution.temperatures(&pts)) {
+    for (s, t) in slots.iter().zip(values(&pts)) {
         field[*s] = t;
     }
     let (mut tmin, mut tmax) = field
@@ -222,7 +281,7 @@ fn render(solution: &HeatSolution, size: u32) -> Result<Picture> {
             (a.min(t), b.max(t))
         });
     if !(tmin.is_finite() && tmax.is_finite()) {
-        bail!("the temperature is not finite in the domain");
+        return Err(FieldError::NotFinite);
     }
     if tmax - tmin < f64::EPSILON * tmax.abs().max(1.0) {
         tmin -= 0.5;
@@ -242,7 +301,7 @@ fn render(solution: &HeatSolution, size: u32) -> Result<Picture> {
             }
         }
     }
-    // The colour bar: hot at the top, framed.
+    // The colour bar: high values at the top, framed.
     let bx = MARGIN + fw + MARGIN;
     for r in 0..fh {
         let c = colour(1.0 - (f64::from(r) + 0.5) / f64::from(fh));
@@ -273,15 +332,15 @@ fn render(solution: &HeatSolution, size: u32) -> Result<Picture> {
             y.saturating_sub(8),
         );
     }
-    canvas.text("T (K)", bx, 6);
+    canvas.text(label, bx, 6);
     let span = format!(
         "x {:.3} .. {:.3}, y {:.3} .. {:.3}",
         lo[0], hi[0], lo[1], hi[1]
     );
     canvas.text(&span, MARGIN, 6);
     Ok(Picture {
-        png: png_bytes(&canvas.rgb, (width, height))?,
-        range: (tmin.min(solution.range().0), tmax.max(solution.range().1)),
+        png: png_bytes(&canvas.rgb, (width, height)).map_err(FieldError::Png)?,
+        range: (tmin, tmax),
     })
 }
 

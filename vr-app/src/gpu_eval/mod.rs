@@ -14,6 +14,7 @@
 //! Tapes longer than [`wgsl::MAX_GPU_TAPE`] are refused with
 //! [`GpuEvalError::TapeTooLong`], so the caller can use the CPU path.
 
+pub mod pruned;
 pub mod wgsl;
 
 use std::time::{Duration, Instant};
@@ -54,11 +55,12 @@ pub enum GpuEvalError {
     MapRange(#[source] wgpu::MapRangeError),
 }
 
-/// A tape compiled for one device: its shader and the two pipelines.
+/// A tape compiled for one device: its shader and its pipelines (one per entry point).
 #[derive(Debug)]
 pub struct GpuTape {
     grid_pipeline: wgpu::ComputePipeline,
     points_pipeline: wgpu::ComputePipeline,
+    tiles_pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
     chunk_limit: u64,
     max_groups: u32,
@@ -176,6 +178,7 @@ impl GpuTape {
         };
         let grid_pipeline = pipeline("grid_main");
         let points_pipeline = pipeline("points_main");
+        let tiles_pipeline = pipeline("tiles_main");
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuEvalError::Shader(e));
         }
@@ -192,6 +195,7 @@ impl GpuTape {
         Ok(Self {
             grid_pipeline,
             points_pipeline,
+            tiles_pipeline,
             layout,
             chunk_limit: (chunk_limit / u64::from(WORKGROUP_SIZE) * u64::from(WORKGROUP_SIZE))
                 .max(u64::from(WORKGROUP_SIZE)),
@@ -291,7 +295,8 @@ impl GpuTape {
             row,
             inf_bits: f32::INFINITY.to_bits(),
             nan_bits: f32::NAN.to_bits(),
-            pad: [0; 2],
+            tile: 0,
+            tile_z: 0,
         };
         (params, groups)
     }

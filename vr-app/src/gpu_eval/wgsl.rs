@@ -58,18 +58,25 @@ pub struct Params {
     pub inf_bits: u32,
     /// The bits of a quiet NaN.
     pub nan_bits: u32,
-    /// Padding to 16 bytes.
-    pub pad: [u32; 2],
+    /// Tile edge in x and y, in cells (tile entry point); 0 otherwise.
+    pub tile: u32,
+    /// Tile edge in z, in cells (tile entry point); 0 otherwise.
+    pub tile_z: u32,
 }
 
-/// The WGSL text of `tape`, with two entry points:
+/// The WGSL text of `tape`, with three entry points:
 ///
 /// - `grid_main`: cell `first + i` of an `n[0] x n[1] x n[2]` grid (x fastest), whose
 ///   coordinates are `coords[i]`, `coords[y_at + j]`, `coords[z_at + k]` (the cell
 ///   centres, computed on the CPU so both paths see the same f32 inputs);
-/// - `points_main`: point `i` of the chunk at `coords[3 i .. 3 i + 3]`.
+/// - `points_main`: point `i` of the chunk at `coords[3 i .. 3 i + 3]`;
+/// - `tiles_main`: invocation `g = first + i` is cell `g % c` of tile `t = g / c`
+///   (`c = tile^2 tile_z` cells per tile, x fastest within the tile), whose first
+///   cell's indices are the `u32` bits at `coords[z_at + n[2] + 3 t ..]`, after the
+///   cell centres; a cell past the grid's end (in a tile cut by the grid's faces)
+///   writes NaN, which the caller drops.
 ///
-/// Both write `out[i]` for `i < count`.
+/// All write `out[i]` for `i < count`.
 pub fn shader(tape: &Tape) -> String {
     let mut s = String::with_capacity(256 + 48 * tape.len());
     s.push_str(PRELUDE);
@@ -158,8 +165,8 @@ struct Params {
     row: u32,
     inf_bits: u32,
     nan_bits: u32,
-    pad0: u32,
-    pad1: u32,
+    tile: u32,
+    tile_z: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -214,7 +221,7 @@ fn op_mod(a: f32, b: f32) -> f32 {
 
 "#;
 
-/// The two entry points.
+/// The entry points.
 const ENTRY_POINTS: &str = r#"
 fn invocation(gid: vec3<u32>) -> u32 {
     return gid.x + gid.y * params.row;
@@ -232,6 +239,27 @@ fn grid_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let ix = cell % nx;
     let iy = (cell / nx) % ny;
     let iz = cell / (nx * ny);
+    out[i] = tape(coords[ix], coords[params.y_at + iy], coords[params.z_at + iz]);
+}
+
+@compute @workgroup_size(64)
+fn tiles_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = invocation(gid);
+    if (i >= params.count) {
+        return;
+    }
+    let g = params.first + i;
+    let per_tile = params.tile * params.tile * params.tile_z;
+    let t = g / per_tile;
+    let l = g % per_tile;
+    let at = params.z_at + params.n.z + 3u * t;
+    let ix = bitcast<u32>(coords[at]) + l % params.tile;
+    let iy = bitcast<u32>(coords[at + 1u]) + (l / params.tile) % params.tile;
+    let iz = bitcast<u32>(coords[at + 2u]) + l / (params.tile * params.tile);
+    if (ix >= params.n.x || iy >= params.n.y || iz >= params.n.z) {
+        out[i] = nan_value();
+        return;
+    }
     out[i] = tape(coords[ix], coords[params.y_at + iy], coords[params.z_at + iz]);
 }
 
@@ -309,9 +337,11 @@ mod tests {
             .lines()
             .filter(|l| l.contains(':'))
             .count();
-        // n, first, count, y_at, z_at, row, inf_bits, nan_bits, pad0, pad1.
+        // n, first, count, y_at, z_at, row, inf_bits, nan_bits, tile, tile_z.
         assert_eq!(fields, 10);
-        assert!(wgsl.contains("fn grid_main") && wgsl.contains("fn points_main"));
+        for entry in ["grid_main", "points_main", "tiles_main"] {
+            assert!(wgsl.contains(&format!("fn {entry}")), "{entry}");
+        }
     }
 
     /// The shader parses and validates with naga (the WGSL front end wgpu uses),
