@@ -427,39 +427,99 @@ fn run_chunk(
     readback: &wgpu::Buffer,
     dst: &mut [f32],
 ) -> Result<Duration, GpuEvalError> {
-    let bytes = (chunk.count * 4) as u64;
-    let mut encoder = gpu.device.create_command_encoder(&Default::default());
-    {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("implicit tape"),
-            timestamp_writes: None,
+    let dispatch = Dispatch {
+        label: "implicit tape",
+        pipeline,
+        bind_group: &chunk.bind_group,
+        groups: chunk.groups,
+    };
+    Ok(dispatch.read_back(gpu, out, readback, dst)?)
+}
+
+/// One compute dispatch whose output buffer holds f32 values (the implicit tapes and
+/// the volumes, `crate::gpu_volume`, share it).
+pub(crate) struct Dispatch<'a> {
+    /// The compute pass's label.
+    pub label: &'static str,
+    /// The pipeline.
+    pub pipeline: &'a wgpu::ComputePipeline,
+    /// Its bind group 0.
+    pub bind_group: &'a wgpu::BindGroup,
+    /// Workgroups in x and y.
+    pub groups: (u32, u32),
+}
+
+/// Why values could not be read back; each GPU path turns it into its own error.
+#[derive(Debug)]
+pub(crate) enum ReadbackFailure {
+    /// Waiting for the GPU failed.
+    Poll(wgpu::PollError),
+    /// Mapping the readback buffer failed.
+    Map(wgpu::BufferAsyncError),
+    /// The mapping callback was dropped without an answer.
+    MapLost,
+    /// The mapped range could not be read.
+    MapRange(wgpu::MapRangeError),
+}
+
+impl From<ReadbackFailure> for GpuEvalError {
+    fn from(f: ReadbackFailure) -> Self {
+        match f {
+            ReadbackFailure::Poll(e) => Self::Poll(e),
+            ReadbackFailure::Map(e) => Self::Map(e),
+            ReadbackFailure::MapLost => Self::MapLost,
+            ReadbackFailure::MapRange(e) => Self::MapRange(e),
+        }
+    }
+}
+
+impl Dispatch<'_> {
+    /// Runs the dispatch, copies the first `dst.len()` values of `out` to `readback`,
+    /// submits, waits for the mapping and copies the values into `dst`; returns the
+    /// time from the submit to the values in `dst`.
+    pub(crate) fn read_back(
+        &self,
+        gpu: &Gpu,
+        out: &wgpu::Buffer,
+        readback: &wgpu::Buffer,
+        dst: &mut [f32],
+    ) -> Result<Duration, ReadbackFailure> {
+        let bytes = (dst.len() * 4) as u64;
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(self.label),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(self.pipeline);
+            pass.set_bind_group(0, self.bind_group, &[]);
+            pass.dispatch_workgroups(self.groups.0, self.groups.1, 1);
+        }
+        encoder.copy_buffer_to_buffer(out, 0, readback, 0, bytes);
+        let commands = encoder.finish();
+        let start = Instant::now();
+        gpu.queue.submit([commands]);
+        let slice = readback.slice(..bytes);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            // The receiver outlives the poll below; a send failure cannot happen.
+            let _ = tx.send(r);
         });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, &chunk.bind_group, &[]);
-        pass.dispatch_workgroups(chunk.groups.0, chunk.groups.1, 1);
+        gpu.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(ReadbackFailure::Poll)?;
+        rx.recv()
+            .map_err(|_| ReadbackFailure::MapLost)?
+            .map_err(ReadbackFailure::Map)?;
+        {
+            let data = slice
+                .get_mapped_range()
+                .map_err(ReadbackFailure::MapRange)?;
+            dst.copy_from_slice(bytemuck::cast_slice(&data));
+        }
+        readback.unmap();
+        Ok(start.elapsed())
     }
-    encoder.copy_buffer_to_buffer(out, 0, readback, 0, bytes);
-    let commands = encoder.finish();
-    let start = Instant::now();
-    gpu.queue.submit([commands]);
-    let slice = readback.slice(..bytes);
-    let (tx, rx) = std::sync::mpsc::channel();
-    slice.map_async(wgpu::MapMode::Read, move |r| {
-        // The receiver outlives the poll below; a send failure cannot happen.
-        let _ = tx.send(r);
-    });
-    gpu.device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(GpuEvalError::Poll)?;
-    rx.recv()
-        .map_err(|_| GpuEvalError::MapLost)?
-        .map_err(GpuEvalError::Map)?;
-    {
-        let data = slice.get_mapped_range().map_err(GpuEvalError::MapRange)?;
-        dst.copy_from_slice(bytemuck::cast_slice(&data));
-    }
-    readback.unmap();
-    Ok(start.elapsed())
 }
 
 #[cfg(test)]

@@ -24,6 +24,7 @@ use sculpt_core::volume::{Volume, VolumeError};
 use thiserror::Error;
 use wgpu::util::DeviceExt;
 
+use crate::gpu_eval::{Dispatch, ReadbackFailure};
 use crate::render::Gpu;
 
 /// The shader source.
@@ -126,6 +127,17 @@ pub struct GridTiming {
     pub gpu: Duration,
     /// Chunks dispatched.
     pub chunks: usize,
+}
+
+impl From<ReadbackFailure> for GpuVolumeError {
+    fn from(f: ReadbackFailure) -> Self {
+        match f {
+            ReadbackFailure::Poll(e) => Self::Poll(e),
+            ReadbackFailure::Map(e) => Self::Map(e),
+            ReadbackFailure::MapLost => Self::MapLost,
+            ReadbackFailure::MapRange(e) => Self::MapRange(e),
+        }
+    }
 }
 
 fn to_f32(v: f64) -> Result<f32, GpuVolumeError> {
@@ -381,39 +393,13 @@ impl GpuVolume {
         readback: &wgpu::Buffer,
         dst: &mut [f32],
     ) -> Result<Duration, GpuVolumeError> {
-        let bytes = (dst.len() * 4) as u64;
-        let mut encoder = gpu.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("volume grid"),
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, bind_group, &[]);
-            pass.dispatch_workgroups(groups.0, groups.1, 1);
-        }
-        encoder.copy_buffer_to_buffer(out, 0, readback, 0, bytes);
-        let commands = encoder.finish();
-        let start = Instant::now();
-        gpu.queue.submit([commands]);
-        let slice = readback.slice(..bytes);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            // The receiver outlives the poll below.
-            let _ = tx.send(r);
-        });
-        gpu.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(GpuVolumeError::Poll)?;
-        rx.recv()
-            .map_err(|_| GpuVolumeError::MapLost)?
-            .map_err(GpuVolumeError::Map)?;
-        {
-            let data = slice.get_mapped_range().map_err(GpuVolumeError::MapRange)?;
-            dst.copy_from_slice(bytemuck::cast_slice(&data));
-        }
-        readback.unmap();
-        Ok(start.elapsed())
+        let dispatch = Dispatch {
+            label: "volume grid",
+            pipeline: &self.pipeline,
+            bind_group,
+            groups,
+        };
+        Ok(dispatch.read_back(gpu, out, readback, dst)?)
     }
 }
 
