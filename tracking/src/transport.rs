@@ -406,13 +406,6 @@ async fn tcp_listen(
     }
 }
 
-/// A peer that identified itself as the tracker: its decoder and the frames read so
-/// far, each with its arrival on the hub clock.
-struct Identified {
-    decoder: DTrackDecoder,
-    frames: Vec<(Decoded, Duration)>,
-}
-
 /// Reads a new peer until it is plausible (see the module docs) or `identify` passes:
 /// the hello line first when a secret is set, then frames.
 async fn identify<R: AsyncRead + Unpin>(
@@ -420,7 +413,7 @@ async fn identify<R: AsyncRead + Unpin>(
     reader: &mut R,
     opts: &TransportOptions,
     adm: &Admission,
-) -> std::result::Result<Identified, String> {
+) -> std::result::Result<Candidate, String> {
     let deadline = Instant::now() + adm.identify;
     let left = || deadline.saturating_duration_since(Instant::now());
     let late = |what: &str| format!("{what} within {} ms", adm.identify.as_millis());
@@ -444,35 +437,23 @@ async fn identify<R: AsyncRead + Unpin>(
         rest = line.split_off(newline + 1);
         check_hello(&line, secret).map_err(|e| e.to_string())?;
     }
-    let mut decoder = DTrackDecoder::new(opts.limits).keep_raw(hub.is_recording());
-    let mut frames: Vec<(Decoded, Duration)> = Vec::new();
-    // Tracker times and arrivals of the frames that carry every expected device.
-    let mut good: Vec<(Option<f64>, Instant)> = Vec::new();
+    let mut found = Candidate::new(hub, opts);
     let mut chunk = rest;
     loop {
-        let now = hub.now();
-        let arrived = Instant::now();
-        decoder.push(&chunk, &mut |d| {
-            if let Decoded::Frame(f, _) = &d
-                && adm.devices.iter().all(|&id| carries(f, id))
-            {
-                good.push((f.tracker_time, arrived));
-            }
-            frames.push((d, now));
-        });
-        if plausible(&good, adm) {
-            return Ok(Identified { decoder, frames });
+        found.push(&chunk, hub.now(), adm);
+        if plausible(&found.good, adm) {
+            return Ok(found);
         }
-        if frames.len() > MAX_IDENTIFY_FRAMES {
-            return Err(format!("{} frames, none plausible", frames.len()));
+        if found.frames.len() > MAX_IDENTIFY_FRAMES {
+            return Err(format!("{} frames, none plausible", found.frames.len()));
         }
         match read_within(reader, &mut buf, left()).await {
             Ok(n) => chunk = buf[..n].to_vec(),
             Err(StreamEnd::TimedOut) => {
                 return Err(late(&format!(
                     "nothing plausible ({} frames, {} with the expected devices)",
-                    frames.len(),
-                    good.len()
+                    found.frames.len(),
+                    found.good.len()
                 )));
             }
             Err(end) => return Err(format!("closed before it was plausible: {end:?}")),
@@ -547,17 +528,17 @@ async fn tcp_connect(hub: Hub, src: SourceId, addr: SocketAddr, opts: TransportO
     }
 }
 
-/// A UDP peer being identified: its own decoder, the frames it sent so far (each with
-/// its arrival on the hub clock) and the arrivals of those carrying every expected
-/// device, as for a TCP peer (see the module docs).
-struct UdpCandidate {
+/// A peer being identified (a TCP connection or a UDP sender): its own decoder, the
+/// frames it sent so far (each with its arrival on the hub clock) and the tracker times
+/// and arrivals of those carrying every expected device (see the module docs).
+struct Candidate {
     decoder: DTrackDecoder,
     frames: Vec<(Decoded, Duration)>,
     good: Vec<(Option<f64>, Instant)>,
     since: Instant,
 }
 
-impl UdpCandidate {
+impl Candidate {
     fn new(hub: &Hub, opts: &TransportOptions) -> Self {
         Self {
             decoder: DTrackDecoder::new(opts.limits).keep_raw(hub.is_recording()),
@@ -567,8 +548,17 @@ impl UdpCandidate {
         }
     }
 
-    /// Decodes one datagram into the candidate's buffer.
-    fn push(&mut self, datagram: &[u8], now: Duration, adm: &Admission) {
+    /// Decodes bytes of a stream into the candidate's buffer.
+    fn push(&mut self, bytes: &[u8], now: Duration, adm: &Admission) {
+        self.push_with(bytes, now, adm, false);
+    }
+
+    /// Decodes one datagram (its last line may lack a line end).
+    fn push_datagram(&mut self, datagram: &[u8], now: Duration, adm: &Admission) {
+        self.push_with(datagram, now, adm, true);
+    }
+
+    fn push_with(&mut self, bytes: &[u8], now: Duration, adm: &Admission, datagram: bool) {
         let arrived = Instant::now();
         let (frames, good) = (&mut self.frames, &mut self.good);
         let mut sink = |d: Decoded| {
@@ -579,8 +569,10 @@ impl UdpCandidate {
             }
             frames.push((d, now));
         };
-        self.decoder.push(datagram, &mut sink);
-        self.decoder.end_datagram(&mut sink);
+        self.decoder.push(bytes, &mut sink);
+        if datagram {
+            self.decoder.end_datagram(&mut sink);
+        }
     }
 }
 
@@ -594,7 +586,7 @@ async fn udp(hub: Hub, src: SourceId, sock: UdpSocket, opts: TransportOptions, a
     let mut buf = vec![0u8; READ_BUF];
     // The identified peer and its decoder, until it goes quiet.
     let mut active: Option<(SocketAddr, DTrackDecoder)> = None;
-    let mut candidates: HashMap<SocketAddr, UdpCandidate> = HashMap::new();
+    let mut candidates: HashMap<SocketAddr, Candidate> = HashMap::new();
     let mut last_datagram = Instant::now();
     loop {
         let left = opts.read_timeout.saturating_sub(last_datagram.elapsed());
@@ -649,8 +641,8 @@ async fn udp(hub: Hub, src: SourceId, sock: UdpSocket, opts: TransportOptions, a
         }
         let candidate = candidates
             .entry(peer)
-            .or_insert_with(|| UdpCandidate::new(&hub, &opts));
-        candidate.push(&buf[..n], now, &adm);
+            .or_insert_with(|| Candidate::new(&hub, &opts));
+        candidate.push_datagram(&buf[..n], now, &adm);
         if plausible(&candidate.good, &adm) {
             let Some(found) = candidates.remove(&peer) else {
                 continue;
