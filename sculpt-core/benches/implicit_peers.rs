@@ -15,6 +15,9 @@
 //!   dual contouring (`Octree::build` at depth 8, then `walk_dual`).
 //!
 //! Before timing, the two dense results are compared (largest difference printed).
+//! The meshes are timed once each (with their triangle counts), and by criterion as
+//! well with `WANDSCULPT_PEERS_MESH_CRITERION=1`; `WANDSCULPT_PEERS_ONLY=mesh` or
+//! `dense` runs one half.
 //!
 //! Fidget's models are never copied into this repository: point
 //! `WANDSCULPT_FIDGET_MODELS` at a folder holding `prospero.vm` and `bear.vm`
@@ -38,6 +41,7 @@ use sculpt_core::implicit::contour::contour;
 use sculpt_core::implicit::dual::dual_contour;
 use sculpt_core::implicit::tape::{GRID_TILES_2D, GRID_TILES_3D, Grid, Tape, for_each_tile};
 use std::hint::black_box;
+use std::time::Instant;
 
 /// The folder of Fidget's models, or why the bench skips.
 fn models_dir() -> Result<PathBuf, String> {
@@ -228,6 +232,11 @@ fn peers(c: &mut Criterion) {
     if std::env::var_os("WANDSCULPT_PEERS_3D").is_some_and(|v| v == "1") {
         cases.push(("bear_512x512x512", &bear, [512, 512, 512]));
     }
+    // `WANDSCULPT_PEERS_ONLY=mesh` or `dense` runs one half.
+    let only = std::env::var("WANDSCULPT_PEERS_ONLY").ok();
+    if only.as_deref() == Some("mesh") {
+        cases.clear();
+    }
     for (name, pair, n) in cases {
         let lo = [-1.0, -1.0, if n[2] == 1 { -0.5 } else { -1.0 }];
         let hi = [1.0, 1.0, if n[2] == 1 { 0.5 } else { 1.0 }];
@@ -257,23 +266,42 @@ fn peers(c: &mut Criterion) {
             b.iter(|| black_box(fidget_dense(&pair.jit, black_box(&grid))))
         });
     }
+    if only.as_deref() == Some("dense") {
+        group.finish();
+        return;
+    }
+    // Meshing at 256^3: one timed run of each (criterion's samples of the slowest
+    // take longer than a shared machine allows), then criterion's samples when
+    // `WANDSCULPT_PEERS_MESH_CRITERION=1`.
     let ([lo, hi], n) = ([[-1.0; 3], [1.0; 3]], [256; 3]);
-    let ours = dual_contour(&bear.tape, n, lo, hi).expect("mesh").0;
+    let t = Instant::now();
+    let (ours, report) = dual_contour(&bear.tape, n, lo, hi).expect("mesh");
+    let ours_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let mt = contour(&bear.tape, n, lo, hi).expect("mesh");
+    let mt_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
     let theirs = fidget_mesh(&bear.jit, 8);
+    let theirs_s = t.elapsed().as_secs_f64();
     eprintln!(
-        "implicit_peers: bear 256^3: ours {} triangles, Fidget {} triangles",
+        "implicit_peers: mesh bear 256^3, one run each: ours dual contouring {ours_s:.3} s \
+         ({} triangles; {report:?}), ours marching tetrahedra {mt_s:.3} s ({} triangles), \
+         Fidget octree {theirs_s:.3} s ({} triangles)",
         ours.triangles.len(),
+        mt.triangles.len(),
         theirs.triangles.len()
     );
-    group.bench_function("mesh_bear_256/ours_dual_contour", |b| {
-        b.iter(|| black_box(dual_contour(&bear.tape, n, lo, hi).expect("mesh")))
-    });
-    group.bench_function("mesh_bear_256/ours_marching_tetrahedra", |b| {
-        b.iter(|| black_box(contour(&bear.tape, n, lo, hi).expect("mesh")))
-    });
-    group.bench_function("mesh_bear_256/fidget_jit_manifold_dc", |b| {
-        b.iter(|| black_box(fidget_mesh(&bear.jit, 8)))
-    });
+    if std::env::var_os("WANDSCULPT_PEERS_MESH_CRITERION").is_some_and(|v| v == "1") {
+        group.bench_function("mesh_bear_256/ours_dual_contour", |b| {
+            b.iter(|| black_box(dual_contour(&bear.tape, n, lo, hi).expect("mesh")))
+        });
+        group.bench_function("mesh_bear_256/ours_marching_tetrahedra", |b| {
+            b.iter(|| black_box(contour(&bear.tape, n, lo, hi).expect("mesh")))
+        });
+        group.bench_function("mesh_bear_256/fidget_jit_manifold_dc", |b| {
+            b.iter(|| black_box(fidget_mesh(&bear.jit, 8)))
+        });
+    }
     group.finish();
 }
 

@@ -662,6 +662,30 @@ pub const DUAL_QEF_SVD_REL: f64 = 0.25;
 /// grid edges and cut the box's edges by two thirds of a cell.
 pub const DUAL_EDGE_CELL_FRAC: f64 = 0.05;
 
+// ---------------------------------------------------------------------------------
+// Corner bounds of monotone R-functions (sculpt_core::implicit::rfunc::MonotoneR,
+// issue 34).
+// ---------------------------------------------------------------------------------
+
+/// Factor on the first-order f32 error bound of an R-function formula (a few units
+/// of roundoff per op, see `MonotoneR::corner_interval`) before it widens the corner
+/// values: covers the second-order terms and the f32 rounding of the constants
+/// `-2 alpha` and `1 / (1 + alpha)`.
+pub const RFUNC_INTERVAL_ERR_MARGIN: f64 = 4.0;
+/// Absolute widening of R-function corner bounds: squares of arguments below 1e-19
+/// underflow in f32 (spacing 1.4e-45), which moves a root by at most 1e-22.
+pub const RFUNC_INTERVAL_ABS: f64 = 1e-20;
+/// Largest argument magnitude sum for which R-function corner bounds are used: the
+/// f32 squares stay below f32::MAX (3.4e38), so the formula is monotone up to rounding.
+pub const RFUNC_INTERVAL_MAX_ARG: f64 = 1e18;
+/// Smallest argument magnitude sum for which R-function corner bounds are used: above
+/// it the larger square is a normal f32 (>= 2.5e-31), so underflow in the smaller
+/// cannot push `R_alpha`'s radicand below zero when |alpha| < 1 - 1e-5.
+pub const RFUNC_INTERVAL_MIN_ARG: f64 = 1e-15;
+/// `R_alpha` with |alpha| within this of 1 may take the root of a radicand rounded
+/// below zero (NaN): its corner bound keeps the "may be NaN" flag.
+pub const RFUNC_INTERVAL_NAN_ALPHA: f64 = 1e-5;
+
 // Volume applications (Park 2005, sec. 5; issue 33): streamlines, critical points,
 // isosurfaces, image morphing.
 // ---------------------------------------------------------------------------------

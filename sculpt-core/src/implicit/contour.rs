@@ -24,7 +24,10 @@
 use std::collections::HashMap;
 
 use super::ImplicitError;
-use super::tape::{Grid, Tape};
+use std::ops::Range;
+
+use super::interval::Interval;
+use super::tape::{Grid, Tape, for_each_tile};
 use crate::mesh::{MeshVertex, WeldedMesh};
 use crate::tolerance::CONTOUR_EDGE_T_MIN;
 
@@ -67,39 +70,309 @@ pub fn contour_cells(
     lo: [f64; 3],
     hi: [f64; 3],
 ) -> Result<(WeldedMesh, ContourCells), ImplicitError> {
+    let sparse = contour_sparse(tape, n, lo, hi)?;
+    Ok((sparse.mesh, sparse.cells))
+}
+
+/// Cell edges of the levels on which [`contour_cells`] classifies the grid by
+/// interval arithmetic, coarse to fine; the last is the block whose corners are
+/// evaluated (Fidget's voxel tile sizes, as [`Tape::eval_grid`] uses).
+pub const CONTOUR_TILES: [usize; 3] = [64, 16, 8];
+
+/// How much of the grid [`contour_cells`] evaluated.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ContourStats {
+    /// Blocks of the last level of [`CONTOUR_TILES`] that the grid has.
+    pub blocks: usize,
+    /// Blocks whose corners were evaluated (the others lie inside or outside the
+    /// solid by interval arithmetic).
+    pub evaluated_blocks: usize,
+    /// Instructions of the full tape.
+    pub tape_len: usize,
+    /// Mean instructions of the evaluated blocks' pruned tapes.
+    pub mean_block_tape_len: f64,
+}
+
+/// A block of cells whose corners were evaluated, with its pruned tape.
+pub(crate) struct Block {
+    /// Cell index ranges per axis.
+    cells: [Range<usize>; 3],
+    /// The tape simplified over the block's corner box: equal to the full tape there.
+    pub(crate) tape: Tape,
+    /// Corner values (one more than cells per axis, x fastest), NaN and outer-layer
+    /// non-positive values forced outside.
+    values: Vec<f32>,
+}
+
+/// The sparse marching-tetrahedra mesh and where each piece came from.
+pub(crate) struct SparseContour {
+    pub(crate) mesh: WeldedMesh,
+    pub(crate) cells: ContourCells,
+    /// The evaluated blocks.
+    pub(crate) blocks: Vec<Block>,
+    /// The block of each vertex (whose tape holds on the vertex's edge).
+    pub(crate) vertex_block: Vec<u32>,
+    /// The block of each triangle (whose tape holds on the triangle's cell).
+    pub(crate) triangle_block: Vec<u32>,
+    pub(crate) stats: ContourStats,
+}
+
+/// The corners of the grid: f32 coordinates as the tape sees them.
+struct Corners {
+    n: [usize; 3],
+    lo: [f64; 3],
+    h: [f64; 3],
+}
+
+impl Corners {
+    fn at(&self, c: [usize; 3]) -> [f64; 3] {
+        [0, 1, 2].map(|a| self.lo[a] + c[a] as f64 * self.h[a])
+    }
+
+    fn coord(&self, axis: usize, c: usize) -> f32 {
+        (self.lo[axis] + c as f64 * self.h[axis]) as f32
+    }
+
+    /// Whether corner `c` lies on the grid's outer layer.
+    fn on_outer_layer(&self, c: [usize; 3]) -> bool {
+        (0..3).any(|a| c[a] == 0 || c[a] == self.n[a])
+    }
+}
+
+/// Maps `f` over `items`, on the rayon pool with the `parallel` feature.
+pub(crate) fn par_map<T: Sync, U: Send>(items: &[T], f: impl Fn(&T) -> U + Sync + Send) -> Vec<U> {
+    #[cfg(feature = "parallel")]
+    {
+        use rayon::prelude::*;
+        items.par_iter().map(f).collect()
+    }
+    #[cfg(not(feature = "parallel"))]
+    {
+        items.iter().map(f).collect()
+    }
+}
+
+/// The leaf blocks under `bx` that may hold the surface, with their pruned tapes:
+/// each level simplifies its parent's tape over the box of its corners (Keeter 2020,
+/// sec. 3), and a box whose interval is all negative (inside) or all non-negative
+/// (outside; 0 counts as outside) is dropped, unless it is inside and touches the
+/// grid's outer layer (whose corners are forced outside, which makes a surface there).
+fn classify(
+    tape: &Tape,
+    bx: [Range<usize>; 3],
+    tiles: &[usize],
+    corners: &Corners,
+    out: &mut Vec<([Range<usize>; 3], Tape)>,
+) {
+    let region = [0, 1, 2]
+        .map(|a| Interval::new(corners.coord(a, bx[a].start), corners.coord(a, bx[a].end)));
+    let (range, sub) = tape.simplify(region);
+    let outer = (0..3).any(|a| bx[a].start == 0 || bx[a].end == corners.n[a]);
+    if !range.nan && (range.lo >= 0.0 || (range.hi < 0.0 && !outer)) {
+        return;
+    }
+    match tiles.split_first() {
+        Some((&size, rest)) => for_each_tile(&bx, size, |b| classify(&sub, b, rest, corners, out)),
+        None => out.push((bx, sub)),
+    }
+}
+
+/// [`contour_cells`], keeping the blocks: the grid is classified by interval
+/// arithmetic ([`CONTOUR_TILES`]); only blocks that may hold the surface evaluate
+/// their corners, each with its own pruned tape, which also gives its vertices'
+/// normals. Pruned tapes equal the full one in their box bit for bit, so the mesh is
+/// the one a dense evaluation of every corner gives.
+pub(crate) fn contour_sparse(
+    tape: &Tape,
+    n: [usize; 3],
+    lo: [f64; 3],
+    hi: [f64; 3],
+) -> Result<SparseContour, ImplicitError> {
     // Checks the sizes (and that corners fit): the corner grid has one more per axis.
     Grid::new(n.map(|k| k + 1), lo, hi)?;
     Grid::new(n, lo, hi)?;
     let h: [f64; 3] = [0, 1, 2].map(|a| (hi[a] - lo[a]) / n[a] as f64);
-    let corner = |c: [usize; 3]| [0, 1, 2].map(|a| lo[a] + c[a] as f64 * h[a]);
+    let corners = Corners { n, lo, h };
+    let outside = h.iter().copied().fold(f64::INFINITY, f64::min) as f32;
+    // Top-level tiles, classified in parallel.
+    let mut tops = Vec::new();
+    for_each_tile(&[0..n[0], 0..n[1], 0..n[2]], CONTOUR_TILES[0], |b| {
+        tops.push(b)
+    });
+    let found = par_map(&tops, |b| {
+        let mut out = Vec::new();
+        classify(tape, b.clone(), &CONTOUR_TILES[1..], &corners, &mut out);
+        out
+    });
+    let leaves: Vec<([Range<usize>; 3], Tape)> = found.into_iter().flatten().collect();
+    let blocks: Vec<Block> = par_map(&leaves, |(cells, sub)| {
+        let m = [0, 1, 2].map(|a| cells[a].len() + 1);
+        let mut points = Vec::with_capacity(m[0] * m[1] * m[2]);
+        let mut ids = Vec::with_capacity(points.capacity());
+        for k in cells[2].start..=cells[2].end {
+            for j in cells[1].start..=cells[1].end {
+                for i in cells[0].start..=cells[0].end {
+                    points.push([0, 1, 2].map(|a| corners.coord(a, [i, j, k][a])));
+                    ids.push([i, j, k]);
+                }
+            }
+        }
+        let mut values = vec![0.0f32; points.len()];
+        sub.eval_points(&points, &mut values);
+        for (v, &c) in values.iter_mut().zip(&ids) {
+            // NaN anywhere and non-positive values on the outer layer go outside.
+            if v.is_nan() || (*v <= 0.0 && corners.on_outer_layer(c)) {
+                *v = outside;
+            }
+        }
+        Block {
+            cells: cells.clone(),
+            tape: sub.clone(),
+            values,
+        }
+    });
+
+    let (cx, cy) = (n[0] + 1, n[1] + 1);
+    let id = |c: [usize; 3]| (c[0] + cx * (c[1] + cy * c[2])) as u64;
+    let mut mesh = WeldedMesh::default();
+    let mut cells_of = Vec::new();
+    let mut triangle_block = Vec::new();
+    // Vertices to make: block, edge ends (corner indices), fraction along the edge.
+    let mut pending: Vec<(u32, [usize; 3], [usize; 3], f64)> = Vec::new();
+    let mut edge_vertex: HashMap<(u64, u64), u32> = HashMap::new();
+    for (bi, block) in blocks.iter().enumerate() {
+        let c0 = block.cells.clone().map(|r| r.start);
+        let m = [0, 1, 2].map(|a| block.cells[a].len() + 1);
+        let local = |c: [usize; 3]| {
+            f64::from(
+                block.values[(c[0] - c0[0]) + m[0] * ((c[1] - c0[1]) + m[1] * (c[2] - c0[2]))],
+            )
+        };
+        for k in block.cells[2].clone() {
+            for j in block.cells[1].clone() {
+                for i in block.cells[0].clone() {
+                    let cs: [[usize; 3]; 8] = std::array::from_fn(|b| {
+                        [i + (b & 1), j + ((b >> 1) & 1), k + ((b >> 2) & 1)]
+                    });
+                    let vals = cs.map(local);
+                    let before = mesh.triangles.len();
+                    march_cube(
+                        &cs,
+                        &vals,
+                        &id,
+                        &mut edge_vertex,
+                        &mut mesh.triangles,
+                        |a, b, s| {
+                            pending.push((bi as u32, a, b, s));
+                            Ok::<u32, std::convert::Infallible>((pending.len() - 1) as u32)
+                        },
+                    )
+                    .unwrap_or_else(|never| match never {});
+                    let new = mesh.triangles.len() - before;
+                    cells_of.extend(std::iter::repeat_n(i + n[0] * (j + n[1] * k), new));
+                    triangle_block.extend(std::iter::repeat_n(bi as u32, new));
+                }
+            }
+        }
+    }
+    let made = par_map(&pending, |&(bi, a, b, s)| {
+        let (pa, pb) = (corners.at(a), corners.at(b));
+        let p = [0, 1, 2].map(|c| pa[c] + s * (pb[c] - pa[c]));
+        let pf = p.map(|c| c as f32);
+        let (_, g) = blocks[bi as usize].tape.eval_grad(pf);
+        (
+            MeshVertex {
+                position: pf,
+                normal: unit(g),
+                uv: [0.0; 2],
+            },
+            [pa, pb],
+        )
+    });
+    let vertex_block = pending.iter().map(|p| p.0).collect();
+    let (vertices, edges): (Vec<MeshVertex>, Vec<[[f64; 3]; 2]>) = made.into_iter().unzip();
+    mesh.vertices = vertices;
+    let total: usize = (0..3)
+        .map(|a| n[a].div_ceil(CONTOUR_TILES[CONTOUR_TILES.len() - 1]))
+        .product();
+    let mean = if blocks.is_empty() {
+        0.0
+    } else {
+        blocks.iter().map(|b| b.tape.len()).sum::<usize>() as f64 / blocks.len() as f64
+    };
+    let stats = ContourStats {
+        blocks: total,
+        evaluated_blocks: blocks.len(),
+        tape_len: tape.len(),
+        mean_block_tape_len: mean,
+    };
+    Ok(SparseContour {
+        mesh,
+        cells: ContourCells {
+            cells: cells_of,
+            edges,
+        },
+        blocks,
+        vertex_block,
+        triangle_block,
+        stats,
+    })
+}
+
+/// What [`contour_cells`] evaluated: [`ContourStats`] of the mesh of `tape`.
+pub fn contour_stats(
+    tape: &Tape,
+    n: [usize; 3],
+    lo: [f64; 3],
+    hi: [f64; 3],
+) -> Result<ContourStats, ImplicitError> {
+    Ok(contour_sparse(tape, n, lo, hi)?.stats)
+}
+
+/// `g` scaled to unit length, or zero where it has no direction.
+pub(crate) fn unit(g: [f32; 3]) -> [f32; 3] {
+    let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+    if len.is_finite() && len > 0.0 {
+        g.map(|c| c / len)
+    } else {
+        [0.0; 3]
+    }
+}
+
+/// [`contour_cells`] with every corner of the grid evaluated on the full tape, layer
+/// by layer (no interval classification): the reference the sparse mesher must equal.
+pub fn contour_cells_dense(
+    tape: &Tape,
+    n: [usize; 3],
+    lo: [f64; 3],
+    hi: [f64; 3],
+) -> Result<(WeldedMesh, ContourCells), ImplicitError> {
+    Grid::new(n.map(|k| k + 1), lo, hi)?;
+    Grid::new(n, lo, hi)?;
+    let h: [f64; 3] = [0, 1, 2].map(|a| (hi[a] - lo[a]) / n[a] as f64);
+    let corners = Corners { n, lo, h };
     let outside = f64::from(h.iter().copied().fold(f64::INFINITY, f64::min) as f32);
     let (cx, cy) = (n[0] + 1, n[1] + 1);
-    // Corner values of layer k, as the tape computes them (f32).
     let layer = |k: usize| -> Result<Vec<f64>, ImplicitError> {
-        let z = lo[2] + k as f64 * h[2];
-        let g = Grid::new(
-            [cx, cy, 1],
-            [lo[0] - h[0] / 2.0, lo[1] - h[1] / 2.0, z - 0.5],
-            [hi[0] + h[0] / 2.0, hi[1] + h[1] / 2.0, z + 0.5],
-        )?;
-        Ok(tape.eval_grid(&g).into_iter().map(f64::from).collect())
+        let mut points = Vec::with_capacity(cx * cy);
+        for j in 0..cy {
+            for i in 0..cx {
+                points.push([0, 1, 2].map(|a| corners.coord(a, [i, j, k][a])));
+            }
+        }
+        let mut values = vec![0.0f32; points.len()];
+        tape.eval_points(&points, &mut values);
+        Ok(values.into_iter().map(f64::from).collect())
     };
     let mut edges = Vec::new();
     let vertex = |a: [usize; 3], b: [usize; 3], t: f64| -> Result<MeshVertex, ImplicitError> {
-        let (pa, pb) = (corner(a), corner(b));
+        let (pa, pb) = (corners.at(a), corners.at(b));
         edges.push([pa, pb]);
         let p = [0, 1, 2].map(|c| pa[c] + t * (pb[c] - pa[c]));
         let pf = p.map(|c| c as f32);
-        let (_, g) = tape.eval_grad(pf);
-        let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-        let normal = if len.is_finite() && len > 0.0 {
-            g.map(|c| c / len)
-        } else {
-            [0.0; 3]
-        };
         Ok(MeshVertex {
             position: pf,
-            normal,
+            normal: unit(tape.eval_grad(pf).1),
             uv: [0.0; 2],
         })
     };
@@ -164,38 +437,64 @@ pub fn march_tetrahedra_cells<E>(
                     let src = if dk == 0 { &below } else { &above };
                     *val = src[(i + di) + cx * (j + dj)];
                 }
-                if vals.iter().all(|&v| v < 0.0) || vals.iter().all(|&v| v >= 0.0) {
-                    continue;
-                }
-                for tet in TETS {
-                    let inside = tet.map(|c| vals[c] < 0.0);
-                    for tri in tet_triangles(inside) {
-                        let mut t = [0u32; 3];
-                        for (slot, (a, b)) in t.iter_mut().zip(tri) {
-                            let (ca, cb) = (tet[a], tet[b]);
-                            let key = (id(cs[ca]).min(id(cs[cb])), id(cs[ca]).max(id(cs[cb])));
-                            *slot = match edge_vertex.get(&key) {
-                                Some(&v) => v,
-                                None => {
-                                    let (va, vb) = (vals[ca], vals[cb]);
-                                    let s = (va / (va - vb))
-                                        .clamp(CONTOUR_EDGE_T_MIN, 1.0 - CONTOUR_EDGE_T_MIN);
-                                    mesh.vertices.push(vertex(cs[ca], cs[cb], s)?);
-                                    let v = (mesh.vertices.len() - 1) as u32;
-                                    edge_vertex.insert(key, v);
-                                    v
-                                }
-                            };
-                        }
-                        mesh.triangles.push(t);
-                        cells.push(i + n[0] * (j + n[1] * k));
-                    }
-                }
+                let before = mesh.triangles.len();
+                march_cube(
+                    &cs,
+                    &vals,
+                    &id,
+                    &mut edge_vertex,
+                    &mut mesh.triangles,
+                    |a, b, s| {
+                        mesh.vertices.push(vertex(a, b, s)?);
+                        Ok((mesh.vertices.len() - 1) as u32)
+                    },
+                )?;
+                cells.extend((before..mesh.triangles.len()).map(|_| i + n[0] * (j + n[1] * k)));
             }
         }
         below = above;
     }
     Ok((mesh, cells))
+}
+
+/// Marching tetrahedra in one cube (the module docs' rules): corners `cs` (integer
+/// indices, bit order x = 1, y = 2, z = 4) with values `vals`; pushes its triangles
+/// to `triangles`, taking each edge's vertex from `edge_vertex` (keyed by the corner
+/// ids `id` of its ends) or making it with `make(a, b, t)` at fraction `t` from `a`.
+fn march_cube<E>(
+    cs: &[[usize; 3]; 8],
+    vals: &[f64; 8],
+    id: &impl Fn([usize; 3]) -> u64,
+    edge_vertex: &mut HashMap<(u64, u64), u32>,
+    triangles: &mut Vec<[u32; 3]>,
+    mut make: impl FnMut([usize; 3], [usize; 3], f64) -> Result<u32, E>,
+) -> Result<(), E> {
+    if vals.iter().all(|&v| v < 0.0) || vals.iter().all(|&v| v >= 0.0) {
+        return Ok(());
+    }
+    for tet in TETS {
+        let inside = tet.map(|c| vals[c] < 0.0);
+        for tri in tet_triangles(inside) {
+            let mut t = [0u32; 3];
+            for (slot, (a, b)) in t.iter_mut().zip(tri) {
+                let (ca, cb) = (tet[a], tet[b]);
+                let key = (id(cs[ca]).min(id(cs[cb])), id(cs[ca]).max(id(cs[cb])));
+                *slot = match edge_vertex.get(&key) {
+                    Some(&v) => v,
+                    None => {
+                        let (va, vb) = (vals[ca], vals[cb]);
+                        let s =
+                            (va / (va - vb)).clamp(CONTOUR_EDGE_T_MIN, 1.0 - CONTOUR_EDGE_T_MIN);
+                        let v = make(cs[ca], cs[cb], s)?;
+                        edge_vertex.insert(key, v);
+                        v
+                    }
+                };
+            }
+            triangles.push(t);
+        }
+    }
+    Ok(())
 }
 
 /// Whether a permutation of `0..4` is even.

@@ -8,7 +8,7 @@
 //! holds two sheets (the failure Fidget's and libfive's issue trackers report); the
 //! manifold variants split such cells. Here the cells are split by construction:
 //!
-//! 1. [`contour_cells`] gives the marching-tetrahedra mesh (closed, manifold,
+//! 1. [`contour_cells`](super::contour::contour_cells) gives the marching-tetrahedra mesh (closed, manifold,
 //!    oriented) with the cell of each triangle and the edge of each vertex; each
 //!    vertex moves to the zero crossing on its edge (by bisection; the topology is
 //!    unchanged), which with the unit normal there (forward-mode differentiation) is
@@ -35,7 +35,7 @@ use std::collections::{HashMap, HashSet};
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
 use super::ImplicitError;
-use super::contour::contour_cells;
+use super::contour::{ContourStats, contour_sparse, par_map, unit};
 use super::tape::Tape;
 use crate::mesh::{MeshVertex, WeldedMesh};
 use crate::tolerance::{CONTOUR_EDGE_T_MIN, DUAL_QEF_SVD_REL};
@@ -44,7 +44,7 @@ use crate::tolerance::{CONTOUR_EDGE_T_MIN, DUAL_QEF_SVD_REL};
 pub const DUAL_BISECTIONS: usize = 24;
 
 /// What [`dual_contour`] did.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct DualReport {
     /// Patches replaced by a fan around a QEF vertex.
     pub fans: usize,
@@ -57,6 +57,8 @@ pub struct DualReport {
     pub feature_vertices: usize,
     /// Edges flipped to join feature vertices.
     pub flips: usize,
+    /// What the marching-tetrahedra pass under it evaluated.
+    pub contour: ContourStats,
 }
 
 /// The mesh of the zero set of `tape` (negative inside) on a grid of `n` cells per
@@ -67,16 +69,26 @@ pub fn dual_contour(
     lo: [f64; 3],
     hi: [f64; 3],
 ) -> Result<(WeldedMesh, DualReport), ImplicitError> {
-    let (mesh, extra) = contour_cells(tape, n, lo, hi)?;
+    let sparse = contour_sparse(tape, n, lo, hi)?;
+    let (mesh, extra, blocks) = (sparse.mesh, sparse.cells, sparse.blocks);
     let cells = extra.cells;
     let h: [f64; 3] = [0, 1, 2].map(|a| (hi[a] - lo[a]) / n[a] as f64);
-    let mut report = DualReport::default();
-    let hermite: Vec<MeshVertex> = mesh
+    let mut report = DualReport {
+        contour: sparse.stats,
+        ..DualReport::default()
+    };
+    // Each vertex is bisected on its block's pruned tape, which equals the full one
+    // on the vertex's edge.
+    let work: Vec<(MeshVertex, [[f64; 3]; 2], u32)> = mesh
         .vertices
         .iter()
         .zip(&extra.edges)
-        .map(|(v, &ends)| hermite_sample(tape, *v, ends))
+        .zip(&sparse.vertex_block)
+        .map(|((v, &ends), &b)| (*v, ends, b))
         .collect();
+    let hermite: Vec<MeshVertex> = par_map(&work, |&(v, ends, b)| {
+        hermite_sample(&blocks[b as usize].tape, v, ends)
+    });
     // The mesh's vertices move to their Hermite samples (along their own edges, so
     // the topology is unchanged): on the surface, faces meet the feature vertices
     // without folds.
@@ -93,6 +105,8 @@ pub fn dual_contour(
     cell_ids.sort_unstable();
     for cell in cell_ids {
         let tris = &by_cell[&cell];
+        // The tape of the cell's block (every triangle of a cell has the same one).
+        let tape = &blocks[sparse.triangle_block[tris[0]] as usize].tape;
         let ijk = [cell % n[0], (cell / n[0]) % n[1], cell / (n[0] * n[1])];
         let box_lo: [f64; 3] = [0, 1, 2].map(|a| lo[a] + ijk[a] as f64 * h[a]);
         let cell_patches = patches(&mesh.triangles, tris);
@@ -111,17 +125,10 @@ pub fn dual_contour(
             used.sort_unstable();
             let (x, r) = qef_vertex(&vertices, &used, box_lo, h);
             let xf = x.map(|c| c as f32);
-            let (_, g) = tape.eval_grad(xf);
-            let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-            let normal = if len.is_finite() && len > 0.0 {
-                g.map(|c| c / len)
-            } else {
-                [0.0; 3]
-            };
             let v = vertices.len() as u32;
             vertices.push(MeshVertex {
                 position: xf,
-                normal,
+                normal: unit(tape.eval_grad(xf).1),
                 uv: [0.0; 2],
             });
             rank.insert(v, r);

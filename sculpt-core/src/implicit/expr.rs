@@ -14,6 +14,8 @@
 
 use std::collections::HashMap;
 
+use super::rfunc::MonotoneR;
+
 /// A coordinate variable.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Var {
@@ -380,11 +382,26 @@ pub enum Node {
     Binary(Binary, NodeId, NodeId),
 }
 
+/// A node known to be a monotone R-function of two other nodes (recorded by
+/// [`RSystem::and`](super::rfunc::RSystem::and) and `or`): the interval pass bounds it
+/// by its values at the corners of its arguments' box instead of by its formula's ops
+/// ([`MonotoneR`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RBound {
+    /// The node holding the R-function's value.
+    pub root: NodeId,
+    /// Its two arguments.
+    pub args: [NodeId; 2],
+    /// Which R-function.
+    pub op: MonotoneR,
+}
+
 /// A hash-consed, constant-folded expression graph.
 #[derive(Debug, Clone, Default)]
 pub struct Graph {
     nodes: Vec<Node>,
     index: HashMap<Node, NodeId>,
+    bounds: Vec<RBound>,
 }
 
 impl Graph {
@@ -401,6 +418,19 @@ impl Graph {
     /// Whether the graph has no nodes.
     pub fn is_empty(&self) -> bool {
         self.nodes.is_empty()
+    }
+
+    /// Records that `root` is the monotone R-function `op` of `args` ([`RBound`]).
+    pub fn mark_monotone(&mut self, root: NodeId, args: [NodeId; 2], op: MonotoneR) {
+        let b = RBound { root, args, op };
+        if !self.bounds.contains(&b) {
+            self.bounds.push(b);
+        }
+    }
+
+    /// The nodes recorded by [`mark_monotone`](Self::mark_monotone).
+    pub fn monotone_ops(&self) -> &[RBound] {
+        &self.bounds
     }
 
     /// The node behind an id.
@@ -551,6 +581,17 @@ impl Graph {
                 Node::Binary(op, a, b) => self.binary(op, map[a.index()], map[b.index()]),
             };
             map.push(m);
+        }
+        // The R-functions below `root` stay R-functions of the substituted arguments.
+        let marked: Vec<RBound> = self
+            .bounds
+            .iter()
+            .filter(|b| b.root.index() <= root.index())
+            .copied()
+            .collect();
+        for b in marked {
+            let args = b.args.map(|a| map[a.index()]);
+            self.mark_monotone(map[b.root.index()], args, b.op);
         }
         map[root.index()]
     }

@@ -72,6 +72,21 @@ impl Interval {
         Self::checked(down(self.lo, ulps), up(self.hi, ulps), self.nan)
     }
 
+    /// The values both `self` and `o` allow, where both hold every value of one
+    /// quantity; `self` where they do not meet (which sound bounds never do).
+    pub fn intersect(self, o: Self) -> Self {
+        let (lo, hi) = (self.lo.max(o.lo), self.hi.min(o.hi));
+        if lo <= hi {
+            Self {
+                lo,
+                hi,
+                nan: self.nan && o.nan,
+            }
+        } else {
+            self
+        }
+    }
+
     /// Whether `v` lies in the range.
     pub fn contains(&self, v: f32) -> bool {
         self.lo <= v && v <= self.hi

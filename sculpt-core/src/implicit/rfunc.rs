@@ -19,6 +19,11 @@ use serde::{Deserialize, Serialize};
 
 use super::ImplicitError;
 use super::expr::{Binary, Graph, NodeId, Unary, Var};
+use super::interval::Interval;
+use crate::tolerance::{
+    RFUNC_INTERVAL_ABS, RFUNC_INTERVAL_ERR_MARGIN, RFUNC_INTERVAL_MAX_ARG, RFUNC_INTERVAL_MIN_ARG,
+    RFUNC_INTERVAL_NAN_ALPHA,
+};
 
 /// The largest `m` of `R_0^m` and `p` of `R_p` accepted.
 pub const MAX_R_EXPONENT: u32 = 16;
@@ -126,6 +131,18 @@ impl RSystem {
     }
 
     fn combine(self, g: &mut Graph, x: NodeId, y: NodeId, sign: f64) -> NodeId {
+        let root = self.combine_nodes(g, x, y, sign);
+        let op = MonotoneR {
+            system: self,
+            or: sign > 0.0,
+        };
+        if op.is_monotone() {
+            g.mark_monotone(root, [x, y], op);
+        }
+        root
+    }
+
+    fn combine_nodes(self, g: &mut Graph, x: NodeId, y: NodeId, sign: f64) -> NodeId {
         let sum = g.add(x, y);
         match self {
             RSystem::MinMax => {
@@ -188,6 +205,101 @@ impl RSystem {
                 g.add(sum, signed)
             }
         }
+    }
+}
+
+/// An R-function that is non-decreasing in each argument, so that its exact range
+/// over a box of arguments `[x_lo, x_hi] x [y_lo, y_hi]` is
+/// `[R(x_lo, y_lo), R(x_hi, y_hi)]` (docs/implicit.md, "Interval bounds of
+/// R-functions"): `R_alpha` (|alpha| <= 1: the partial derivatives are
+/// `(1 -/+ (x - alpha y) / sqrt(x^2 + y^2 - 2 alpha x y)) / (1 + alpha)` and
+/// `|x - alpha y|` is at most the root) and `R_0^0` (alpha = 0 of the same).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MonotoneR {
+    /// The system.
+    pub system: RSystem,
+    /// Disjunction (OR) rather than conjunction (AND).
+    pub or: bool,
+}
+
+impl MonotoneR {
+    /// Whether the corner rule holds for this system: `R_alpha` and `R_0^0`.
+    /// (`R_p` is monotone too, but its formula's f32 error is not bounded here;
+    /// `R_0^m`, m > 0, is not monotone.)
+    pub fn is_monotone(self) -> bool {
+        matches!(self.system, RSystem::RAlpha { .. } | RSystem::R0 { m: 0 })
+    }
+
+    /// The value in f64 (sec. 2.2.2).
+    pub fn eval_f64(self, x: f64, y: f64) -> f64 {
+        if self.or {
+            self.system.or_f64(x, y)
+        } else {
+            self.system.and_f64(x, y)
+        }
+    }
+
+    /// Bounds on the tape's f32 values of this R-function over `x` by `y`: the f64
+    /// values at the low and high corners widened by a bound on the f32 formula's
+    /// error, or `None` where the rule does not apply (a NaN argument, magnitudes
+    /// where the f32 squares could overflow or underflow, a system that is not
+    /// monotone).
+    ///
+    /// The error bound, with `M = max|x| + max|y|` and `u = 2^-24`: every op of the
+    /// formula (`x + y`, the squares, their sum, the root, the final sum) adds at most
+    /// a few `u M`; the radicand `r = x^2 + y^2 - 2 alpha x y` may cancel, and an
+    /// absolute error `d <= 5 u M^2` in it moves the root by at most
+    /// `min(sqrt(d), d / sqrt(r))`, where `r >= (1 - |alpha|) (x^2 + y^2) >=
+    /// (1 - |alpha|) M^2 / 2`: at most `min(2 sqrt(u), 8 u / sqrt(1 - |alpha|)) M`
+    /// (`R_0`'s radicand is a sum of squares and does not cancel); everything is
+    /// divided by `1 + alpha`. The bound taken is [`RFUNC_INTERVAL_ERR_MARGIN`] times
+    /// that sum, plus [`RFUNC_INTERVAL_ABS`] for squares that underflow.
+    pub fn corner_interval(self, x: Interval, y: Interval) -> Option<Interval> {
+        if !self.is_monotone() || x.nan || y.nan {
+            return None;
+        }
+        let mag = |i: Interval| f64::from(i.lo.abs().max(i.hi.abs()));
+        let m = mag(x) + mag(y);
+        if !(RFUNC_INTERVAL_MIN_ARG..=RFUNC_INTERVAL_MAX_ARG).contains(&m) {
+            return None;
+        }
+        let u = f64::from(f32::EPSILON) / 2.0;
+        let (root_err, scale) = match self.system {
+            RSystem::RAlpha { alpha } => (
+                (2.0 * u.sqrt()).min(8.0 * u / (1.0 - alpha.abs()).sqrt()) * m,
+                1.0 / (1.0 + alpha),
+            ),
+            _ => (4.0 * u * m, 1.0),
+        };
+        let err = RFUNC_INTERVAL_ERR_MARGIN * (root_err + 8.0 * u * m) * scale + RFUNC_INTERVAL_ABS;
+        let lo = self.eval_f64(f64::from(x.lo), f64::from(y.lo)) - err;
+        let hi = self.eval_f64(f64::from(x.hi), f64::from(y.hi)) + err;
+        if !(lo.is_finite() && hi.is_finite()) {
+            return None;
+        }
+        // Rounded outward to f32.
+        let (lo32, hi32) = (lo as f32, hi as f32);
+        let lo32 = if f64::from(lo32) > lo {
+            lo32.next_down()
+        } else {
+            lo32
+        };
+        let hi32 = if f64::from(hi32) < hi {
+            hi32.next_up()
+        } else {
+            hi32
+        };
+        // R_0's radicand is a sum of squares, never negative in f32; R_alpha's may
+        // round below zero (NaN from the root) where alpha is within rounding of 1.
+        let nan = match self.system {
+            RSystem::RAlpha { alpha } => alpha.abs() >= 1.0 - RFUNC_INTERVAL_NAN_ALPHA,
+            _ => false,
+        };
+        Some(Interval {
+            lo: lo32,
+            hi: hi32,
+            nan,
+        })
     }
 }
 
@@ -273,21 +385,7 @@ mod tests {
         y0: f32,
         wy: f32,
     ) -> (crate::implicit::interval::Interval, f32, f32) {
-        use crate::implicit::interval::Interval;
-        use crate::implicit::tape::Tape;
-        let mut g = Graph::new();
-        let [vx, vy, _] = g.xyz();
-        let r = if and {
-            sys.and(&mut g, vx, vy)
-        } else {
-            sys.or(&mut g, vx, vy)
-        };
-        let tape = Tape::compile(&g, r);
-        let region = [
-            Interval::new(x0, x0 + wx),
-            Interval::new(y0, y0 + wy),
-            Interval::point(0.0),
-        ];
+        let (tape, region) = r_tape(sys, and, x0, wx, y0, wy);
         let range = tape.eval_interval(region);
         let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
         for i in 0..=16 {
@@ -315,6 +413,92 @@ mod tests {
             let (range, lo, hi) = interval_and_samples(sys, and, x0, wx, y0, wy);
             prop_assert!(range.lo <= lo && hi <= range.hi, "{range:?} misses [{lo}, {hi}]");
         }
+    }
+
+    fn monotone_system() -> impl Strategy<Value = RSystem> {
+        prop_oneof![
+            (-0.99f64..=1.0).prop_map(|alpha| RSystem::RAlpha { alpha }),
+            Just(RSystem::R0 { m: 0 }),
+        ]
+    }
+
+    proptest! {
+        /// The corner bounds of the monotone R-functions (R_alpha, R_0^0) hold every
+        /// sampled value, wide or narrow boxes, near zero or far; they are used (one
+        /// bound on the tape), and never wider than the formula's interval.
+        #[test]
+        fn r_function_corner_intervals_hold_every_sample(sys in monotone_system(),
+                and in any::<bool>(), x0 in -40.0f32..40.0, y0 in -40.0f32..40.0,
+                wx in prop_oneof![Just(0.0f32), 1e-6f32..1e-3, 1e-3f32..20.0],
+                wy in prop_oneof![Just(0.0f32), 1e-6f32..1e-3, 1e-3f32..20.0]) {
+            let (range, lo, hi) = interval_and_samples(sys, and, x0, wx, y0, wy);
+            prop_assert!(range.lo <= lo && hi <= range.hi, "{range:?} misses [{lo}, {hi}]");
+            let (tape, region) = r_tape(sys, and, x0, wx, y0, wy);
+            prop_assert_eq!(tape.r_bounds(), 1);
+            let formula = tape.without_r_bounds().eval_interval(region);
+            prop_assert!(range.hi - range.lo <= formula.hi - formula.lo);
+        }
+    }
+
+    /// The tape of AND or OR of x and y, and the box `[x0, x0 + wx] x [y0, y0 + wy]`.
+    fn r_tape(
+        sys: RSystem,
+        and: bool,
+        x0: f32,
+        wx: f32,
+        y0: f32,
+        wy: f32,
+    ) -> (crate::implicit::tape::Tape, [Interval; 3]) {
+        let mut g = Graph::new();
+        let [vx, vy, _] = g.xyz();
+        let r = if and {
+            sys.and(&mut g, vx, vy)
+        } else {
+            sys.or(&mut g, vx, vy)
+        };
+        let region = [
+            Interval::new(x0, x0 + wx),
+            Interval::new(y0, y0 + wy),
+            Interval::point(0.0),
+        ];
+        (crate::implicit::tape::Tape::compile(&g, r), region)
+    }
+
+    /// The worst cases measured before the corner bounds (docs/implicit.md, "Interval
+    /// bounds of R-functions"): a far argument's width surviving the cancellation, and
+    /// alpha near -1 multiplying it until not even the sign was decided.
+    #[test]
+    fn corner_bounds_fix_the_measured_worst_cases() {
+        let (tape, region) = r_tape(
+            RSystem::RAlpha { alpha: 0.0 },
+            false,
+            -3.50,
+            0.74,
+            0.0,
+            0.001,
+        );
+        let (new, old) = (
+            tape.eval_interval(region),
+            tape.without_r_bounds().eval_interval(region),
+        );
+        eprintln!("R_alpha OR, alpha 0: corner {new:?}, formula {old:?}");
+        assert!(old.hi - old.lo > 1.0, "{old:?}");
+        assert!(new.hi - new.lo < 0.01, "{new:?}");
+        let (tape, region) = r_tape(
+            RSystem::RAlpha { alpha: -0.983 },
+            false,
+            1.265,
+            0.001,
+            -3.17,
+            0.31,
+        );
+        let (new, old) = (
+            tape.eval_interval(region),
+            tape.without_r_bounds().eval_interval(region),
+        );
+        eprintln!("R_alpha OR, alpha -0.983: corner {new:?}, formula {old:?}");
+        assert!(old.lo < 0.0 && old.hi > 0.0, "{old:?}");
+        assert!(new.lo > 0.0 && !new.nan, "the sign is decided: {new:?}");
     }
 
     #[test]

@@ -23,6 +23,7 @@ use std::ops::Range;
 
 use super::expr::{Binary, Graph, Node, NodeId, Unary, Var};
 use super::interval::Interval;
+use super::rfunc::MonotoneR;
 use super::{GridProblem, ImplicitError, MAX_GRID_CELLS};
 
 /// Runs `$e` with `$p` bound to `$op` as a constant, one match arm per variant of
@@ -74,6 +75,18 @@ pub enum Instr {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Tape {
     instrs: Vec<Instr>,
+    /// Slots holding monotone R-functions of two other slots, by root slot: the
+    /// interval pass bounds them at their arguments' corners
+    /// ([`MonotoneR::corner_interval`]).
+    bounds: Vec<TapeBound>,
+}
+
+/// A monotone R-function on a tape: `root` is `op` of the slots `args`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct TapeBound {
+    root: u32,
+    args: [u32; 2],
+    op: MonotoneR,
 }
 
 /// Which nodes of `graph` the node `root` depends on (itself included).
@@ -209,7 +222,33 @@ impl Tape {
             slot[i] = instrs.len() as u32;
             instrs.push(ins);
         }
-        Self { instrs }
+        let mut bounds: Vec<TapeBound> = graph
+            .monotone_ops()
+            .iter()
+            .filter(|b| live[b.root.index()])
+            .map(|b| TapeBound {
+                root: slot[b.root.index()],
+                args: b.args.map(|a| slot[a.index()]),
+                op: b.op,
+            })
+            .collect();
+        bounds.sort_by_key(|b| b.root);
+        Self { instrs, bounds }
+    }
+
+    /// This tape without its R-function corner bounds: intervals from the formulas'
+    /// ops alone (what pruning had before them; the comparison of
+    /// docs/implicit.md, "Interval bounds of R-functions").
+    pub fn without_r_bounds(&self) -> Tape {
+        Tape {
+            instrs: self.instrs.clone(),
+            bounds: Vec::new(),
+        }
+    }
+
+    /// How many slots hold monotone R-functions bounded at their corners.
+    pub fn r_bounds(&self) -> usize {
+        self.bounds.len()
     }
 
     /// The instructions.
@@ -462,8 +501,9 @@ impl Tape {
     fn interval_pass(&self, region: [Interval; 3]) -> (Interval, Vec<Choice>) {
         let mut v: Vec<Interval> = Vec::with_capacity(self.instrs.len());
         let mut choices = vec![Choice::Both; self.instrs.len()];
+        let mut bounds = self.bounds.iter().peekable();
         for (i, ins) in self.instrs.iter().enumerate() {
-            let r = match *ins {
+            let mut r = match *ins {
                 Instr::Var(var) => region[var.index()],
                 Instr::Const(c) => Interval::point(c),
                 Instr::Unary(op, a) => v[a as usize].unary(op),
@@ -473,6 +513,16 @@ impl Tape {
                     ia.binary(op, ib)
                 }
             };
+            // A monotone R-function: its formula's interval meets its corner bound
+            // (both hold every value, so their intersection does).
+            while let Some(b) = bounds.next_if(|b| b.root as usize <= i) {
+                if b.root as usize == i
+                    && let Some(c) =
+                        b.op.corner_interval(v[b.args[0] as usize], v[b.args[1] as usize])
+                {
+                    r = r.intersect(c);
+                }
+            }
             v.push(r);
         }
         (*v.last().expect("a tape has a root"), choices)
@@ -525,7 +575,19 @@ impl Tape {
             slot[i] = instrs.len() as u32;
             instrs.push(ins);
         }
-        (range, Tape { instrs })
+        // The bounds whose root survives as itself; their arguments are live through
+        // the root (read through the aliases).
+        let bounds = self
+            .bounds
+            .iter()
+            .filter(|b| live[b.root as usize] && alias[b.root as usize] == b.root)
+            .map(|b| TapeBound {
+                root: slot[b.root as usize],
+                args: b.args.map(|a| slot[alias[a as usize] as usize]),
+                op: b.op,
+            })
+            .collect();
+        (range, Tape { instrs, bounds })
     }
 
     /// The value and gradient at `p`, by forward-mode automatic differentiation in
