@@ -78,17 +78,24 @@ pub fn dual_contour(
         ..DualReport::default()
     };
     // Each vertex is bisected on its block's pruned tape, which equals the full one
-    // on the vertex's edge.
-    let work: Vec<(MeshVertex, [[f64; 3]; 2], u32)> = mesh
-        .vertices
-        .iter()
-        .zip(&extra.edges)
-        .zip(&sparse.vertex_block)
-        .map(|((v, &ends), &b)| (*v, ends, b))
-        .collect();
-    let hermite: Vec<MeshVertex> = par_map(&work, |&(v, ends, b)| {
-        hermite_sample(&blocks[b as usize].tape, v, ends)
+    // on the vertex's edge; a block's vertices are bisected together, one batch
+    // evaluation per halving.
+    let mut by_block: Vec<Vec<usize>> = vec![Vec::new(); blocks.len()];
+    for (v, &b) in sparse.vertex_block.iter().enumerate() {
+        by_block[b as usize].push(v);
+    }
+    let jobs: Vec<(usize, &Vec<usize>)> = by_block.iter().enumerate().collect();
+    let samples = par_map(&jobs, |&(b, ids)| {
+        let ends: Vec<[[f64; 3]; 2]> = ids.iter().map(|&v| extra.edges[v]).collect();
+        let vs: Vec<MeshVertex> = ids.iter().map(|&v| mesh.vertices[v]).collect();
+        hermite_samples(&blocks[b].tape, &vs, &ends)
     });
+    let mut hermite: Vec<MeshVertex> = mesh.vertices.clone();
+    for ((_, ids), got) in jobs.iter().zip(samples) {
+        for (&v, h) in ids.iter().zip(got) {
+            hermite[v] = h;
+        }
+    }
     // The mesh's vertices move to their Hermite samples (along their own edges, so
     // the topology is unchanged): on the surface, faces meet the feature vertices
     // without folds.
@@ -145,42 +152,68 @@ pub fn dual_contour(
     Ok((compact(vertices, triangles), report))
 }
 
-/// The Hermite sample of a marching-tetrahedra vertex: the zero crossing on its edge
-/// `ends`, found by bisection ([`DUAL_BISECTIONS`] halvings; the ends have opposite
-/// signs, the outer layer of the grid aside), with the unit gradient there. The vertex
-/// itself sits where the linear interpolant of its edge's end values vanishes, which
-/// near an R-function edge lies off the surface, where the gradient blends the two
-/// faces'; on the surface the R-functions keep each face's normal (Shin et al. 2007,
-/// sec. 2.2), which is what the QEF needs.
-fn hermite_sample(tape: &Tape, v: MeshVertex, ends: [[f64; 3]; 2]) -> MeshVertex {
-    let at = |t: f64| [0, 1, 2].map(|c| ends[0][c] + t * (ends[1][c] - ends[0][c]));
-    let value = |t: f64| tape.eval_point(at(t).map(|c| c as f32));
-    let inside0 = value(0.0) < 0.0;
-    if inside0 == (value(1.0) < 0.0) {
-        return v; // a corner forced outside on the grid's outer layer
-    }
-    let (mut a, mut b) = (0.0f64, 1.0f64);
+/// The Hermite samples of marching-tetrahedra vertices `vs`: the zero crossing on
+/// each one's edge `ends`, found by bisection ([`DUAL_BISECTIONS`] halvings; the ends
+/// have opposite signs, the outer layer of the grid aside), with the unit gradient
+/// there. All are bisected together, one batch evaluation of `tape` per halving. The
+/// vertex itself sits where the linear interpolant of its edge's end values vanishes,
+/// which near an R-function edge lies off the surface, where the gradient blends the
+/// two faces'; on the surface the R-functions keep each face's normal (Shin et al.
+/// 2007, sec. 2.2), which is what the QEF needs.
+fn hermite_samples(tape: &Tape, vs: &[MeshVertex], ends: &[[[f64; 3]; 2]]) -> Vec<MeshVertex> {
+    let at = |e: &[[f64; 3]; 2], t: f64| [0, 1, 2].map(|c| e[0][c] + t * (e[1][c] - e[0][c]));
+    let mut points: Vec<[f32; 3]> = vec![[0.0; 3]; ends.len()];
+    let mut values = vec![0.0f32; ends.len()];
+    let eval = |ts: &[f64], points: &mut [[f32; 3]], values: &mut [f32]| {
+        for ((p, e), &t) in points.iter_mut().zip(ends).zip(ts) {
+            *p = at(e, t).map(|c| c as f32);
+        }
+        tape.eval_points(points, values);
+    };
+    eval(&vec![0.0; ends.len()], &mut points, &mut values);
+    let inside0: Vec<bool> = values.iter().map(|&v| v < 0.0).collect();
+    eval(&vec![1.0; ends.len()], &mut points, &mut values);
+    // A corner forced outside on the grid's outer layer: no crossing to find.
+    let crossing: Vec<bool> = values
+        .iter()
+        .zip(&inside0)
+        .map(|(&v, &i0)| i0 != (v < 0.0))
+        .collect();
+    let (mut a, mut b) = (vec![0.0f64; ends.len()], vec![1.0f64; ends.len()]);
+    let mut mid = vec![0.5f64; ends.len()];
     for _ in 0..DUAL_BISECTIONS {
-        let m = 0.5 * (a + b);
-        if (value(m) < 0.0) == inside0 {
-            a = m;
-        } else {
-            b = m;
+        for ((m, &lo), &hi) in mid.iter_mut().zip(&a).zip(&b) {
+            *m = 0.5 * (lo + hi);
+        }
+        eval(&mid, &mut points, &mut values);
+        for k in 0..ends.len() {
+            if (values[k] < 0.0) == inside0[k] {
+                a[k] = mid[k];
+            } else {
+                b[k] = mid[k];
+            }
         }
     }
-    // As marching tetrahedra keep them: off the edge's ends, so no two coincide.
-    let t = (0.5 * (a + b)).clamp(CONTOUR_EDGE_T_MIN, 1.0 - CONTOUR_EDGE_T_MIN);
-    let p = at(t).map(|c| c as f32);
-    let (_, g) = tape.eval_grad(p);
-    let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-    if !(len.is_finite() && len > 0.0) {
-        return v;
-    }
-    MeshVertex {
-        position: p,
-        normal: g.map(|c| c / len),
-        uv: v.uv,
-    }
+    (0..ends.len())
+        .map(|k| {
+            if !crossing[k] {
+                return vs[k];
+            }
+            // As marching tetrahedra keep them: off the edge's ends, so no two coincide.
+            let t = (0.5 * (a[k] + b[k])).clamp(CONTOUR_EDGE_T_MIN, 1.0 - CONTOUR_EDGE_T_MIN);
+            let p = at(&ends[k], t).map(|c| c as f32);
+            let (_, g) = tape.eval_grad(p);
+            let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+            if !(len.is_finite() && len > 0.0) {
+                return vs[k];
+            }
+            MeshVertex {
+                position: p,
+                normal: g.map(|c| c / len),
+                uv: vs[k].uv,
+            }
+        })
+        .collect()
 }
 
 /// The connected patches (by shared edges) of the triangles `tris` of one cell.
