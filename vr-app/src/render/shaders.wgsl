@@ -33,6 +33,11 @@ struct MeshOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) p_in_display: vec3<f32>,
     @location(1) normal: vec3<f32>,
+    // The vertex's n n^T (diagonal, then xy, xz, yz) and (v . n) n, interpolated: the
+    // terms of the curved-surface point (`curved_point`).
+    @location(2) nn_diag: vec3<f32>,
+    @location(3) nn_off: vec3<f32>,
+    @location(4) vn_n: vec3<f32>,
 };
 
 struct SceneOut {
@@ -46,7 +51,33 @@ fn vs_mesh(v: MeshIn) -> MeshOut {
     o.clip = cam.clip_from_display * vec4<f32>(v.position, 1.0);
     o.p_in_display = v.position;
     o.normal = v.normal;
+    let n = v.normal;
+    o.nn_diag = n * n;
+    o.nn_off = vec3<f32>(n.x * n.y, n.x * n.z, n.y * n.z);
+    o.vn_n = dot(v.position, n) * n;
     return o;
+}
+
+// The point of the smooth surface over a fragment of a flat triangle: Phong
+// tessellation (Boubekeur and Alexa, "Phong Tessellation", SIGGRAPH Asia 2008, eq. 1-2)
+// with shape factor 1/2, p* = p + 1/2 sum_i b_i ((v_i - p) . n_i) n_i, where b_i are
+// p's barycentric coordinates and v_i, n_i the corners and their (exact) normals. The
+// sum is sum_i b_i (v_i . n_i) n_i - (sum_i b_i n_i n_i^T) p, i.e. the interpolated
+// vertex outputs `vn_n`, `nn_diag` and `nn_off`. For a surface z = x^T H x / 2 over its
+// tangent plane, sum_i b_i ((v_i - p) . n_i) n_i is twice the surface's height above
+// the flat triangle to first order in the slope, so the factor 1/2 puts p* on the
+// surface: the chord error (up to the tessellation tolerance) leaves the depth that
+// the cavity term reads, and the facets' creases with it.
+fn curved_point(f: MeshOut) -> vec3<f32> {
+    let p = f.p_in_display;
+    let d = f.nn_diag;
+    let o = f.nn_off;
+    let m_p = vec3<f32>(
+        d.x * p.x + o.x * p.y + o.y * p.z,
+        o.x * p.x + d.y * p.y + o.z * p.z,
+        o.y * p.x + o.z * p.y + d.z * p.z,
+    );
+    return p + 0.5 * (f.vn_n - m_p);
 }
 
 fn hash3(p: vec3<f32>) -> f32 {
@@ -84,10 +115,18 @@ fn albedo_at(p: vec3<f32>) -> vec3<f32> {
 }
 
 // The view depth (metres along the view direction) as a pair of half floats whose sum
-// is exact to float precision; resolve averages both.
+// is exact to about 20 bits; resolve averages both. The high part lies on a grid of
+// 2^(e - 8) for a depth in [2^e, 2^(e+1)), 4 half-float ulps: the average of up to 4
+// samples' high parts (the renderer's most) is then a multiple of one ulp, which the
+// half-float resolve target holds exactly. (Rounded to the nearest half float instead, two fragments on
+// either side of a triangle edge could round to neighbouring halves, and their average,
+// rounded again, was off by up to half an ulp, 0.5 mm at 1.5 m: single pixels along
+// patch edges that the cavity term turned into bright dots.) The low part, at most
+// 2^(e - 9), keeps the rest to a micrometre at 1 m.
 fn geometry(p_in_display: vec3<f32>, class_id: f32) -> vec4<f32> {
     let d = -(cam.view_from_display * vec4<f32>(p_in_display, 1.0)).z;
-    let hi = unpack2x16float(pack2x16float(vec2<f32>(d, 0.0))).x;
+    let q = exp2(floor(log2(max(d, 1e-6))) - 8.0);
+    let hi = round(d / q) * q;
     return vec4<f32>(hi, d - hi, 1.0, class_id);
 }
 
@@ -119,7 +158,7 @@ fn fs_mesh(f: MeshOut) -> SceneOut {
     let rgb = albedo_at(f.p_in_display) * (hemi + vec3<f32>(diffuse)) + vec3<f32>(spec);
     var o: SceneOut;
     o.color = vec4<f32>(clamp(rgb, vec3<f32>(0.0), vec3<f32>(1.0)), 1.0);
-    o.geom = geometry(f.p_in_display, mat.params.w);
+    o.geom = geometry(curved_point(f), mat.params.w);
     return o;
 }
 

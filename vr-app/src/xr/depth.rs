@@ -335,8 +335,9 @@ mod tests {
 
     /// On lavapipe: the depth pass stores, for each eye, the depth of the surfaces the
     /// renderer drew there, and through the layer's near and far a compositor reads
-    /// back the renderer's own view depth (its geometry image); where the renderer
-    /// drew nothing the far value stays.
+    /// back the renderer's own view depth (its geometry image, within the chord error
+    /// its smooth-surface lift adds); where the renderer drew nothing the far value
+    /// stays.
     #[test]
     fn the_depth_pass_stores_what_the_renderer_drew() {
         use crate::app::AppState;
@@ -344,6 +345,7 @@ mod tests {
         use crate::xr::actions::{self, ReferenceSpace};
         use crate::xr::{XrPose, xr_views};
         use glam::{DQuat, DVec3};
+        use sculpt_core::sculpt::tessellate::Detail;
 
         let gpu = Gpu::headless().unwrap_or_else(|e| panic!("a GPU (lavapipe): {e}"));
         let dir = tempfile::tempdir().unwrap();
@@ -418,11 +420,25 @@ mod tests {
             [&depth_views[0], &depth_views[1]],
         );
         let layer = DepthLayer::new(near, far).unwrap();
-        // The geometry image keeps view depth as a pair of half floats (about 22
+        // The geometry image keeps view depth as a pair of half floats (about 20
         // significant bits), the depth image a 32-bit float whose steps near 1 stand
         // for z^2 (f - n) / (n f) metres each: both agree to a few units of rounding.
+        // The geometry image's depth is the smooth surface's (the flat triangles'
+        // point lifted by Phong tessellation for the cavity term, `shaders.wgsl`), the
+        // depth pass draws the flat triangles: they differ by at most the chord error,
+        // which the tessellation keeps within its stated tolerance.
+        let chord = app
+            .session
+            .doc
+            .targets()
+            .iter()
+            .map(|t| Detail::Final.tolerance(t.surface.size()))
+            .fold(0.0, f64::max);
         let tolerance = |z: f64| {
-            ROUNDING_UNITS * f64::from(f32::EPSILON) * (z + z * z * (far - near) / (near * far))
+            chord
+                + ROUNDING_UNITS
+                    * f64::from(f32::EPSILON)
+                    * (z + z * z * (far - near) / (near * far))
         };
         for (eye, texture) in depth.iter().enumerate() {
             let stored = read_depth(&gpu, texture);
