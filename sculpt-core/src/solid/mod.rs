@@ -348,19 +348,23 @@ impl SolidTarget {
         let (plo, phi) = (f.corner(lo), f.corner(hi));
         let box_lo = DVec3::from(plo.map(f64::from));
         let box_hi = DVec3::from(phi.map(f64::from));
-        let cuts: Vec<&Cut> = self
+        // Each cut that reaches the block, with the segments of its tool that do.
+        let cuts: Vec<(&Cut, Vec<usize>)> = self
             .cuts
             .iter()
-            .filter(|c| {
-                let (tl, th) = c.tool.bounds();
-                tl.cmple(box_hi).all() && th.cmpge(box_lo).all()
+            .filter_map(|c| {
+                let segments = c.tool.segments_near(box_lo, box_hi);
+                (!segments.is_empty()).then_some((c, segments))
             })
             .collect();
         let region = [0, 1, 2].map(|a| Interval::new(plo[a], phi[a]));
         let (range, pruned) = self.tape.simplify(region);
-        if cuts.is_empty() && !range.nan {
+        if !range.nan {
             let on_face = (0..3).any(|a| lo[a] == 0 || hi[a] == f.n[a]);
-            if range.hi <= 0.0 || (range.lo > 0.0 && !on_face) {
+            // Carving only removes material: a block surely outside the model stays
+            // empty under carves, and one surely inside with no cut is full.
+            let only_carves = cuts.iter().all(|(c, _)| c.tool.mode == Mode::Carve);
+            if (range.hi <= 0.0 && only_carves) || (range.lo > 0.0 && !on_face && cuts.is_empty()) {
                 return (BlockMesh::default(), true);
             }
         }
@@ -378,8 +382,9 @@ impl SolidTarget {
         if !cuts.is_empty() {
             for (p, v) in points.iter().zip(values.iter_mut()) {
                 let p = DVec3::from(p.map(f64::from));
-                for c in &cuts {
-                    apply_cut(c, p, v);
+                for (c, segments) in &cuts {
+                    let g = c.tool.value_among(p, segments.iter().copied());
+                    combine(c.tool.mode, g, v);
                 }
             }
         }
@@ -396,9 +401,15 @@ fn apply_cuts(cuts: &[Cut], p: DVec3, v: &mut f32) {
 
 /// One cut at `p`: carve `min(v, -g)`, emboss `max(v, g)` where the tool reaches.
 fn apply_cut(c: &Cut, p: DVec3, v: &mut f32) {
-    if let Some(g) = c.tool.value(p) {
+    combine(c.tool.mode, c.tool.value(p), v);
+}
+
+/// The R_1 combination of the field value `v` with the tool's value `g` (none: the
+/// tool does not reach, `v` stays).
+fn combine(mode: Mode, g: Option<f64>, v: &mut f32) {
+    if let Some(g) = g {
         let g = g as f32;
-        *v = match c.tool.mode {
+        *v = match mode {
             Mode::Carve => v.min(-g),
             Mode::Emboss => v.max(g),
         };

@@ -136,9 +136,27 @@ impl SweptTool {
         if p.cmplt(self.lo).any() || p.cmpgt(self.hi).any() {
             return None;
         }
+        self.value_among(p, 1..self.points.len())
+    }
+
+    /// The segments (by their end's index) whose reach meets the box `lo..hi`: for
+    /// every point of the box, [`Self::value_among`] over them equals [`Self::value`].
+    pub fn segments_near(&self, lo: DVec3, hi: DVec3) -> Vec<usize> {
+        (1..self.points.len())
+            .filter(|&i| {
+                let (a, b) = (self.points[i - 1], self.points[i]);
+                let slo = a.min(b) - DVec3::splat(self.reach);
+                let shi = a.max(b) + DVec3::splat(self.reach);
+                slo.cmple(hi).all() && shi.cmpge(lo).all()
+            })
+            .collect()
+    }
+
+    /// [`Self::value`] over the segments `segments` only (ends' indices).
+    pub fn value_among(&self, p: DVec3, segments: impl IntoIterator<Item = usize>) -> Option<f64> {
         let length = self.arc.last().copied().unwrap_or(0.0);
         let mut best: Option<f64> = None;
-        for i in 1..self.points.len() {
+        for i in segments {
             let (a, b) = (self.points[i - 1], self.points[i]);
             let lo = a.min(b) - DVec3::splat(self.reach);
             let hi = a.max(b) + DVec3::splat(self.reach);

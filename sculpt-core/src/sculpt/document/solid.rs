@@ -106,6 +106,18 @@ impl Document {
         self.solid(id).map(|s| s.solid.mesh())
     }
 
+    /// Appends every solid's mesh to `mesh` (the exports write targets and solids as
+    /// one mesh; each solid's part stays closed).
+    pub fn append_solid_meshes(&self, mesh: &mut WeldedMesh) {
+        for s in &self.solids {
+            let part = s.solid.mesh();
+            let base = mesh.vertices.len() as u32;
+            mesh.vertices.extend(part.vertices);
+            mesh.triangles
+                .extend(part.triangles.iter().map(|t| t.map(|v| v + base)));
+        }
+    }
+
     /// The id of the last solid step (undo takes the newest step of every kind).
     pub(super) fn last_solid_step(&self) -> Option<u64> {
         self.solid_history.last().copied()
