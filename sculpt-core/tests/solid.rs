@@ -260,3 +260,32 @@ fn a_stroke_on_a_solid_is_one_undoable_step_and_is_saved() {
     assert_eq!(loaded.solid_mesh(id).unwrap().triangles, carved.triangles);
     assert_eq!(loaded.to_json(), doc.to_json());
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(24))]
+
+    /// The document reader's `solids` section: any model text, any cell count and any
+    /// samples give a document or a clear error, never a panic.
+    #[test]
+    fn document_solids_section_never_panics(
+        model in "\\PC{0,40}",
+        cells in 0usize..40,
+        sample in proptest::array::uniform4(-1.0f64..1.0),
+        cut in 0usize..200,
+    ) {
+        let good = serde_json::json!({
+            "format": "wandsculpt-document", "version": 1, "targets": [], "strokes": [],
+            "solids": [{"id": 1, "name": "p", "model": PLATE, "cells": 16, "strokes": [
+                {"id": 2, "tool": {"profile": "v", "width": 0.06, "depth": 0.05, "mode": "carve"},
+                 "samples": [[0.0, -0.1, 0.0, 0.01], sample]}]}]
+        });
+        let _ = Document::from_json(good.to_string().as_bytes());
+        let mut bad = good.clone();
+        bad["solids"][0]["model"] = serde_json::Value::String(model);
+        bad["solids"][0]["cells"] = serde_json::json!(cells);
+        let _ = Document::from_json(bad.to_string().as_bytes());
+        let text = good.to_string();
+        let cut = cut.min(text.len());
+        let _ = Document::from_json(&text.as_bytes()[..cut]);
+    }
+}
