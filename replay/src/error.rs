@@ -51,6 +51,15 @@ pub enum Error {
         #[source]
         source: vr_app::VrError,
     },
+    /// The solid target the session's header names was refused (issue 35).
+    #[error("the session's solid target `{name}`")]
+    SessionSolid {
+        /// Its name in the header.
+        name: String,
+        /// Why.
+        #[source]
+        source: sculpt_core::Error,
+    },
     /// The configured tool was refused by the sculpting layer.
     #[error("config: tool")]
     ConfigTool(#[source] sculpt_core::Error),

@@ -48,11 +48,13 @@ pub fn write_outputs(outcome: &Outcome, dir: &Path) -> Result<Vec<PathBuf>> {
     let welded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         doc.mesh(Detail::Final).welded(WELD_TOLERANCE)
     }));
-    let Ok(welded) = welded else {
+    let Ok(mut welded) = welded else {
         let written = dir.join("scene.json");
         fsio::write_atomic(&written, &scene)?;
         return Err(Error::Tessellation { written });
     };
+    // Solid targets' meshes beside the surfaces' (issue 35).
+    doc.append_solid_meshes(&mut welded);
     let mut files: Vec<(&str, Vec<u8>)> = vec![("scene.json", scene)];
     for (name, format) in [
         ("scene.obj", MeshFormat::Obj),

@@ -182,6 +182,22 @@ pub struct Metrics {
     pub per_stroke: Vec<StrokeMetrics>,
     /// The rejected strokes, in order.
     pub rejected: Vec<Rejection>,
+    /// Solid targets in the final document and strokes carved into them (issue 35);
+    /// absent when there are none, so sessions without solids write what they did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub solids: Option<SolidMetrics>,
+}
+
+/// The solid targets of `metrics.json`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct SolidMetrics {
+    /// Solid targets.
+    pub targets: usize,
+    /// Strokes on them.
+    pub strokes: usize,
+    /// Euler characteristic of each solid's mesh (2 minus twice its handles): a
+    /// stroke that cuts through lowers it by 2.
+    pub euler: Vec<i64>,
 }
 
 /// `timing.json`: wall-clock measurements (these differ from run to run).
@@ -516,6 +532,15 @@ impl Replayer {
         m.duration_s = self.last_t - self.first_t.unwrap_or(self.last_t);
         m.targets = self.edit_loop.doc.targets().len();
         m.strokes = self.edit_loop.doc.strokes().len();
+        let solids = self.edit_loop.doc.solids();
+        m.solids = (!solids.is_empty()).then(|| SolidMetrics {
+            targets: solids.len(),
+            strokes: solids.iter().map(|s| s.solid.cuts().len()).sum(),
+            euler: solids
+                .iter()
+                .map(|s| sculpt_core::solid::euler_characteristic(&s.solid.mesh()))
+                .collect(),
+        });
         let stroke_apply_us = std::mem::take(&mut self.timer.stroke_apply_us);
         let mut sorted = stroke_apply_us.clone();
         sorted.sort_by(f64::total_cmp);
@@ -571,6 +596,23 @@ pub fn replay_log_rendering(
     run_log(bytes, cfg, base, session, false, None, times, at)
 }
 
+/// `base` with the solid target the pose log's header names added, as part of the
+/// base (never undone), when it names one ([`tracking::poselog::SessionSolid`]).
+pub fn with_session_solid(
+    mut base: Document,
+    header: &tracking::poselog::PoseLogHeader,
+) -> Result<Document> {
+    if let Some(s) = &header.solid {
+        base.add_solid(&s.name, &s.model, s.cells)
+            .map_err(|source| Error::SessionSolid {
+                name: s.name.clone(),
+                source,
+            })?;
+        base.seal_history();
+    }
+    Ok(base)
+}
+
 #[allow(clippy::too_many_arguments)]
 fn run_log(
     bytes: &[u8],
@@ -584,6 +626,7 @@ fn run_log(
 ) -> Result<Outcome> {
     let started = Instant::now();
     let mut reader = PoseLogReader::new(bytes)?;
+    let base = with_session_solid(base, reader.header())?;
     let mut replayer = Replayer::new(cfg, base, session)?;
     let mut corrupt = 0;
     let mut due = times.iter().copied().peekable();

@@ -65,6 +65,9 @@ pub struct SessionSpec {
     pub strokes: usize,
     /// Lattice drags the script makes (deformations a clean replay should apply).
     pub deforms: usize,
+    /// The solid target the session sculpts beside the sheet (its header names it and
+    /// `replay` adds it to the base), if any.
+    pub solid: Option<tracking::poselog::SessionSolid>,
 }
 
 /// A wand orientation that keeps the sketch axis (wand +x) horizontal.
@@ -205,6 +208,7 @@ pub fn catalogue() -> Vec<SessionSpec> {
         trouble,
         strokes,
         deforms: 0,
+        solid: None,
     };
     // Tracking lost mid-stroke: the wand is occluded for 0.2 s in the middle of the
     // second stroke; the stroke pauses and resumes.
@@ -269,6 +273,17 @@ pub fn catalogue() -> Vec<SessionSpec> {
             &eight_buttons,
             Trouble::None,
             1,
+        )
+    };
+    let solid = SessionSpec {
+        solid: Some(carve_solid_plate()),
+        ..spec(
+            "carve-solid",
+            "a 3 mm solid plate in front of the sheet: select it (button 5), two default V grooves (5 mm deep) cut through it, opening two slots",
+            carve_solid(),
+            &clean,
+            Trouble::None,
+            2,
         )
     };
     vec![
@@ -377,7 +392,42 @@ pub fn catalogue() -> Vec<SessionSpec> {
             12,
         ),
         lattice,
+        solid,
     ]
+}
+
+/// The plate of the `carve-solid` session: 30 cm x 20 cm, 3 mm thick, its top face at
+/// z = [`CARVE_SOLID_TOP`], centred in front of the sheet.
+pub fn carve_solid_plate() -> tracking::poselog::SessionSolid {
+    let (top, bottom) = (CARVE_SOLID_TOP, CARVE_SOLID_TOP - 0.003);
+    tracking::poselog::SessionSolid {
+        name: "plate".into(),
+        model: format!(
+            r#"{{"version": 1, "solid": {{"box": {{"min": [-0.15, 1.07, {bottom}], "max": [0.15, 1.27, {top}]}}}}}}"#
+        ),
+        cells: 256,
+    }
+}
+
+/// The top face of the `carve-solid` plate (display z, metres).
+pub const CARVE_SOLID_TOP: f64 = 0.05;
+
+/// Select the plate (button 5), then two grooves across it with the default tool.
+fn carve_solid() -> Script {
+    let s = Sculptor::new();
+    let script = s.script.click(5, 0.08).hold(0.2);
+    let groove = |y: f64| -> Vec<DVec3> {
+        (0..7)
+            .map(|i| DVec3::new(-0.1 + 0.2 * i as f64 / 6.0, y, CARVE_SOLID_TOP))
+            .collect()
+    };
+    Sculptor {
+        script,
+        hover: 0.05,
+    }
+    .stroke(&groove(1.12), 1.2)
+    .stroke(&groove(1.22), 1.2)
+    .finish()
 }
 
 /// The cage control point the lattice session grabs: of the default lattice around
@@ -457,6 +507,7 @@ pub fn render(spec: &SessionSpec) -> Result<Vec<u8>> {
     let track = Error::Tracking;
     let header = PoseLogHeader {
         source: format!("sim session={} seed={}", spec.name, spec.sim.seed),
+        solid: spec.solid.clone(),
         ..PoseLogHeader::default()
     };
     let sim = Simulator::new(&spec.script, spec.sim.clone()).map_err(track)?;

@@ -249,7 +249,7 @@ impl EditLoop {
 
     /// Tells the interaction the document's targets (selection wraps around them).
     pub fn sync_targets(&mut self) {
-        self.interaction.set_targets(&self.doc.target_ids());
+        self.interaction.set_targets(&self.doc.stroke_target_ids());
     }
 
     /// Applies one edit that did not come from the interaction (a journalled one,

@@ -219,6 +219,17 @@ impl Applied {
 /// stroke or sketch leaves the document unchanged and says why.
 pub fn apply(doc: &mut Document, edit: &Edit) -> Applied {
     match edit {
+        Edit::Stroke(s) if doc.solid(s.target).is_some() => {
+            match doc.apply_solid_stroke(s.target, stroke_input(s)) {
+                Ok((id, _)) => Applied::Stroke {
+                    id,
+                    target: s.target,
+                    pieces: 1,
+                    dropped: 0,
+                },
+                Err(e) => Applied::Rejected(e),
+            }
+        }
         Edit::Stroke(s) => {
             let Some(target) = doc.target(s.target).map(|t| t.id) else {
                 return Applied::Rejected(Error::NotFound {

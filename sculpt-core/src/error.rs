@@ -120,6 +120,11 @@ pub enum Error {
     /// A lattice or a deformation was refused; the reason says why.
     #[error("lattice: {0}")]
     Lattice(#[from] crate::lattice::LatticeError),
+
+    // Solid targets.
+    /// A solid target or a stroke on it was refused; the reason says why.
+    #[error("solid: {0}")]
+    Solid(#[from] crate::solid::SolidError),
 }
 
 fn knots_prefix(direction: Option<Direction>) -> &'static str {
@@ -187,6 +192,13 @@ pub enum DocumentError {
     /// [`MAX_DEFORMS`](crate::sculpt::document::MAX_DEFORMS) deformations.
     #[error("more than {max} lattice deformations")]
     TooManyDeforms {
+        /// The cap.
+        max: usize,
+    },
+    /// The document already holds
+    /// [`MAX_SOLIDS`](crate::sculpt::document::MAX_SOLIDS) solid targets.
+    #[error("more than {max} solid targets")]
+    TooManySolids {
         /// The cap.
         max: usize,
     },

@@ -21,6 +21,7 @@ pub mod oplog;
 pub mod percentile;
 pub mod reconstruct;
 pub mod sculpt;
+pub mod solid;
 pub mod study;
 pub mod tolerance;
 pub mod volume;

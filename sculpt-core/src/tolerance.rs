@@ -762,6 +762,23 @@ pub const LATTICE_BEND_MAX_REL: f64 = 0.1;
 /// the division by the weight, each a few f32 ulps (`2^-24`, about `6e-8`).
 pub const VOLUME_GPU_REL: f64 = 4e-6;
 
+// ---------------------------------------------------------------------------------
+// Solid targets carved through (sculpt_core::solid, issue 35 item 3).
+// ---------------------------------------------------------------------------------
+
+/// Newton steps that move a stroke sample onto a solid's surface (for a first-order
+/// normalised omega the first step lands within the curvature error; the rest polish).
+pub const SOLID_NEWTON_STEPS: usize = 6;
+/// Grid cells kept between a solid's box and the grid's outer layer, and the width (in
+/// cells) of the band past a tool's reach in which its function is still evaluated.
+pub const SOLID_MARGIN_CELLS: usize = 2;
+/// Half the side of the cube (metres, around the origin) searched for a solid's box.
+pub const SOLID_SEARCH_HALF_SIZE: f64 = 4.0;
+/// Octree levels of that search (cells of 8 m / 2^7 = 6.25 cm at the end).
+pub const SOLID_BOUNDS_DEPTH: usize = 7;
+/// Points a side of the sampling grid that tightens the searched box.
+pub const SOLID_BOUNDS_SAMPLES: usize = 65;
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -66,6 +66,23 @@ pub struct PoseLogHeader {
     pub calibration: serde_json::Value,
     /// The tracking config in force ([`crate::config::TrackingConfig`] as JSON).
     pub config: serde_json::Value,
+    /// The solid target the session sculpts, when it sculpts one (`replay` starts
+    /// from it); absent from the header otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub solid: Option<SessionSolid>,
+}
+
+/// A solid target named by a pose log's header: its model (a JSON solid document or
+/// a `.vm` model, as text) and its grid cells along the longest side.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SessionSolid {
+    /// A name for people.
+    pub name: String,
+    /// The model's text.
+    pub model: String,
+    /// Grid cells along the solid's longest side.
+    pub cells: usize,
 }
 
 impl PoseLogHeader {

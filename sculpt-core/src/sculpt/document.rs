@@ -189,14 +189,18 @@ enum Step {
     Target(TargetRecord),
     Stroke(StrokeRecord),
     Deform(DeformRecord),
+    /// A solid target added or a stroke on one ([`solid`]).
+    Solid(SolidStep),
 }
 
 mod deform;
 mod json;
 mod pieces;
+mod solid;
 mod tessellation;
 pub use deform::{DeformRecord, MAX_DEFORMS, carry_stroke};
 use pieces::*;
+pub use solid::{MAX_SOLIDS, SolidRecord, SolidStep};
 use tessellation::*;
 pub use tessellation::{conform_key, stroke_patch_key};
 
@@ -234,6 +238,10 @@ pub struct Document {
     /// The conforming tessellation of the targets that form a patch network, per
     /// detail ([`super::conform`]).
     conform: HashMap<Detail, ConformState>,
+    /// Solid targets ([`solid`]) and the ids of their steps (adding one, a stroke on
+    /// one), in history order.
+    solids: Vec<SolidRecord>,
+    solid_history: Vec<u64>,
 }
 
 /// Preview strokes' pieces take keys from here up; document strokes never get this far.
@@ -381,14 +389,21 @@ impl Document {
         let last_stroke = self.strokes.last().map(|s| s.id).filter(|&id| id > floor);
         let last_target = self.targets.last().map(|t| t.id).filter(|&id| id > floor);
         let last_deform = self.deforms.last().map(|d| d.id).filter(|&id| id > floor);
+        let last_solid = self.last_solid_step().filter(|&id| id > floor);
         // Steps are strictly ordered by id: undo whichever came last.
-        let last = [(last_stroke, 0), (last_target, 1), (last_deform, 2)]
-            .into_iter()
-            .filter_map(|(id, kind)| id.map(|id| (id, kind)))
-            .max();
+        let last = [
+            (last_stroke, 0),
+            (last_target, 1),
+            (last_deform, 2),
+            (last_solid, 3),
+        ]
+        .into_iter()
+        .filter_map(|(id, kind)| id.map(|id| (id, kind)))
+        .max();
         let step = match last {
             Some((_, 0)) => self.pop_stroke(),
             Some((_, 1)) => self.pop_target(),
+            Some((_, 3)) => self.pop_solid_step(),
             Some(_) => self.pop_deform(),
             None => None,
         };
@@ -413,6 +428,7 @@ impl Document {
                 self.push_stroke(s).is_ok()
             }
             Some(Step::Deform(d)) => self.push_deform(d),
+            Some(Step::Solid(s)) => self.push_solid_step(s),
             None => false,
         }
     }
@@ -423,6 +439,7 @@ impl Document {
         self.strokes.last().is_some_and(|s| s.id > floor)
             || self.targets.last().is_some_and(|t| t.id > floor)
             || self.deforms.last().is_some_and(|d| d.id > floor)
+            || self.last_solid_step().is_some_and(|id| id > floor)
     }
 
     /// True when [`Self::redo`] would do something.

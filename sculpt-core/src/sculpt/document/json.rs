@@ -11,6 +11,9 @@ pub(super) struct DocumentJson {
     pub(super) description: Option<String>,
     pub(super) targets: Vec<TargetJson>,
     pub(super) strokes: Vec<StrokeJson>,
+    /// Solid targets with their strokes ([`super::solid`]); absent when there are none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub(super) solids: Vec<super::solid::SolidJson>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -59,14 +62,10 @@ impl Document {
                     id: s.id,
                     target: s.target,
                     tool: s.input.tool.clone(),
-                    samples: s
-                        .input
-                        .samples
-                        .iter()
-                        .map(|(t, p)| [*t, p.x, p.y, p.z])
-                        .collect(),
+                    samples: samples_json(&s.input),
                 })
                 .collect(),
+            solids: self.solids_json(),
         };
         serde_json::to_vec_pretty(&doc).unwrap_or_default()
     }
@@ -121,14 +120,7 @@ impl Document {
             if s.id == 0 || doc.targets.iter().any(|t| t.id == s.id) {
                 return Err(Error::Document(DocumentError::StrokeId { id: s.id }));
             }
-            let input = StrokeInput {
-                samples: s
-                    .samples
-                    .iter()
-                    .map(|a| (a[0], DVec3::new(a[1], a[2], a[3])))
-                    .collect(),
-                tool: s.tool,
-            };
+            let input = input_from_json(&s.samples, s.tool);
             let id = s.id;
             doc.push_stroke(StrokeRecord {
                 id,
@@ -150,8 +142,29 @@ impl Document {
             .max()
             .unwrap_or(0)
             + 1;
+        doc.load_solids(json.solids)?;
         // A loaded document has no history: what it holds is the base.
         doc.seal_history();
         Ok(doc)
+    }
+}
+
+/// A stroke's samples as the file writes them: `[t, x, y, z]`.
+pub(super) fn samples_json(input: &StrokeInput) -> Vec<[f64; 4]> {
+    input
+        .samples
+        .iter()
+        .map(|(t, p)| [*t, p.x, p.y, p.z])
+        .collect()
+}
+
+/// A stroke read from the file's samples and tool.
+pub(super) fn input_from_json(samples: &[[f64; 4]], tool: Tool) -> StrokeInput {
+    StrokeInput {
+        samples: samples
+            .iter()
+            .map(|a| (a[0], DVec3::new(a[1], a[2], a[3])))
+            .collect(),
+        tool,
     }
 }

@@ -1,0 +1,505 @@
+//! Solid targets: an implicit solid ([`crate::implicit`], a JSON solid document or a
+//! `.vm` model) that chisel strokes carve through.
+//!
+//! A [`SolidTarget`] is its model's field omega (positive inside, the paper's
+//! convention: Shin, Kim and Sheen 2007) combined, stroke by stroke, with each stroke's
+//! swept tool solid ([`tool::SweptTool`]) by R-functions: a carve is `min(omega, -g)`
+//! (AND NOT), an emboss `max(omega, g)` (OR), the min/max system R_1 of sec. 2.2.2.
+//! Unlike a groove trimmed into a NURBS surface, a groove deeper than the wall opens a
+//! hole.
+//!
+//! The field is meshed on a grid over the solid's box ([`blocks`]), in blocks of
+//! [`blocks::BLOCK`] cells that are meshed alone and welded by grid edge, so the mesh is
+//! closed and manifold. A stroke re-evaluates and re-meshes only the blocks its tool's
+//! box meets; a block no tool reaches is first bounded by interval arithmetic over its
+//! box ([`Tape::simplify`]): one that is surely all outside (or all inside, away from
+//! the grid's faces) is skipped, the rest evaluated on the tape pruned for the box.
+//!
+//! ```
+//! use glam::DVec3;
+//! use sculpt_core::solid::SolidTarget;
+//! use sculpt_core::sculpt::stroke::{Mode, Profile, StrokeInput, Tool};
+//!
+//! let plate = r#"{"version": 1, "solid": {"box": {"min": [-0.3, -0.3, -0.01], "max": [0.3, 0.3, 0.01]}}}"#;
+//! let mut solid = SolidTarget::new(plate, 64)?;
+//! let before = solid.mesh();
+//! let tool = Tool { profile: Profile::V, width: 0.08, depth: 0.05, mode: Mode::Carve, taper: 0.0 };
+//! let samples = (0..=10).map(|i| (i as f64, DVec3::new(-0.1 + 0.02 * i as f64, 0.0, 0.01))).collect();
+//! solid.cut(7, &StrokeInput { samples, tool })?;
+//! // The groove is deeper than the 2 cm plate: a hole (one handle more).
+//! assert_eq!(sculpt_core::solid::euler_characteristic(&before), 2);
+//! assert_eq!(sculpt_core::solid::euler_characteristic(&solid.mesh()), 0);
+//! # Ok::<(), sculpt_core::solid::SolidError>(())
+//! ```
+
+pub mod blocks;
+pub mod tool;
+
+use std::collections::HashSet;
+use std::sync::Arc;
+
+use glam::DVec3;
+
+use crate::implicit::interval::Interval;
+use crate::implicit::tape::Tape;
+use crate::implicit::{ImplicitError, Model};
+use crate::mesh::WeldedMesh;
+use crate::sculpt::stroke::{Mode, StrokeInput};
+use crate::tolerance::{
+    SOLID_BOUNDS_DEPTH, SOLID_BOUNDS_SAMPLES, SOLID_MARGIN_CELLS, SOLID_SEARCH_HALF_SIZE,
+};
+use blocks::{BlockMesh, GridFrame, TetTable};
+use tool::SweptTool;
+
+/// Fewest and most grid cells along a solid's longest side.
+pub const CELLS_RANGE: std::ops::RangeInclusive<usize> = 8..=1024;
+/// The default cells along a solid's longest side.
+pub const DEFAULT_CELLS: usize = 128;
+/// Most strokes one solid holds.
+pub const MAX_SOLID_CUTS: usize = 10_000;
+
+/// A model that does not read, shared so that [`SolidError`] can be cloned and compared
+/// like the crate's other errors (equal when the messages are).
+#[derive(Debug, Clone, thiserror::Error)]
+#[error(transparent)]
+pub struct ModelError(pub Arc<ImplicitError>);
+
+impl PartialEq for ModelError {
+    fn eq(&self, other: &Self) -> bool {
+        self.0.to_string() == other.0.to_string()
+    }
+}
+
+impl From<ImplicitError> for SolidError {
+    fn from(e: ImplicitError) -> Self {
+        SolidError::Model(ModelError(Arc::new(e)))
+    }
+}
+
+/// Why a solid target or a stroke on it was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SolidError {
+    /// The model does not read.
+    #[error("model")]
+    Model(#[source] ModelError),
+    /// The grid resolution is out of range.
+    #[error("{cells} cells along the longest side: must be in {min}..={max}")]
+    Cells {
+        /// As given.
+        cells: usize,
+        /// Fewest.
+        min: usize,
+        /// Most.
+        max: usize,
+    },
+    /// No point of the search box may be inside the solid.
+    #[error("the solid is empty within {half_size} m of the origin")]
+    Empty {
+        /// Half the search box's side.
+        half_size: f64,
+    },
+    /// The stroke's tool is out of range.
+    #[error("tool")]
+    Tool(#[source] Box<crate::Error>),
+    /// A sample has no surface normal (the gradient vanishes or is not finite).
+    #[error("sample {index}: the solid has no surface normal there")]
+    NoNormal {
+        /// The sample.
+        index: usize,
+    },
+    /// A sample is too far from the surface.
+    #[error("sample {index} is {distance} m from the surface (at most {max} m)")]
+    OffSurface {
+        /// The sample.
+        index: usize,
+        /// Its distance.
+        distance: f64,
+        /// The limit.
+        max: f64,
+    },
+    /// Fewer than two distinct samples.
+    #[error("a stroke needs two distinct samples on the surface, found {count}")]
+    TooFewSamples {
+        /// Distinct samples.
+        count: usize,
+    },
+    /// The solid holds [`MAX_SOLID_CUTS`] strokes already.
+    #[error("the solid holds {max} strokes already")]
+    TooManyCuts {
+        /// The limit.
+        max: usize,
+    },
+}
+
+/// One stroke applied to a solid.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cut {
+    /// The stroke's id in its document.
+    pub id: u64,
+    /// The stroke as made (wand samples and tool).
+    pub input: StrokeInput,
+    /// Its tool solid.
+    pub tool: SweptTool,
+}
+
+/// What a stroke did to the mesh.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Remeshed {
+    /// Blocks re-evaluated and re-meshed.
+    pub blocks: usize,
+    /// Of those, blocks decided by interval arithmetic alone.
+    pub pruned: usize,
+}
+
+/// An implicit solid with the strokes carved into it (see the module docs).
+#[derive(Debug, Clone)]
+pub struct SolidTarget {
+    text: String,
+    tape: Tape,
+    frame: GridFrame,
+    table: TetTable,
+    meshes: Vec<BlockMesh>,
+    cuts: Vec<Cut>,
+    /// Blocks re-meshed since [`Self::take_changed`] last ran.
+    changed: HashSet<usize>,
+}
+
+impl PartialEq for SolidTarget {
+    fn eq(&self, other: &Self) -> bool {
+        self.text == other.text && self.frame == other.frame && self.cuts == other.cuts
+    }
+}
+
+impl SolidTarget {
+    /// Reads `text` (a solid document or a `.vm` model, [`Model::from_text`]), finds
+    /// its box and meshes it on a grid of `cells` along the box's longest side.
+    pub fn new(text: &str, cells: usize) -> Result<Self, SolidError> {
+        if !CELLS_RANGE.contains(&cells) {
+            return Err(SolidError::Cells {
+                cells,
+                min: *CELLS_RANGE.start(),
+                max: *CELLS_RANGE.end(),
+            });
+        }
+        let tape = Model::from_text(text)?.tape_positive_inside();
+        let (lo, hi) = solid_bounds(&tape).ok_or(SolidError::Empty {
+            half_size: SOLID_SEARCH_HALF_SIZE,
+        })?;
+        let size = hi - lo;
+        // Pad by the margin so the surface stays off the grid's outer layer.
+        let h = size.max_element() / (cells - 2 * SOLID_MARGIN_CELLS) as f64;
+        let pad = DVec3::splat(h * SOLID_MARGIN_CELLS as f64);
+        let n = ((size + 2.0 * pad) / h)
+            .ceil()
+            .to_array()
+            .map(|k| (k as usize).max(1));
+        let frame = GridFrame { lo: lo - pad, h, n };
+        let nb = frame.blocks();
+        let mut solid = Self {
+            text: text.to_string(),
+            tape,
+            frame,
+            table: TetTable::new(),
+            meshes: vec![BlockMesh::default(); nb[0] * nb[1] * nb[2]],
+            cuts: Vec::new(),
+            changed: HashSet::new(),
+        };
+        solid.remesh_all();
+        Ok(solid)
+    }
+
+    /// The model's text, as given.
+    pub fn text(&self) -> &str {
+        &self.text
+    }
+
+    /// The grid: box corner, cell size and cells per axis.
+    pub fn frame(&self) -> &GridFrame {
+        &self.frame
+    }
+
+    /// Cells along the longest side (what [`Self::new`] was given).
+    pub fn cells(&self) -> usize {
+        self.frame.n.iter().copied().max().unwrap_or(0)
+    }
+
+    /// The strokes applied, in order.
+    pub fn cuts(&self) -> &[Cut] {
+        &self.cuts
+    }
+
+    /// The combined field at `p` (positive inside), as the mesh samples it.
+    pub fn eval(&self, p: DVec3) -> f32 {
+        let pf = p.as_vec3().to_array();
+        let mut v = self.tape.eval_point(pf);
+        apply_cuts(&self.cuts, DVec3::from(pf.map(f64::from)), &mut v);
+        v
+    }
+
+    /// Carves (or embosses) the stroke `input` with id `id` and re-meshes the blocks its
+    /// tool reaches. Samples must lie within [`crate::sculpt::document::snap_distance`]
+    /// of the solid's surface. A refused stroke leaves the solid unchanged.
+    pub fn cut(&mut self, id: u64, input: &StrokeInput) -> Result<Remeshed, SolidError> {
+        if self.cuts.len() >= MAX_SOLID_CUTS {
+            return Err(SolidError::TooManyCuts {
+                max: MAX_SOLID_CUTS,
+            });
+        }
+        let size = self.frame.h * self.cells() as f64;
+        let snap = crate::sculpt::document::snap_distance(&input.tool, size);
+        let margin = self.frame.h * SOLID_MARGIN_CELLS as f64;
+        let tool = SweptTool::new(&self.tape, input, snap, margin)?;
+        let touched = self.blocks_of(&tool);
+        self.cuts.push(Cut {
+            id,
+            input: input.clone(),
+            tool,
+        });
+        Ok(self.remesh(&touched))
+    }
+
+    /// Removes the last stroke and re-meshes where it was; it is returned.
+    pub fn uncut(&mut self) -> Option<Cut> {
+        let cut = self.cuts.pop()?;
+        let touched = self.blocks_of(&cut.tool);
+        self.remesh(&touched);
+        Some(cut)
+    }
+
+    /// Puts back a stroke taken by [`Self::uncut`].
+    pub fn recut(&mut self, cut: Cut) -> Remeshed {
+        let touched = self.blocks_of(&cut.tool);
+        self.cuts.push(cut);
+        self.remesh(&touched)
+    }
+
+    /// Re-evaluates and re-meshes every block (what [`Self::new`] does; a stroke
+    /// re-meshes only its blocks, and gives the same mesh).
+    pub fn remesh_all(&mut self) -> Remeshed {
+        let all: Vec<usize> = (0..self.meshes.len()).collect();
+        self.remesh(&all)
+    }
+
+    /// The whole mesh, welded: closed, 2-manifold, wound outward.
+    pub fn mesh(&self) -> WeldedMesh {
+        blocks::weld(self.meshes.iter())
+    }
+
+    /// Blocks per axis, and each block's mesh (x fastest).
+    pub fn block_meshes(&self) -> ([usize; 3], &[BlockMesh]) {
+        (self.frame.blocks(), &self.meshes)
+    }
+
+    /// The blocks re-meshed since the last call (a renderer uploads only these).
+    pub fn take_changed(&mut self) -> Vec<usize> {
+        let mut v: Vec<usize> = self.changed.drain().collect();
+        v.sort_unstable();
+        v
+    }
+
+    fn blocks_of(&self, tool: &SweptTool) -> Vec<usize> {
+        let (lo, hi) = tool.bounds();
+        let nb = self.frame.blocks();
+        let Some((first, last)) = self.frame.blocks_in(lo, hi) else {
+            return Vec::new();
+        };
+        let mut out = Vec::new();
+        for k in first[2]..=last[2] {
+            for j in first[1]..=last[1] {
+                for i in first[0]..=last[0] {
+                    out.push(i + nb[0] * (j + nb[1] * k));
+                }
+            }
+        }
+        out
+    }
+
+    /// Re-evaluates and re-meshes the blocks `which`.
+    fn remesh(&mut self, which: &[usize]) -> Remeshed {
+        let nb = self.frame.blocks();
+        let job = |&b: &usize| {
+            let idx = [b % nb[0], (b / nb[0]) % nb[1], b / (nb[0] * nb[1])];
+            let (mesh, pruned) = self.mesh_block(idx);
+            (b, mesh, pruned)
+        };
+        #[cfg(feature = "parallel")]
+        let done: Vec<(usize, BlockMesh, bool)> = {
+            use rayon::prelude::*;
+            which.par_iter().map(job).collect()
+        };
+        #[cfg(not(feature = "parallel"))]
+        let done: Vec<(usize, BlockMesh, bool)> = which.iter().map(job).collect();
+        let mut pruned = 0;
+        for (b, mesh, p) in done {
+            pruned += usize::from(p);
+            self.meshes[b] = mesh;
+            self.changed.insert(b);
+        }
+        Remeshed {
+            blocks: which.len(),
+            pruned,
+        }
+    }
+
+    /// One block's mesh, and whether interval arithmetic decided it alone.
+    fn mesh_block(&self, b: [usize; 3]) -> (BlockMesh, bool) {
+        let f = &self.frame;
+        let (lo, hi) = f.block_corners(b);
+        let (plo, phi) = (f.corner(lo), f.corner(hi));
+        let box_lo = DVec3::from(plo.map(f64::from));
+        let box_hi = DVec3::from(phi.map(f64::from));
+        // Each cut that reaches the block, with the segments of its tool that do.
+        let cuts: Vec<(&Cut, Vec<usize>)> = self
+            .cuts
+            .iter()
+            .filter_map(|c| {
+                let segments = c.tool.segments_near(box_lo, box_hi);
+                (!segments.is_empty()).then_some((c, segments))
+            })
+            .collect();
+        let region = [0, 1, 2].map(|a| Interval::new(plo[a], phi[a]));
+        let (range, pruned) = self.tape.simplify(region);
+        if !range.nan {
+            let on_face = (0..3).any(|a| lo[a] == 0 || hi[a] == f.n[a]);
+            // Carving only removes material: a block surely outside the model stays
+            // empty under carves, and one surely inside with no cut is full.
+            let only_carves = cuts.iter().all(|(c, _)| c.tool.mode == Mode::Carve);
+            if (range.hi <= 0.0 && only_carves) || (range.lo > 0.0 && !on_face && cuts.is_empty()) {
+                return (BlockMesh::default(), true);
+            }
+        }
+        let m = [0, 1, 2].map(|a| hi[a] - lo[a] + 1);
+        let mut points = Vec::with_capacity(m[0] * m[1] * m[2]);
+        for k in lo[2]..=hi[2] {
+            for j in lo[1]..=hi[1] {
+                for i in lo[0]..=hi[0] {
+                    points.push(f.corner([i, j, k]));
+                }
+            }
+        }
+        let mut values = vec![0f32; points.len()];
+        pruned.eval_points(&points, &mut values);
+        if !cuts.is_empty() {
+            for (p, v) in points.iter().zip(values.iter_mut()) {
+                let p = DVec3::from(p.map(f64::from));
+                for (c, segments) in &cuts {
+                    let g = c.tool.value_among(p, segments.iter().copied());
+                    combine(c.tool.mode, g, v);
+                }
+            }
+        }
+        (f.march(b, &values, &self.table), false)
+    }
+}
+
+/// Every cut in order at `p`.
+fn apply_cuts(cuts: &[Cut], p: DVec3, v: &mut f32) {
+    for c in cuts {
+        apply_cut(c, p, v);
+    }
+}
+
+/// One cut at `p`: carve `min(v, -g)`, emboss `max(v, g)` where the tool reaches.
+fn apply_cut(c: &Cut, p: DVec3, v: &mut f32) {
+    combine(c.tool.mode, c.tool.value(p), v);
+}
+
+/// The R_1 combination of the field value `v` with the tool's value `g` (none: the
+/// tool does not reach, `v` stays).
+fn combine(mode: Mode, g: Option<f64>, v: &mut f32) {
+    if let Some(g) = g {
+        let g = g as f32;
+        *v = match mode {
+            Mode::Carve => v.min(-g),
+            Mode::Emboss => v.max(g),
+        };
+    }
+}
+
+/// A box holding every point where `tape` (positive inside) may be positive, found by
+/// subdividing a cube of half side [`SOLID_SEARCH_HALF_SIZE`] around the origin
+/// [`SOLID_BOUNDS_DEPTH`] times and keeping the cells whose interval reaches above 0
+/// (interval arithmetic bounds the f32 values, [`crate::implicit::interval`]); `None`
+/// when no cell may be inside.
+pub fn solid_bounds(tape: &Tape) -> Option<(DVec3, DVec3)> {
+    let mut cells = vec![(
+        DVec3::splat(-SOLID_SEARCH_HALF_SIZE),
+        DVec3::splat(SOLID_SEARCH_HALF_SIZE),
+    )];
+    let may_be_inside = |lo: DVec3, hi: DVec3| {
+        let r = tape.eval_interval([0, 1, 2].map(|a| Interval::new(lo[a] as f32, hi[a] as f32)));
+        r.nan || r.hi > 0.0
+    };
+    for _ in 0..SOLID_BOUNDS_DEPTH {
+        let mut next = Vec::new();
+        for (lo, hi) in cells {
+            let mid = (lo + hi) / 2.0;
+            for octant in 0..8 {
+                let pick = |a: usize, bit: usize| {
+                    if octant >> bit & 1 == 0 {
+                        (lo[a], mid[a])
+                    } else {
+                        (mid[a], hi[a])
+                    }
+                };
+                let (x, y, z) = (pick(0, 0), pick(1, 1), pick(2, 2));
+                let (l, h) = (DVec3::new(x.0, y.0, z.0), DVec3::new(x.1, y.1, z.1));
+                if may_be_inside(l, h) {
+                    next.push((l, h));
+                }
+            }
+        }
+        cells = next;
+        if cells.is_empty() {
+            return None;
+        }
+    }
+    let lo = cells.iter().fold(DVec3::INFINITY, |a, c| a.min(c.0));
+    let hi = cells.iter().fold(DVec3::NEG_INFINITY, |a, c| a.max(c.1));
+    Some(tighten(tape, lo, hi))
+}
+
+/// `lo..hi` shrunk to the inside points of a grid of [`SOLID_BOUNDS_SAMPLES`] points a
+/// side, padded by two spacings (R-function intervals are loose, `docs/implicit.md`,
+/// so the interval box alone can be much larger than the solid); `lo..hi` itself when
+/// no sample is inside.
+fn tighten(tape: &Tape, lo: DVec3, hi: DVec3) -> (DVec3, DVec3) {
+    let n = SOLID_BOUNDS_SAMPLES;
+    let step = (hi - lo) / (n - 1) as f64;
+    let mut points = Vec::with_capacity(n * n * n);
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let p = lo + step * DVec3::new(i as f64, j as f64, k as f64);
+                points.push(p.as_vec3().to_array());
+            }
+        }
+    }
+    let mut values = vec![0f32; points.len()];
+    tape.eval_points(&points, &mut values);
+    let (mut a, mut b) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    for (p, v) in points.iter().zip(&values) {
+        if *v > 0.0 {
+            let p = DVec3::from(p.map(f64::from));
+            a = a.min(p);
+            b = b.max(p);
+        }
+    }
+    if a.cmpgt(b).any() {
+        return (lo, hi);
+    }
+    ((a - 2.0 * step).max(lo), (b + 2.0 * step).min(hi))
+}
+
+/// V - E + F of a triangle mesh (2 for a sphere, 0 for a torus: 2 - 2 genus for one
+/// closed surface).
+pub fn euler_characteristic(mesh: &WeldedMesh) -> i64 {
+    let mut edges = HashSet::new();
+    for t in &mesh.triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            edges.insert((a.min(b), a.max(b)));
+        }
+    }
+    mesh.vertices.len() as i64 - edges.len() as i64 + mesh.triangles.len() as i64
+}
