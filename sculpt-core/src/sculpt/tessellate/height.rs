@@ -6,6 +6,7 @@ use super::poles::{pole_of, pole_point, pole_uv};
 use crate::sculpt::jordan::Location;
 use crate::sculpt::stroke::Mode;
 use crate::sculpt::surface::{ParamSurface, normal_from};
+use crate::tolerance::ON_EDGE_EPS;
 use glam::{DVec2, DVec3};
 use rustc_hash::FxHasher;
 use std::collections::HashMap;
@@ -65,8 +66,10 @@ pub(super) fn evaluate(
 
 /// The combined displacement along the normal at `p = S(uv)`: strokes in order, carving
 /// lowers to `min(h, -depth)`, embossing raises to `max(h, height)`. A stroke acts only
-/// inside its footprint (outline included), so the sculpted part ends exactly at the
-/// hidden region's outline.
+/// strictly inside its footprint (and on the sides of the square, where a wrapped
+/// footprint was cut), so the sculpted part ends exactly at the hidden region's outline, and on a stroke's outline inside an earlier stroke's footprint
+/// (a step where a ridge crosses a groove) the earlier height holds: the step's mesh
+/// vertices all lie on its low (or high) side, whichever stroke came first.
 pub fn height(strokes: &[StrokeRef<'_>], uv: DVec2, p: DVec3) -> f64 {
     height_and_deepest(strokes, uv, p).0
 }
@@ -85,7 +88,17 @@ pub(super) fn height_and_deepest(
             continue;
         }
         let (d, segment) = s.deepest_segment(uv, p);
-        if d > 0.0 && s.footprint.locate(uv) != Location::Outside {
+        // On the square's sides an outline is where a wrapped footprint was cut (a seam
+        // or a pole): the stroke goes on across it and acts there.
+        let acts = match s.footprint.locate(uv) {
+            Location::Inside => true,
+            Location::OnBoundary => {
+                let near_side = |x: f64| x <= ON_EDGE_EPS || x >= 1.0 - ON_EDGE_EPS;
+                near_side(uv.x) || near_side(uv.y)
+            }
+            Location::Outside => false,
+        };
+        if d > 0.0 && acts {
             let next = match s.tool.mode {
                 Mode::Carve => h.min(-d),
                 Mode::Emboss => h.max(d),

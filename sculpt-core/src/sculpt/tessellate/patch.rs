@@ -9,7 +9,8 @@ use super::normals::{GradientSegments, corner_normals};
 use super::poles::{pole_of, unfold_pole_fins};
 use super::{StrokeRef, TargetTessellation};
 use crate::mesh::{MeshSink, MeshVertex};
-use crate::sculpt::jordan::{NodeClass, Rect};
+use crate::sculpt::jordan::{Location, NodeClass, Rect};
+use crate::sculpt::stroke::Stroke;
 use crate::sculpt::surface::ParamSurface;
 use crate::tolerance::{MESH_MERGE_EPS, NORMAL_MERGE};
 use glam::{DVec2, DVec3};
@@ -17,6 +18,36 @@ use rustc_hash::FxHasher;
 use spade::Triangulation;
 use spade::handles::FixedVertexHandle;
 use std::hash::BuildHasherDefault;
+
+/// The steps where strokes of the other mode cross: the outline segments of each stroke
+/// that lie inside the footprint of an earlier stroke of the other mode (a ridge
+/// embossed over a groove, a groove carved through a ridge). The combined height is
+/// discontinuous there (the later stroke's depth is zero on its outline, the earlier
+/// one's is not), so the step must run along mesh edges: as constraints, the step is a
+/// straight band of the later stroke's wall instead of a staircase of the triangles
+/// that straddle it. A stroke does not act on its own outline ([`super::height`]), so
+/// the vertices on a step take the earlier stroke's height and the band lies inside
+/// the later footprint.
+pub(super) fn step_segments(strokes: &[StrokeRef<'_>]) -> Vec<[DVec2; 2]> {
+    let mut out = Vec::new();
+    for (k, (_, later)) in strokes.iter().enumerate() {
+        let earlier: Vec<&Stroke> = strokes[..k]
+            .iter()
+            .map(|(_, s)| *s)
+            .filter(|s| s.tool.mode != later.tool.mode && s.bounds.touches(&later.bounds))
+            .collect();
+        if earlier.is_empty() {
+            continue;
+        }
+        out.extend(later.footprint.segments().iter().copied().filter(|seg| {
+            let mid = (seg[0] + seg[1]) * 0.5;
+            earlier
+                .iter()
+                .any(|s| s.bounds.contains(mid) && s.footprint.locate(mid) == Location::Inside)
+        }));
+    }
+    out
+}
 
 /// Global constraint polylines of a target, indexed by root cell.
 pub(super) struct Segments {
@@ -67,7 +98,11 @@ impl TargetTessellation {
             })
             .filter(|w| !self.on_pole(w))
             .map(|w| (w, Kind::Plain));
-        for (s, kind) in hidden.chain(centres) {
+        let steps = step_segments(strokes)
+            .into_iter()
+            .filter(|w| !on_seam(w) && !self.on_pole(w))
+            .map(|w| (w, Kind::Plain));
+        for (s, kind) in hidden.chain(centres).chain(steps) {
             if !near(&Rect::of_segment(s[0], s[1])) {
                 continue;
             }

@@ -1,6 +1,7 @@
 use super::*;
 use crate::assert_near;
 use crate::mesh::PatchMesh;
+use crate::sculpt::jordan::Location;
 use crate::sculpt::stroke::{Mode, Stroke};
 use crate::sculpt::stroke::{Profile, StrokeInput, Tool};
 use crate::sculpt::surface::TargetSurface;
@@ -461,4 +462,71 @@ fn groove_walls_are_strips_along_the_stroke() {
         }
     }
     assert!(checked > 200, "only {checked} groove triangles");
+}
+
+/// Regression (issue 30 §4, the demo's ridge over a groove): where an embossed ridge
+/// crosses an earlier carved groove, the combined height steps on the ridge's outline
+/// (the ridge's height is zero there, the groove's is not). That outline was no mesh
+/// edge, so triangles straddled it, each pulled up by its corners inside the ridge: the
+/// groove's end was a staircase. Now the ridge's outline inside the groove is a chain
+/// of constraint edges ([`patch::step_segments`]) whose vertices keep the groove's
+/// height: every triangle outside the ridge and inside the groove has the groove's
+/// height at all its corners, at both details, and the mesh stays crack-free.
+#[test]
+fn a_ridge_over_a_groove_steps_along_its_outline() {
+    let s = plane(1.0);
+    let groove = stroke(
+        &s,
+        DVec3::new(0.2, 0.5, 0.0),
+        DVec3::new(0.8, 0.5, 0.0),
+        tool(Mode::Carve, Profile::V),
+    );
+    let ridge = stroke(
+        &s,
+        DVec3::new(0.3, 0.2, 0.0),
+        DVec3::new(0.7, 0.8, 0.0),
+        tool(Mode::Emboss, Profile::V),
+    );
+    let strokes = [(1, &groove), (2, &ridge)];
+    assert!(!patch::step_segments(&strokes).is_empty());
+    for detail in [Detail::Interactive, Detail::Final] {
+        let mut tess = TargetTessellation::new(&s, 0, detail);
+        let mut mesh = PatchMesh::new();
+        tess.update(&s, &strokes, None, &mut mesh);
+        let (verts, tris) = mesh.merged();
+        let mut checked = 0;
+        let mut straddling = Vec::new();
+        for t in &tris {
+            let vs = t.map(|i| verts[i as usize]);
+            let uv = vs.map(|v| DVec2::new(f64::from(v.uv[0]), f64::from(v.uv[1])));
+            let centroid = (uv[0] + uv[1] + uv[2]) / 3.0;
+            if ridge.footprint.locate(centroid) != Location::Outside
+                || groove.footprint.locate(centroid) != Location::Inside
+            {
+                continue;
+            }
+            checked += 1;
+            for (v, uv) in vs.iter().zip(uv) {
+                // On the plane z = 0 the displacement is z; the groove's alone here.
+                let want = height(&[(1, &groove)], uv, uv.extend(0.0));
+                let got = f64::from(v.position[2]);
+                if (got - want).abs() > MESH_DEPTH_TOL {
+                    straddling.push((uv, got, want));
+                }
+            }
+        }
+        assert!(
+            checked > 10,
+            "{detail:?}: {checked} triangles in the groove"
+        );
+        assert!(
+            straddling.is_empty(),
+            "{detail:?}: {} corners of triangles outside the ridge off the groove's \
+             height, first {:?}",
+            straddling.len(),
+            straddling.first()
+        );
+        let r = mesh.welded(EXPORT_WELD_EPS).edge_report();
+        assert_eq!((r.non_manifold, r.misoriented), (0, 0), "{detail:?}");
+    }
 }
