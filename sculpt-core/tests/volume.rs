@@ -235,6 +235,10 @@ fn configs() -> Vec<(Vec<usize>, Vec<usize>, usize)> {
         (vec![2, 1, 3], vec![1, 2, 0], 4),
         (vec![1, 2, 2, 1], vec![1, 1, 1, 1], 2),
         (vec![3, 3, 3], vec![1, 1, 1], 10),
+        // The all-cubic trivariate SIMD path takes 3 to 7 attributes (4 to 8 values a
+        // homogeneous point): its narrowest and widest.
+        (vec![3, 3, 3], vec![1, 2, 1], 3),
+        (vec![3, 3, 3], vec![2, 1, 3], 7),
     ]
 }
 
@@ -335,6 +339,60 @@ fn derivatives_match_central_differences() {
                         );
                     }
                 }
+            }
+        }
+    }
+}
+
+/// The allocation-free first derivatives ([`Volume::eval_d1_into`]) of all-cubic
+/// trivariate volumes, every width its SIMD path takes (3 to 7 attributes) and one
+/// beyond, against central differences of the values alone ([`Volume::eval_into`]) and
+/// against the general evaluator ([`Volume::derivatives`]).
+#[test]
+fn cubic_first_derivatives_match_central_differences_and_the_general_path() {
+    let mut rng = Rng(0xC0B1_C033);
+    for k in 3..=8 {
+        let spec = random_spec(&mut rng, &[3, 3, 3], &[2, 1, 3], k);
+        let vol = build(&spec);
+        for _ in 0..8 {
+            let u: Vec<f64> = vol
+                .domain()
+                .iter()
+                .map(|&(a, b)| rng.range(a + 0.1 * (b - a), b - 0.1 * (b - a)))
+                .collect();
+            let mut row = vec![0.0; 4 * k];
+            vol.eval_d1_into(&u, &mut row).unwrap();
+            let general = vol.derivatives(&u, 1).unwrap();
+            let tol = VOLUME_EVAL_REL * scale(&row);
+            assert_near!(&row[..k], general.value(), tol, "k {k}: value at {u:?}");
+            let mut value = vec![0.0; k];
+            vol.eval_into(&u, &mut value).unwrap();
+            assert_near!(
+                &row[..k],
+                value.as_slice(),
+                tol,
+                "k {k}: eval_into at {u:?}"
+            );
+            for d in 0..3 {
+                let d1 = &row[(1 + d) * k..(2 + d) * k];
+                assert_near!(d1, general.d1(d), tol, "k {k}: d/du{d} at {u:?}");
+                let at = |h: f64| {
+                    let mut v = u.clone();
+                    v[d] += h;
+                    let mut out = vec![0.0; k];
+                    vol.eval_into(&v, &mut out).unwrap();
+                    out
+                };
+                let (plus, minus) = (at(FD_STEP), at(-FD_STEP));
+                let fd: Vec<f64> = (0..k)
+                    .map(|c| (plus[c] - minus[c]) / (2.0 * FD_STEP))
+                    .collect();
+                assert_near!(
+                    d1,
+                    fd.as_slice(),
+                    FD_EPS * scale(&fd),
+                    "k {k}: FD d/du{d} at {u:?}"
+                );
             }
         }
     }

@@ -465,6 +465,112 @@ mod tests {
         assert_eq!(app.head, before);
     }
 
+    /// A fresh tessellation of `doc` at `detail` into an empty mesh.
+    fn fresh(doc: &sculpt_core::sculpt::document::Document, detail: Detail) -> PatchMesh {
+        let mut doc = doc.clone();
+        doc.forget_sinks();
+        let mut mesh = PatchMesh::new();
+        doc.tessellate(detail, &mut mesh);
+        mesh
+    }
+
+    /// Issue 35 item 1: the targets follow a lattice drag before it is released. The
+    /// interactive detail shows the document bent by the edit a release would apply
+    /// (the same mesh as a fresh tessellation of a copy bent that way, groove and all),
+    /// the document itself is untouched until the release, and afterwards (applied, or
+    /// dropped as a click) the interactive detail is the document's again.
+    #[test]
+    fn a_lattice_drag_bends_the_targets_live_and_the_document_comes_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut cfg = Config::default();
+        cfg.files.dir = dir.path().to_path_buf();
+        let mut app = AppState::new(cfg).unwrap();
+        let mut m = Meshes {
+            final_detail: PatchMesh::new(),
+            interactive: PatchMesh::new(),
+            preview: PatchMesh::new(),
+        };
+        for i in 0..=10 {
+            wand(&mut app, i as f64 * 0.01, -0.1 + 0.02 * i as f64, 1);
+        }
+        wand(&mut app, 0.11, 0.1, 0);
+        assert_eq!(app.session.doc.strokes().len(), 1);
+        m.sync(&mut app);
+        app.session
+            .handle(&WandEvent::command(
+                0.2,
+                Command::SetMode {
+                    mode: InteractionMode::Lattice,
+                },
+            ))
+            .unwrap();
+        assert!(!m.sync(&mut app).preview_bent);
+        let flat = m.interactive.clone();
+        assert_eq!(flat, fresh(&app.session.doc, Detail::Interactive));
+        let (doc, interaction) = app.session.draw_parts();
+        let cage = crate::lattice_view::rest_cage(doc, interaction).unwrap();
+        let grab = cage
+            .control_points()
+            .into_iter()
+            .max_by(|a, b| (a.y + a.z).total_cmp(&(b.y + b.z)))
+            .unwrap();
+        let drag = |app: &mut AppState, t: f64, p: DVec3, buttons: u32| {
+            app.session
+                .handle(&WandEvent::sample(
+                    t,
+                    WandSample::tracked(p, DQuat::IDENTITY, buttons),
+                ))
+                .unwrap();
+        };
+        drag(&mut app, 0.3, grab, 0);
+        drag(&mut app, 0.31, grab, 1);
+        for k in 1..=4 {
+            let p = grab + DVec3::new(0.0, 0.0, 0.02 * f64::from(k));
+            drag(&mut app, 0.31 + 0.01 * f64::from(k), p, 1);
+            let live = m.sync(&mut app);
+            assert!(live.preview_bent && live.preview, "{live:?}");
+            assert_eq!(live.shown, Detail::Interactive);
+            let edit = app.session.interaction.live_deform().unwrap();
+            let mut bent = app.session.doc.clone();
+            assert!(
+                sculpt_core::editor::apply_deform(&mut bent, &edit)
+                    .unwrap()
+                    .changed()
+            );
+            assert!(
+                m.interactive == fresh(&bent, Detail::Interactive),
+                "step {k}: the interactive detail is the bent copy"
+            );
+            assert!(app.session.doc.deforms().is_empty(), "not applied yet");
+        }
+        assert_ne!(m.interactive, flat);
+        // Released: one deformation; the interactive detail is the document's.
+        drag(&mut app, 0.4, grab + DVec3::new(0.0, 0.0, 0.08), 0);
+        assert_eq!(app.session.doc.deforms().len(), 1);
+        let applied = m.sync(&mut app);
+        assert!(!applied.preview_bent && !applied.preview, "{applied:?}");
+        assert_eq!(applied.shown, Detail::Final);
+        assert!(m.interactive == fresh(&app.session.doc, Detail::Interactive));
+        assert!(m.final_detail == fresh(&app.session.doc, Detail::Final));
+        // A drag out and back to where it grabbed is a click: nothing is applied, and
+        // the preview it showed on the way goes.
+        let bent_once = m.interactive.clone();
+        let (doc, interaction) = app.session.draw_parts();
+        let grab = crate::lattice_view::rest_cage(doc, interaction)
+            .unwrap()
+            .control_points()[0];
+        drag(&mut app, 0.5, grab, 0);
+        drag(&mut app, 0.51, grab, 1);
+        drag(&mut app, 0.52, grab + DVec3::new(0.05, 0.0, 0.0), 1);
+        assert!(m.sync(&mut app).preview_bent);
+        assert_ne!(m.interactive, bent_once);
+        drag(&mut app, 0.53, grab, 1);
+        drag(&mut app, 0.54, grab, 0);
+        assert_eq!(app.session.doc.deforms().len(), 1);
+        assert!(!m.sync(&mut app).preview_bent);
+        assert!(m.interactive == bent_once, "the document, as it was");
+    }
+
     /// A stroke lifted off the sheet half-way is carved in two pieces, and the HUD and
     /// the operator log say so; a stroke in one piece adds no HUD line.
     #[test]

@@ -5,7 +5,12 @@
 //! The interaction does the rest ([`InteractionMode::Lattice`]): a drag from a control
 //! point is one [`Edit::Deform`](sculpt_core::interaction::Edit::Deform), journalled
 //! and undone like a stroke. While the drag is live the cage is drawn with the grabbed
-//! group moved; the surfaces follow when it is released.
+//! group moved.
+//!
+//! While the drag is live the targets bend with it too ([`LatticePreview`]): a copy of
+//! the document is deformed by the edit a release would apply and drawn at interactive
+//! detail in place of the document, so the sculptor sees the bent surfaces, grooves
+//! and all, before letting go.
 //!
 //! - **Desktop**: the pointer snaps the tip onto the first cage control point along its ray
 //!   (within [`PICK_M`]); while the button is held the tip slides on the plane through
@@ -23,11 +28,16 @@
 //! assert_eq!(lines.len(), 2 * (144 + 3 * 64));
 //! ```
 
+use std::collections::BTreeSet;
+
 use glam::DVec3;
+use sculpt_core::editor;
 use sculpt_core::interaction::{Interaction, InteractionMode};
-use sculpt_core::lattice::Lattice;
+use sculpt_core::lattice::{DeformEdit, Lattice};
+use sculpt_core::mesh::{MeshSink, MeshVertex, PatchKey};
 use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::ray::Ray;
+use sculpt_core::sculpt::tessellate::Detail;
 
 use crate::desktop_wand::plane_hit;
 use crate::scene::LineVertex;
@@ -117,6 +127,93 @@ pub fn lattice_tip(
             let (lo, hi) = lattice.bounds();
             plane_hit(ray, 0.5 * (lo + hi), facing)
         }
+    }
+}
+
+/// The live preview of a lattice drag in the interactive-detail sink: the document
+/// bent by the deformation a release would apply ([`Interaction::live_deform`]),
+/// written over the document's own patches while the drag is live, and the document
+/// put back when it ends. One per interactive sink, like
+/// [`SceneState`](crate::scene::SceneState).
+#[derive(Debug, Default)]
+pub struct LatticePreview {
+    /// The deformation last tried (drawn when [`Self::bent`]).
+    tried: Option<DeformEdit>,
+    /// Whether the sink shows a bent copy.
+    bent: bool,
+    /// Every patch the bent copy wrote into the sink.
+    keys: BTreeSet<PatchKey>,
+}
+
+/// A sink that notes the key of every patch written through it.
+struct Noting<'a> {
+    sink: &'a mut dyn MeshSink,
+    keys: &'a mut BTreeSet<PatchKey>,
+}
+
+impl MeshSink for Noting<'_> {
+    fn begin_patch(&mut self, key: PatchKey) {
+        self.keys.insert(key);
+        self.sink.begin_patch(key);
+    }
+    fn push_vertex(&mut self, vertex: MeshVertex) -> u32 {
+        self.sink.push_vertex(vertex)
+    }
+    fn push_triangle(&mut self, a: u32, b: u32, c: u32) {
+        self.sink.push_triangle(a, b, c);
+    }
+    fn end_patch(&mut self) {
+        self.sink.end_patch();
+    }
+    fn remove_patch(&mut self, key: PatchKey) {
+        self.sink.remove_patch(key);
+    }
+}
+
+impl LatticePreview {
+    /// Brings `interactive` (the sink `doc` tessellates into at
+    /// [`Detail::Interactive`], up to date with it) in line with the live drag of
+    /// `interaction`. When the drag moved: the last preview's patches are removed and
+    /// a copy of the document, bent, writes what it changes (the copy starts from the
+    /// document's tessellation state, so its deformed targets are written whole and
+    /// everything else is left as the document wrote it). When the drag has ended, or
+    /// the document refuses the deformation (a stroke that no longer builds), the
+    /// preview's patches are removed and the document is written again in full.
+    /// Returns whether a bent copy is shown.
+    pub fn sync(
+        &mut self,
+        doc: &mut Document,
+        interaction: &Interaction,
+        interactive: &mut dyn MeshSink,
+    ) -> bool {
+        let live = interaction.live_deform();
+        if live == self.tried {
+            return self.bent;
+        }
+        self.tried.clone_from(&live);
+        let was_bent = self.bent;
+        for key in std::mem::take(&mut self.keys) {
+            interactive.remove_patch(key);
+        }
+        if let Some(edit) = live {
+            let mut bent = doc.clone();
+            if editor::apply_deform(&mut bent, &edit).is_ok_and(|a| a.changed()) {
+                let mut noting = Noting {
+                    sink: interactive,
+                    keys: &mut self.keys,
+                };
+                bent.tessellate(Detail::Interactive, &mut noting);
+                self.bent = true;
+                return true;
+            }
+        }
+        self.bent = false;
+        if was_bent {
+            // The sink lacks what the preview replaced: the document, whole.
+            doc.forget_sink(Detail::Interactive);
+            doc.tessellate(Detail::Interactive, interactive);
+        }
+        false
     }
 }
 

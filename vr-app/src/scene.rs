@@ -13,6 +13,7 @@ use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::tessellate::Detail;
 
 use crate::error::VrResult;
+use crate::lattice_view::LatticePreview;
 use crate::preview::write_stroke_ribbon;
 use crate::projection::{EyeCamera, HeadPose, Screen, StereoRig, kooima};
 
@@ -180,6 +181,9 @@ pub struct MeshSync {
     /// interactive detail (otherwise it is the ribbon along the wand path, shown while
     /// the core rejects the stroke so far: too short, or off the surface).
     pub preview_carved: bool,
+    /// Whether the interactive detail shows the targets bent by a live lattice drag
+    /// ([`LatticePreview`]).
+    pub preview_bent: bool,
 }
 
 /// What a scene has written into its [`MeshSinks`] so far: the document's
@@ -194,15 +198,18 @@ pub struct SceneState {
     /// Samples of the live stroke last handed to `Document::set_preview` (0: none).
     previewed_samples: usize,
     preview_carved: bool,
+    /// The live lattice drag's bent targets in the interactive sink.
+    lattice: LatticePreview,
 }
 
 impl SceneState {
     /// Brings the meshes of `doc` with `interaction` live up to date in `sinks`: the
     /// document's changed patches at the detail to show (interactive while a gesture
     /// is live, final otherwise; the first call writes both) and the preview of a live
-    /// stroke (carved by the core, or a ribbon along the wand path facing `facing`).
-    /// Only patches the document marks changed are written, and patches of removed
-    /// targets are removed.
+    /// stroke (carved by the core, or a ribbon along the wand path facing `facing`)
+    /// or of a live lattice drag (the targets bent, [`LatticePreview`]). Only patches
+    /// the document marks changed are written, and patches of removed targets are
+    /// removed.
     pub fn sync_meshes(
         &mut self,
         doc: &mut Document,
@@ -248,6 +255,9 @@ impl SceneState {
                 .patches_written;
         }
         self.primed = true;
+        // A lattice drag bends a copy of the document over the interactive detail;
+        // when it ends the document is put back there.
+        let preview_bent = self.lattice.sync(doc, interaction, sinks.interactive);
         match live_stroke {
             Some(stroke) if !self.preview_carved => {
                 write_stroke_ribbon(&stroke, facing, PREVIEW_KEY, sinks.preview);
@@ -262,8 +272,9 @@ impl SceneState {
         MeshSync {
             shown,
             patches_written: written,
-            preview: self.preview_shown || self.preview_carved,
+            preview: self.preview_shown || self.preview_carved || preview_bent,
             preview_carved: self.preview_carved,
+            preview_bent,
         }
     }
 

@@ -213,6 +213,29 @@ impl Interaction {
         }
     }
 
+    /// The deformation the live lattice drag would apply if released now (for the
+    /// live preview of the bent targets); `None` when no drag is live or the tip has
+    /// not moved. A release emits it only once the drag is as long as a stroke must be.
+    pub fn live_deform(&self) -> Option<DeformEdit> {
+        match &self.gesture {
+            Gesture::Lattice { grab, tip, .. } if tip != grab => {
+                Some(self.deform_edit(*grab, *tip))
+            }
+            _ => None,
+        }
+    }
+
+    /// The deformation of a lattice drag from `grab` to `tip`.
+    fn deform_edit(&self, grab: DVec3, tip: DVec3) -> DeformEdit {
+        DeformEdit {
+            targets: self.targets.clone(),
+            lattice: self.config.lattice,
+            grab,
+            radius: self.config.lattice_radius,
+            displacement: tip - grab,
+        }
+    }
+
     /// The lattice grab radius (metres).
     pub fn lattice_radius(&self) -> f64 {
         self.config.lattice_radius
@@ -695,15 +718,7 @@ impl Interaction {
                         min_m: min,
                     });
                 }
-                (length >= min).then(|| {
-                    Edit::Deform(DeformEdit {
-                        targets: self.targets.clone(),
-                        lattice: self.config.lattice,
-                        grab,
-                        radius: self.config.lattice_radius,
-                        displacement: tip - grab,
-                    })
-                })
+                (length >= min).then(|| Edit::Deform(self.deform_edit(grab, tip)))
             }
             idle @ (Gesture::Idle | Gesture::Spent) => {
                 self.gesture = idle;

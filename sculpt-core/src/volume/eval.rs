@@ -88,7 +88,7 @@ fn multi_indices(n: usize, order: usize) -> ([[u8; MAX_DIRECTIONS]; MAX_MULTI], 
 /// is the quotient of eq. 2.7, so `N'_{s-3+r,3} = 3 (q_{r-1} - q_r)` with `q_{-1} = q_3 = 0`.
 /// Every denominator spans the knot interval `[u_s, u_{s+1}]`, so none is zero.
 #[inline(always)]
-fn cubic_basis<const DERIVS: bool>(k: &[f64], s: usize, t: f64) -> ([f64; 4], [f64; 4]) {
+pub(super) fn cubic_basis<const DERIVS: bool>(k: &[f64], s: usize, t: f64) -> ([f64; 4], [f64; 4]) {
     // kk[i] = u_{s-2+i}, i = 0..6.
     let kk: &[f64; 6] = k[s - 2..s + 4]
         .try_into()
@@ -554,9 +554,21 @@ impl Volume {
         d1_quotient(&a, out);
     }
 
-    /// The all-cubic trivariate path of [`Self::eval_d1_into`].
+    /// The all-cubic trivariate path of [`Self::eval_d1_into`]: explicit SIMD
+    /// ([`super::eval_simd`]) where the processor has AVX2 and FMA and the point has 4
+    /// to 8 homogeneous values, else [`Self::d1_cubic_scalar`].
     #[inline(always)]
     fn d1_cubic<const D: usize>(&self, u: &[f64], out: &mut [f64]) {
+        #[cfg(target_arch = "x86_64")]
+        if (4..=8).contains(&D) && super::eval_simd::d1_cubic::<D>(self, u, out) {
+            return;
+        }
+        self.d1_cubic_scalar::<D>(u, out);
+    }
+
+    /// The scalar all-cubic trivariate path (any `D`, any processor).
+    #[inline(always)]
+    pub(super) fn d1_cubic_scalar<const D: usize>(&self, u: &[f64], out: &mut [f64]) {
         d1_quotient(&self.cubic_trivariate::<D, true>(u), out);
     }
 }
@@ -565,7 +577,7 @@ impl Volume {
 /// [`Volume::eval_d1_into`]) from the homogeneous ones `a = [A^w, d/du_1 A^w, ..]`
 /// (P&T eq. 4.8 differentiated: `A_d = (A^w_d - w_d A) / w`).
 #[inline(always)]
-fn d1_quotient<const D: usize>(a: &[[f64; D]; 4], out: &mut [f64]) {
+pub(super) fn d1_quotient<const D: usize>(a: &[[f64; D]; 4], out: &mut [f64]) {
     let k = D - 1;
     let inv_w = 1.0 / a[0][k];
     for c in 0..k {

@@ -65,6 +65,8 @@ pub mod analysis;
 pub mod critical;
 mod error;
 mod eval;
+#[cfg(target_arch = "x86_64")]
+mod eval_simd;
 pub mod fit;
 mod grid;
 pub mod integrate;

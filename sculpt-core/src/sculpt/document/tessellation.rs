@@ -81,6 +81,18 @@ impl Document {
         self.removed.clear();
     }
 
+    /// Forgets what was written to the sink of `detail` only (see
+    /// [`Self::forget_sinks`]): the next [`Document::tessellate`] at `detail` writes
+    /// every patch again; the other detail's sink stays as it is. A renderer that drew
+    /// something else into that sink (the live lattice preview) puts the document back
+    /// this way.
+    pub fn forget_sink(&mut self, detail: Detail) {
+        self.views.retain(|&(_, d), _| d != detail);
+        self.conform.remove(&detail);
+        self.dirty.retain(|&(_, d), _| d != detail);
+        self.removed.retain(|(d, _)| *d != detail);
+    }
+
     /// The number of patches a full tessellation at `detail` writes (for progress).
     pub fn patch_count(&self, detail: Detail) -> usize {
         let conformal = self.conformal(&self.network(), detail);
