@@ -120,6 +120,11 @@ pub enum Error {
     /// A lattice or a deformation was refused; the reason says why.
     #[error("lattice: {0}")]
     Lattice(#[from] crate::lattice::LatticeError),
+
+    // Painted attributes.
+    /// A paint stroke or attribute field was refused; the reason says why.
+    #[error("paint: {0}")]
+    Paint(#[from] crate::paint::PaintError),
 }
 
 fn knots_prefix(direction: Option<Direction>) -> &'static str {
@@ -187,6 +192,13 @@ pub enum DocumentError {
     /// [`MAX_DEFORMS`](crate::sculpt::document::MAX_DEFORMS) deformations.
     #[error("more than {max} lattice deformations")]
     TooManyDeforms {
+        /// The cap.
+        max: usize,
+    },
+    /// The document's history already holds
+    /// [`MAX_PAINTS`](crate::sculpt::document::MAX_PAINTS) paint strokes.
+    #[error("more than {max} paint strokes")]
+    TooManyPaints {
         /// The cap.
         max: usize,
     },

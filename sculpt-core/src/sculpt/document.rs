@@ -189,10 +189,13 @@ enum Step {
     Target(TargetRecord),
     Stroke(StrokeRecord),
     Deform(DeformRecord),
+    Paint(Box<PaintRecord>),
 }
 
 mod deform;
 mod json;
+mod paint;
+pub use paint::{MAX_PAINTS, PaintRecord};
 mod pieces;
 mod tessellation;
 pub use deform::{DeformRecord, MAX_DEFORMS, carry_stroke};
@@ -207,6 +210,8 @@ pub struct Document {
     strokes: Vec<StrokeRecord>,
     /// Lattice deformations applied since the base, in order ([`Self::apply_deform`]).
     deforms: Vec<DeformRecord>,
+    /// Paint strokes applied since the base, in order ([`Self::apply_paint`]).
+    paints: Vec<PaintRecord>,
     redo: Vec<Step>,
     next_id: u64,
     /// Steps with ids up to this are the document's base (made before its first edit,
@@ -381,15 +386,22 @@ impl Document {
         let last_stroke = self.strokes.last().map(|s| s.id).filter(|&id| id > floor);
         let last_target = self.targets.last().map(|t| t.id).filter(|&id| id > floor);
         let last_deform = self.deforms.last().map(|d| d.id).filter(|&id| id > floor);
+        let last_paint = self.paints.last().map(|p| p.id).filter(|&id| id > floor);
         // Steps are strictly ordered by id: undo whichever came last.
-        let last = [(last_stroke, 0), (last_target, 1), (last_deform, 2)]
-            .into_iter()
-            .filter_map(|(id, kind)| id.map(|id| (id, kind)))
-            .max();
+        let last = [
+            (last_stroke, 0),
+            (last_target, 1),
+            (last_deform, 2),
+            (last_paint, 3),
+        ]
+        .into_iter()
+        .filter_map(|(id, kind)| id.map(|id| (id, kind)))
+        .max();
         let step = match last {
             Some((_, 0)) => self.pop_stroke(),
             Some((_, 1)) => self.pop_target(),
-            Some(_) => self.pop_deform(),
+            Some((_, 2)) => self.pop_deform(),
+            Some(_) => self.pop_paint(),
             None => None,
         };
         match step {
@@ -413,6 +425,7 @@ impl Document {
                 self.push_stroke(s).is_ok()
             }
             Some(Step::Deform(d)) => self.push_deform(d),
+            Some(Step::Paint(p)) => self.push_paint(*p),
             None => false,
         }
     }
@@ -423,6 +436,7 @@ impl Document {
         self.strokes.last().is_some_and(|s| s.id > floor)
             || self.targets.last().is_some_and(|t| t.id > floor)
             || self.deforms.last().is_some_and(|d| d.id > floor)
+            || self.paints.last().is_some_and(|p| p.id > floor)
     }
 
     /// True when [`Self::redo`] would do something.
