@@ -65,6 +65,8 @@ pub struct SessionSpec {
     pub strokes: usize,
     /// Lattice drags the script makes (deformations a clean replay should apply).
     pub deforms: usize,
+    /// Paint strokes the script makes (what a clean replay should apply).
+    pub paints: usize,
 }
 
 /// A wand orientation that keeps the sketch axis (wand +x) horizontal.
@@ -205,6 +207,7 @@ pub fn catalogue() -> Vec<SessionSpec> {
         trouble,
         strokes,
         deforms: 0,
+        paints: 0,
     };
     // Tracking lost mid-stroke: the wand is occluded for 0.2 s in the middle of the
     // second stroke; the stroke pauses and resumes.
@@ -377,7 +380,40 @@ pub fn catalogue() -> Vec<SessionSpec> {
             12,
         ),
         lattice,
+        SessionSpec {
+            paints: 3,
+            ..spec(
+                "paint",
+                "a groove, then paint mode (button 7): three sweeps paint a terracotta band across the sheet, over the groove",
+                paint_band(),
+                &eight_buttons,
+                Trouble::None,
+                1,
+            )
+        },
     ]
+}
+
+/// Carve one groove, switch to paint mode (button 7), sweep the brush across the
+/// sheet three times just above it (a band over the groove), switch back.
+fn paint_band() -> Script {
+    let s = Sculptor::new().stroke_on_surface(&across(1.17, -0.3, 0.3, 7), 1.2);
+    let mut s = Sculptor {
+        script: s.script.click(7, 0.08).hold(0.15),
+        hover: 0.05,
+    };
+    for y in [1.13, 1.17, 1.21] {
+        let pts: Vec<DVec3> = across(y, -0.35, 0.35, 8)
+            .iter()
+            .map(|&(x, y)| default_surface_point(x, y) + DVec3::new(0.0, 0.0, 0.008))
+            .collect();
+        s = s.stroke(&pts, 1.4);
+    }
+    Sculptor {
+        script: s.script.click(7, 0.08).hold(0.15),
+        hover: 0.05,
+    }
+    .finish()
 }
 
 /// The cage control point the lattice session grabs: of the default lattice around

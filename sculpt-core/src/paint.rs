@@ -236,6 +236,10 @@ impl PaintEdit {
     }
 }
 
+/// The colour of unpainted surface in exports with vertex colours (linear RGB): a
+/// light clay grey.
+pub const UNPAINTED: [f32; 3] = [0.8, 0.8, 0.78];
+
 /// The default brush radius (metres): a broad paintbrush.
 pub const DEFAULT_BRUSH_RADIUS_M: f64 = 0.03;
 /// The default brush colour (linear RGB): terracotta.

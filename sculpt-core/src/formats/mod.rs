@@ -129,6 +129,20 @@ impl MeshFormat {
         }
     }
 
+    /// Writes a mesh in this format with vertex colours where the format has them
+    /// (OBJ `v x y z r g b`, glTF `COLOR_0`; STL has none and ignores them).
+    pub fn write_coloured(
+        self,
+        mesh: &WeldedMesh,
+        colours: Option<&VertexColours>,
+    ) -> crate::Result<Vec<u8>> {
+        match self {
+            Self::Obj => obj::write_coloured(mesh, colours),
+            Self::Stl => stl::write(mesh),
+            Self::Glb => glb::write_coloured(mesh, colours),
+        }
+    }
+
     /// Reads a mesh in this format.
     pub fn read(self, bytes: &[u8]) -> crate::Result<WeldedMesh> {
         match self {
