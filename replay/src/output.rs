@@ -3,7 +3,7 @@
 //! | file | what | deterministic |
 //! |---|---|---|
 //! | `scene.json` | the final document (`wandsculpt-document` JSON) | yes |
-//! | `scene.obj`, `scene.stl`, `scene.glb` | the sculpted mesh at final detail | yes |
+//! | `scene.obj`, `scene.stl`, `scene.glb`, `scene.ply` | the sculpted mesh at final detail; OBJ, GLB and PLY with the painted vertex colours once anything is painted ([`sculpt_core::paint`]) | yes |
 //! | `scene.igs` | IGES 5.3: every NURBS surface (targets and stroke surfaces) | yes |
 //! | `operator.log` | the operator event log (`wandsculpt-oplog` JSON lines) | yes |
 //! | `metrics.json` | [`Metrics`](crate::pipeline::Metrics) | yes |
@@ -23,6 +23,7 @@ pub const DETERMINISTIC_FILES: &[&str] = &[
     "scene.obj",
     "scene.stl",
     "scene.glb",
+    "scene.ply",
     "scene.igs",
     "operator.log",
     "metrics.json",
@@ -56,16 +57,24 @@ pub fn write_outputs(outcome: &Outcome, dir: &Path) -> Result<Vec<PathBuf>> {
     // Solid targets' meshes beside the surfaces' (issue 35).
     doc.append_solid_meshes(&mut welded);
     let mut files: Vec<(&str, Vec<u8>)> = vec![("scene.json", scene)];
+    let colours = doc.vertex_colours(&welded, sculpt_core::paint::UNPAINTED);
     for (name, format) in [
         ("scene.obj", MeshFormat::Obj),
         ("scene.stl", MeshFormat::Stl),
         ("scene.glb", MeshFormat::Glb),
     ] {
         let bytes = format
-            .write(&welded)
+            .write_coloured(&welded, colours.as_deref())
             .map_err(|source| Error::Export { file: name, source })?;
         files.push((name, bytes));
     }
+    let ply = sculpt_core::formats::ply::write(&welded, colours.as_deref()).map_err(|source| {
+        Error::Export {
+            file: "scene.ply",
+            source,
+        }
+    })?;
+    files.push(("scene.ply", ply));
     let iges = iges::write(&doc.iges_surfaces()).map_err(|source| Error::Export {
         file: "scene.igs",
         source,

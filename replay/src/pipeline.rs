@@ -157,6 +157,9 @@ pub struct GestureMetrics {
     /// metrics of sessions without any are as they were).
     #[serde(skip_serializing_if = "is_zero")]
     pub deforms: usize,
+    /// Paint strokes applied (left out of `metrics.json` while zero, like `deforms`).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub paints: usize,
 }
 
 /// `metrics.json`: everything here is deterministic.
@@ -457,6 +460,7 @@ impl Replayer {
             Applied::Stroke { .. } => g.strokes_applied += 1,
             Applied::Sketch { .. } => g.sketches += 1,
             Applied::Deform { .. } => g.deforms += 1,
+            Applied::Paint { .. } => g.paints += 1,
             Applied::Undone => g.undos += 1,
             Applied::Redone => g.redos += 1,
             Applied::Unchanged => {}

@@ -68,6 +68,8 @@ pub struct SessionSpec {
     /// The solid target the session sculpts beside the sheet (its header names it and
     /// `replay` adds it to the base), if any.
     pub solid: Option<tracking::poselog::SessionSolid>,
+    /// Paint strokes the script makes (what a clean replay should apply).
+    pub paints: usize,
 }
 
 /// A wand orientation that keeps the sketch axis (wand +x) horizontal.
@@ -209,6 +211,7 @@ pub fn catalogue() -> Vec<SessionSpec> {
         strokes,
         deforms: 0,
         solid: None,
+        paints: 0,
     };
     // Tracking lost mid-stroke: the wand is occluded for 0.2 s in the middle of the
     // second stroke; the stroke pauses and resumes.
@@ -393,7 +396,40 @@ pub fn catalogue() -> Vec<SessionSpec> {
         ),
         lattice,
         solid,
+        SessionSpec {
+            paints: 3,
+            ..spec(
+                "paint",
+                "a groove, then paint mode (button 7): three sweeps paint a terracotta band across the sheet, over the groove",
+                paint_band(),
+                &eight_buttons,
+                Trouble::None,
+                1,
+            )
+        },
     ]
+}
+
+/// Carve one groove, switch to paint mode (button 7), sweep the brush across the
+/// sheet three times just above it (a band over the groove), switch back.
+fn paint_band() -> Script {
+    let s = Sculptor::new().stroke_on_surface(&across(1.17, -0.3, 0.3, 7), 1.2);
+    let mut s = Sculptor {
+        script: s.script.click(7, 0.08).hold(0.15),
+        hover: 0.05,
+    };
+    for y in [1.13, 1.17, 1.21] {
+        let pts: Vec<DVec3> = across(y, -0.35, 0.35, 8)
+            .iter()
+            .map(|&(x, y)| default_surface_point(x, y) + DVec3::new(0.0, 0.0, 0.008))
+            .collect();
+        s = s.stroke(&pts, 1.4);
+    }
+    Sculptor {
+        script: s.script.click(7, 0.08).hold(0.15),
+        hover: 0.05,
+    }
+    .finish()
 }
 
 /// The plate of the `carve-solid` session: 30 cm x 20 cm, 3 mm thick, its top face at

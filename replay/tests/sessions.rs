@@ -64,7 +64,7 @@ fn every_session_reads_back_with_its_trouble() {
         let sketches = usize::from(spec.name.starts_with("sketch"));
         assert_eq!(
             presses,
-            spec.strokes + spec.deforms + sketches,
+            spec.strokes + spec.deforms + spec.paints + sketches,
             "{}",
             spec.name
         );

@@ -186,6 +186,17 @@ pub enum Applied {
         /// Lattice control points moved.
         points: usize,
     },
+    /// A paint stroke was applied (one operation).
+    Paint {
+        /// The step's id in the document's history.
+        id: u64,
+        /// The painted target.
+        target: TargetId,
+        /// The painted attribute.
+        attribute: String,
+        /// Samples deposited on the target.
+        samples: usize,
+    },
     /// The last step was undone.
     Undone,
     /// The last undone step was redone.
@@ -205,6 +216,7 @@ impl Applied {
             Applied::Stroke { .. }
                 | Applied::Sketch { .. }
                 | Applied::Deform { .. }
+                | Applied::Paint { .. }
                 | Applied::Undone
                 | Applied::Redone
         )
@@ -266,6 +278,15 @@ pub fn apply(doc: &mut Document, edit: &Edit) -> Applied {
             Ok(applied) => applied,
             Err(e) => Applied::Rejected(e),
         },
+        Edit::Paint(p) => match doc.apply_paint(p) {
+            Ok((id, samples)) => Applied::Paint {
+                id,
+                target: p.target,
+                attribute: p.attribute.clone(),
+                samples,
+            },
+            Err(e) => Applied::Rejected(e),
+        },
         Edit::Undo if doc.undo() => Applied::Undone,
         Edit::Redo if doc.redo() => Applied::Redone,
         Edit::Undo | Edit::Redo | Edit::SelectTarget { .. } | Edit::Save => Applied::Unchanged,
@@ -319,6 +340,10 @@ pub fn check_caps(doc: &Document, edit: &Edit) -> Result<()> {
             }
             Ok(())
         }
+        Edit::Paint(p) => {
+            p.validate()?;
+            doc.check_paint_caps()
+        }
         _ => Ok(()),
     }
 }
@@ -363,6 +388,14 @@ pub fn oplog_applied(applied: &Applied) -> Option<EventKind> {
                 targets.len()
             ),
         }),
+        Applied::Paint {
+            id,
+            attribute,
+            samples,
+            ..
+        } => Some(EventKind::Marker {
+            label: format!("paint {id}: {attribute}, {samples} samples"),
+        }),
         _ => None,
     }
 }
@@ -400,9 +433,11 @@ pub fn oplog_event(event: &OperatorEvent) -> EventKind {
             Edit::SelectTarget { target } => EventKind::Marker {
                 label: format!("select-target {target}"),
             },
-            Edit::Sketch { .. } | Edit::Stroke(_) | Edit::Deform(_) => EventKind::Marker {
-                label: "edit".into(),
-            },
+            Edit::Sketch { .. } | Edit::Stroke(_) | Edit::Deform(_) | Edit::Paint(_) => {
+                EventKind::Marker {
+                    label: "edit".into(),
+                }
+            }
         },
         OperatorEvent::Pose {
             position,

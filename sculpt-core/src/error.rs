@@ -125,6 +125,10 @@ pub enum Error {
     /// A solid target or a stroke on it was refused; the reason says why.
     #[error("solid: {0}")]
     Solid(#[from] crate::solid::SolidError),
+    // Painted attributes.
+    /// A paint stroke or attribute field was refused; the reason says why.
+    #[error("paint: {0}")]
+    Paint(#[from] crate::paint::PaintError),
 }
 
 fn knots_prefix(direction: Option<Direction>) -> &'static str {
@@ -199,6 +203,13 @@ pub enum DocumentError {
     /// [`MAX_SOLIDS`](crate::sculpt::document::MAX_SOLIDS) solid targets.
     #[error("more than {max} solid targets")]
     TooManySolids {
+        /// The cap.
+        max: usize,
+    },
+    /// The document's history already holds
+    /// [`MAX_PAINTS`](crate::sculpt::document::MAX_PAINTS) paint strokes.
+    #[error("more than {max} paint strokes")]
+    TooManyPaints {
         /// The cap.
         max: usize,
     },

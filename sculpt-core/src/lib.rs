@@ -18,6 +18,7 @@ pub mod lattice;
 pub mod mesh;
 pub mod nurbs;
 pub mod oplog;
+pub mod paint;
 pub mod percentile;
 pub mod reconstruct;
 pub mod sculpt;

@@ -752,6 +752,18 @@ pub const RFM_SINGULAR_REL: f64 = 1e-14;
 pub const LATTICE_BEND_MAX_REL: f64 = 0.1;
 
 // ---------------------------------------------------------------------------------
+// Painted attributes (sculpt_core::paint, issue 35 item 2).
+// ---------------------------------------------------------------------------------
+
+/// Below this fitted coverage an attribute field holds no paint: the quotient
+/// `value x coverage / coverage` is noise there (`AttributeField::eval`).
+pub const PAINT_COVERAGE_MIN: f64 = 0.05;
+/// A painted spot's fitted colour (or scalar, relative to its value) within the brush
+/// is the painted value to this: the least-squares fit (Park 2005, sec. 3.1) smooths
+/// the spot's rim, not its middle.
+pub const PAINT_VALUE_TOL: f64 = 0.1;
+
+// ---------------------------------------------------------------------------------
 // GPU evaluation of volumes (vr_app::gpu_volume, issue 33).
 // ---------------------------------------------------------------------------------
 

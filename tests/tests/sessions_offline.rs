@@ -49,6 +49,7 @@ fn every_shipped_session_applies_its_strokes() {
             spec.name
         );
         assert_eq!(m.gestures.deforms, spec.deforms, "{}: {m:#?}", spec.name);
+        assert_eq!(m.gestures.paints, spec.paints, "{}: {m:#?}", spec.name);
         assert!(m.rejected.is_empty(), "{}: {:?}", spec.name, m.rejected);
         assert!(
             m.per_stroke

@@ -115,6 +115,7 @@ fn check_journal_targets(stored: &journal::Stored, doc: &Document, path: &Path) 
             Edit::Stroke(s) => vec![s.target],
             Edit::SelectTarget { target } => vec![*target],
             Edit::Deform(d) => d.targets.clone(),
+            Edit::Paint(p) => vec![p.target],
             Edit::Sketch { .. } | Edit::Undo | Edit::Redo | Edit::Save => continue,
         };
         let unknown = named.into_iter().find(|&named| {

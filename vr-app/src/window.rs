@@ -142,6 +142,13 @@ pub const KEYS: &[KeyBinding] = &[
         "lattice mode: drag a cage point to bend the targets",
     ),
     bind(
+        "5",
+        "5",
+        false,
+        KeyAction::Mode(InteractionMode::Paint),
+        "paint mode: sweep over a target to paint it",
+    ),
+    bind(
         "L",
         "l",
         false,

@@ -17,6 +17,8 @@ pub enum FileFormat {
     Gltf,
     /// IGES 5.3.
     Iges,
+    /// Stanford PLY (ASCII, with vertex colours).
+    Ply,
 }
 
 impl fmt::Display for FileFormat {
@@ -26,6 +28,7 @@ impl fmt::Display for FileFormat {
             FileFormat::Stl => "STL",
             FileFormat::Gltf => "glTF",
             FileFormat::Iges => "IGES",
+            FileFormat::Ply => "PLY",
         })
     }
 }
@@ -47,6 +50,8 @@ pub enum WrittenValue {
     ControlPoint,
     /// A trimming loop's point in the surface's parameter range.
     TrimPoint,
+    /// A mesh vertex colour.
+    Colour,
 }
 
 impl fmt::Display for WrittenValue {
@@ -59,6 +64,7 @@ impl fmt::Display for WrittenValue {
             WrittenValue::Weight => "weight",
             WrittenValue::ControlPoint => "control point",
             WrittenValue::TrimPoint => "trimming loop point",
+            WrittenValue::Colour => "vertex colour",
         })
     }
 }
@@ -126,6 +132,16 @@ pub enum FormatError {
         /// Its index: in `knots_u` followed by `knots_v`, in the net (`i * rows + j`
         /// for weights and control points), or in the face's loops.
         index: usize,
+    },
+
+    /// A mesh writer was given a different number of vertex colours than vertices;
+    /// nothing was written.
+    #[error("{got} vertex colours for {need} vertices")]
+    ColourCount {
+        /// Colours given.
+        got: usize,
+        /// Vertices of the mesh.
+        need: usize,
     },
 
     // OBJ.

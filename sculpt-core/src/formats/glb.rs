@@ -24,7 +24,21 @@ fn err(reason: FormatError) -> Error {
 /// ([`FormatError::NonFinite`]) and nothing is written (glTF's JSON has no
 /// spelling for them, and the accessor bounds would be wrong).
 pub fn write(mesh: &WeldedMesh) -> Result<Vec<u8>> {
+    write_coloured(mesh, None)
+}
+
+/// Writes a `.glb` like [`write`](fn@write), with vertex colours when given: a
+/// `COLOR_0` attribute (float `VEC3`, linear RGB in `[0, 1]` clamped, glTF 2.0
+/// sec. 3.7.2.1), after the other attributes in the buffer. The colours must be one
+/// per vertex ([`FormatError::ColourCount`]) and finite.
+pub fn write_coloured(
+    mesh: &WeldedMesh,
+    colours: Option<&super::VertexColours>,
+) -> Result<Vec<u8>> {
     check_mesh(FileFormat::Gltf, mesh, ALL_ATTRIBUTES)?;
+    if let Some(c) = colours {
+        super::check_colours(FileFormat::Gltf, mesh, c)?;
+    }
     let nv = mesh.vertices.len();
     let mut bin: Vec<u8> = Vec::with_capacity(nv * 32 + mesh.triangles.len() * 12);
     let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
@@ -51,7 +65,12 @@ pub fn write(mesh: &WeldedMesh) -> Result<Vec<u8>> {
         bin.extend(t.iter().flat_map(|x| x.to_le_bytes()));
     }
     let idx_len = bin.len() - idx_at;
-    let doc = json!({
+    let colours_at = bin.len();
+    for c in colours.unwrap_or(&[]) {
+        bin.extend(c.iter().flat_map(|x| x.clamp(0.0, 1.0).to_le_bytes()));
+    }
+    let colours_len = bin.len() - colours_at;
+    let mut doc = json!({
         "asset": {"version": "2.0", "generator": "Wandsculpt sculpt-core"},
         "scene": 0,
         "scenes": [{"nodes": [0]}],
@@ -74,6 +93,16 @@ pub fn write(mesh: &WeldedMesh) -> Result<Vec<u8>> {
             {"bufferView": 3, "componentType": 5125, "count": mesh.triangles.len() * 3, "type": "SCALAR"}
         ]
     });
+    if colours.is_some() {
+        doc["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = json!(4);
+        if let Some(views) = doc["bufferViews"].as_array_mut() {
+            views.push(json!({"buffer": 0, "byteOffset": colours_at, "byteLength": colours_len, "target": 34962}));
+        }
+        if let Some(accessors) = doc["accessors"].as_array_mut() {
+            accessors
+                .push(json!({"bufferView": 4, "componentType": 5126, "count": nv, "type": "VEC3"}));
+        }
+    }
     let mut json_bytes = serde_json::to_vec(&doc).unwrap_or_default();
     while !json_bytes.len().is_multiple_of(4) {
         json_bytes.push(b' ');

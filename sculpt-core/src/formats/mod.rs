@@ -21,6 +21,7 @@
 pub mod glb;
 pub mod iges;
 pub mod obj;
+pub mod ply;
 pub mod stl;
 
 use crate::error::{Error, FileFormat, FormatError, WrittenValue};
@@ -50,6 +51,40 @@ fn check_mesh(
                 return Err(err(format, FormatError::NonFinite { what, index }));
             }
         }
+    }
+    Ok(())
+}
+
+/// Vertex colours, linear RGB in `[0, 1]`, one per vertex of a mesh (what
+/// [`crate::paint`] gives a painted mesh).
+pub type VertexColours = [[f32; 3]];
+
+/// Checks that `colours` has one finite colour per vertex of `mesh`.
+fn check_colours(
+    format: FileFormat,
+    mesh: &WeldedMesh,
+    colours: &VertexColours,
+) -> crate::Result<()> {
+    if colours.len() != mesh.vertices.len() {
+        return Err(err(
+            format,
+            FormatError::ColourCount {
+                got: colours.len(),
+                need: mesh.vertices.len(),
+            },
+        ));
+    }
+    if let Some(index) = colours
+        .iter()
+        .position(|c| !c.iter().all(|x| x.is_finite()))
+    {
+        return Err(err(
+            format,
+            FormatError::NonFinite {
+                what: WrittenValue::Colour,
+                index,
+            },
+        ));
     }
     Ok(())
 }
@@ -91,6 +126,20 @@ impl MeshFormat {
             Self::Obj => obj::write(mesh),
             Self::Stl => stl::write(mesh),
             Self::Glb => glb::write(mesh),
+        }
+    }
+
+    /// Writes a mesh in this format with vertex colours where the format has them
+    /// (OBJ `v x y z r g b`, glTF `COLOR_0`; STL has none and ignores them).
+    pub fn write_coloured(
+        self,
+        mesh: &WeldedMesh,
+        colours: Option<&VertexColours>,
+    ) -> crate::Result<Vec<u8>> {
+        match self {
+            Self::Obj => obj::write_coloured(mesh, colours),
+            Self::Stl => stl::write(mesh),
+            Self::Glb => glb::write_coloured(mesh, colours),
         }
     }
 

@@ -18,12 +18,34 @@ fn err(reason: FormatError) -> Error {
 /// Writes the mesh as OBJ text; a vertex with a NaN or infinite number is an error
 /// ([`FormatError::NonFinite`]) and nothing is written.
 pub fn write(mesh: &WeldedMesh) -> Result<Vec<u8>> {
+    write_coloured(mesh, None)
+}
+
+/// Writes the mesh as OBJ text like [`write`](fn@write), with vertex colours when
+/// given: `v x y z r g b`, the common extension (read by MeshLab, Blender, trimesh),
+/// colours in `[0, 1]` clamped. The colours must be one per vertex
+/// ([`FormatError::ColourCount`]) and finite.
+pub fn write_coloured(
+    mesh: &WeldedMesh,
+    colours: Option<&super::VertexColours>,
+) -> Result<Vec<u8>> {
     check_mesh(FileFormat::Obj, mesh, ALL_ATTRIBUTES)?;
+    if let Some(c) = colours {
+        super::check_colours(FileFormat::Obj, mesh, c)?;
+    }
     let mut s = String::with_capacity(mesh.vertices.len() * 100 + mesh.triangles.len() * 40);
     s.push_str("# Wandsculpt sculpted mesh\no sculpture\n");
-    for v in &mesh.vertices {
+    for (i, v) in mesh.vertices.iter().enumerate() {
         let [x, y, z] = v.position;
-        let _ = writeln!(s, "v {x} {y} {z}");
+        match colours {
+            Some(c) => {
+                let [r, g, b] = c[i].map(|x| x.clamp(0.0, 1.0));
+                let _ = writeln!(s, "v {x} {y} {z} {r} {g} {b}");
+            }
+            None => {
+                let _ = writeln!(s, "v {x} {y} {z}");
+            }
+        }
     }
     for v in &mesh.vertices {
         let [u, w] = v.uv;

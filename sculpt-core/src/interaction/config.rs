@@ -24,6 +24,9 @@ pub struct ButtonMap {
     /// Lattice mode on and off ([`InteractionMode::Lattice`]; off goes back to the
     /// stroke mode).
     pub lattice: u8,
+    /// Paint mode on and off ([`InteractionMode::Paint`]; off goes back to the stroke
+    /// mode).
+    pub paint: u8,
 }
 
 impl Default for ButtonMap {
@@ -36,6 +39,7 @@ impl Default for ButtonMap {
             redo: 4,
             select: 5,
             lattice: 6,
+            paint: 7,
         }
     }
 }
@@ -145,7 +149,7 @@ impl InteractionConfig {
         }
         let b = self.buttons;
         if [
-            b.action, b.mode, b.profile, b.undo, b.redo, b.select, b.lattice,
+            b.action, b.mode, b.profile, b.undo, b.redo, b.select, b.lattice, b.paint,
         ]
         .iter()
         .any(|&x| x >= 32)

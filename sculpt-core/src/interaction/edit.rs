@@ -125,6 +125,9 @@ pub enum Edit {
     Stroke(StrokeEdit),
     /// A lattice deformation of one or more targets.
     Deform(DeformEdit),
+    /// A paint stroke: colour or a named scalar deposited on a target
+    /// ([`crate::paint`]).
+    Paint(crate::paint::PaintEdit),
     /// Undo the last edit.
     Undo,
     /// Redo.
@@ -154,6 +157,7 @@ impl Edit {
         };
         match &mut self {
             Edit::Stroke(s) => s.target = resolve(s.target),
+            Edit::Paint(p) => p.target = resolve(p.target),
             Edit::SelectTarget { target } => *target = resolve(*target),
             Edit::Sketch { .. } | Edit::Deform(_) | Edit::Undo | Edit::Redo | Edit::Save => {}
         }

@@ -22,6 +22,10 @@ pub enum InteractionMode {
     /// [`InteractionConfig::lattice_radius`] of it) to deform the targets
     /// ([`Edit::Deform`]). Not in the mode button's cycle: a command selects it.
     Lattice,
+    /// Sweep the wand over a target to paint it with the brush
+    /// ([`Interaction::brush`], [`Edit::Paint`]). Not in the mode button's cycle: the
+    /// paint button or a command selects it.
+    Paint,
 }
 
 impl InteractionMode {
@@ -34,7 +38,7 @@ impl InteractionMode {
     /// (outside the cycle) goes on to carve.
     pub fn next(self) -> Self {
         match self {
-            Self::Sketch | Self::Lattice => Self::CARVE,
+            Self::Sketch | Self::Lattice | Self::Paint => Self::CARVE,
             Self::Stroke(StrokeMode::Carve) => Self::EMBOSS,
             Self::Stroke(StrokeMode::Emboss) => Self::Sketch,
         }
@@ -43,18 +47,20 @@ impl InteractionMode {
     /// The stroke mode, or `None` when sketching or in lattice mode.
     pub fn stroke_mode(self) -> Option<StrokeMode> {
         match self {
-            Self::Sketch | Self::Lattice => None,
+            Self::Sketch | Self::Lattice | Self::Paint => None,
             Self::Stroke(mode) => Some(mode),
         }
     }
 
-    /// The mode's name, as it is written: `sketch`, `carve`, `emboss` or `lattice`.
+    /// The mode's name, as it is written: `sketch`, `carve`, `emboss`, `lattice` or
+    /// `paint`.
     pub fn name(self) -> &'static str {
         match self {
             Self::Sketch => "sketch",
             Self::Stroke(StrokeMode::Carve) => "carve",
             Self::Stroke(StrokeMode::Emboss) => "emboss",
             Self::Lattice => "lattice",
+            Self::Paint => "paint",
         }
     }
 }
@@ -73,6 +79,7 @@ enum ModeName {
     Carve,
     Emboss,
     Lattice,
+    Paint,
 }
 
 impl From<ModeName> for InteractionMode {
@@ -82,6 +89,7 @@ impl From<ModeName> for InteractionMode {
             ModeName::Carve => Self::CARVE,
             ModeName::Emboss => Self::EMBOSS,
             ModeName::Lattice => Self::Lattice,
+            ModeName::Paint => Self::Paint,
         }
     }
 }
@@ -93,6 +101,7 @@ impl From<InteractionMode> for ModeName {
             InteractionMode::Stroke(StrokeMode::Carve) => Self::Carve,
             InteractionMode::Stroke(StrokeMode::Emboss) => Self::Emboss,
             InteractionMode::Lattice => Self::Lattice,
+            InteractionMode::Paint => Self::Paint,
         }
     }
 }
@@ -183,6 +192,12 @@ pub enum Command {
     },
     /// Save the document.
     Save,
+    /// Change the paint brush: attribute, value and radius (checked as
+    /// [`crate::paint::Brush::validate`] does).
+    SetBrush {
+        /// The new brush.
+        brush: crate::paint::Brush,
+    },
 }
 
 /// What happened at time `t`.

@@ -88,6 +88,10 @@ pub struct Interaction {
     sketching: bool,
     /// Lattice mode (before `sketching`).
     lattice: bool,
+    /// Paint mode (before `lattice`): strokes paint with `brush`.
+    painting: bool,
+    /// What paint strokes paint.
+    brush: crate::paint::Brush,
     tool: Tool,
     /// The document's target ids, in document order (never empty).
     targets: Vec<TargetId>,
@@ -124,6 +128,8 @@ impl Interaction {
             config,
             sketching: mode == InteractionMode::Sketch,
             lattice: mode == InteractionMode::Lattice,
+            painting: mode == InteractionMode::Paint,
+            brush: crate::paint::Brush::default(),
             tool,
             targets: vec![DEFAULT_TARGET],
             target: DEFAULT_TARGET,
@@ -138,7 +144,9 @@ impl Interaction {
 
     /// Current mode.
     pub fn mode(&self) -> InteractionMode {
-        if self.lattice {
+        if self.painting {
+            InteractionMode::Paint
+        } else if self.lattice {
             InteractionMode::Lattice
         } else if self.sketching {
             InteractionMode::Sketch
@@ -246,8 +254,17 @@ impl Interaction {
         self.config.lattice
     }
 
-    /// The live stroke so far (for the preview), if a stroke is in progress.
+    /// The paint brush (what paint strokes paint, [`Command::SetBrush`]).
+    pub fn brush(&self) -> &crate::paint::Brush {
+        &self.brush
+    }
+
+    /// The live stroke so far (for the preview), if a stroke is in progress (not
+    /// while painting: a paint stroke carves nothing).
     pub fn live_stroke(&self) -> Option<StrokeEdit> {
+        if self.painting {
+            return None;
+        }
         match &self.gesture {
             Gesture::Stroke { samples, .. } => Some(StrokeEdit::new(
                 self.target,
@@ -261,6 +278,9 @@ impl Interaction {
     /// The live stroke's samples so far, without copying them (see
     /// [`Interaction::live_stroke`]).
     pub fn live_stroke_samples(&self) -> Option<&[StrokeSample]> {
+        if self.painting {
+            return None;
+        }
         match &self.gesture {
             Gesture::Stroke { samples, .. } => Some(samples),
             _ => None,
@@ -350,6 +370,7 @@ impl Interaction {
 
     fn check_command(&self, c: &Command) -> Result<()> {
         let tool = match c {
+            Command::SetBrush { brush } => return Ok(brush.validate()?),
             Command::SetLatticeRadius { radius } => {
                 let ok =
                     radius.is_finite() && *radius > 0.0 && *radius <= crate::lattice::MAX_REACH_M;
@@ -427,6 +448,11 @@ impl Interaction {
                     self.config.lattice_radius = radius;
                 }
             }
+            Command::SetBrush { brush } => {
+                if !self.gesture_active() {
+                    self.brush = brush;
+                }
+            }
         }
     }
 
@@ -464,13 +490,14 @@ impl Interaction {
             },
         });
         self.lattice = mode == InteractionMode::Lattice;
+        self.painting = mode == InteractionMode::Paint;
         match mode {
             InteractionMode::Sketch => self.sketching = true,
             InteractionMode::Stroke(stroke_mode) => {
                 self.sketching = false;
                 self.tool.mode = stroke_mode;
             }
-            InteractionMode::Lattice => self.sketching = false,
+            InteractionMode::Lattice | InteractionMode::Paint => self.sketching = false,
         }
     }
 
@@ -633,13 +660,19 @@ impl Interaction {
         if down & self.bit(map.select) != 0 {
             self.select_next(t, out);
         }
-        if down & self.bit(map.lattice) != 0 {
-            let to = if self.lattice {
-                InteractionMode::Stroke(self.tool.mode)
-            } else {
-                InteractionMode::Lattice
-            };
-            self.set_mode(t, to, out);
+        for (button, mode) in [
+            (map.lattice, InteractionMode::Lattice),
+            (map.paint, InteractionMode::Paint),
+        ] {
+            if down & self.bit(button) != 0 {
+                // On, or off again to the stroke mode.
+                let to = if self.mode() == mode {
+                    InteractionMode::Stroke(self.tool.mode)
+                } else {
+                    mode
+                };
+                self.set_mode(t, to, out);
+            }
         }
     }
 
@@ -663,7 +696,7 @@ impl Interaction {
                 last_tip: p,
                 paused_since: None,
             },
-            InteractionMode::Stroke(_) => Gesture::Stroke {
+            InteractionMode::Stroke(_) | InteractionMode::Paint => Gesture::Stroke {
                 samples: vec![StrokeSample { t, position: p }],
                 paused_since: None,
             },
@@ -684,6 +717,11 @@ impl Interaction {
         let gesture = std::mem::replace(&mut self.gesture, Gesture::Spent);
         let mut dropped = None;
         let edit = match gesture {
+            // A paint stroke: any tracked sample paints (a dab is a stroke).
+            Gesture::Stroke { samples, .. } if self.painting => Some(Edit::Paint(
+                self.brush
+                    .stroke(self.target, samples.iter().map(|s| s.position).collect()),
+            )),
             Gesture::Stroke { samples, .. } => {
                 let length: f64 = samples
                     .windows(2)

@@ -533,7 +533,8 @@ fn one_vocabulary_reads_and_writes_every_former_spelling() {
     round_trip("\"sketch\"", &InteractionMode::Sketch);
     round_trip("\"carve\"", &InteractionMode::CARVE);
     round_trip("\"emboss\"", &InteractionMode::EMBOSS);
-    for bad in ["\"V\"", "\"Carve\"", "\"paint\""] {
+    round_trip("\"paint\"", &InteractionMode::Paint);
+    for bad in ["\"V\"", "\"Carve\"", "\"smear\""] {
         assert!(serde_json::from_str::<Profile>(bad).is_err(), "{bad}");
         assert!(
             serde_json::from_str::<InteractionMode>(bad).is_err(),

@@ -191,10 +191,13 @@ enum Step {
     Deform(DeformRecord),
     /// A solid target added or a stroke on one ([`solid`]).
     Solid(SolidStep),
+    Paint(Box<PaintRecord>),
 }
 
 mod deform;
 mod json;
+mod paint;
+pub use paint::{MAX_PAINTS, PaintRecord};
 mod pieces;
 mod solid;
 mod tessellation;
@@ -211,6 +214,8 @@ pub struct Document {
     strokes: Vec<StrokeRecord>,
     /// Lattice deformations applied since the base, in order ([`Self::apply_deform`]).
     deforms: Vec<DeformRecord>,
+    /// Paint strokes applied since the base, in order ([`Self::apply_paint`]).
+    paints: Vec<PaintRecord>,
     redo: Vec<Step>,
     next_id: u64,
     /// Steps with ids up to this are the document's base (made before its first edit,
@@ -390,12 +395,14 @@ impl Document {
         let last_target = self.targets.last().map(|t| t.id).filter(|&id| id > floor);
         let last_deform = self.deforms.last().map(|d| d.id).filter(|&id| id > floor);
         let last_solid = self.last_solid_step().filter(|&id| id > floor);
+        let last_paint = self.paints.last().map(|p| p.id).filter(|&id| id > floor);
         // Steps are strictly ordered by id: undo whichever came last.
         let last = [
             (last_stroke, 0),
             (last_target, 1),
             (last_deform, 2),
             (last_solid, 3),
+            (last_paint, 4),
         ]
         .into_iter()
         .filter_map(|(id, kind)| id.map(|id| (id, kind)))
@@ -403,8 +410,9 @@ impl Document {
         let step = match last {
             Some((_, 0)) => self.pop_stroke(),
             Some((_, 1)) => self.pop_target(),
+            Some((_, 2)) => self.pop_deform(),
             Some((_, 3)) => self.pop_solid_step(),
-            Some(_) => self.pop_deform(),
+            Some(_) => self.pop_paint(),
             None => None,
         };
         match step {
@@ -429,6 +437,7 @@ impl Document {
             }
             Some(Step::Deform(d)) => self.push_deform(d),
             Some(Step::Solid(s)) => self.push_solid_step(s),
+            Some(Step::Paint(p)) => self.push_paint(*p),
             None => false,
         }
     }
@@ -440,6 +449,7 @@ impl Document {
             || self.targets.last().is_some_and(|t| t.id > floor)
             || self.deforms.last().is_some_and(|d| d.id > floor)
             || self.last_solid_step().is_some_and(|id| id > floor)
+            || self.paints.last().is_some_and(|p| p.id > floor)
     }
 
     /// True when [`Self::redo`] would do something.

@@ -821,10 +821,12 @@ pub fn feedback(edits: &[sculpt_core::interaction::Edit], rejected: usize) -> Op
     use sculpt_core::interaction::Edit;
     if rejected > 0 {
         Some(Feedback::Rejected)
-    } else if edits
-        .iter()
-        .any(|e| matches!(e, Edit::Stroke(_) | Edit::Sketch { .. } | Edit::Deform(_)))
-    {
+    } else if edits.iter().any(|e| {
+        matches!(
+            e,
+            Edit::Stroke(_) | Edit::Sketch { .. } | Edit::Deform(_) | Edit::Paint(_)
+        )
+    }) {
         Some(Feedback::Applied)
     } else {
         None
