@@ -8,16 +8,17 @@
 //!    the frames' DTrack `ts`, **calibration** of tracker millimetres into the display
 //!    frame with the wand's tool tip, the One Euro **filter**, **tracking loss**
 //!    (quality < 0, no wand, or no frame for longer than the timeout);
-//! 3. **the edit loop** ([`EditLoop`], `sculpt_core::edit_loop`), fed each stage sample
-//!    as the stage converts it ([`StageWand::wand_event`]): [`Interaction`] turns wand
+//! 3. **the edit loop** ([`EditLoop`], `sculpt_core::edit_loop`), fed by the display
+//!    server's own [`Feeder`] (stage samples as the stage converts them, a serial
+//!    wand's buttons merged in, the thumbstick): [`Interaction`] turns wand
 //!    samples into edits and operator events, and [`editor::apply`] applies each edit
 //!    to the [`Document`] (strokes through the multiresolution trimming, sketches
 //!    fitted into new targets, undo and redo). The replay counts what each [`Step`]
 //!    did into its metrics, times each stroke's apply ([`EditHooks`]) and writes the
 //!    operator log with [`editor::oplog_event`], one segment per interaction mode
-//!    ([`ModeSegments`], as the display server's log); with a `[thumbstick]` config (a
-//!    headset session), each accepted frame's analog axes then change the tool's width
-//!    and depth as they did live ([`ThumbstickDriver`]).
+//!    ([`ModeSegments::marked`], as the display server's log); with a `[thumbstick]`
+//!    config (a headset session), each accepted frame's analog axes then change the
+//!    tool's width and depth as they did live.
 //!
 //! Time is virtual: the frames' own times, so a replay is deterministic, runs as fast
 //! as the CPU allows, and matches a live run of the same log.
@@ -29,16 +30,17 @@ use sculpt_core::edit_loop::{EditHooks, EditLoop, LoopError, LoopEvent, Step};
 use sculpt_core::editor::{self, Applied};
 use sculpt_core::error::StrokeRejection;
 use sculpt_core::interaction::{
-    Edit, EndReason, Interaction, OperatorEvent, Profile, StrokeEdit, StrokeMode,
+    Edit, EndReason, Interaction, OperatorEvent, Profile, StrokeEdit, StrokeMode, Tool, WandEvent,
 };
-use sculpt_core::oplog::{ModeSegments, OpLogHeader, OpLogWriter};
+use sculpt_core::oplog::{EventKind, ModeSegments, OpLogHeader, OpLogWriter};
 use sculpt_core::sculpt::document::{Document, StrokeId, TargetId};
 use serde::Serialize;
 use tracking::Frame;
 use tracking::poselog::{PoseLogReader, Record, RecordKind};
-use tracking::stage::{FrameStage, HeadSample, StageEvent, WandSample as StageWand};
 
-use vr_app::xr::actions::ThumbstickDriver;
+use vr_app::feeder::{Feeder, Sink};
+use vr_app::input::Input;
+use vr_app::projection::HeadPose;
 
 use crate::config::ReplayConfig;
 use crate::error::{Error, Result};
@@ -58,7 +60,8 @@ pub struct FrameMetrics {
     pub out_of_order: usize,
     /// Frames without the configured wand.
     pub without_wand: usize,
-    /// Records of kinds this replay does not use (serial lines).
+    /// Records of other kinds than DTrack: serial wand lines, used as live (their
+    /// buttons merged into the wand's samples; a line with a pose is a frame).
     pub other_kinds: usize,
     /// The log ended in the middle of a line.
     pub truncated_tail: bool,
@@ -264,34 +267,74 @@ impl EditHooks for ApplyTimer {
     }
 }
 
-/// Feeds records through the pipeline one at a time: the [`FrameStage`], its samples
-/// converted with [`StageWand::wand_event`], then the [`EditLoop`] ([`Interaction`] →
-/// [`editor::apply`]): the same calls the display server makes.
-pub struct Replayer {
-    stage: FrameStage,
+/// The replay's side of the feeder: the [`EditLoop`] ([`Interaction`] →
+/// [`editor::apply`]), its metrics and the operator log.
+struct Recorder {
     edit_loop: EditLoop,
     timer: ApplyTimer,
     oplog: OpLogWriter,
     /// The operator log's segments, one per interaction mode.
     segments: ModeSegments,
     metrics: Metrics,
+    head: Option<HeadPose>,
+}
+
+impl Sink for Recorder {
+    type Error = Infallible;
+
+    fn wand(&mut self, ev: &WandEvent) -> std::result::Result<(), Infallible> {
+        // Stage times never go back, so the interaction accepts every sample.
+        match self.edit_loop.handle(ev, &mut self.timer) {
+            Ok(step) => self.record(&step),
+            Err(LoopError::Refused(_)) => {}
+            Err(LoopError::Hook(never)) => match never {},
+        }
+        Ok(())
+    }
+
+    fn tick(&mut self, t: f64) -> std::result::Result<(), Infallible> {
+        let Ok(step) = self.edit_loop.tick(t, &mut self.timer);
+        self.record(&step);
+        Ok(())
+    }
+
+    fn tool(&self) -> Tool {
+        self.edit_loop.interaction.tool().clone()
+    }
+
+    fn head(&mut self, head: Option<HeadPose>) {
+        self.head = head;
+    }
+}
+
+/// Feeds records through the pipeline one at a time: the display server's
+/// [`Feeder`] (the frame stage, a serial wand's buttons, the thumbstick), then the
+/// [`EditLoop`] ([`Interaction`] → [`editor::apply`]): the same calls the display
+/// server makes.
+pub struct Replayer {
+    feeder: Feeder,
+    recorder: Recorder,
     pause_timeout: f64,
     first_t: Option<f64>,
     last_t: f64,
-    head: Option<HeadSample>,
-    events: Vec<StageEvent>,
     wand_id: u32,
-    stick: Option<ThumbstickDriver>,
 }
 
 impl Replayer {
     /// A replayer starting from `doc` (the base scene), in the config's start mode.
     pub fn new(cfg: &ReplayConfig, doc: Document, session: &str) -> Result<Self> {
         cfg.validate()?;
-        let stage = FrameStage::new(cfg.stage()).map_err(|source| Error::ConfigTracking {
+        let stage = cfg.stage();
+        stage.validate().map_err(|source| Error::ConfigTracking {
             section: "[tracking]",
             source,
         })?;
+        let feeder = Feeder::new(stage, cfg.interaction.pause_timeout, cfg.thumbstick).map_err(
+            |source| Error::ConfigDisplay {
+                section: "[tracking]",
+                source,
+            },
+        )?;
         let interaction = Interaction::new(cfg.interaction, cfg.tool.mode, cfg.tool.tool());
         let oplog = OpLogWriter::new(
             &OpLogHeader::new()
@@ -299,38 +342,38 @@ impl Replayer {
                 .with_method(editor::mode_name(cfg.tool.mode)),
         );
         Ok(Self {
-            stage,
-            edit_loop: EditLoop::new(interaction, doc),
-            timer: ApplyTimer::default(),
-            oplog,
-            segments: ModeSegments::new(editor::mode_name(cfg.tool.mode)),
-            metrics: Metrics {
-                session: session.to_string(),
-                ..Metrics::default()
+            feeder,
+            recorder: Recorder {
+                edit_loop: EditLoop::new(interaction, doc),
+                timer: ApplyTimer::default(),
+                oplog,
+                segments: ModeSegments::new(editor::mode_name(cfg.tool.mode)),
+                metrics: Metrics {
+                    session: session.to_string(),
+                    ..Metrics::default()
+                },
+                head: None,
             },
             pause_timeout: cfg.interaction.pause_timeout,
             first_t: None,
             last_t: 0.0,
-            head: None,
-            events: Vec::new(),
             wand_id: cfg.tracking.wand_id,
-            stick: cfg.thumbstick.map(ThumbstickDriver::new),
         })
     }
 
     /// The document so far.
     pub fn document(&self) -> &Document {
-        &self.edit_loop.doc
+        &self.recorder.edit_loop.doc
     }
 
     /// The interaction state (mode, tool, live stroke, wand).
     pub fn interaction(&self) -> &Interaction {
-        &self.edit_loop.interaction
+        &self.recorder.edit_loop.interaction
     }
 
-    /// The latest tracked head pose.
-    pub fn head(&self) -> Option<&HeadSample> {
-        self.head.as_ref()
+    /// The latest tracked head pose (display frame).
+    pub fn head(&self) -> Option<&HeadPose> {
+        self.recorder.head.as_ref()
     }
 
     /// Session time of the last frame used (seconds on the stage clock).
@@ -343,54 +386,109 @@ impl Replayer {
         self.first_t.map_or(0.0, |t0| self.last_t - t0)
     }
 
-    /// Feeds one pose-log record.
+    /// Feeds one pose-log record: a DTrack frame, or a serial wand line (its
+    /// buttons, or with a pose a frame, as the live hub takes it).
     pub fn feed(&mut self, rec: &Record) {
-        self.metrics.frames.records += 1;
-        if rec.kind != RecordKind::DTrack {
-            self.metrics.frames.other_kinds += 1;
-            return;
-        }
-        match rec.frame() {
-            Ok(frame) => self.feed_frame(&frame),
-            Err(_) => self.stage.bad_frame(),
+        self.recorder.metrics.frames.records += 1;
+        match rec.kind {
+            RecordKind::DTrack => match rec.frame() {
+                Ok(frame) => self.feed_frame(&frame),
+                Err(_) => self.feeder.bad_frame(),
+            },
+            RecordKind::Serial => {
+                self.recorder.metrics.frames.other_kinds += 1;
+                match tracking::serial::parse_serial(rec.bytes.trim_ascii_end()) {
+                    Ok(line) => {
+                        let mut frame = line.to_frame(self.wand_id, 0);
+                        frame.receive_time = rec.time;
+                        if line.pose.is_some() {
+                            self.feed_frame(&frame);
+                        } else {
+                            self.feed_input(&Input::Buttons(frame));
+                        }
+                    }
+                    Err(_) => self.feeder.bad_frame(),
+                }
+            }
         }
     }
 
     /// Feeds one decoded frame (in arrival order).
     pub fn feed_frame(&mut self, frame: &Frame) {
-        let mut events = std::mem::take(&mut self.events);
-        events.clear();
-        let accepted = self.stage.push(frame, &mut events);
-        if let Some(t) = self.stage.time() {
+        self.feed_input(&Input::Frame(frame.clone()));
+    }
+
+    /// Feeds one raw input through the feeder.
+    pub fn feed_input(&mut self, input: &Input) {
+        let Ok(_) = self.feeder.feed(input, &mut self.recorder);
+        if let Some(t) = self.feeder.stage().time() {
             self.first_t.get_or_insert(t);
             self.last_t = t;
         }
-        for ev in &events {
-            match ev {
-                StageEvent::Head(h) => self.head = Some(*h),
-                StageEvent::Wand(w) => self.wand(w),
-            }
-        }
-        self.events = events;
-        // The thumbstick's tool changes, after the frame's samples, as live.
-        if let (true, Some(t), Some(stick)) = (accepted, self.stage.time(), &mut self.stick) {
-            let tool = self.edit_loop.interaction.tool().clone();
-            for ev in stick.commands(t, frame, self.wand_id, &tool) {
-                self.wand_event(&ev);
-            }
-        }
     }
 
-    fn wand(&mut self, w: &StageWand) {
-        self.wand_event(&w.wand_event(0));
+    /// Ends the session at the last frame's time (a paused gesture is given its
+    /// timeout) and returns the outcome.
+    pub fn finish(self, corrupt_lines: usize, truncated_tail: bool) -> Outcome {
+        let Self {
+            feeder,
+            mut recorder,
+            pause_timeout,
+            first_t,
+            last_t,
+            ..
+        } = self;
+        let end = last_t + pause_timeout + sculpt_core::tolerance::TIME_EPS;
+        let Ok(()) = recorder.tick(end);
+        let stage = feeder.stage().metrics_until(last_t);
+        let m = &mut recorder.metrics;
+        m.frames.used = stage.used;
+        m.frames.bad_frames = stage.bad_frames;
+        m.frames.out_of_order = stage.out_of_order;
+        m.frames.without_wand = stage.without_wand;
+        m.frames.corrupt_lines = corrupt_lines;
+        m.frames.truncated_tail = truncated_tail;
+        m.frames.receive_timed = stage.receive_timed;
+        m.frames.clock_breaks = stage.clock_breaks;
+        m.tracking.losses = stage.losses;
+        m.tracking.timeouts = stage.timeouts;
+        m.tracking.lost_s = stage.lost_s;
+        m.duration_s = last_t - first_t.unwrap_or(last_t);
+        m.targets = recorder.edit_loop.doc.targets().len();
+        m.strokes = recorder.edit_loop.doc.strokes().len();
+        let solids = recorder.edit_loop.doc.solids();
+        m.solids = (!solids.is_empty()).then(|| SolidMetrics {
+            targets: solids.len(),
+            strokes: solids.iter().map(|s| s.solid.cuts().len()).sum(),
+            euler: solids
+                .iter()
+                .map(|s| sculpt_core::solid::euler_characteristic(&s.solid.mesh()))
+                .collect(),
+        });
+        let stroke_apply_us = std::mem::take(&mut recorder.timer.stroke_apply_us);
+        let mut sorted = stroke_apply_us.clone();
+        sorted.sort_by(f64::total_cmp);
+        let timing = Timing {
+            stroke_apply_median_us: sculpt_core::percentile::median(&sorted).unwrap_or(0.0),
+            stroke_apply_max_us: sorted.last().copied().unwrap_or(0.0),
+            stroke_apply_us,
+            ..Timing::default()
+        };
+        Outcome {
+            document: recorder.edit_loop.doc,
+            oplog: recorder.oplog.take(),
+            metrics: recorder.metrics,
+            timing,
+        }
     }
+}
 
-    fn wand_event(&mut self, ev: &sculpt_core::interaction::WandEvent) {
-        // Stage times never go back, so the interaction accepts every sample.
-        match self.edit_loop.handle(ev, &mut self.timer) {
-            Ok(step) => self.record(&step),
-            Err(LoopError::Refused(_)) => {}
-            Err(LoopError::Hook(never)) => match never {},
+impl Recorder {
+    /// Logs one operator event in its mode's segment; times are monotone by
+    /// construction, and a refused event is dropped.
+    fn log(&mut self, t: f64, kind: EventKind) {
+        for k in self.segments.marked(t, kind) {
+            let _ = self.oplog.push(t, k);
         }
     }
 
@@ -423,12 +521,7 @@ impl Replayer {
                             _ => {}
                         }
                     }
-                    // Times are monotone by construction; a refused event is dropped.
-                    let kind = editor::oplog_event(event);
-                    for mark in self.segments.before(*t, &kind) {
-                        let _ = self.oplog.push(*t, mark);
-                    }
-                    let _ = self.oplog.push(*t, kind);
+                    self.log(*t, editor::oplog_event(event));
                 }
                 LoopEvent::Edit { edit, applied } => self.applied(edit, applied, step.t),
             }
@@ -450,10 +543,7 @@ impl Replayer {
             self.stroke_applied(s, (*id, *target), (*pieces, *dropped), t);
         }
         if let Some(kind) = editor::oplog_applied(applied) {
-            for mark in self.segments.before(t, &kind) {
-                let _ = self.oplog.push(t, mark);
-            }
-            let _ = self.oplog.push(t, kind);
+            self.log(t, kind);
         }
         let g = &mut self.metrics.gestures;
         match applied {
@@ -512,54 +602,6 @@ impl Replayer {
             dropped_pieces,
             apply_latency_ms: (t - end_s) * 1000.0,
         });
-    }
-
-    /// Ends the session at the last frame's time (a paused gesture is given its
-    /// timeout) and returns the outcome.
-    pub fn finish(mut self, corrupt_lines: usize, truncated_tail: bool) -> Outcome {
-        let end = self.last_t + self.pause_timeout + sculpt_core::tolerance::TIME_EPS;
-        let Ok(step) = self.edit_loop.tick(end, &mut self.timer);
-        self.record(&step);
-        let stage = self.stage.metrics_until(self.last_t);
-        let m = &mut self.metrics;
-        m.frames.used = stage.used;
-        m.frames.bad_frames = stage.bad_frames;
-        m.frames.out_of_order = stage.out_of_order;
-        m.frames.without_wand = stage.without_wand;
-        m.frames.corrupt_lines = corrupt_lines;
-        m.frames.truncated_tail = truncated_tail;
-        m.frames.receive_timed = stage.receive_timed;
-        m.frames.clock_breaks = stage.clock_breaks;
-        m.tracking.losses = stage.losses;
-        m.tracking.timeouts = stage.timeouts;
-        m.tracking.lost_s = stage.lost_s;
-        m.duration_s = self.last_t - self.first_t.unwrap_or(self.last_t);
-        m.targets = self.edit_loop.doc.targets().len();
-        m.strokes = self.edit_loop.doc.strokes().len();
-        let solids = self.edit_loop.doc.solids();
-        m.solids = (!solids.is_empty()).then(|| SolidMetrics {
-            targets: solids.len(),
-            strokes: solids.iter().map(|s| s.solid.cuts().len()).sum(),
-            euler: solids
-                .iter()
-                .map(|s| sculpt_core::solid::euler_characteristic(&s.solid.mesh()))
-                .collect(),
-        });
-        let stroke_apply_us = std::mem::take(&mut self.timer.stroke_apply_us);
-        let mut sorted = stroke_apply_us.clone();
-        sorted.sort_by(f64::total_cmp);
-        let timing = Timing {
-            stroke_apply_median_us: sculpt_core::percentile::median(&sorted).unwrap_or(0.0),
-            stroke_apply_max_us: sorted.last().copied().unwrap_or(0.0),
-            stroke_apply_us,
-            ..Timing::default()
-        };
-        Outcome {
-            document: self.edit_loop.doc,
-            oplog: self.oplog.take(),
-            metrics: self.metrics,
-            timing,
-        }
     }
 }
 

@@ -156,10 +156,7 @@ impl SceneRenderer {
         let mut doc = replayer.document().clone();
         let head = replayer
             .head()
-            .map(|h| HeadPose {
-                position: h.pose.position_m,
-                orientation: h.pose.orientation,
-            })
+            .copied()
             .filter(|h| Views::new(&self.rig, &self.screen, h).is_ok())
             .unwrap_or(self.fixed_head);
         let views = Views::new(&self.rig, &self.screen, &head).map_err(err)?;

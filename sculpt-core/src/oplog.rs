@@ -409,6 +409,15 @@ impl ModeSegments {
         }
         out
     }
+
+    /// Every line to log at `t` for `kind`, in order: the segment events
+    /// ([`ModeSegments::before`]), then `kind` itself. The display server's operator
+    /// log and `replay`'s both write through this.
+    pub fn marked(&mut self, t: f64, kind: EventKind) -> Vec<EventKind> {
+        let mut out = self.before(t, &kind);
+        out.push(kind);
+        out
+    }
 }
 
 /// Checks one event's values; the reason when it is bad.

@@ -10,12 +10,44 @@ use sculpt_core::sculpt::tessellate::Detail;
 use crate::config::Config;
 use crate::desktop_view::DesktopView;
 use crate::desktop_wand::{Aim, DesktopPointer, EmulatedWand, PointerRig};
-use crate::error::VrResult;
+use crate::error::{VrError, VrResult};
+use crate::feeder::Sink;
 pub use crate::input::TrackingState;
 use crate::projection::{HeadPose, Screen, StereoRig};
 pub use crate::scene::{FOOTPRINT_REACH, MeshSinks, MeshSync, PREVIEW_KEY};
 use crate::scene::{LineVertex, SceneState, Views};
 use crate::session::Session;
+
+/// The display server's session as the feeder's sink: wand events and ticks are
+/// journalled and applied ([`Session::handle`], [`Session::tick`]), keys logged,
+/// the head and tracking status kept for the views and the HUD.
+impl Sink for AppState {
+    type Error = VrError;
+
+    fn wand(&mut self, ev: &sculpt_core::interaction::WandEvent) -> VrResult<()> {
+        self.session.wand(ev)
+    }
+
+    fn tick(&mut self, t: f64) -> VrResult<()> {
+        Sink::tick(&mut self.session, t)
+    }
+
+    fn tool(&self) -> sculpt_core::interaction::Tool {
+        self.session.tool()
+    }
+
+    fn head(&mut self, head: Option<HeadPose>) {
+        self.set_head(head);
+    }
+
+    fn tracking(&mut self, state: TrackingState) {
+        self.tracking = state;
+    }
+
+    fn key(&mut self, t: f64, key: &str) {
+        Sink::key(&mut self.session, t, key);
+    }
+}
 
 /// The app state of one display server.
 #[derive(Debug)]
@@ -104,7 +136,7 @@ impl AppState {
     /// [`AppState::sync_meshes`] writes the whole document again.
     pub fn new_sinks(&mut self) {
         self.scene = SceneState::default();
-        self.session.draw_parts().0.forget_sinks();
+        self.session.forget_sinks();
     }
 
     /// Whether the desktop wand tip follows the surface under the pointer: in the

@@ -156,6 +156,10 @@ pub struct TrackingSection {
     /// A source the app plays itself: a pose-log file or the simulator.
     #[serde(default)]
     pub playback: Option<Playback>,
+    /// The wand's analog axes as tool changes (`[tracking.thumbstick]`, as `replay`'s
+    /// `[thumbstick]`); absent: the axes change nothing.
+    #[serde(default)]
+    pub thumbstick: Option<crate::thumbstick::ThumbstickTool>,
 }
 
 /// A source the app plays into the hub itself, in real time: `[tracking.playback]`
@@ -269,6 +273,11 @@ impl TrackingSection {
         stage
             .validate()
             .map_err(|cause| tracking_config("tracking", cause))?;
+        if let Some(stick) = &self.thumbstick {
+            stick
+                .validate()
+                .map_err(|e| VrError::Config(ConfigError::Thumbstick(e)))?;
+        }
         Ok(stage)
     }
 

@@ -8,6 +8,7 @@ use serde::Serialize;
 
 use crate::app::AppState;
 use crate::error::{VrError, VrResult};
+use crate::feeder::Feeder;
 /// The inputs of a run (defined with the other session inputs in [`crate::input`]).
 pub use crate::input::Input;
 use crate::journal::Journal;
@@ -58,7 +59,8 @@ pub struct HeadlessReport {
     pub failed: Vec<String>,
 }
 
-/// Runs `inputs` through the session in `app`, rendering with `gpu`, and writes
+/// Runs `inputs` through the [`Feeder`] of `app`'s config into its session,
+/// rendering with `gpu`, and writes
 /// `frame.png` (the `mode` composition) and, in the stereo modes, `left.png` and
 /// `right.png` (each eye as its projector shows it), the saved document, the journal
 /// and the operator log into the session directory. The pictures carry no HUD (it is
@@ -78,31 +80,33 @@ pub fn run_headless(
     renderer.swap_eyes = app.config.display.swap_eyes;
     renderer.set_material(app.config.render.material);
     let mut frame_times: Vec<Duration> = Vec::new();
+    let mut feeder = Feeder::for_config(&app.config)?;
     let mut count = 0usize;
     let mut wand_events = 0usize;
+    // The last wand time: a wand event's, or the stage's after a frame.
     let mut last_t = 0.0;
     let started = std::time::Instant::now();
     for input in inputs {
         count += 1;
-        match input {
-            Input::Wand(ev) => {
-                if opts.realtime && ev.t.is_finite() && ev.t >= 0.0 {
-                    let due = started + Duration::from_secs_f64(ev.t.min(1e6));
-                    if let Some(wait) = due.checked_duration_since(std::time::Instant::now()) {
-                        std::thread::sleep(wait);
-                    }
-                }
-                app.session.handle(&ev)?;
-                last_t = ev.t;
-                wand_events += 1;
-                if opts.render_every > 0 && wand_events.is_multiple_of(opts.render_every) {
-                    frame_times.push(render_frame(app, &mut renderer, opts)?);
-                }
+        if let (true, Input::Wand(ev)) = (opts.realtime, &input)
+            && ev.t.is_finite()
+            && ev.t >= 0.0
+        {
+            let due = started + Duration::from_secs_f64(ev.t.min(1e6));
+            if let Some(wait) = due.checked_duration_since(std::time::Instant::now()) {
+                std::thread::sleep(wait);
             }
-            Input::Head(h) => app.set_head(h),
-            Input::Tracking(t) => app.tracking = t,
-            Input::Tick(t) => {
-                app.session.tick(t)?;
+        }
+        feeder.feed(&input, app)?;
+        match &input {
+            Input::Wand(ev) => last_t = ev.t,
+            Input::Frame(_) => last_t = feeder.stage().time().unwrap_or(last_t),
+            _ => {}
+        }
+        if matches!(input, Input::Wand(_) | Input::Frame(_)) {
+            wand_events += 1;
+            if opts.render_every > 0 && wand_events.is_multiple_of(opts.render_every) {
+                frame_times.push(render_frame(app, &mut renderer, opts)?);
             }
         }
     }

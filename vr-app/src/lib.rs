@@ -57,6 +57,7 @@ pub mod demo;
 pub mod desktop_view;
 pub mod desktop_wand;
 pub mod error;
+pub mod feeder;
 pub mod gpu_eval;
 pub mod gpu_volume;
 pub mod headless;
@@ -72,6 +73,7 @@ pub mod render;
 pub mod scene;
 pub mod session;
 pub mod study;
+pub mod thumbstick;
 #[cfg(feature = "window")]
 pub mod window;
 pub mod xr;

@@ -2,21 +2,16 @@
 //! owned here, plus the app's own playback sources (a pose-log file or the tracker
 //! simulator, fed into the same hub in real time), and the per-frame stage.
 //!
-//! **Every** frame received goes, in arrival order, through the same pure
-//! [`FrameStage`] that `replay` runs (`tracking::stage`: order check, time from the
-//! frame's DTrack `ts`, calibration with the tool tip, filter, loss and timeout), then
-//! to the interaction as wand events stamped with the stage's time. Nothing is
-//! sampled "latest only", so a live session builds the same document as the offline
-//! replay of its pose log, across a tracker restart or `ts` jumps too (the stage's
-//! order and clock rules read the stream alone where frames carry `ts`). Frames
-//! without `ts` are timed by their arrival, and a silence in arrival longer than the
-//! stage timeout is a loss live only: there the two may differ
-//! (`docs/formats/tracking-config.md`).
-//!
-//! When no frame arrives for longer than the stage timeout, [`FrameStage::idle`]
-//! reports the wand lost; a stroke paused by that loss ends `pause_timeout` later
-//! (an [`Input::Tick`]). Buttons of a buttons-only source (a serial wand without a
-//! pose) are merged into the wand's next samples.
+//! **Every** frame received goes, in arrival order, to the caller as a raw
+//! [`Input`] ([`Input::Frame`], or [`Input::Buttons`] from a buttons-only source such
+//! as a serial wand without a pose), and [`Input::Silence`] when nothing arrived; the
+//! caller's [`Feeder`](crate::feeder::Feeder) runs them through the same pure
+//! [`FrameStage`](tracking::stage::FrameStage) that `replay` runs. Nothing is sampled
+//! "latest only", so a live session builds the same document as the offline replay of
+//! its pose log, across a tracker restart or `ts` jumps too (the stage's order and
+//! clock rules read the stream alone where frames carry `ts`). Frames without `ts` are
+//! timed by their arrival, and a silence in arrival longer than the stage timeout is a
+//! loss live only: there the two may differ (`docs/formats/tracking-config.md`).
 
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -29,33 +24,12 @@ use sculpt_core::editor;
 use tracking::hub::{FrameSubscription, Hub};
 use tracking::poselog::PoseLog;
 use tracking::sim::{Script, Simulator};
-use tracking::stage::{FrameStage, StageEvent};
 use tracking::{Frame, transport};
 
 pub use crate::config::Playback;
 use crate::config::TrackingSection;
 use crate::error::{ConfigError, VrError, VrResult};
-use crate::input::{Input, TrackingState};
-use crate::projection::HeadPose;
-
-/// How long past a paused gesture's timeout the live clock must be before it is
-/// ended with a tick (keeps ticks safely behind the next frame's time).
-const TICK_MARGIN_S: f64 = 0.25;
-
-/// The inputs for frame-stage events: wand samples (the stage's own conversion,
-/// [`tracking::stage::WandSample::wand_event`], which `replay` makes too, with
-/// `extra_buttons` of a buttons-only source merged in) and tracked head poses.
-pub fn stage_inputs(events: &[StageEvent], extra_buttons: u64, out: &mut Vec<Input>) {
-    for ev in events {
-        match ev {
-            StageEvent::Wand(w) => out.push(Input::Wand(w.wand_event(extra_buttons))),
-            StageEvent::Head(h) => out.push(Input::Head(Some(HeadPose {
-                position: h.pose.position_m,
-                orientation: h.pose.orientation,
-            }))),
-        }
-    }
-}
+use crate::input::Input;
 
 /// Playback's I/O: the frames of a pose-log file or of a simulator run.
 impl Playback {
@@ -180,40 +154,27 @@ pub struct LiveTracking {
     running: transport::Running,
     playback: Option<PlaybackThread>,
     frames: FrameSubscription,
-    stage: FrameStage,
     wand_id: u32,
-    pause_timeout: f64,
-    /// Buttons reported by a buttons-only source.
-    extra_buttons: u64,
     /// Receive time of the last frame.
     last_receive: Option<Duration>,
     /// Sources that have sent a frame with the configured wand: only these can end a
     /// session by going away (a stray peer's frame and close cannot).
     served: std::collections::BTreeSet<tracking::hub::SourceId>,
-    /// Time of the lost sample the idle check emitted, until a tick ended the pause.
-    idle_lost_at: Option<f64>,
-    state: Option<TrackingState>,
-    events: Vec<StageEvent>,
     /// Sources fed from outside (the cluster's tracking feed), registered after the
     /// configured ones and the playback source.
     feeds: Vec<tracking::hub::SourceId>,
     /// Receive times of the frames the last poll handed to the stage.
     staged: Vec<Duration>,
-    // Declared last so the transports are aborted before the runtime shuts down.
-    runtime: tokio::runtime::Runtime,
+    // Declared last so the transports are aborted before the runtime shuts down; held
+    // only to keep the transports running.
+    _runtime: tokio::runtime::Runtime,
 }
 
 impl LiveTracking {
     /// Starts every configured source (binding listeners now; connections are retried
-    /// in the background) and the playback source, if any. `pause_timeout` is the
-    /// interaction's (a stroke paused by silence ends that long after the loss).
-    pub fn start(section: &TrackingSection, pause_timeout: f64) -> VrResult<Self> {
-        let stage_config = section.stage_config()?;
-        let wand_id = stage_config.wand_id;
-        let stage = FrameStage::new(stage_config).map_err(|reason| VrError::Tracking {
-            what: "tracking".into(),
-            reason: Box::new(reason),
-        })?;
+    /// in the background) and the playback source, if any.
+    pub fn start(section: &TrackingSection) -> VrResult<Self> {
+        let wand_id = section.stage_config()?.wand_id;
         let runtime = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
             .enable_all()
@@ -251,18 +212,12 @@ impl LiveTracking {
             running,
             playback,
             frames,
-            stage,
             wand_id,
-            pause_timeout,
-            extra_buttons: 0,
             last_receive: None,
             served: std::collections::BTreeSet::new(),
-            idle_lost_at: None,
-            state: None,
-            events: Vec::new(),
             feeds: Vec::new(),
             staged: Vec::new(),
-            runtime,
+            _runtime: runtime,
         })
     }
 
@@ -322,56 +277,26 @@ impl LiveTracking {
         &self.staged
     }
 
-    /// Everything new since the last poll, in order.
+    /// Everything received since the last poll, in arrival order, as raw inputs for
+    /// a [`Feeder`](crate::feeder::Feeder); [`Input::Silence`] at the hub's clock
+    /// when nothing arrived.
     pub fn poll(&mut self) -> Vec<Input> {
-        let _guard = self.runtime.enter();
         let mut out = Vec::new();
-        let mut events = std::mem::take(&mut self.events);
-        events.clear();
-        let mut got = false;
         self.staged.clear();
         while let Some(f) = self.frames.try_recv() {
-            got = true;
             self.last_receive = Some(f.frame.receive_time);
             if f.frame.wand(self.wand_id).is_some() {
                 self.served.insert(f.source);
             }
-            if !f.carries_pose {
-                if let Some(w) = f.frame.wand(self.wand_id) {
-                    self.extra_buttons = w.buttons;
-                }
-                continue;
-            }
-            self.staged.push(f.frame.receive_time);
-            self.stage.push(&f.frame, &mut events);
-        }
-        if got {
-            self.idle_lost_at = None;
-        } else if self.stage.idle(self.hub.now(), &mut events) {
-            self.idle_lost_at = events.iter().rev().find_map(|e| e.wand().map(|w| w.t));
-        }
-        stage_inputs(&events, self.extra_buttons, &mut out);
-        self.events = events;
-        // Silence past a loss: end a paused stroke once its timeout is well behind
-        // the live clock.
-        if let (Some(lost_t), Some(stage_t), Some(last)) =
-            (self.idle_lost_at, self.stage.time(), self.last_receive)
-        {
-            let end = lost_t + self.pause_timeout + sculpt_core::tolerance::TIME_EPS;
-            let now = stage_t + self.hub.now().saturating_sub(last).as_secs_f64();
-            if now > end + TICK_MARGIN_S {
-                out.push(Input::Tick(end));
-                self.idle_lost_at = None;
+            if f.carries_pose {
+                self.staged.push(f.frame.receive_time);
+                out.push(Input::Frame(f.frame));
+            } else {
+                out.push(Input::Buttons(f.frame));
             }
         }
-        let state = if self.stage.wand_tracked() {
-            TrackingState::Ok
-        } else {
-            TrackingState::Lost
-        };
-        if self.state != Some(state) {
-            self.state = Some(state);
-            out.push(Input::Tracking(state));
+        if out.is_empty() {
+            out.push(Input::Silence(self.hub.now()));
         }
         out
     }

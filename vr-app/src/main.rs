@@ -293,6 +293,7 @@ fn run(cli: Cli) -> Result<()> {
                 timeout: tracking::stage::StageConfig::default().timeout_s,
                 input: Default::default(),
                 playback: None,
+                thumbstick: None,
             });
         section
             .input
@@ -365,7 +366,7 @@ fn run(cli: Cli) -> Result<()> {
         let events: Box<dyn Iterator<Item = Input>> = if cli.demo {
             Box::new(demo().into_iter().map(Input::Wand))
         } else if let Some(section) = &app.config.tracking {
-            let live = start_live(section, &app, cli.addr_file.as_deref())?;
+            let live = start_live(section, cli.addr_file.as_deref())?;
             Box::new(live_inputs(live, cli.idle_exit, cli.duration))
         } else {
             // A scene and no input (checked above): render the scene as it is.
@@ -400,7 +401,7 @@ fn run(cli: Cli) -> Result<()> {
     let input = if cli.demo {
         WindowInput::Scripted(demo())
     } else if let Some(section) = &app.config.tracking {
-        let mut live = start_live(section, &app, cli.addr_file.as_deref())?;
+        let mut live = start_live(section, cli.addr_file.as_deref())?;
         WindowInput::Live(Box::new(move |_| live.poll()))
     } else {
         WindowInput::Desktop
@@ -518,10 +519,9 @@ fn run_cluster(cli: &Cli, role: ClusterRole, config: Config) -> Result<()> {
 /// Starts live tracking and reports where listening sources are bound.
 fn start_live(
     section: &vr_app::config::TrackingSection,
-    app: &AppState,
     addr_file: Option<&std::path::Path>,
 ) -> Result<LiveTracking> {
-    let live = LiveTracking::start(section, app.config.interaction.pause_timeout)?;
+    let live = LiveTracking::start(section)?;
     let bound: Vec<String> = live
         .local_addrs()
         .iter()
@@ -565,7 +565,9 @@ fn live_inputs(
                 .last_report()
                 .is_some_and(|last| live.now().saturating_sub(last).as_secs_f64() > idle_exit);
             let timed_out = start.elapsed().as_secs_f64() > duration;
-            pending.extend(live.poll());
+            let polled = live.poll();
+            let quiet = matches!(polled.as_slice(), [Input::Silence(_)]);
+            pending.extend(polled);
             if gone || idle || timed_out {
                 tracing::info!(
                     sources_gone = gone,
@@ -575,7 +577,7 @@ fn live_inputs(
                     "live input finished"
                 );
                 done = true;
-            } else if pending.is_empty() {
+            } else if quiet {
                 std::thread::sleep(std::time::Duration::from_millis(2));
             }
         }

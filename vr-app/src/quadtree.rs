@@ -3,18 +3,19 @@
 //! target is drawn there) blue, boundary leaves (cut along a stroke's outline) amber,
 //! interior leaves (hidden, the stroke surface fills them) red.
 //!
-//! The map is the one sculpting builds: the root grid planned for the detail's chord
-//! tolerance ([`GridPlan`]), updated with the union of the target's stroke footprints
-//! down to the detail's depth cap. Shown with `display.quadtree = true` in the config,
-//! `--quadtree`, or the `G` key.
+//! The map is the one sculpting uses, asked of the document
+//! ([`Document::uv_map`]): the target's tessellation view at the detail drawn, with
+//! the grid planned for the detail's chord tolerance of the surface's extent, wrapped
+//! on closed sides, and updated with the target's stroke footprints. So draw it after
+//! the meshes were synchronised at that detail; a target not yet tessellated there
+//! (or drawn as one patch of a conforming network) shows no leaves. Shown with
+//! `display.quadtree = true` in the config, `--quadtree`, or the `G` key.
 
 use glam::{DVec2, DVec3};
 use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::jordan::NodeClass;
-use sculpt_core::sculpt::stroke::union;
-use sculpt_core::sculpt::surface::{ParamSurface, normal_from};
-use sculpt_core::sculpt::tessellate::{Detail, GridPlan, MAX_GRID, height};
-use sculpt_core::sculpt::uvmap::UvMap;
+use sculpt_core::sculpt::surface::{ParamSurface, extent, normal_from};
+use sculpt_core::sculpt::tessellate::{Detail, height};
 
 use crate::scene::LineVertex;
 
@@ -38,20 +39,24 @@ pub fn class_color(class: NodeClass) -> [f32; 4] {
     }
 }
 
-/// The leaves of every target's UV map at `detail`, as line segments (vertex pairs)
-/// on the sculpted surfaces, appended to `out`. Returns the number of leaves drawn.
+/// The lift of the lines off the surface: [`LIFT_TOLERANCES`] of the tessellation's
+/// chord tolerance at `detail` (of the surface's extent, as the grid is planned).
+fn lift(surface: &dyn ParamSurface, detail: Detail) -> f64 {
+    LIFT_TOLERANCES * detail.tolerance(extent(surface).diagonal())
+}
+
+/// The leaves of every target's UV map at `detail` ([`Document::uv_map`]: the map
+/// sculpting uses), as line segments (vertex pairs) on the sculpted surfaces,
+/// appended to `out`. Returns the number of leaves drawn.
 pub fn quadtree_lines(doc: &Document, detail: Detail, out: &mut Vec<LineVertex>) -> usize {
     let mut leaves = 0;
     for target in doc.targets() {
+        let Some(map) = doc.uv_map(target.id, detail) else {
+            continue;
+        };
         let surface = target.target_surface();
-        let tol = detail.tolerance(target.surface.size());
-        let plan = GridPlan::new(surface, tol);
-        let mut map = UvMap::new(plan.n.clamp(1, MAX_GRID));
-        map.set_min_levels(&plan.min_levels);
         let strokes = doc.strokes_on(target.id);
-        let footprints: Vec<_> = strokes.iter().map(|(_, s)| &s.footprint).collect();
-        map.update(&union(&footprints), None, detail.cap());
-        let lift = LIFT_TOLERANCES * tol;
+        let lift = lift(surface, detail);
         let at = |uv: DVec2| -> DVec3 {
             let sp = surface.eval(uv);
             let n = normal_from(surface, uv, &sp);
@@ -89,9 +94,39 @@ mod tests {
         Document::from_json(&std::fs::read(path).unwrap()).unwrap()
     }
 
+    /// `doc` tessellated at `detail`, as the renderer's sync does before the overlay.
+    fn tessellated(mut doc: Document, detail: Detail) -> Document {
+        doc.tessellate(detail, &mut sculpt_core::mesh::PatchMesh::default());
+        doc
+    }
+
+    /// Regression (issue 32): the overlay rebuilt the UV map on its own, sized by the
+    /// control net's diagonal instead of the surface's extent and without wrapping the
+    /// closed sides, so it could show another quadtree than the one sculpting used.
+    /// It draws the document's own map now: every leaf of it, nothing before the
+    /// document was tessellated at that detail.
+    #[test]
+    fn regression_the_overlay_draws_the_map_sculpting_uses() {
+        let doc = scene("sphere-overlaps.json");
+        let mut lines = Vec::new();
+        assert_eq!(quadtree_lines(&doc, Detail::Final, &mut lines), 0);
+        let doc = tessellated(doc, Detail::Final);
+        let leaves: usize = doc
+            .targets()
+            .iter()
+            .map(|t| doc.uv_map(t.id, Detail::Final).unwrap().leaves().count())
+            .sum();
+        assert!(leaves > 0);
+        assert_eq!(quadtree_lines(&doc, Detail::Final, &mut lines), leaves);
+        assert!(
+            doc.uv_map(doc.targets()[0].id, Detail::Interactive)
+                .is_none()
+        );
+    }
+
     #[test]
     fn leaves_of_every_class_are_drawn_in_their_colours_on_the_surface() {
-        let doc = scene("curved-patch-carved.json");
+        let doc = tessellated(scene("curved-patch-carved.json"), Detail::Final);
         let mut lines = Vec::new();
         let leaves = quadtree_lines(&doc, Detail::Final, &mut lines);
         assert!(leaves > 100, "{leaves}");
@@ -105,7 +140,7 @@ mod tests {
         let target = &doc.targets()[0];
         let surface = target.target_surface();
         let strokes = doc.strokes_on(target.id);
-        let lift = LIFT_TOLERANCES * Detail::Final.tolerance(target.surface.size());
+        let lift = lift(surface, Detail::Final);
         let offset = |v: &LineVertex| {
             let p = DVec3::from_array(v.position.map(f64::from));
             let pr = surface.closest_point(p);
@@ -128,6 +163,7 @@ mod tests {
         let mut doc = Document::new();
         let t = &scene.targets()[0];
         doc.add_target(&t.name, t.surface.clone());
+        let doc = tessellated(doc, Detail::Interactive);
         let mut lines = Vec::new();
         assert!(quadtree_lines(&doc, Detail::Interactive, &mut lines) > 0);
         assert!(lines.iter().all(|v| v.color == EXTERIOR_COLOR));

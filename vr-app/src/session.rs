@@ -242,11 +242,6 @@ impl OperatorLog {
 
     /// Logs one event (and captures it for a study trial being recorded).
     fn push_kind(&mut self, t: f64, kind: EventKind) {
-        if let Some(segments) = &mut self.segments {
-            for mark in segments.before(t, &kind) {
-                self.write(t, mark);
-            }
-        }
         if let Some(c) = &mut self.capture
             && t >= self.last_t
         {
@@ -255,7 +250,13 @@ impl OperatorLog {
                 kind: kind.clone(),
             });
         }
-        self.write(t, kind);
+        let lines = match &mut self.segments {
+            Some(segments) => segments.marked(t, kind),
+            None => vec![kind],
+        };
+        for k in lines {
+            self.write(t, k);
+        }
     }
 
     /// Writes one event to the file (after a pending `trial_start`, at the same time).
@@ -452,13 +453,53 @@ impl Deref for Session {
     }
 }
 
+/// A session as the feeder's sink with no views: wand events and ticks journalled
+/// and applied, keys logged (the display server's [`AppState`](crate::app::AppState)
+/// adds the head and the tracking status).
+impl crate::feeder::Sink for Session {
+    type Error = VrError;
+
+    fn wand(&mut self, ev: &WandEvent) -> VrResult<()> {
+        self.handle(ev).map(drop)
+    }
+
+    fn tick(&mut self, t: f64) -> VrResult<()> {
+        Session::tick(self, t).map(drop)
+    }
+
+    fn tool(&self) -> sculpt_core::interaction::Tool {
+        self.edit_loop.interaction.tool().clone()
+    }
+
+    fn key(&mut self, t: f64, key: &str) {
+        Session::key(self, t, key);
+    }
+}
+
 impl Session {
-    /// The document (mutable, for tessellation caches) and the interaction, for
-    /// drawing. Edits go only through [`Session::handle`] and [`Session::tick`], which
-    /// journal them first: the session gives out no `&mut EditLoop`.
+    /// The document (mutable for its tessellation views only: the renderer's mesh
+    /// sync) and the interaction, for drawing. Edits go only through
+    /// [`Session::handle`] and [`Session::tick`], which journal them first, and a whole
+    /// document only through [`Session::replace_document`]: the session gives out no
+    /// `&mut EditLoop`.
     pub fn draw_parts(&mut self) -> (&mut Document, &Interaction) {
         let edits = &mut self.edit_loop;
         (&mut edits.doc, &edits.interaction)
+    }
+
+    /// Replaces the whole document with `doc` (a cluster node's document rebuilt
+    /// from its operation stream): the interaction is told the new document's
+    /// targets, and the next mesh sync writes every patch (`doc`'s views start
+    /// fresh). Not journalled: the caller's record (the stream) holds the operations.
+    pub fn replace_document(&mut self, doc: Document) {
+        self.edit_loop.doc = doc;
+        self.edit_loop.sync_targets();
+    }
+
+    /// Forgets what the document's tessellation views wrote (a new renderer with
+    /// empty mesh sinks): the next mesh sync writes every patch again.
+    pub fn forget_sinks(&mut self) {
+        self.edit_loop.doc.forget_sinks();
     }
 
     /// Opens the session in `config.files.dir`: loads the base scene
@@ -1093,6 +1134,24 @@ mod tests {
         s.handle(&WandEvent::command(0.5, Command::Undo)).unwrap();
         assert_eq!(Journal::read(run.join(JOURNAL_FILE)).unwrap().len(), 3);
         assert!(s.doc.strokes().is_empty());
+    }
+
+    /// A replaced document (a cluster node's rebuild) is the session's, and the
+    /// interaction selects among its targets: before `replace_document` the cluster
+    /// wrote the document through `&mut` and left the interaction's targets stale.
+    #[test]
+    fn a_replaced_document_is_the_one_edited_and_its_targets_are_selectable() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = Session::open(&config(dir.path())).unwrap();
+        let mut doc = editor::default_document();
+        let second = doc.add_target("second", editor::default_surface());
+        let journalled = s.operations();
+        s.replace_document(doc.clone());
+        assert_eq!(s.doc.to_json(), doc.to_json());
+        assert_eq!(s.operations(), journalled, "not journalled");
+        s.handle(&WandEvent::command(0.0, Command::SelectNextTarget))
+            .unwrap();
+        assert_eq!(s.interaction.target(), second);
     }
 
     #[test]

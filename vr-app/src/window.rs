@@ -26,7 +26,9 @@ use winit::window::{Fullscreen, Window, WindowId};
 use crate::app::AppState;
 use crate::cluster::node::{NodeLoop, NodeReport};
 use crate::error::{AdapterError, GpuError, VrError, VrResult};
+use crate::feeder::Feeder;
 use crate::headless::HeadlessOptions;
+use crate::input::Input;
 use crate::output::OutputMode;
 use crate::render::{FrameInput, Gpu, OutputContent, OutputTarget, Renderer};
 use crate::session::MouseOperator;
@@ -330,8 +332,9 @@ pub enum WindowInput {
     Desktop,
     /// Scripted events, played in real time (the demo).
     Scripted(Vec<WandEvent>),
-    /// Live events from a tracker, polled each frame.
-    Live(Box<dyn FnMut(f64) -> Vec<crate::input::Input>>),
+    /// Live raw inputs from a tracker, polled each frame and fed through the
+    /// window's [`Feeder`].
+    Live(Box<dyn FnMut(f64) -> Vec<Input>>),
 }
 
 impl std::fmt::Debug for WindowInput {
@@ -364,6 +367,8 @@ struct WindowApp<'n> {
     /// and its frames present through the swap lock.
     node: Option<&'n mut NodeLoop>,
     scripted: VecDeque<WandEvent>,
+    /// Raw inputs to wand events and edits, as every driver does it.
+    feeder: Feeder,
     running: Option<Running>,
     error: Option<VrError>,
     start: Instant,
@@ -383,7 +388,7 @@ struct WindowApp<'n> {
 /// Opens the windows and runs until they close (or, with `frames`, until that many
 /// frames were drawn).
 pub fn run_windowed(app: AppState, input: WindowInput, frames: Option<u64>) -> VrResult<()> {
-    let mut wa = WindowApp::new(app, input, None, frames);
+    let mut wa = WindowApp::new(app, input, None, frames)?;
     let result = wa.run();
     // A trial still being recorded ends with the session.
     if let Some(study) = &mut wa.app.study
@@ -420,7 +425,7 @@ pub fn run_windowed_node(
     mut node: NodeLoop,
     pictures: &HeadlessOptions,
 ) -> VrResult<NodeReport> {
-    let mut wa = WindowApp::new(app, WindowInput::Desktop, Some(&mut node), None);
+    let mut wa = WindowApp::new(app, WindowInput::Desktop, Some(&mut node), None)?;
     wa.run()?;
     let WindowApp {
         mut app, running, ..
@@ -440,16 +445,18 @@ impl<'n> WindowApp<'n> {
         input: WindowInput,
         node: Option<&'n mut NodeLoop>,
         frames: Option<u64>,
-    ) -> Self {
+    ) -> VrResult<Self> {
         let scripted = match &input {
             WindowInput::Scripted(ev) => ev.iter().cloned().collect(),
             _ => VecDeque::new(),
         };
-        Self {
+        let feeder = Feeder::for_config(&app.config)?;
+        Ok(Self {
             app,
             input,
             node,
             scripted,
+            feeder,
             running: None,
             error: None,
             start: Instant::now(),
@@ -462,6 +469,13 @@ impl<'n> WindowApp<'n> {
             last_t: 0.0,
             frames_left: frames,
             over: false,
+        })
+    }
+
+    /// Feeds one raw input to the session through the feeder; an error is logged.
+    fn feed(&mut self, input: &Input) {
+        if let Err(e) = self.feeder.feed(input, &mut self.app) {
+            tracing::error!("{e}");
         }
     }
 
@@ -584,7 +598,7 @@ impl<'n> WindowApp<'n> {
         let done = match &mut self.node {
             // A cluster node's edits go through the stream.
             Some(node) => node.command(&mut self.app, &ev),
-            None => self.app.session.handle(&ev).map(drop),
+            None => self.feeder.feed(&Input::Wand(ev), &mut self.app).map(drop),
         };
         if let Err(e) = done {
             tracing::error!("{e}");
@@ -608,7 +622,10 @@ impl<'n> WindowApp<'n> {
         let t = self.command_time();
         if key_is_operator(&action) {
             // Every key of the task is an operator (K), logged before its command.
-            self.app.session.key(t, binding.label);
+            self.feed(&Input::Key {
+                t,
+                key: binding.label.to_owned(),
+            });
         }
         let tool = self.app.session.interaction.tool().clone();
         match action {
@@ -696,9 +713,7 @@ impl<'n> WindowApp<'n> {
         self.last_t = t;
         let size = self.window_size();
         let sample = self.app.desktop_sample(self.cursor, size, self.buttons);
-        if let Err(e) = self.app.session.handle(&WandEvent::sample(t, sample)) {
-            tracing::error!("{e}");
-        }
+        self.feed(&Input::Wand(WandEvent::sample(t, sample)));
     }
 
     /// Desktop input: a wand sample now, for a press or release of the wand's button,
@@ -727,37 +742,21 @@ impl<'n> WindowApp<'n> {
             WindowInput::Desktop => self.sample_pointer(t),
             WindowInput::Scripted(_) => {
                 while self.scripted.front().is_some_and(|e| e.t <= t) {
-                    if let Some(ev) = self.scripted.pop_front()
-                        && let Err(e) = self.app.session.handle(&ev)
-                    {
-                        tracing::error!("{e}");
+                    if let Some(ev) = self.scripted.pop_front() {
+                        self.feed(&Input::Wand(ev));
                     }
                 }
             }
             WindowInput::Live(poll) => {
-                for input in poll(t) {
-                    match input {
-                        crate::input::Input::Wand(ev) => {
-                            if let Err(e) = self.app.session.handle(&ev) {
-                                tracing::error!("{e}");
-                            }
-                        }
-                        crate::input::Input::Head(h) => self.app.set_head(h),
-                        crate::input::Input::Tracking(s) => self.app.tracking = s,
-                        crate::input::Input::Tick(t) => {
-                            if let Err(e) = self.app.session.tick(t) {
-                                tracing::error!("{e}");
-                            }
-                        }
-                    }
+                let inputs = poll(t);
+                for input in &inputs {
+                    self.feed(input);
                 }
                 // Live time is the tracker's (the frame stage's clock), not this one.
                 return;
             }
         }
-        if let Err(e) = self.app.session.tick(t) {
-            tracing::error!("{e}");
-        }
+        self.feed(&Input::Tick(t));
     }
 
     fn redraw(&mut self) {

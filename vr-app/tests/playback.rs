@@ -8,11 +8,10 @@ use std::process::Command;
 use sculpt_core::oplog::{EventKind, decode_bytes};
 use sculpt_core::sculpt::document::Document;
 use tracking::poselog::PoseLog;
-use tracking::stage::FrameStage;
 use vr_app::config::Config;
+use vr_app::feeder::Feeder;
 use vr_app::headless::Input;
 use vr_app::journal::Journal;
-use vr_app::live::stage_inputs;
 use vr_app::session::{DOCUMENT_FILE, JOURNAL_FILE, OPLOG_FILE, Session};
 
 fn session_log(name: &str) -> PathBuf {
@@ -53,24 +52,13 @@ fn offline_document(log: &Path, dir: &Path) -> Vec<u8> {
     )
     .unwrap();
     cfg.files.dir = dir.to_path_buf();
-    let section = cfg.tracking.clone().unwrap();
-    let mut stage = FrameStage::new(section.stage_config().unwrap()).unwrap();
+    let mut feeder = Feeder::for_config(&cfg).unwrap();
     let mut session = Session::open(&cfg).unwrap();
     let (frames, _) = PoseLog::read(log).unwrap().frames();
-    let mut events = Vec::new();
-    let mut inputs = Vec::new();
     let mut last_t = 0.0;
-    for f in &frames {
-        events.clear();
-        inputs.clear();
-        stage.push(f, &mut events);
-        stage_inputs(&events, 0, &mut inputs);
-        for i in &inputs {
-            if let Input::Wand(ev) = i {
-                session.handle(ev).unwrap();
-                last_t = ev.t;
-            }
-        }
+    for f in frames {
+        feeder.feed(&Input::Frame(f), &mut session).unwrap();
+        last_t = feeder.stage().time().unwrap_or(last_t);
     }
     session.tick(last_t + 10.0).unwrap();
     session.doc.to_json()

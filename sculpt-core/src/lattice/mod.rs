@@ -55,7 +55,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::nurbs::NurbsSurface;
-use crate::sculpt::document::{MAX_TARGETS, TargetId};
+use crate::sculpt::ids::{MAX_TARGETS, TargetId};
 use crate::volume::{Volume, VolumeError};
 
 #[cfg(test)]

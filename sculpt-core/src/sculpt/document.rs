@@ -88,11 +88,7 @@ pub const FORMAT: &str = "wandsculpt-document";
 pub const VERSION: u32 = 1;
 /// Largest document accepted by [`Document::from_json`], bytes.
 pub const MAX_DOCUMENT_BYTES: usize = 256 << 20;
-/// Most targets a document holds: the reader refuses more, and an edit that would add
-/// one more (a sketch) is rejected ([`DocumentError::TooManyTargets`]). The paper's
-/// scenes and the demo have one; a scanned object (`sculpt-tools reconstruct`) has one
-/// per quad of its patch network: the kitten scan at K = 80 has 478.
-pub const MAX_TARGETS: usize = 4096;
+pub use super::ids::MAX_TARGETS;
 /// Most strokes a document holds: the reader refuses more, and a stroke beyond it is
 /// rejected ([`DocumentError::TooManyStrokes`]). The paper's scenes have at most 7; a
 /// stroke every 5 s for 8 hours is 5,760.
@@ -113,9 +109,7 @@ pub const MAX_DOCUMENT_SAMPLES: usize = 2_000_000;
 /// The paper's scenes have at most 224.
 pub const MAX_TARGET_CONTROL_POINTS: usize = crate::nurbs::surface::MAX_JSON_CONTROL_POINTS;
 
-/// Identifies a target surface in a document: how every part of the program refers to
-/// a target (strokes, the editor's results, the live preview, replay metrics).
-pub type TargetId = u64;
+pub use super::ids::TargetId;
 
 /// The first id a new document hands out: its first target's id.
 pub const FIRST_ID: u64 = 1;

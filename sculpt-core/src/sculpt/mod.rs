@@ -3,6 +3,7 @@
 pub mod conform;
 pub mod document;
 pub mod hidden;
+pub mod ids;
 pub mod jordan;
 pub mod network_stroke;
 pub mod ray;

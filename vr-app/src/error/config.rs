@@ -12,6 +12,9 @@ pub enum ConfigError {
     /// The playback speed is out of range.
     #[error("tracking.playback.speed must be in (0, 1000], got {0}")]
     PlaybackSpeed(f64),
+    /// A `[tracking.thumbstick]` setting cannot work.
+    #[error("tracking.thumbstick: {0}")]
+    Thumbstick(#[source] crate::thumbstick::ThumbstickError),
     /// A `[tracking]` setting was refused by the tracking layer.
     #[error("{field}: {cause}")]
     Tracking {

@@ -32,20 +32,19 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
-use sculpt_core::interaction::ButtonMap;
+use sculpt_core::interaction::{ButtonMap, Edit, Tool, WandEvent};
 use serde::Serialize;
 use tracking::poselog::{PoseLogHeader, PoseLogWriter, RecordKind};
-use tracking::stage::{FrameStage, StageConfig, StageEvent};
+use tracking::stage::StageConfig;
 
 use super::XrPose;
 use super::actions::{
-    self, ControllerState, Feedback, PoseSource, ThumbstickDriver, ThumbstickTool, WandMapper,
-    feedback,
+    self, ControllerState, Feedback, PoseSource, ThumbstickTool, WandMapper, feedback,
 };
 use crate::app::AppState;
 use crate::error::{VrError, VrResult, XrError};
+use crate::feeder::{Feeder, Sink};
 use crate::input::{Input, TrackingState};
-use crate::live::stage_inputs;
 
 /// The pose log's file name in the session directory.
 pub const POSE_LOG_FILE: &str = "xr.poselog";
@@ -105,15 +104,47 @@ pub fn replay_config(stage: &StageConfig, thumbstick: &ThumbstickTool) -> VrResu
 #[derive(Debug)]
 pub struct XrWand {
     mapper: WandMapper,
-    stage: FrameStage,
-    stick: ThumbstickDriver,
+    /// The frames (as logged) to wand events and tool changes, as every driver does it.
+    feeder: Feeder,
     frame_number: u64,
     last_t: f64,
     log: PoseLogWriter<BufWriter<File>>,
     log_path: PathBuf,
     bytes: Vec<u8>,
-    stage_events: Vec<StageEvent>,
-    inputs: Vec<Input>,
+}
+
+/// The headset session as the feeder's sink: the app's session, the edits applied
+/// (for the haptic feedback); the eyes come from the runtime's views, not the head
+/// body.
+struct XrSink<'a> {
+    app: &'a mut AppState,
+    applied: Vec<Edit>,
+}
+
+impl Sink for XrSink<'_> {
+    type Error = VrError;
+
+    fn wand(&mut self, ev: &WandEvent) -> VrResult<()> {
+        self.applied.extend(self.app.session.handle(ev)?);
+        Ok(())
+    }
+
+    fn tick(&mut self, t: f64) -> VrResult<()> {
+        self.applied.extend(self.app.session.tick(t)?);
+        Ok(())
+    }
+
+    fn tool(&self) -> Tool {
+        self.app.session.interaction.tool().clone()
+    }
+
+    fn tracking(&mut self, state: TrackingState) {
+        self.app.tracking = state;
+    }
+
+    fn key(&mut self, t: f64, key: &str) {
+        self.app.session.key(t, key);
+    }
 }
 
 impl XrWand {
@@ -134,7 +165,12 @@ impl XrWand {
                 reason: Box::new(reason),
             }
         };
-        let stage = FrameStage::new(stage_config.clone()).map_err(tracking_err(dir))?;
+        let feeder = Feeder::new(
+            stage_config.clone(),
+            // Unused: a headset session's frames come every display frame, no silence.
+            sculpt_core::interaction::InteractionConfig::default().pause_timeout,
+            Some(ThumbstickTool::default()),
+        )?;
         let log_path = dir.join(POSE_LOG_FILE);
         let mut header = PoseLogHeader::new(format!("openxr {source}"));
         header.calibration = serde_json::to_value(&stage_config.calibration)
@@ -146,15 +182,12 @@ impl XrWand {
         )?;
         Ok(Self {
             mapper: WandMapper::new(buttons, pose),
-            stage,
-            stick: ThumbstickDriver::new(ThumbstickTool::default()),
+            feeder,
             frame_number: 0,
             last_t: 0.0,
             log,
             log_path,
             bytes: Vec::new(),
-            stage_events: Vec::new(),
-            inputs: Vec::new(),
         })
     }
 
@@ -202,35 +235,13 @@ impl XrWand {
             .map_err(log_err)?;
         let mut logged = tracking::dtrack::parse_frame(&self.bytes).map_err(log_err)?;
         logged.receive_time = frame.receive_time;
-        self.stage_events.clear();
-        let accepted = self.stage.push(&logged, &mut self.stage_events);
-        self.inputs.clear();
-        stage_inputs(&self.stage_events, 0, &mut self.inputs);
-        app.tracking = if self.stage.wand_tracked() {
-            TrackingState::Ok
-        } else {
-            TrackingState::Lost
-        };
         let rejected_before = app.session.rejected;
-        let mut applied = Vec::new();
-        for input in self.inputs.drain(..) {
-            match input {
-                Input::Wand(ev) => applied.extend(app.session.handle(&ev)?),
-                // The eyes come from the runtime's views, not the head body.
-                Input::Head(_) | Input::Tracking(_) | Input::Tick(_) => {}
-            }
-        }
-        // The thumbstick as logged (two decimals) at the stage's time: what `replay`
-        // sees.
-        if let (true, Some(stage_t)) = (accepted, self.stage.time()) {
-            let tool = app.session.interaction.tool().clone();
-            for ev in self
-                .stick
-                .commands(stage_t, &logged, actions::WAND_ID, &tool)
-            {
-                applied.extend(app.session.handle(&ev)?);
-            }
-        }
+        let mut sink = XrSink {
+            app,
+            applied: Vec::new(),
+        };
+        self.feeder.feed(&Input::Frame(logged), &mut sink)?;
+        let applied = sink.applied;
         self.last_t = t;
         Ok(feedback(
             &applied,

@@ -72,6 +72,19 @@ impl Document {
         stats
     }
 
+    /// The UV vector map sculpting uses for `target` at `detail`: the quadtree of the
+    /// target's tessellation view (its grid planned for the detail's tolerance of the
+    /// surface's extent, wrapped on closed sides, updated with the strokes' footprints),
+    /// the one the renderer's mesh and the quadtree overlay show. `None` before the
+    /// document was tessellated at `detail`, and for a target drawn as one patch of a
+    /// conforming network (uncarved: it has no quadtree).
+    pub fn uv_map(&self, target: TargetId, detail: Detail) -> Option<&super::super::uvmap::UvMap> {
+        self.views
+            .get(&(target, detail))
+            .filter(|v| !v.is_fresh())
+            .map(TargetTessellation::map)
+    }
+
     /// Forgets what was written to the sinks so far: the next [`Document::tessellate`]
     /// at each detail writes every patch again, as into new, empty sinks.
     pub fn forget_sinks(&mut self) {

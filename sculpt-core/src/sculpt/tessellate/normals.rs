@@ -3,10 +3,25 @@
 
 use super::StrokeRef;
 use super::height::{FxMap, winner};
-use super::patch::PatchVertex;
 use super::poles::pole_of;
 use crate::sculpt::stroke::Mode;
-use glam::DVec3;
+use glam::{DVec2, DVec3};
+
+/// A vertex of a patch before it is written.
+pub(super) struct PatchVertex {
+    /// `S(uv)`.
+    pub(super) surface_point: DVec3,
+    /// The target's unit normal at `uv`.
+    pub(super) normal: DVec3,
+    pub(super) uv: DVec2,
+    /// The combined displacement along the normal.
+    pub(super) height: f64,
+    /// Displaced, or on a rim: its triangles may see different normals.
+    pub(super) sculpted: bool,
+    /// Where displaced (off the rims), the stroke that sets `height` (its id) and the
+    /// centreline segment giving it its depth ([`Stroke::gradient_segment`](crate::sculpt::stroke::Stroke::gradient_segment)).
+    pub(super) deepest: Option<(u64, usize)>,
+}
 
 /// sculpted surface at that vertex as seen from inside the triangle.
 ///

@@ -5,7 +5,7 @@
 use super::clip::{clip_segment, rect_strictly_contains, side_crossings};
 use super::height::{EvalCache, FxMap, evaluate};
 use super::input::{Kind, PatchInput};
-use super::normals::{GradientSegments, corner_normals};
+use super::normals::{GradientSegments, PatchVertex, corner_normals};
 use super::poles::{pole_of, unfold_pole_fins};
 use super::{StrokeRef, TargetTessellation};
 use crate::mesh::{MeshSink, MeshVertex};
@@ -437,20 +437,4 @@ impl TargetTessellation {
             self.snap_to_fixed(side as usize, p, lo, hi)
         })
     }
-}
-
-/// A vertex of a patch before it is written.
-pub(super) struct PatchVertex {
-    /// `S(uv)`.
-    pub(super) surface_point: DVec3,
-    /// The target's unit normal at `uv`.
-    pub(super) normal: DVec3,
-    pub(super) uv: DVec2,
-    /// The combined displacement along the normal.
-    pub(super) height: f64,
-    /// Displaced, or on a rim: its triangles may see different normals.
-    pub(super) sculpted: bool,
-    /// Where displaced (off the rims), the stroke that sets `height` (its id) and the
-    /// centreline segment giving it its depth ([`Stroke::gradient_segment`]).
-    pub(super) deepest: Option<(u64, usize)>,
 }

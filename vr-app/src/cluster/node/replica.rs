@@ -7,10 +7,10 @@ use std::time::{Duration, Instant};
 
 use async_nats::HeaderMap;
 use async_nats::jetstream;
-use sculpt_core::interaction::Edit;
+use sculpt_core::interaction::{Edit, Tool, WandEvent};
 
 use super::APPLY_LOG_CAP;
-use super::snapshots::Snapshots;
+use super::report::SnapshotReport;
 use super::stream::{ACK_WAIT, OpMsg, OpRecord};
 use crate::app::AppState;
 use crate::cluster::snapshot::{KIND_SNAPSHOT, OpsHash};
@@ -18,8 +18,32 @@ use crate::cluster::{
     ClusterError, HDR_KIND, HDR_OWNER, HDR_SENT, KIND_EDIT, KIND_END, NatsFailure, Subjects,
     unix_ns,
 };
-use crate::error::VrResult;
-use crate::input::Input;
+use crate::error::{VrError, VrResult};
+use crate::feeder::Sink;
+use crate::input::TrackingState;
+use crate::projection::HeadPose;
+
+/// A node's snapshot state (its work is in `snapshots`; the state lives beside the
+/// node that holds it, so `snapshots` uses this file and not the other way round).
+pub(super) struct Snapshots {
+    /// The bucket (`None`: snapshots off, or the bucket could not be had).
+    pub(super) store: Option<async_nats::jetstream::object_store::ObjectStore>,
+    pub(super) session: String,
+    pub(super) stream: crate::cluster::snapshot::StreamId,
+    /// The stream (to rebuild the document from its start).
+    pub(super) ops_stream: jetstream::stream::Stream,
+    /// Write one every this many positions (0: only at the end).
+    pub(super) every: u64,
+    /// The position the document was loaded at, until a rebuild: undoing a step older
+    /// than it needs the whole stream.
+    pub(super) loaded: Option<u64>,
+    /// The base scene before the snapshot replaced it (`None`: the default document).
+    pub(super) base_scene: Option<std::path::PathBuf>,
+    /// The snapshot being stored.
+    pub(super) writing:
+        Option<tokio::task::JoinHandle<Result<(), crate::cluster::snapshot::SnapshotError>>>,
+    pub(super) report: SnapshotReport,
+}
 
 /// The running node.
 pub(super) struct Node {
@@ -269,34 +293,53 @@ impl Node {
         }
         Ok(())
     }
+}
 
-    /// Feeds one input: edits are committed by an owner and dropped by other nodes
-    /// (whose documents follow the stream only).
-    pub(super) fn input(
-        &mut self,
-        app: &mut AppState,
-        input: Input,
-        last_t: &mut f64,
-    ) -> VrResult<()> {
-        match input {
-            Input::Wand(ev) => {
-                let edits = app.session.propose(&ev)?;
-                if ev.t.is_finite() {
-                    *last_t = last_t.max(ev.t);
-                }
-                if self.owner {
-                    self.commit(app, ev.t, edits)?;
-                }
-            }
-            Input::Head(h) => app.set_head(h),
-            Input::Tracking(t) => app.tracking = t,
-            Input::Tick(t) => {
-                let edits = app.session.propose_tick(t)?;
-                if self.owner {
-                    self.commit(app, t, edits)?;
-                }
-            }
+/// A node's session as the [`Feeder`](crate::feeder::Feeder)'s sink: wand events
+/// and ticks are proposed to the interaction; an owner commits the edits through the
+/// stream, other nodes drop them (their documents follow the stream only).
+pub(super) struct NodeSink<'a> {
+    pub(super) node: &'a mut Node,
+    pub(super) app: &'a mut AppState,
+    /// The latest wand event time seen.
+    pub(super) last_t: &'a mut f64,
+}
+
+impl Sink for NodeSink<'_> {
+    type Error = VrError;
+
+    fn wand(&mut self, ev: &WandEvent) -> VrResult<()> {
+        let edits = self.app.session.propose(ev)?;
+        if ev.t.is_finite() {
+            *self.last_t = self.last_t.max(ev.t);
+        }
+        if self.node.owner {
+            self.node.commit(self.app, ev.t, edits)?;
         }
         Ok(())
+    }
+
+    fn tick(&mut self, t: f64) -> VrResult<()> {
+        let edits = self.app.session.propose_tick(t)?;
+        if self.node.owner {
+            self.node.commit(self.app, t, edits)?;
+        }
+        Ok(())
+    }
+
+    fn tool(&self) -> Tool {
+        self.app.session.interaction.tool().clone()
+    }
+
+    fn head(&mut self, head: Option<HeadPose>) {
+        self.app.set_head(head);
+    }
+
+    fn tracking(&mut self, state: TrackingState) {
+        self.app.tracking = state;
+    }
+
+    fn key(&mut self, t: f64, key: &str) {
+        self.app.session.key(t, key);
     }
 }

@@ -9,9 +9,10 @@ use async_nats::jetstream;
 use futures_util::StreamExt;
 
 use super::feed::{FeedStats, follow_feed};
-use super::replica::Node;
+use super::replica::Snapshots;
+use super::replica::{Node, NodeSink};
 use super::report::{NodeReport, SnapshotReport};
-use super::snapshots::{Snapshots, StreamCheck, snapshot_writer};
+use super::snapshots::{StreamCheck, snapshot_writer};
 use super::stream::{follow_stream, open_stream};
 use super::{NodeOptions, READY_FILE};
 use crate::app::AppState;
@@ -24,6 +25,7 @@ use crate::cluster::{
 };
 use crate::config::Config;
 use crate::error::VrResult;
+use crate::feeder::Feeder;
 use crate::headless::{HeadlessOptions, run_headless};
 use crate::input::Input;
 use crate::live::LiveTracking;
@@ -37,6 +39,8 @@ use crate::render::Gpu;
 pub struct NodeLoop {
     node: Node,
     live: LiveTracking,
+    /// The feed's raw frames to wand events, as every driver does it.
+    feeder: Feeder,
     client: async_nats::Client,
     cluster: ClusterSection,
     me: NodeSection,
@@ -109,7 +113,12 @@ impl NodeLoop {
         // The feed is the node's only source; the configured ones are the ingest's.
         section.input.sources.clear();
         section.playback = None;
-        let mut live = LiveTracking::start(&section, config.interaction.pause_timeout)?;
+        let mut live = LiveTracking::start(&section)?;
+        let feeder = Feeder::new(
+            section.stage_config()?,
+            config.interaction.pause_timeout,
+            section.thumbstick,
+        )?;
         let (hub, feed_src) = live.add_feed(&format!("nats:{}", me.feed));
         let rt = crate::cluster::runtime("wandsculpt-cluster")?;
         let started = Instant::now();
@@ -274,6 +283,7 @@ impl NodeLoop {
             Self {
                 node,
                 live,
+                feeder,
                 client,
                 cluster,
                 me: me_section,
@@ -311,9 +321,13 @@ impl NodeLoop {
     /// `true` once the session is over for this node (every owner has ended, or the
     /// duration passed).
     pub fn step(&mut self, app: &mut AppState) -> VrResult<bool> {
-        for input in self.live.poll() {
-            self.node.input(app, input, &mut self.last_t)?;
-        }
+        let inputs = self.live.poll();
+        let mut sink = NodeSink {
+            node: &mut self.node,
+            app,
+            last_t: &mut self.last_t,
+        };
+        self.feeder.feed_all(&inputs, &mut sink)?;
         self.note_propagation();
         self.node.drain(app)?;
         let now = Instant::now();
@@ -424,8 +438,14 @@ impl NodeLoop {
             tracing::info!(node = %self.me.name, "not an owner: edits come from the stream only");
             return Ok(());
         }
-        self.node
-            .input(app, Input::Wand(ev.clone()), &mut self.last_t)
+        let mut sink = NodeSink {
+            node: &mut self.node,
+            app,
+            last_t: &mut self.last_t,
+        };
+        self.feeder
+            .feed(&Input::Wand(ev.clone()), &mut sink)
+            .map(drop)
     }
 
     /// Ends the session: a non-owner's interaction ends a paused gesture, the

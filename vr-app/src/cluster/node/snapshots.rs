@@ -23,26 +23,6 @@ use crate::cluster::{
 };
 use crate::error::{VrError, VrResult};
 
-/// A node's snapshot state.
-pub(super) struct Snapshots {
-    /// The bucket (`None`: snapshots off, or the bucket could not be had).
-    pub(super) store: Option<async_nats::jetstream::object_store::ObjectStore>,
-    pub(super) session: String,
-    pub(super) stream: StreamId,
-    /// The stream (to rebuild the document from its start).
-    pub(super) ops_stream: stream::Stream,
-    /// Write one every this many positions (0: only at the end).
-    pub(super) every: u64,
-    /// The position the document was loaded at, until a rebuild: undoing a step older
-    /// than it needs the whole stream.
-    pub(super) loaded: Option<u64>,
-    /// The base scene before the snapshot replaced it (`None`: the default document).
-    pub(super) base_scene: Option<PathBuf>,
-    /// The snapshot being stored.
-    pub(super) writing: Option<tokio::task::JoinHandle<Result<(), SnapshotError>>>,
-    pub(super) report: SnapshotReport,
-}
-
 impl Node {
     /// Replaces the document (loaded from a snapshot, so without undo history) with
     /// the one the stream's positions `1..=upto` build from the base scene, as a node
@@ -79,7 +59,7 @@ impl Node {
             }
         }
         task.abort();
-        *app.session.draw_parts().0 = doc;
+        app.session.replace_document(doc);
         self.snap.report.rebuilt += 1;
         Ok(())
     }
