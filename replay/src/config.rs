@@ -236,8 +236,9 @@ mod tests {
         assert!(chain(&e).contains("tool width"), "{e}");
         let e = ReplayConfig::from_toml_str("[calibration]\nunits = 2\n").unwrap_err();
         assert!(chain(&e).contains("units"), "{e}");
-        let e = ReplayConfig::from_toml_str("[tool]\nmode = \"paint\"\n").unwrap_err();
-        assert!(chain(&e).contains("paint"), "{e}");
+        // Regression: "paint" was the unknown mode here until paint mode existed.
+        let e = ReplayConfig::from_toml_str("[tool]\nmode = \"chisel\"\n").unwrap_err();
+        assert!(chain(&e).contains("chisel"), "{e}");
     }
 
     #[test]

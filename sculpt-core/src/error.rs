@@ -14,6 +14,8 @@ mod format;
 mod interaction;
 mod nurbs;
 mod oplog;
+mod paint;
+mod solid;
 mod stroke;
 mod text;
 
@@ -21,6 +23,8 @@ pub use format::{FileFormat, FormatError, GltfPart, WrittenValue};
 pub use interaction::{InteractionConfigError, InteractionError};
 pub use nurbs::{ControlNetError, FitError, KnotError, NetIndex, ParameterError, WeightError};
 pub use oplog::OpLogError;
+pub use paint::PaintError;
+pub use solid::{ModelError, SolidError};
 pub use stroke::{StrokeRejection, ToolParam, ToolRangeError};
 pub use text::{Chain, Excerpt, JsonError, MAX_JSON_MESSAGE_CHARS, MAX_QUOTED_CHARS};
 
@@ -124,11 +128,11 @@ pub enum Error {
     // Solid targets.
     /// A solid target or a stroke on it was refused; the reason says why.
     #[error("solid: {0}")]
-    Solid(#[from] crate::solid::SolidError),
+    Solid(#[from] SolidError),
     // Painted attributes.
     /// A paint stroke or attribute field was refused; the reason says why.
     #[error("paint: {0}")]
-    Paint(#[from] crate::paint::PaintError),
+    Paint(#[from] PaintError),
 }
 
 fn knots_prefix(direction: Option<Direction>) -> &'static str {

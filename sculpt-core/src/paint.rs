@@ -42,12 +42,10 @@
 
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
-use thiserror::Error;
 
 use crate::sculpt::document::TargetId;
 use crate::sculpt::surface::{ParamSurface, TargetSurface, normal_from};
 use crate::volume::Volume;
-use crate::volume::fit::FitError;
 
 /// The name of the colour attribute (three components, linear RGB in `[0, 1]`).
 pub const COLOUR: &str = "colour";
@@ -68,82 +66,7 @@ pub const MAX_NAME_CHARS: usize = 32;
 /// Largest magnitude of a painted scalar.
 pub const MAX_SCALAR: f64 = 1.0e6;
 
-/// Why a paint stroke or an attribute field is refused.
-#[derive(Debug, Error, Clone, PartialEq)]
-#[non_exhaustive]
-pub enum PaintError {
-    /// The stroke has no wand samples.
-    #[error("a paint stroke needs at least one wand sample")]
-    NoSamples,
-    /// The stroke has more than [`MAX_STROKE_SAMPLES`] wand samples.
-    #[error("{count} wand samples exceed the limit of {max}")]
-    TooManySamples {
-        /// Samples given.
-        count: usize,
-        /// [`MAX_STROKE_SAMPLES`].
-        max: usize,
-    },
-    /// The brush radius is not in `(0, MAX_BRUSH_RADIUS_M]`.
-    #[error("brush radius {radius} m is outside (0, {max}] m")]
-    Radius {
-        /// The radius given.
-        radius: f64,
-        /// [`MAX_BRUSH_RADIUS_M`].
-        max: f64,
-    },
-    /// A point or value is NaN or infinite.
-    #[error("{what} is not finite")]
-    NotFinite {
-        /// Which one.
-        what: &'static str,
-    },
-    /// The attribute's name is empty, too long, or not a lower-case word.
-    #[error("attribute name {name:?} must be 1..={max} characters of a-z, 0-9, '-' or '_'")]
-    Name {
-        /// The name given.
-        name: String,
-        /// [`MAX_NAME_CHARS`].
-        max: usize,
-    },
-    /// The value has the wrong number of components for its attribute.
-    #[error("attribute {attribute:?} takes {need} values, got {got}")]
-    ValueCount {
-        /// The attribute.
-        attribute: String,
-        /// Values given.
-        got: usize,
-        /// Values it takes (3 for colour, 1 otherwise).
-        need: usize,
-    },
-    /// A colour component is outside `[0, 1]`, or a scalar beyond [`MAX_SCALAR`].
-    #[error("value {value} is out of range for attribute {attribute:?}")]
-    ValueRange {
-        /// The attribute.
-        attribute: String,
-        /// The bad value.
-        value: f64,
-    },
-    /// No wand sample came within the brush radius of the target: nothing to paint.
-    #[error("no wand sample came within the brush radius ({radius} m) of the target")]
-    NothingUnderBrush {
-        /// The brush radius.
-        radius: f64,
-    },
-    /// The field would hold more than [`MAX_FIELD_SAMPLES`] samples.
-    #[error("the field would hold {count} samples, more than {max}")]
-    FieldFull {
-        /// Samples it would hold.
-        count: usize,
-        /// [`MAX_FIELD_SAMPLES`].
-        max: usize,
-    },
-    /// The field's box is empty or not finite.
-    #[error("the attribute box is empty or not finite")]
-    Box,
-    /// The scattered-data fit failed.
-    #[error("fitting the attribute volume: {0}")]
-    Fit(#[source] Box<FitError>),
-}
+pub use crate::error::PaintError;
 
 /// The number of values an attribute takes: 3 for [`COLOUR`], 1 for any other.
 pub fn components_of(attribute: &str) -> usize {

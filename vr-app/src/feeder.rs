@@ -41,7 +41,7 @@
 //! }
 //! let mut feeder = Feeder::new(Default::default(), 0.5, None)?;
 //! let mut sink = Count::default();
-//! let Ok(()) = feeder.feed(&Input::Wand(WandEvent::command(0.0, Command::Undo)), &mut sink);
+//! let Ok(_accepted) = feeder.feed(&Input::Wand(WandEvent::command(0.0, Command::Undo)), &mut sink);
 //! assert_eq!(sink.0, 1);
 //! # Ok::<(), vr_app::VrError>(())
 //! ```

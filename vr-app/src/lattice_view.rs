@@ -40,7 +40,7 @@ use sculpt_core::sculpt::ray::Ray;
 use sculpt_core::sculpt::tessellate::Detail;
 
 use crate::desktop_wand::plane_hit;
-use crate::scene::LineVertex;
+use crate::line_vertex::LineVertex;
 
 /// How close (metres) the pointer's ray must pass a cage control point to snap onto
 /// it.

@@ -64,6 +64,7 @@ pub mod headless;
 pub mod input;
 pub mod journal;
 pub mod lattice_view;
+pub mod line_vertex;
 pub mod live;
 pub mod output;
 pub mod preview;

@@ -5,7 +5,6 @@
 //! and `replay --render` both describe their frames with these, and the
 //! `render::Renderer` draws them.
 
-use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use sculpt_core::interaction::Interaction;
 use sculpt_core::mesh::{MeshSink, PatchKey};
@@ -14,6 +13,7 @@ use sculpt_core::sculpt::tessellate::Detail;
 
 use crate::error::VrResult;
 use crate::lattice_view::LatticePreview;
+pub use crate::line_vertex::LineVertex;
 use crate::preview::write_stroke_ribbon;
 use crate::projection::{EyeCamera, HeadPose, Screen, StereoRig, kooima};
 
@@ -122,26 +122,6 @@ impl Views {
             right,
             center,
         })
-    }
-}
-
-/// One vertex of an overlay line (wand cursor, footprint), display frame.
-#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
-#[repr(C)]
-pub struct LineVertex {
-    /// Position, display frame metres.
-    pub position: [f32; 3],
-    /// Linear RGBA colour.
-    pub color: [f32; 4],
-}
-
-impl LineVertex {
-    /// A vertex from a display-frame point.
-    pub fn new(p: DVec3, color: [f32; 4]) -> Self {
-        Self {
-            position: p.as_vec3().to_array(),
-            color,
-        }
     }
 }
 

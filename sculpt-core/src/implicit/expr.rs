@@ -14,7 +14,7 @@
 
 use std::collections::HashMap;
 
-use super::rfunc::MonotoneR;
+use super::rsystem::MonotoneR;
 
 /// A coordinate variable.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]

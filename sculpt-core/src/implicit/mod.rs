@@ -33,6 +33,7 @@ pub mod interval;
 pub mod material;
 pub mod rfm;
 pub mod rfunc;
+mod rsystem;
 pub mod solid;
 pub mod tape;
 pub mod vm;

@@ -15,11 +15,10 @@
 //! [`normalize`] is the first-order normaliser `f / sqrt(f^2 + |grad f|^2)` (sec.
 //! 2.1.4).
 
-use serde::{Deserialize, Serialize};
-
 use super::ImplicitError;
 use super::expr::{Binary, Graph, NodeId, Unary, Var};
 use super::interval::Interval;
+pub use super::rsystem::{MonotoneR, RSystem};
 use crate::tolerance::{
     RFUNC_INTERVAL_ABS, RFUNC_INTERVAL_ERR_MARGIN, RFUNC_INTERVAL_MAX_ARG, RFUNC_INTERVAL_MIN_ARG,
     RFUNC_INTERVAL_NAN_ALPHA,
@@ -27,35 +26,6 @@ use crate::tolerance::{
 
 /// The largest `m` of `R_0^m` and `p` of `R_p` accepted.
 pub const MAX_R_EXPONENT: u32 = 16;
-
-/// An R-function system, with its parameter.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
-pub enum RSystem {
-    /// `R_alpha`, `-1 < alpha <= 1`.
-    RAlpha {
-        /// The parameter alpha.
-        alpha: f64,
-    },
-    /// `R_0^m`, `m >= 0` (m = 0 is the paper's benchmark conjunction, Fig. 12).
-    R0 {
-        /// The exponent m.
-        m: u32,
-    },
-    /// `R_p`, p even, `2 <= p <= 16`.
-    Rp {
-        /// The exponent p.
-        p: u32,
-    },
-    /// min / max (`R_1`).
-    MinMax,
-}
-
-impl Default for RSystem {
-    fn default() -> Self {
-        RSystem::R0 { m: 0 }
-    }
-}
 
 impl RSystem {
     /// Checks the parameter's range; `at` names the place in a document.
@@ -206,20 +176,6 @@ impl RSystem {
             }
         }
     }
-}
-
-/// An R-function that is non-decreasing in each argument, so that its exact range
-/// over a box of arguments `[x_lo, x_hi] x [y_lo, y_hi]` is
-/// `[R(x_lo, y_lo), R(x_hi, y_hi)]` (docs/implicit.md, "Interval bounds of
-/// R-functions"): `R_alpha` (|alpha| <= 1: the partial derivatives are
-/// `(1 -/+ (x - alpha y) / sqrt(x^2 + y^2 - 2 alpha x y)) / (1 + alpha)` and
-/// `|x - alpha y|` is at most the root) and `R_0^0` (alpha = 0 of the same).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MonotoneR {
-    /// The system.
-    pub system: RSystem,
-    /// Disjunction (OR) rather than conjunction (AND).
-    pub or: bool,
 }
 
 impl MonotoneR {
@@ -429,8 +385,8 @@ mod tests {
         #[test]
         fn r_function_corner_intervals_hold_every_sample(sys in monotone_system(),
                 and in any::<bool>(), x0 in -40.0f32..40.0, y0 in -40.0f32..40.0,
-                wx in prop_oneof![Just(0.0f32), 1e-6f32..1e-3, 1e-3f32..20.0],
-                wy in prop_oneof![Just(0.0f32), 1e-6f32..1e-3, 1e-3f32..20.0]) {
+                wx in prop_oneof![Just(0.0f32), 1e-6f32..1e-3, 1e-3f32..20.0], // not a tolerance: box widths to sample
+                wy in prop_oneof![Just(0.0f32), 1e-6f32..1e-3, 1e-3f32..20.0]) { // not a tolerance: box widths to sample
             let (range, lo, hi) = interval_and_samples(sys, and, x0, wx, y0, wy);
             prop_assert!(range.lo <= lo && hi <= range.hi, "{range:?} misses [{lo}, {hi}]");
             let (tape, region) = r_tape(sys, and, x0, wx, y0, wy);

@@ -18,7 +18,7 @@ use pulp::x86::V3;
 use pulp::{Simd, WithSimd, f64x4};
 
 use super::Volume;
-use super::eval::d1_quotient;
+use super::d1_quotient;
 use crate::nurbs::KnotVector;
 
 /// A homogeneous point of `D` (4 to 8) values as two 4-lane vectors: lanes `0..4`

@@ -389,3 +389,21 @@ impl Volume {
         }
     }
 }
+
+/// The rational values and first derivatives (`k = D - 1` each, in the layout of
+/// [`Volume::eval_d1_into`]) from the homogeneous ones `a = [A^w, d/du_1 A^w, ..]`
+/// (P&T eq. 4.8 differentiated: `A_d = (A^w_d - w_d A) / w`).
+#[inline(always)]
+pub(crate) fn d1_quotient<const D: usize>(a: &[[f64; D]; 4], out: &mut [f64]) {
+    let k = D - 1;
+    let inv_w = 1.0 / a[0][k];
+    for c in 0..k {
+        out[c] = a[0][c] * inv_w;
+    }
+    for d in 1..4 {
+        let wd = a[d][k];
+        for c in 0..k {
+            out[d * k + c] = (a[d][c] - wd * out[c]) * inv_w;
+        }
+    }
+}

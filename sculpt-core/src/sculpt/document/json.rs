@@ -13,7 +13,7 @@ pub(super) struct DocumentJson {
     pub(super) strokes: Vec<StrokeJson>,
     /// Solid targets with their strokes ([`super::solid`]); absent when there are none.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub(super) solids: Vec<super::solid::SolidJson>,
+    pub(super) solids: Vec<SolidJson>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -167,4 +167,26 @@ pub(super) fn input_from_json(samples: &[[f64; 4]], tool: Tool) -> StrokeInput {
             .collect(),
         tool,
     }
+}
+
+/// A solid target in the document file: `{"id": 3, "name": "plate", "model": "<solid
+/// document or .vm text>", "cells": 128, "strokes": [{"id": 4, "tool": {..},
+/// "samples": [[t, x, y, z], ..]}]}`.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct SolidJson {
+    pub(super) id: u64,
+    pub(super) name: String,
+    pub(super) model: String,
+    pub(super) cells: usize,
+    pub(super) strokes: Vec<SolidStrokeJson>,
+}
+
+/// A stroke on a solid in the document file.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct SolidStrokeJson {
+    pub(super) id: u64,
+    pub(super) tool: Tool,
+    pub(super) samples: Vec<[f64; 4]>,
 }

@@ -5,12 +5,11 @@
 //! order with the others, and saved in the document file (`"solids"`, see
 //! [`super::json`]).
 
-use serde::{Deserialize, Serialize};
-
+use super::json::{SolidJson, SolidStrokeJson};
 use super::{Document, Step, StrokeId, TargetId};
 use crate::error::{DocumentError, Error, Result};
 use crate::mesh::WeldedMesh;
-use crate::sculpt::stroke::{StrokeInput, Tool};
+use crate::sculpt::stroke::StrokeInput;
 use crate::solid::{Cut, Remeshed, SolidTarget};
 
 /// Most solid targets a document holds.
@@ -161,28 +160,6 @@ impl Document {
             }
         }
     }
-}
-
-/// A solid target in the document file: `{"id": 3, "name": "plate", "model": "<solid
-/// document or .vm text>", "cells": 128, "strokes": [{"id": 4, "tool": {..},
-/// "samples": [[t, x, y, z], ..]}]}`.
-#[derive(Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub(super) struct SolidJson {
-    id: u64,
-    name: String,
-    model: String,
-    cells: usize,
-    strokes: Vec<SolidStrokeJson>,
-}
-
-/// A stroke on a solid in the document file.
-#[derive(Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct SolidStrokeJson {
-    id: u64,
-    tool: Tool,
-    samples: Vec<[f64; 4]>,
 }
 
 impl Document {
