@@ -4,7 +4,7 @@
 //! Stages, in the order the live display server runs them, with the same code:
 //! 1. **decode** each DTrack2 record (`tracking::dtrack`); corrupt lines, bad frames
 //!    and a truncated last line are counted, not fatal;
-//! 2. the [`FrameStage`] (`tracking::stage`): out-of-order frames dropped, time from
+//! 2. the [`FrameStage`](tracking::stage::FrameStage) (`tracking::stage`): out-of-order frames dropped, time from
 //!    the frames' DTrack `ts`, **calibration** of tracker millimetres into the display
 //!    frame with the wand's tool tip, the One Euro **filter**, **tracking loss**
 //!    (quality < 0, no wand, or no frame for longer than the timeout);

@@ -179,7 +179,7 @@ const KUHN: [[usize; 4]; 6] = [
     [0, 4, 6, 7],
 ];
 
-/// For each tetrahedron of [`KUHN`] and each set of inside corners (4 bits), the
+/// For each tetrahedron of `KUHN` and each set of inside corners (4 bits), the
 /// triangles of the zero set as pairs of tetrahedron corners (one pair per vertex, the
 /// edge it lies on), wound so that the normal points from the inside corners to the
 /// outside ones.

@@ -12,7 +12,7 @@
 //! operator log as a tracked wand, and `replay` replays it.
 //!
 //! The thumbstick changes the tool's width (left/right) and depth (up/down) at a rate,
-//! through the interaction's [`Command::SetWidth`] / [`Command::SetDepth`]
+//! through the interaction's [`Command::SetWidth`](sculpt_core::interaction::Command::SetWidth) / [`Command::SetDepth`](sculpt_core::interaction::Command::SetDepth)
 //! ([`ThumbstickTool`]).
 //!
 //! ```

@@ -1,6 +1,6 @@
 //! The headset's controller as the session's wand: each controller state becomes a
 //! tracker frame ([`WandMapper::frame`]), written to the pose log
-//! ([`POSE_LOG_FILE`]) and pushed through the same [`FrameStage`] and
+//! ([`POSE_LOG_FILE`]) and pushed through the same [`FrameStage`](tracking::stage::FrameStage) and
 //! [`Session`](crate::session::Session) (edit loop, journal, operator log) as a
 //! tracked wand; the thumbstick's tool changes follow. [`REPLAY_CONFIG_FILE`] holds
 //! the calibration, filter and stage settings, so
