@@ -244,6 +244,74 @@ fn a_display_server_killed_mid_session_recovers_every_acknowledged_operation() {
     assert_eq!(doc.strokes().len(), journal_strokes, "{log}");
 }
 
+/// Issue 35 item 1: a lattice deformation survives a kill -9 as a stroke does. The
+/// recorded lattice bend is served (at a quarter of real time, so the process is still
+/// running after the release) to a headless display server, which is killed with
+/// SIGKILL as soon as its journal holds the deform record. The session opened on its
+/// directory recovers the bent document: the journalled edits applied in order, and
+/// the same document the offline replay of the whole session builds.
+#[test]
+fn a_display_server_killed_after_a_lattice_bend_recovers_the_deformation() {
+    let name = "lattice-bend";
+    let dir = tempfile::tempdir().unwrap();
+    let offline = replay_offline(name, &dir.path().join("offline"), &[]);
+    // Killed with the test's end, by its own pid (ChildGuard).
+    let (_server, addr) = serve_tcp(name, 0.25, TIMEOUT);
+    let live = dir.path().join("live");
+    let mut app = wandsculpt(&display_config(dir.path(), &addr), &live);
+    let deadline = std::time::Instant::now() + TIMEOUT;
+    let journal = loop {
+        if let Ok(entries) = Journal::read(live.join(JOURNAL_FILE))
+            && entries.iter().any(|e| matches!(e.edit, Edit::Deform(_)))
+        {
+            break entries;
+        }
+        assert!(
+            matches!(app.0.try_wait(), Ok(None)),
+            "wandsculpt exited before journalling the bend:\n{}",
+            stderr_of(&mut app)
+        );
+        assert!(std::time::Instant::now() < deadline, "no deform journalled");
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    assert!(
+        matches!(app.0.try_wait(), Ok(None)),
+        "the kill must meet a running process"
+    );
+    app.0.kill().unwrap(); // SIGKILL: no chance to save or flush anything
+    assert!(!app.0.wait().unwrap().success());
+    assert!(
+        !live.join(DOCUMENT_FILE).exists(),
+        "killed before it could save: the document comes from the journal alone"
+    );
+    let mut expected = editor::default_document();
+    for entry in &journal {
+        let applied = editor::apply(&mut expected, &entry.edit);
+        assert!(
+            !matches!(applied, editor::Applied::Rejected(_)),
+            "journalled edit {} refused: {applied:?}",
+            entry.seq
+        );
+    }
+    assert_eq!(expected.deforms().len(), 1);
+    let mut cfg = vr_app::config::Config::default();
+    cfg.files.dir = live.clone();
+    let recovered = vr_app::session::Session::open(&cfg).unwrap();
+    assert_eq!(recovered.recovered, journal.len());
+    assert_eq!(recovered.rejected, 0);
+    assert_eq!(recovered.doc.deforms().len(), 1, "the bend is recovered");
+    let json = recovered.doc.to_json();
+    assert!(
+        json == expected.to_json(),
+        "the recovered document differs from the journalled edits applied in order"
+    );
+    assert!(
+        json == offline,
+        "the recovered document differs from the offline replay's: {}",
+        first_difference(&json, &offline)
+    );
+}
+
 /// A socat pseudo-terminal pair (`socat -d -d pty,raw,echo=0 pty,raw,echo=0`), killed
 /// when dropped.
 struct PtyPair {
