@@ -3,8 +3,9 @@
 //! checked against expectations (`--check`), the bent sheet in the document and the
 //! IGES, and the operator log naming lattice mode.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
+
+use std::path::PathBuf;
 
 use sculpt_core::editor::default_surface;
 use sculpt_core::oplog::EventKind;
@@ -14,35 +15,15 @@ fn session() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/data/sessions/lattice-bend.poselog")
 }
 
-fn run_to(dir: &Path, check: Option<&Path>) -> std::process::Output {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_replay"));
-    c.arg(session()).arg("--out").arg(dir).arg("-q");
-    if let Some(expect) = check {
-        c.arg("--check").arg(expect);
-    }
-    c.output().unwrap()
-}
-
 #[test]
 fn the_lattice_session_replays_byte_identically_and_bends_the_sheet() {
     let tmp = tempfile::tempdir().unwrap();
-    let expect = tmp.path().join("expect.json");
-    std::fs::write(
-        &expect,
+    let a = common::replay_twice_identically(
+        &session(),
+        tmp.path(),
         r#"{"gestures": {"strokes_applied": 1, "strokes_rejected": 0, "deforms": 1, "too_short": 0},
             "operations": 2, "targets": 1, "strokes": 1}"#,
-    )
-    .unwrap();
-    let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
-    for dir in [&a, &b] {
-        let o = run_to(dir, Some(&expect));
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    }
-    for file in replay::output::DETERMINISTIC_FILES {
-        let x = std::fs::read(a.join(file)).unwrap();
-        assert!(!x.is_empty(), "{file} is empty");
-        assert!(x == std::fs::read(b.join(file)).unwrap(), "{file} differs");
-    }
+    );
     // The document holds the bent sheet, the groove still carved into it.
     let doc = Document::from_json(&std::fs::read(a.join("scene.json")).unwrap()).unwrap();
     let bent = &doc.targets()[0].surface;
@@ -87,7 +68,7 @@ fn the_lattice_session_replays_byte_identically_and_bends_the_sheet() {
     // A wrong expectation fails the check.
     let wrong = tmp.path().join("wrong.json");
     std::fs::write(&wrong, r#"{"gestures": {"deforms": 2}}"#).unwrap();
-    let o = run_to(&tmp.path().join("c"), Some(&wrong));
+    let o = common::run_to(&session(), &tmp.path().join("c"), Some(&wrong));
     assert_eq!(o.status.code(), Some(2));
     assert!(
         String::from_utf8_lossy(&o.stderr).contains("gestures.deforms: expected 2, got 1"),

@@ -3,22 +3,14 @@
 //! checked against expectations (`--check`), the painted band in the PLY (read here
 //! by a minimal reader of its own), and the operator log naming paint mode.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
+
+use std::path::PathBuf;
 
 use sculpt_core::oplog::EventKind;
 
 fn session() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/data/sessions/paint.poselog")
-}
-
-fn run_to(dir: &Path, check: Option<&Path>) -> std::process::Output {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_replay"));
-    c.arg(session()).arg("--out").arg(dir).arg("-q");
-    if let Some(expect) = check {
-        c.arg("--check").arg(expect);
-    }
-    c.output().unwrap()
 }
 
 /// `(x, y, green byte)` of every vertex of an ASCII PLY with `x y z nx ny nz red green
@@ -58,23 +50,12 @@ fn ply_green(bytes: &[u8]) -> Vec<(f64, f64, u8)> {
 #[test]
 fn the_paint_session_replays_byte_identically_and_paints_a_band() {
     let tmp = tempfile::tempdir().unwrap();
-    let expect = tmp.path().join("expect.json");
-    std::fs::write(
-        &expect,
+    let a = common::replay_twice_identically(
+        &session(),
+        tmp.path(),
         r#"{"gestures": {"strokes_applied": 1, "strokes_rejected": 0, "paints": 3, "too_short": 0},
             "operations": 4, "targets": 1, "strokes": 1}"#,
-    )
-    .unwrap();
-    let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
-    for dir in [&a, &b] {
-        let o = run_to(dir, Some(&expect));
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    }
-    for file in replay::output::DETERMINISTIC_FILES {
-        let x = std::fs::read(a.join(file)).unwrap();
-        assert!(!x.is_empty(), "{file} is empty");
-        assert!(x == std::fs::read(b.join(file)).unwrap(), "{file} differs");
-    }
+    );
     // The band (three sweeps at y 1.13 to 1.21, x -0.35 to 0.35, brush 3 cm) is
     // terracotta, green
     // 0.3 x 255 = 77 in its middle; the sheet away from it is the unpainted grey
@@ -119,7 +100,7 @@ fn the_paint_session_replays_byte_identically_and_paints_a_band() {
     // A wrong expectation fails the check.
     let wrong = tmp.path().join("wrong.json");
     std::fs::write(&wrong, r#"{"gestures": {"paints": 2}}"#).unwrap();
-    let o = run_to(&tmp.path().join("c"), Some(&wrong));
+    let o = common::run_to(&session(), &tmp.path().join("c"), Some(&wrong));
     assert_eq!(o.status.code(), Some(2));
     assert!(
         String::from_utf8_lossy(&o.stderr).contains("gestures.paints: expected 2, got 3"),

@@ -5,8 +5,9 @@
 //! exported as OBJ, STL and GLB and read back, is watertight and manifold after each
 //! stroke, its Euler characteristic dropping by 2 per slot (a hole each).
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
+
+use std::path::PathBuf;
 
 use sculpt_core::formats::MeshFormat;
 use sculpt_core::mesh::WeldedMesh;
@@ -15,18 +16,6 @@ use sculpt_core::solid::{SolidTarget, euler_characteristic};
 
 fn session() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/data/sessions/carve-solid.poselog")
-}
-
-fn run_to(dir: &Path, check: &Path) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_replay"))
-        .arg(session())
-        .arg("--out")
-        .arg(dir)
-        .arg("-q")
-        .arg("--check")
-        .arg(check)
-        .output()
-        .unwrap()
 }
 
 /// Closed, edge-manifold and consistently oriented (the mesh module's edge count, not
@@ -64,24 +53,13 @@ fn exact_weld(mesh: &WeldedMesh) -> WeldedMesh {
 #[test]
 fn the_solid_session_replays_byte_identically_and_cuts_through() {
     let tmp = tempfile::tempdir().unwrap();
-    let expect = tmp.path().join("expect.json");
-    std::fs::write(
-        &expect,
+    let a = common::replay_twice_identically(
+        &session(),
+        tmp.path(),
         r#"{"gestures": {"strokes_applied": 2, "strokes_rejected": 0, "too_short": 0},
             "operations": 2, "targets": 1, "strokes": 0,
             "solids": {"targets": 1, "strokes": 2, "euler": [-2]}}"#,
-    )
-    .unwrap();
-    let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
-    for dir in [&a, &b] {
-        let o = run_to(dir, &expect);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    }
-    for file in replay::output::DETERMINISTIC_FILES {
-        let x = std::fs::read(a.join(file)).unwrap();
-        assert!(!x.is_empty(), "{file} is empty");
-        assert!(x == std::fs::read(b.join(file)).unwrap(), "{file} differs");
-    }
+    );
     // The saved document holds the plate and its two strokes; the exported mesh holds
     // the sheet's triangles and the plate's.
     let doc = Document::from_json(&std::fs::read(a.join("scene.json")).unwrap()).unwrap();
