@@ -11,7 +11,9 @@
 //!   JIT's tile sizes (128, 16 in 2D; 64, 16, 8 in 3D), an interval evaluation and
 //!   `simplify` per tile, and its JIT float-slice evaluator on the leaf tiles;
 //! - meshing `bear.vm` at 256^3 on [-1, 1]^3: ours with sharp features
-//!   ([`dual_contour`]) and plain marching tetrahedra ([`contour`]), Fidget's manifold
+//!   ([`dual_contour`]), the same with octree simplification
+//!   ([`dual_contour_simplified`], default settings) and plain marching tetrahedra
+//!   ([`contour`]), Fidget's manifold
 //!   dual contouring (`Octree::build` at depth 8, then `walk_dual`).
 //!
 //! Before timing, the two dense results are compared (largest difference printed).
@@ -38,7 +40,8 @@ use fidget::types::Interval;
 use rayon::prelude::*;
 use sculpt_core::implicit::Model;
 use sculpt_core::implicit::contour::contour;
-use sculpt_core::implicit::dual::dual_contour;
+use sculpt_core::implicit::dual::{dual_contour, dual_contour_simplified};
+use sculpt_core::implicit::octree::OctreeSimplify;
 use sculpt_core::implicit::tape::{GRID_TILES_2D, GRID_TILES_3D, Grid, Tape, for_each_tile};
 use std::hint::black_box;
 use std::time::Instant;
@@ -278,6 +281,11 @@ fn peers(c: &mut Criterion) {
     let (ours, report) = dual_contour(&bear.tape, n, lo, hi).expect("mesh");
     let ours_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
+    let settings = OctreeSimplify::default();
+    let (simple, simple_report) =
+        dual_contour_simplified(&bear.tape, n, lo, hi, &settings).expect("mesh");
+    let simple_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
     let mt = contour(&bear.tape, n, lo, hi).expect("mesh");
     let mt_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
@@ -285,15 +293,23 @@ fn peers(c: &mut Criterion) {
     let theirs_s = t.elapsed().as_secs_f64();
     eprintln!(
         "implicit_peers: mesh bear 256^3, one run each: ours dual contouring {ours_s:.3} s \
-         ({} triangles; {report:?}), ours marching tetrahedra {mt_s:.3} s ({} triangles), \
+         ({} triangles; {report:?}), ours octree-simplified {simple_s:.3} s ({} triangles; \
+         {simple_report:?}; edges {:?}), ours marching tetrahedra {mt_s:.3} s ({} triangles), \
          Fidget octree {theirs_s:.3} s ({} triangles)",
         ours.triangles.len(),
+        simple.triangles.len(),
+        simple.edge_report(),
         mt.triangles.len(),
         theirs.triangles.len()
     );
     if std::env::var_os("WANDSCULPT_PEERS_MESH_CRITERION").is_some_and(|v| v == "1") {
         group.bench_function("mesh_bear_256/ours_dual_contour", |b| {
             b.iter(|| black_box(dual_contour(&bear.tape, n, lo, hi).expect("mesh")))
+        });
+        group.bench_function("mesh_bear_256/ours_octree_simplified", |b| {
+            b.iter(|| {
+                black_box(dual_contour_simplified(&bear.tape, n, lo, hi, &settings).expect("mesh"))
+            })
         });
         group.bench_function("mesh_bear_256/ours_marching_tetrahedra", |b| {
             b.iter(|| black_box(contour(&bear.tape, n, lo, hi).expect("mesh")))

@@ -791,6 +791,20 @@ pub const SOLID_BOUNDS_DEPTH: usize = 7;
 /// Points a side of the sampling grid that tightens the searched box.
 pub const SOLID_BOUNDS_SAMPLES: usize = 65;
 
+// ---------------------------------------------------------------------------------
+// Octree simplification of dual contouring (sculpt_core::implicit::octree, issue 34).
+// ---------------------------------------------------------------------------------
+
+/// An octree node's vertex lies within this fraction of a cell of every tangent plane
+/// of its patch, or the node does not collapse (the QEF error bound of Ju et al. 2002,
+/// sec. 3.1, as a largest plane distance in cells).
+pub const DUAL_OCTREE_QEF_CELL_FRAC: f64 = 0.25;
+/// Every sample of a triangle the octree simplification makes (vertex, centroids,
+/// edge midpoints) lies within this fraction of a cell of the surface (a sign change
+/// of the function along the normal over this distance either side), leaving a
+/// margin to the half cell the meshes must keep for the points between the samples.
+pub const DUAL_OCTREE_SAMPLE_CELL_FRAC: f64 = 0.4;
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -345,11 +345,8 @@ fn edge_error(mesh: &WeldedMesh, lo: [f64; 3], hi: [f64; 3], cell: f64) -> (f64,
     (worst, worst_vertex)
 }
 
-/// A CSG part with sharp edges: a box (edges off the grid planes) minus a cylinder,
-/// genus 1. Dual contouring puts its vertices on the box's edges, where marching
-/// tetrahedra cut them within a cell.
-#[test]
-fn dual_box_minus_cylinder_is_closed_with_sharp_edges() {
+/// The box (edges off the grid planes) minus a cylinder: its corners and its document.
+fn box_minus_cylinder() -> ([f64; 3], [f64; 3], String) {
     let (lo, hi) = ([-0.713, -0.471, -0.289], [0.687, 0.517, 0.313]);
     let json = format!(
         r#"{{"solid": {{"and": {{"solids": [
@@ -357,6 +354,15 @@ fn dual_box_minus_cylinder_is_closed_with_sharp_edges() {
         {{"not": {{"solid": {{"cylinder": {{"base": [0, 0, -1], "axis": [0, 0, 1], "radius": 0.25, "height": 2}}}}}}}}
     ]}}}}}}"#
     );
+    (lo, hi, json)
+}
+
+/// A CSG part with sharp edges: a box (edges off the grid planes) minus a cylinder,
+/// genus 1. Dual contouring puts its vertices on the box's edges, where marching
+/// tetrahedra cut them within a cell.
+#[test]
+fn dual_box_minus_cylinder_is_closed_with_sharp_edges() {
+    let (lo, hi, json) = box_minus_cylinder();
     let res = 40;
     let cell = 2.0 / res as f64;
     let (model, mesh) = dual_of(&json, res, -1.0, 1.0);
@@ -535,4 +541,125 @@ fn r_function_corner_bounds_let_the_mesher_skip_blocks() {
     let (sparse, _) = contour_cells(&tape, n, lo, hi).unwrap();
     let (dense, _) = contour_cells_dense(&tape, n, lo, hi).unwrap();
     assert_eq!(triangle_set(&sparse), triangle_set(&dense));
+}
+
+// Octree simplification (`implicit::octree`): the same topology and distance checks,
+// fewer triangles, sharp edges kept.
+
+use sculpt_core::implicit::dual::dual_contour_simplified;
+use sculpt_core::implicit::octree::OctreeSimplify;
+
+fn octree_of(json: &str, res: usize, lo: f64, hi: f64) -> (Model, WeldedMesh) {
+    let model = Model::from_solid_json(json).unwrap();
+    let (mesh, report) = dual_contour_simplified(
+        &model.tape_negative_inside(),
+        [res; 3],
+        [lo; 3],
+        [hi; 3],
+        &OctreeSimplify::default(),
+    )
+    .unwrap();
+    eprintln!("{report:?}");
+    assert!(report.node_fans > 0, "no node collapsed: {report:?}");
+    (model, mesh)
+}
+
+/// Points spread over every triangle (corners, edge midpoints, and a barycentric
+/// grid of 15 inner points).
+fn triangle_samples(mesh: &WeldedMesh) -> Vec<[f64; 3]> {
+    const STEPS: usize = 6;
+    let mut out = Vec::new();
+    for t in &mesh.triangles {
+        let p = t.map(|i| mesh.vertices[i as usize].position.map(f64::from));
+        for i in 0..=STEPS {
+            for j in 0..=STEPS - i {
+                let (a, b) = (i as f64 / STEPS as f64, j as f64 / STEPS as f64);
+                let c = 1.0 - a - b;
+                out.push([0, 1, 2].map(|k| a * p[0][k] + b * p[1][k] + c * p[2][k]));
+            }
+        }
+    }
+    out
+}
+
+/// The simplified sphere and torus pass the uniform meshes' checks (closed, Euler
+/// characteristic, vertices within half a cell, volume), every point of every
+/// triangle lies within half a cell of the exact surface, and they have fewer
+/// triangles than the uniform dual-contouring meshes.
+#[test]
+fn octree_sphere_and_torus_are_closed_near_the_surface_and_smaller() {
+    check_sphere(octree_of);
+    check_torus(octree_of);
+    let sphere = r#"{"solid": {"sphere": {"center": [0.1, 0.0, -0.05], "radius": 0.8}}}"#;
+    let (_, simple) = octree_of(sphere, 24, -1.0, 1.0);
+    let (_, uniform) = dual_of(sphere, 24, -1.0, 1.0);
+    let half_cell = 0.5 * 2.0 / 24.0;
+    for p in triangle_samples(&simple) {
+        let d = ((p[0] - 0.1).powi(2) + p[1].powi(2) + (p[2] + 0.05).powi(2)).sqrt() - 0.8;
+        assert!(
+            d.abs() <= half_cell,
+            "mesh point {p:?} is {d} from the sphere"
+        );
+    }
+    eprintln!(
+        "sphere 24^3: {} triangles simplified, {} uniform",
+        simple.triangles.len(),
+        uniform.triangles.len()
+    );
+    assert!(simple.triangles.len() < uniform.triangles.len());
+}
+
+/// The CSG part (R_0 conjunctions) simplified: closed, genus 1, the function within
+/// half a cell of 0 at every point of every triangle.
+#[test]
+fn octree_csg_part_is_closed_near_the_surface() {
+    let json = r#"{"solid": {"and": {"solids": [
+        {"box": {"min": [-0.7, -0.5, -0.3], "max": [0.7, 0.5, 0.3]}},
+        {"not": {"solid": {"cylinder": {"base": [0, 0, -1], "axis": [0, 0, 1], "radius": 0.25, "height": 2}}}},
+        {"not": {"solid": {"sphere": {"center": [0.7, 0.5, 0.3], "radius": 0.3}}}}
+    ]}}}"#;
+    let (model, mesh) = octree_of(json, 40, -1.0, 1.0);
+    assert_closed(&mesh, 0);
+    assert!(volume(&mesh) > 0.0);
+    let tape = model.tape_positive_inside();
+    let half_cell = 0.5 * 2.0 / 40.0;
+    for p in triangle_samples(&mesh) {
+        let w = f64::from(tape.eval_point(p.map(|c| c as f32)));
+        assert!(w.abs() <= half_cell, "omega {w} at mesh point {p:?}");
+    }
+}
+
+/// A flat-sided box minus a cylinder: the simplified mesh is closed with genus 1,
+/// has well under half the uniform mesh's triangles (its faces collapse into
+/// octree nodes), and still passes through the box's edges as the uniform one does.
+#[test]
+fn octree_box_has_fewer_triangles_and_keeps_its_edges() {
+    let (lo, hi, json) = box_minus_cylinder();
+    let res = 40;
+    let cell = 2.0 / res as f64;
+    let (model, simple) = octree_of(&json, res, -1.0, 1.0);
+    let (_, uniform) = dual_of(&json, res, -1.0, 1.0);
+    assert_closed(&simple, 0);
+    eprintln!(
+        "box minus cylinder {res}^3: {} triangles simplified, {} uniform",
+        simple.triangles.len(),
+        uniform.triangles.len()
+    );
+    assert!(
+        2 * simple.triangles.len() < uniform.triangles.len(),
+        "{} vs {}",
+        simple.triangles.len(),
+        uniform.triangles.len()
+    );
+    let tape = model.tape_positive_inside();
+    for p in triangle_samples(&simple) {
+        let w = f64::from(tape.eval_point(p.map(|c| c as f32)));
+        assert!(w.abs() <= 0.5 * cell, "omega {w} at mesh point {p:?}");
+    }
+    let (surface, vertex) = edge_error(&simple, lo, hi, cell);
+    eprintln!("box edges simplified: vertex {vertex:e}, surface {surface:e}");
+    assert!(
+        surface <= DUAL_EDGE_CELL_FRAC * cell,
+        "the edges lie {surface} from the simplified mesh"
+    );
 }

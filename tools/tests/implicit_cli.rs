@@ -129,7 +129,7 @@ fn eval_grid_3d_runs_x_fastest() {
 fn mesh_writes_a_closed_stl_for_each_shipped_3d_model() {
     for (model, method) in ["sphere.vm", "two-spheres.vm", "bracket.json", "torus.json"]
         .into_iter()
-        .flat_map(|m| [(m, "mt"), (m, "dc")])
+        .flat_map(|m| [(m, "mt"), (m, "dc"), (m, "octree")])
     {
         let (_d, out) = tmp("m.stl");
         let text = ok(&run(&[
@@ -146,7 +146,8 @@ fn mesh_writes_a_closed_stl_for_each_shipped_3d_model() {
             out.to_str().unwrap(),
         ]));
         assert!(text.contains("\"triangles\""), "{text}");
-        assert_eq!(text.contains("\"fans\""), method == "dc", "{text}");
+        assert_eq!(text.contains("\"fans\""), method != "mt", "{text}");
+        assert_eq!(text.contains("\"node_fans\""), method == "octree", "{text}");
         let mesh = sculpt_core::formats::stl::read(&std::fs::read(&out).unwrap()).unwrap();
         let welded = sculpt_core::mesh::weld(&mesh.vertices, &mesh.triangles, TEST_WELD_EPS);
         let report = welded.edge_report();

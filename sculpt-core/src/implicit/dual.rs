@@ -36,6 +36,7 @@ use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
 use super::ImplicitError;
 use super::contour::{ContourStats, contour_sparse, par_map, unit};
+use super::octree::{OctreeSimplify, collapse_chains, collapse_nodes};
 use super::tape::Tape;
 use crate::mesh::{MeshVertex, WeldedMesh};
 use crate::tolerance::{CONTOUR_EDGE_T_MIN, DUAL_QEF_SVD_REL};
@@ -59,6 +60,11 @@ pub struct DualReport {
     pub flips: usize,
     /// What the marching-tetrahedra pass under it evaluated.
     pub contour: ContourStats,
+    /// Fans of octree nodes above the cells ([`dual_contour_simplified`]; counted
+    /// in `fans` too).
+    pub node_fans: usize,
+    /// Boundary vertices removed between smooth fans ([`dual_contour_simplified`]).
+    pub chain_collapses: usize,
 }
 
 /// The mesh of the zero set of `tape` (negative inside) on a grid of `n` cells per
@@ -68,6 +74,43 @@ pub fn dual_contour(
     n: [usize; 3],
     lo: [f64; 3],
     hi: [f64; 3],
+) -> Result<(WeldedMesh, DualReport), ImplicitError> {
+    dual_contour_with(tape, n, lo, hi, None)
+}
+
+/// [`dual_contour`] followed by octree simplification ([`super::octree`]): smooth
+/// regions collapse into one vertex per octree node and their boundaries into long
+/// edges, within `settings`' error bounds; sharp features stay at cell resolution.
+/// The mesh stays closed, 2-manifold and outward.
+pub fn dual_contour_simplified(
+    tape: &Tape,
+    n: [usize; 3],
+    lo: [f64; 3],
+    hi: [f64; 3],
+    settings: &OctreeSimplify,
+) -> Result<(WeldedMesh, DualReport), ImplicitError> {
+    dual_contour_with(tape, n, lo, hi, Some(settings))
+}
+
+/// A patch of one cell, as step 3 (module docs) leaves it.
+enum CellPatch {
+    /// Not a disk: its marching-tetrahedra faces stay.
+    Kept(Vec<[u32; 3]>),
+    /// A fan around the QEF vertex.
+    Fan {
+        tris: Vec<usize>,
+        boundary: Vec<(u32, u32)>,
+        vertex: MeshVertex,
+        rank: usize,
+    },
+}
+
+fn dual_contour_with(
+    tape: &Tape,
+    n: [usize; 3],
+    lo: [f64; 3],
+    hi: [f64; 3],
+    simplify: Option<&OctreeSimplify>,
 ) -> Result<(WeldedMesh, DualReport), ImplicitError> {
     let sparse = contour_sparse(tape, n, lo, hi)?;
     let (mesh, extra, blocks) = (sparse.mesh, sparse.cells, sparse.blocks);
@@ -110,20 +153,21 @@ pub fn dual_contour(
     }
     let mut cell_ids: Vec<usize> = by_cell.keys().copied().collect();
     cell_ids.sort_unstable();
+    let mut cell_patches: Vec<CellPatch> = Vec::new();
     for cell in cell_ids {
         let tris = &by_cell[&cell];
         // The tape of the cell's block (every triangle of a cell has the same one).
         let tape = &blocks[sparse.triangle_block[tris[0]] as usize].tape;
         let ijk = [cell % n[0], (cell / n[0]) % n[1], cell / (n[0] * n[1])];
         let box_lo: [f64; 3] = [0, 1, 2].map(|a| lo[a] + ijk[a] as f64 * h[a]);
-        let cell_patches = patches(&mesh.triangles, tris);
-        if cell_patches.len() > 1 {
+        let split = patches(&mesh.triangles, tris);
+        if split.len() > 1 {
             report.split_cells += 1;
         }
-        for patch in cell_patches {
+        for patch in split {
             let faces: Vec<[u32; 3]> = patch.iter().map(|&t| mesh.triangles[t]).collect();
             let Some(boundary) = disk_boundary(&faces) else {
-                triangles.extend_from_slice(&faces);
+                cell_patches.push(CellPatch::Kept(faces));
                 report.kept += 1;
                 continue;
             };
@@ -132,23 +176,107 @@ pub fn dual_contour(
             used.sort_unstable();
             let (x, r) = qef_vertex(&vertices, &used, box_lo, h);
             let xf = x.map(|c| c as f32);
-            let v = vertices.len() as u32;
-            vertices.push(MeshVertex {
+            let vertex = MeshVertex {
                 position: xf,
                 normal: unit(tape.eval_grad(xf).1),
                 uv: [0.0; 2],
+            };
+            cell_patches.push(CellPatch::Fan {
+                tris: patch,
+                boundary,
+                vertex,
+                rank: r,
             });
-            rank.insert(v, r);
-            if r >= 2 {
-                report.feature_vertices += 1;
-            }
-            for (a, b) in boundary {
-                triangles.push([v, a, b]);
-            }
-            report.fans += 1;
         }
     }
+    // Octree nodes above the cells (`super::octree`, step 1).
+    let collapsed = simplify.map(|settings| {
+        let mut alive = vec![false; mesh.triangles.len()];
+        for p in &cell_patches {
+            if let CellPatch::Fan { tris, rank, .. } = p
+                && *rank <= 1
+            {
+                tris.iter().for_each(|&t| alive[t] = true);
+            }
+        }
+        collapse_nodes(
+            tape,
+            &mesh.triangles,
+            &cells,
+            &vertices,
+            alive,
+            n,
+            lo,
+            h,
+            settings,
+        )
+    });
+    let mut emitted: HashSet<u32> = HashSet::new();
+    let mut fan = |vertices: &mut Vec<MeshVertex>,
+                   triangles: &mut Vec<[u32; 3]>,
+                   vertex: MeshVertex,
+                   r: usize,
+                   boundary: &[(u32, u32)]| {
+        let v = vertices.len() as u32;
+        vertices.push(vertex);
+        rank.insert(v, r);
+        if r >= 2 {
+            report.feature_vertices += 1;
+        }
+        for &(a, b) in boundary {
+            triangles.push([v, a, b]);
+        }
+        report.fans += 1;
+    };
+    for p in cell_patches {
+        match p {
+            CellPatch::Kept(faces) => triangles.extend_from_slice(&faces),
+            CellPatch::Fan {
+                tris,
+                boundary,
+                vertex,
+                rank: r,
+            } => {
+                let node = collapsed
+                    .as_ref()
+                    .map(|c| c.owner[tris[0]])
+                    .filter(|&o| o != u32::MAX);
+                match node {
+                    None => fan(&mut vertices, &mut triangles, vertex, r, &boundary),
+                    Some(o) => {
+                        if emitted.insert(o) {
+                            let f = &collapsed.as_ref().expect("a node").fans[o as usize];
+                            let xf = f.x.map(|c| c as f32);
+                            let vertex = MeshVertex {
+                                position: xf,
+                                normal: unit(tape.eval_grad(xf).1),
+                                uv: [0.0; 2],
+                            };
+                            fan(&mut vertices, &mut triangles, vertex, f.rank, &f.boundary);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    report.node_fans = emitted.len();
     report.flips = flip_feature_edges(&vertices, &mut triangles, &rank);
+    if let Some(settings) = simplify
+        && settings.chains
+    {
+        let mut smooth = vec![false; vertices.len()];
+        for (&v, &r) in &rank {
+            smooth[v as usize] = r <= 1;
+        }
+        let hmin = h[0].min(h[1]).min(h[2]);
+        report.chain_collapses = collapse_chains(
+            tape,
+            &vertices,
+            &mut triangles,
+            &smooth,
+            settings.distance * hmin,
+        );
+    }
     Ok((compact(vertices, triangles), report))
 }
 
@@ -217,7 +345,7 @@ fn hermite_samples(tape: &Tape, vs: &[MeshVertex], ends: &[[[f64; 3]; 2]]) -> Ve
 }
 
 /// The connected patches (by shared edges) of the triangles `tris` of one cell.
-fn patches(all: &[[u32; 3]], tris: &[usize]) -> Vec<Vec<usize>> {
+pub(super) fn patches(all: &[[u32; 3]], tris: &[usize]) -> Vec<Vec<usize>> {
     let mut parent: Vec<usize> = (0..tris.len()).collect();
     fn find(p: &mut [usize], mut i: usize) -> usize {
         while p[i] != i {
@@ -252,7 +380,7 @@ fn patches(all: &[[u32; 3]], tris: &[usize]) -> Vec<Vec<usize>> {
 
 /// The boundary loop of a patch, as its directed edges in order, when the patch is a
 /// disk: Euler characteristic 1 and a boundary that is one simple loop.
-fn disk_boundary(faces: &[[u32; 3]]) -> Option<Vec<(u32, u32)>> {
+pub(super) fn disk_boundary(faces: &[[u32; 3]]) -> Option<Vec<(u32, u32)>> {
     let directed: HashSet<(u32, u32)> = faces
         .iter()
         .flat_map(|f| (0..3).map(move |e| (f[e], f[(e + 1) % 3])))
@@ -295,6 +423,13 @@ fn qef_vertex(
     box_lo: [f64; 3],
     h: [f64; 3],
 ) -> ([f64; 3], usize) {
+    let (x, rank) = qef_solve(vertices, ids);
+    let clamped = [0, 1, 2].map(|a| x[a].clamp(box_lo[a], box_lo[a] + h[a]));
+    (clamped, rank)
+}
+
+/// [`qef_vertex`] before the clamp: the truncated-SVD miniser and the rank.
+pub(super) fn qef_solve(vertices: &[MeshVertex], ids: &[u32]) -> ([f64; 3], usize) {
     let pts: Vec<Vector3<f64>> = ids
         .iter()
         .map(|&i| Vector3::from(vertices[i as usize].position.map(f64::from)))
@@ -322,8 +457,7 @@ fn qef_vertex(
             }
         }
     }
-    let clamped = [0, 1, 2].map(|a| x[a].clamp(box_lo[a], box_lo[a] + h[a]));
-    (clamped, rank)
+    (x.into(), rank)
 }
 
 /// The unnormalised normal of triangle `t`.

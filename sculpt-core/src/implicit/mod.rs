@@ -31,6 +31,7 @@ pub mod dual;
 pub mod expr;
 pub mod interval;
 pub mod material;
+pub mod octree;
 pub mod rfm;
 pub mod rfunc;
 mod rsystem;

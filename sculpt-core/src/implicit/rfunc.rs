@@ -179,11 +179,13 @@ impl RSystem {
 }
 
 impl MonotoneR {
-    /// Whether the corner rule holds for this system: `R_alpha` and `R_0^0`.
-    /// (`R_p` is monotone too, but its formula's f32 error is not bounded here;
-    /// `R_0^m`, m > 0, is not monotone.)
+    /// Whether the corner rule holds for this system: `R_alpha`, `R_0^0` and `R_p`
+    /// (`R_0^m`, m > 0, is not monotone).
     pub fn is_monotone(self) -> bool {
-        matches!(self.system, RSystem::RAlpha { .. } | RSystem::R0 { m: 0 })
+        matches!(
+            self.system,
+            RSystem::RAlpha { .. } | RSystem::R0 { m: 0 } | RSystem::Rp { .. }
+        )
     }
 
     /// The value in f64 (sec. 2.2.2).
@@ -210,6 +212,21 @@ impl MonotoneR {
     /// (`R_0`'s radicand is a sum of squares and does not cancel); everything is
     /// divided by `1 + alpha`. The bound taken is [`RFUNC_INTERVAL_ERR_MARGIN`] times
     /// that sum, plus [`RFUNC_INTERVAL_ABS`] for squares that underflow.
+    ///
+    /// `R_p = x + y -/+ ||(x, y)||_p` (p even) is monotone: `d||(x, y)||_p / dx =
+    /// (x / ||(x, y)||_p)^(p - 1)` lies in `[-1, 1]`, so both partial derivatives of
+    /// AND and OR lie in `[0, 2]`. Its f32 norm (in [`RSystem::and`]'s graph) is
+    /// either `p/2` products and a sum of non-negative terms followed by `log2 p`
+    /// square roots (p a power of two: relative error at most `(p/2 + 1) u / p +
+    /// log2(p) u <= 5 u`), or `m exp(ln(sum of (x/m)^p) / p)` with `m = max(|x|,
+    /// |y|)` and the sum in `[1, 2]` (a division, `p/2` products, a sum, `ln`, a
+    /// scale, `exp` and a product, each at most one `u` relative or absolute on an
+    /// argument below 1: at most `12 u`); with the norm at most `M` and the two sums
+    /// `4 u M`, the bound taken is the margin times `(16 + p) u M`. The rule is
+    /// refused where a power could overflow (`M^p > 2^120`, powers of two) or where
+    /// the larger argument's power could underflow (`a^p < 2^-100`, `a` the least
+    /// over the box of `max(|x|, |y|)`: a box at both arguments' zero), so that
+    /// subnormal rounding (absolute `2^-149` per op) is below `2^-45` relative.
     pub fn corner_interval(self, x: Interval, y: Interval) -> Option<Interval> {
         if !self.is_monotone() || x.nan || y.nan {
             return None;
@@ -225,6 +242,23 @@ impl MonotoneR {
                 (2.0 * u.sqrt()).min(8.0 * u / (1.0 - alpha.abs()).sqrt()) * m,
                 1.0 / (1.0 + alpha),
             ),
+            RSystem::Rp { p } => {
+                let least = |i: Interval| {
+                    if i.lo <= 0.0 && 0.0 <= i.hi {
+                        0.0
+                    } else {
+                        f64::from(i.lo.abs().min(i.hi.abs()))
+                    }
+                };
+                let a = least(x).max(least(y));
+                let pi = p as i32;
+                if a.powi(pi) < 2f64.powi(-100)
+                    || (p.is_power_of_two() && m.powi(pi) > 2f64.powi(120))
+                {
+                    return None;
+                }
+                (f64::from(16 + p) * u * m, 1.0)
+            }
             _ => (4.0 * u * m, 1.0),
         };
         let err = RFUNC_INTERVAL_ERR_MARGIN * (root_err + 8.0 * u * m) * scale + RFUNC_INTERVAL_ABS;
@@ -375,11 +409,12 @@ mod tests {
         prop_oneof![
             (-0.99f64..=1.0).prop_map(|alpha| RSystem::RAlpha { alpha }),
             Just(RSystem::R0 { m: 0 }),
+            (1u32..=8).prop_map(|h| RSystem::Rp { p: 2 * h }),
         ]
     }
 
     proptest! {
-        /// The corner bounds of the monotone R-functions (R_alpha, R_0^0) hold every
+        /// The corner bounds of the monotone R-functions (R_alpha, R_0^0, R_p) hold every
         /// sampled value, wide or narrow boxes, near zero or far; they are used (one
         /// bound on the tape), and never wider than the formula's interval.
         #[test]
@@ -455,6 +490,29 @@ mod tests {
         eprintln!("R_alpha OR, alpha -0.983: corner {new:?}, formula {old:?}");
         assert!(old.lo < 0.0 && old.hi > 0.0, "{old:?}");
         assert!(new.lo > 0.0 && !new.nan, "the sign is decided: {new:?}");
+    }
+
+    /// R_p's corner bound where its formula's interval is widest: a far argument's
+    /// width surviving the cancellation of `x + ||(x, y)||_p` (OR), for a power of
+    /// two and for the `exp`/`ln` form; at both arguments' zero the rule steps aside
+    /// and the formula's interval stays.
+    #[test]
+    fn r_p_corner_bounds_are_narrow_where_the_formula_is_not() {
+        for p in [4, 6] {
+            let (tape, region) = r_tape(RSystem::Rp { p }, false, -3.50, 0.74, 0.0, 0.001);
+            let (new, old) = (
+                tape.eval_interval(region),
+                tape.without_r_bounds().eval_interval(region),
+            );
+            eprintln!("R_{p} OR: corner {new:?}, formula {old:?}");
+            assert!(old.hi - old.lo > 1.0, "{old:?}");
+            assert!(new.hi - new.lo < 0.01, "{new:?}");
+            let (tape, region) = r_tape(RSystem::Rp { p }, true, -0.5, 1.0, -0.5, 1.0);
+            assert_eq!(
+                tape.eval_interval(region),
+                tape.without_r_bounds().eval_interval(region)
+            );
+        }
     }
 
     #[test]

@@ -38,7 +38,8 @@ impl Default for RSystem {
 /// `[R(x_lo, y_lo), R(x_hi, y_hi)]` (docs/implicit.md, "Interval bounds of
 /// R-functions"): `R_alpha` (|alpha| <= 1: the partial derivatives are
 /// `(1 -/+ (x - alpha y) / sqrt(x^2 + y^2 - 2 alpha x y)) / (1 + alpha)` and
-/// `|x - alpha y|` is at most the root) and `R_0^0` (alpha = 0 of the same).
+/// `|x - alpha y|` is at most the root), `R_0^0` (alpha = 0 of the same) and `R_p`
+/// (the partial derivatives of the p-norm lie in `[-1, 1]`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MonotoneR {
     /// The system.

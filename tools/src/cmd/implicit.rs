@@ -8,7 +8,8 @@
 //! - `implicit mesh MODEL --res N --bounds LO,HI --out M.{stl,obj,glb} [--method dc]`:
 //!   a closed, manifold, outward-oriented mesh of the solid by marching tetrahedra on
 //!   the corners of an N^3 grid; `--method dc` adds dual contouring vertices on sharp
-//!   edges and corners (`sculpt_core::implicit::dual`).
+//!   edges and corners (`sculpt_core::implicit::dual`); `--method octree` also
+//!   collapses smooth regions into octree nodes (`sculpt_core::implicit::octree`).
 //!
 //! MODEL is a `.vm` file (Fidget's SSA text, negative inside) or a solid document
 //! (JSON, omega >= 0 inside, recognised by its leading `{`). Values written are
@@ -26,8 +27,9 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 use sculpt_core::formats::MeshFormat;
 use sculpt_core::implicit::contour::contour;
-use sculpt_core::implicit::dual::dual_contour;
+use sculpt_core::implicit::dual::{dual_contour, dual_contour_simplified};
 use sculpt_core::implicit::material::{self, MaterialDocument};
+use sculpt_core::implicit::octree::OctreeSimplify;
 use sculpt_core::implicit::tape::Grid;
 use sculpt_core::implicit::{Model, Tape};
 
@@ -89,7 +91,8 @@ pub struct MeshArgs {
     #[arg(long)]
     pub out: PathBuf,
     /// `mt`: marching tetrahedra (the default); `dc`: dual contouring vertices on
-    /// sharp edges and corners, in the marching-tetrahedra mesh (docs/implicit.md).
+    /// sharp edges and corners, in the marching-tetrahedra mesh; `octree`: dual
+    /// contouring with octree simplification of smooth regions (docs/implicit.md).
     #[arg(long, value_enum, default_value_t = MeshMethod::Mt)]
     pub method: MeshMethod,
 }
@@ -101,6 +104,8 @@ pub enum MeshMethod {
     Mt,
     /// Dual contouring (sharp features).
     Dc,
+    /// Dual contouring with octree simplification (fewer triangles).
+    Octree,
 }
 
 /// Runs `implicit`.
@@ -295,6 +300,11 @@ fn mesh(args: &MeshArgs) -> Result<()> {
             let (mesh, report) = dual_contour(&tape, n, lo3, hi3)?;
             (mesh, Some(report))
         }
+        MeshMethod::Octree => {
+            let settings = OctreeSimplify::default();
+            let (mesh, report) = dual_contour_simplified(&tape, n, lo3, hi3, &settings)?;
+            (mesh, Some(report))
+        }
     };
     if mesh.triangles.is_empty() {
         bail!(
@@ -311,14 +321,22 @@ fn mesh(args: &MeshArgs) -> Result<()> {
             mesh.triangles.len()
         ),
         Some(r) => println!(
-            "{{\"vertices\": {}, \"triangles\": {}, \"fans\": {}, \"kept\": {}, \"split_cells\": {}, \"feature_vertices\": {}, \"flips\": {}}}",
+            "{{\"vertices\": {}, \"triangles\": {}, \"fans\": {}, \"kept\": {}, \"split_cells\": {}, \"feature_vertices\": {}, \"flips\": {}{}}}",
             mesh.vertices.len(),
             mesh.triangles.len(),
             r.fans,
             r.kept,
             r.split_cells,
             r.feature_vertices,
-            r.flips
+            r.flips,
+            if args.method == MeshMethod::Octree {
+                format!(
+                    ", \"node_fans\": {}, \"chain_collapses\": {}",
+                    r.node_fans, r.chain_collapses
+                )
+            } else {
+                String::new()
+            }
         ),
     }
     Ok(())
