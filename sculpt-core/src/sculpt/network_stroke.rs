@@ -16,7 +16,7 @@
 //!    and the crossing point `X` is the foot on `A` of the bisection's end nearer `B`
 //!    (clamped onto the shared side, where the stroke passes over it); `A`'s run ends
 //!    at `X` and `B`'s run starts there. Before that, the wand path between the two
-//!    samples is searched for patches it passes over in between ([`passed_over`]:
+//!    samples is searched for patches it passes over in between (`passed_over`:
 //!    global projections of midpoints, bisected towards the change of patch down to
 //!    the minimum stroke length): a stroke that clips the corner of a third patch `C`
 //!    between two samples on `A` and `B` gets a run on `C` too (`A`, `X`, `C`, `X'`,
