@@ -65,8 +65,6 @@ pub const FIT_TOL_WIDTH_REL: f64 = 1e-3;
 // Parameter space.
 // ---------------------------------------------------------------------------------
 
-/// Parameter values closer than this are the same parameter.
-pub const PARAM_EPS: f64 = 1e-12;
 /// Distance (in normalised parameter units) within which a point counts as on an edge.
 pub const ON_EDGE_EPS: f64 = 1e-12;
 /// A parameter within this fraction of the domain's size of an open edge of the domain
@@ -90,8 +88,6 @@ pub const UV_AREA_EPS: f64 = 1e-18;
 /// Two-sided margin (parameter units) of properties that classify points as inside or
 /// outside a loop: points nearer the loop than this are not classified.
 pub const CLASSIFY_MARGIN: f64 = 1e-9;
-/// Fixed-point iterations on a parameter stop when a step is below this.
-pub const FIXED_POINT_EPS: f64 = 1e-13;
 
 // ---------------------------------------------------------------------------------
 // Angles, cosines and unit quantities.
@@ -112,8 +108,6 @@ pub const ZERO_QUAT_LEN: f64 = 1e-6;
 pub const ZERO_QUAT_LEN2: f64 = 1e-6;
 /// A quaternion shorter than this cannot be normalised.
 pub const NORMALISABLE_LEN: f64 = 1e-12;
-/// A rotation matrix's determinant must be within this of one.
-pub const ROTATION_DET_EPS: f64 = 1e-9;
 /// Largest |cos| between a screen's right and up edges that still counts as a
 /// rectangle (about 0.6 degrees off square).
 pub const SQUARE_COS_TOL: f64 = 1e-2;
@@ -156,9 +150,6 @@ pub const NORMAL_DEGENERATE_REL: f64 = 1e-9;
 pub const DIVISOR_MIN: f64 = 1e-300;
 /// The smallest aspect ratio a stroke surface's parameter scaling takes.
 pub const ASPECT_MIN: f64 = 1e-3;
-/// The smallest singular value ratio of a calibration's system that is still a
-/// solvable (non-degenerate) set of poses.
-pub const CALIBRATION_COND_MIN: f64 = 1e-6;
 /// Uniform samples are clamped to at least this before a logarithm (Box-Muller).
 pub const LOG_ARG_MIN: f64 = 1e-12;
 
@@ -201,8 +192,6 @@ pub const MIN_PLOT_SPAN: f64 = 1e-3;
 /// Added before truncating a percentage to two decimals so values that are exact in
 /// decimal but not in binary (7.74 stored as 7.7399999...) are not truncated down.
 pub const TRUNCATE_EPS: f64 = 1e-9;
-/// A plot axis value this close to an integer is that integer (a category label).
-pub const AXIS_INTEGER_EPS: f64 = 1e-6;
 /// The smallest upper end of a plot's value axis (an all-zero series still draws).
 pub const PLOT_RANGE_MIN: f64 = 1e-9;
 /// The smallest upper end of a plot's speed axis.
@@ -279,47 +268,6 @@ pub const MESH_HIT_EPS: f64 = 1e-3;
 /// The final-detail mesh reproduces the groove bottom to within this (metres): a tenth
 /// of the 5 mm tool depth, for the V profile's sharp bottom between mesh samples.
 pub const GROOVE_TOL: f64 = 0.5e-3;
-/// Positions through the serial wire format, millimetres: it keeps micrometres.
-pub const WIRE_MM_EPS: f64 = 1e-3;
-/// Positions through a wire format that keeps micrometres (metres).
-pub const WIRE_M_EPS: f64 = 1e-6;
-/// Positions scaled from metres to millimetres agree to this (mm).
-pub const MM_ROUNDING_EPS: f64 = 1e-6;
-/// A freshly normalised quaternion has length one to this.
-pub const NORMALISED_EPS: f64 = 1e-9;
-/// A filtered (interpolated, renormalised) quaternion has length one to this.
-pub const FILTERED_UNIT_EPS: f64 = 1e-6;
-/// Rotations agree to this angle (radians).
-pub const ROTATION_EPS: f64 = 1e-9;
-/// Random test quaternions shorter than this are replaced by the identity
-/// (normalising them would magnify rounding).
-pub const QUAT_GEN_MIN_LEN: f64 = 1e-3;
-/// A calibration fit to noisy poses leaves at least this rms residual (metres): the
-/// noise is seen.
-pub const NOISY_RMS_FLOOR: f64 = 1e-5;
-/// ... and at most this (metres): the noise is half a millimetre.
-pub const NOISY_RMS_CEIL: f64 = 0.001;
-/// A simulated session's filtered tip ends at the script's end point to this
-/// (metres): the simulator's tremor and the filter's lag.
-pub const SIM_END_TOL: f64 = 0.01;
-/// Times through `Duration` (nanoseconds) and sums of receive times agree to this
-/// (seconds).
-pub const DURATION_EPS: f64 = 1e-6;
-/// The time step (seconds) of a forward-difference velocity in tests.
-pub const VELOCITY_FD_STEP: f64 = 1e-4;
-/// A velocity by [`VELOCITY_FD_STEP`] that should be zero is below this (m/s).
-pub const VELOCITY_EPS: f64 = 1e-6;
-/// Orientations through the serial wire format (radians).
-pub const WIRE_ANGLE_EPS: f64 = 1e-5;
-/// Positions (mm) through the DTrack2 ASCII format, which keeps 3 decimals.
-pub const DTRACK_MM_EPS: f64 = 5e-4;
-/// Rotation matrix entries through the DTrack2 ASCII format, which keeps 6 decimals.
-pub const DTRACK_ROT_EPS: f64 = 5e-7;
-/// Analog values through the DTrack2 ASCII format, which keeps 2 decimals.
-pub const DTRACK_ANALOG_EPS: f64 = 5e-3;
-/// Poses replayed from a recording, through wire rounding (micrometres) and slerp
-/// between keyframes: far below a millimetre (metres).
-pub const REPLAY_POSE_EPS: f64 = 1e-3;
 /// Printed statistical tables give 6 significant digits.
 pub const PRINTED_TABLE_EPS: f64 = 1e-5;
 /// Sums and ratios of a few two-decimal numbers (the tools' CSV cells) agree to this.

@@ -1,7 +1,9 @@
-//! Guard: tolerances are the named constants of `sculpt_core::tolerance`, not literals.
+//! Guard: tolerances are named constants of a tolerance module, not literals:
+//! `sculpt_core::tolerance` for the workspace, and a crate's own `src/tolerance.rs`
+//! for the tolerances only that crate (its code and tests) uses.
 //!
-//! Scans every `.rs` file of the workspace (outside `target/` and the tolerance module
-//! itself) for float literals with a negative exponent (`1e-9`, `5e-3`, `0.5e-3`), the
+//! Scans every `.rs` file of the workspace (outside `target/` and the crates'
+//! tolerance modules) for float literals with a negative exponent (`1e-9`, `5e-3`, `0.5e-3`), the
 //! form epsilons take, in code (comments are not code). A line may keep one only when
 //! it says why the number is not a tolerance, in a comment `// not a tolerance:
 //! <reason>` (a test input, a unit conversion) at its end or on the comment line just
@@ -88,6 +90,19 @@ fn offences(rel: &str, text: &str) -> Vec<String> {
     out
 }
 
+/// True for a crate's own tolerance module, `<crate>/src/tolerance.rs` (a directory
+/// holding a `Cargo.toml`): `sculpt_core::tolerance` and, next to their users, the
+/// tolerances a crate alone uses (`tracking::tolerance`). A `tolerance.rs` anywhere
+/// else is scanned like any file.
+fn is_tolerance_module(path: &Path) -> bool {
+    path.file_name().is_some_and(|n| n == "tolerance.rs")
+        && path
+            .parent()
+            .filter(|src| src.file_name().is_some_and(|n| n == "src"))
+            .and_then(Path::parent)
+            .is_some_and(|krate| krate.join("Cargo.toml").is_file())
+}
+
 fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     let Ok(entries) = std::fs::read_dir(dir) else {
         return;
@@ -100,7 +115,7 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
             if name != "target" && !name.starts_with('.') {
                 rust_files(&path, out);
             }
-        } else if name.ends_with(".rs") && name != "tolerance.rs" {
+        } else if name.ends_with(".rs") && !is_tolerance_module(&path) {
             out.push(path);
         }
     }
@@ -137,6 +152,21 @@ fn no_literal_tolerances_outside_the_tolerance_module() {
          is no tolerance with `// {MARKER} <reason>`):\n{}",
         bad.join("\n")
     );
+}
+
+/// Each crate's `src/tolerance.rs` is a tolerance module; one elsewhere is not.
+#[test]
+fn each_crate_may_keep_its_own_tolerance_module() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+    for krate in ["sculpt-core", "tracking"] {
+        let module = root.join(krate).join("src/tolerance.rs");
+        assert!(module.is_file(), "{}", module.display());
+        assert!(is_tolerance_module(&module), "{}", module.display());
+    }
+    assert!(!is_tolerance_module(
+        &root.join("sculpt-core/src/sculpt/tolerance.rs")
+    ));
+    assert!(!is_tolerance_module(&root.join("tolerance.rs")));
 }
 
 #[test]

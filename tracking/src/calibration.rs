@@ -100,7 +100,7 @@ impl Calibration {
             return bad(CalibrationError::AxisName(self.axes.clone()));
         };
         let det = DMat3::from_cols(rows[0], rows[1], rows[2]).determinant();
-        if (det - 1.0).abs() > sculpt_core::tolerance::ROTATION_DET_EPS {
+        if (det - 1.0).abs() > crate::tolerance::ROTATION_DET_EPS {
             return bad(CalibrationError::NotARotation(self.axes.clone()));
         }
         let q = DQuat::from_array(self.rotation);
@@ -335,10 +335,7 @@ pub fn fit_tip(poses: &[(DVec3, DQuat)]) -> Result<TipFit> {
     let svd = a.svd(true, true);
     let smax = svd.singular_values.max();
     let smin = svd.singular_values.min();
-    if !smax.is_finite()
-        || smax <= 0.0
-        || smin < sculpt_core::tolerance::CALIBRATION_COND_MIN * smax
-    {
+    if !smax.is_finite() || smax <= 0.0 || smin < crate::tolerance::CALIBRATION_COND_MIN * smax {
         return bad(CalibrationError::Degenerate(Degeneracy::Poses));
     }
     let x = svd

@@ -90,7 +90,7 @@ impl Target for DefaultSurface {
         for _ in 0..50 {
             let q = p + dir * s;
             let next = (default_surface_point(q.x, q.y).z - p.z) / dir.z;
-            if (next - s).abs() < sculpt_core::tolerance::FIXED_POINT_EPS {
+            if (next - s).abs() < crate::tolerance::FIXED_POINT_EPS {
                 s = next;
                 break;
             }

@@ -46,6 +46,7 @@ pub mod serial;
 pub mod sim;
 pub mod stage;
 pub mod tilt;
+pub mod tolerance;
 #[cfg(feature = "io")]
 pub mod transport;
 

@@ -197,7 +197,7 @@ impl SerialDecoder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sculpt_core::tolerance::{WIRE_ANGLE_EPS, WIRE_MM_EPS};
+    use crate::tolerance::{WIRE_ANGLE_EPS, WIRE_MM_EPS};
 
     #[test]
     fn pose_round_trip() {

@@ -155,7 +155,7 @@ fn pivot_from_a_recorded_log() {
     sculpt_core::assert_near!(
         got.as_slice(),
         want.as_slice(),
-        sculpt_core::tolerance::REPLAY_POSE_EPS
+        tracking::tolerance::REPLAY_POSE_EPS
     );
 }
 

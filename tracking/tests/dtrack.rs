@@ -3,12 +3,11 @@
 use glam::{DMat3, DQuat, DVec3};
 use proptest::prelude::*;
 use sculpt_core::assert_near;
-use sculpt_core::tolerance::{
-    DTRACK_ANALOG_EPS, DTRACK_MM_EPS, DTRACK_ROT_EPS, EXACT_EPS, QUAT_GEN_MIN_LEN, TIME_EPS,
-};
+use sculpt_core::tolerance::{EXACT_EPS, TIME_EPS};
 use tracking::dtrack::{
     DTrackDecoder, Decoded, DecoderLimits, encode_frame, parse_frame, parse_line,
 };
+use tracking::tolerance::{DTRACK_ANALOG_EPS, DTRACK_MM_EPS, DTRACK_ROT_EPS, QUAT_GEN_MIN_LEN};
 use tracking::{Body, Frame, Pose, Wand};
 
 const GOLDEN: &[u8] = include_bytes!("golden/dtrack_manual.txt");

@@ -3,17 +3,17 @@
 use glam::{DQuat, DVec3};
 use proptest::prelude::*;
 use sculpt_core::assert_near;
-use sculpt_core::tolerance::NOISY_RMS_CEIL;
-use sculpt_core::tolerance::{
-    EXACT_EPS, NOISY_RMS_FLOOR, NORMALISED_EPS, POINT_EPS, QUAT_GEN_MIN_LEN, ROTATION_EPS,
-    WIRE_M_EPS,
-};
+use sculpt_core::tolerance::{EXACT_EPS, POINT_EPS};
 use std::time::Duration;
 use tracking::calibration::{Calibration, FitOptions, WorldPose, fit};
 use tracking::config::TrackingConfig;
 use tracking::filter::{FilterConfig, PoseFilter};
 use tracking::hub::{Hub, TrackingEvent, TrackingStatus};
 use tracking::sim::{Script, SimConfig, Simulator};
+use tracking::tolerance::NOISY_RMS_CEIL;
+use tracking::tolerance::{
+    NOISY_RMS_FLOOR, NORMALISED_EPS, QUAT_GEN_MIN_LEN, ROTATION_EPS, WIRE_M_EPS,
+};
 use tracking::{DeviceId, Frame, Pose, Wand};
 
 fn truth() -> Calibration {

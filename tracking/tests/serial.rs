@@ -2,10 +2,10 @@
 
 use glam::{DQuat, DVec3};
 use proptest::prelude::*;
-use sculpt_core::tolerance::{WIRE_ANGLE_EPS, WIRE_MM_EPS};
 use tracking::Pose;
 use tracking::config::TrackingConfig;
 use tracking::serial::{SerialDecoder, SerialRecord, encode_serial, parse_serial};
+use tracking::tolerance::{WIRE_ANGLE_EPS, WIRE_MM_EPS};
 
 fn arb_record() -> impl Strategy<Value = SerialRecord> {
     (

@@ -2,10 +2,9 @@
 
 use glam::DVec3;
 use sculpt_core::assert_near;
-use sculpt_core::tolerance::{
-    BOUND_MARGIN, EXACT_EPS, MM_ROUNDING_EPS, VELOCITY_EPS, VELOCITY_FD_STEP,
-};
+use sculpt_core::tolerance::{BOUND_MARGIN, EXACT_EPS};
 use tracking::sim::{Script, SimConfig, Simulator};
+use tracking::tolerance::{MM_ROUNDING_EPS, VELOCITY_EPS, VELOCITY_FD_STEP};
 
 fn reach() -> Script {
     Script::new(DVec3::new(0.0, 1.0, 0.0))

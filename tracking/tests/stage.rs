@@ -4,13 +4,14 @@
 use glam::{DMat3, DQuat, DVec3};
 use proptest::prelude::*;
 use sculpt_core::assert_near;
-use sculpt_core::tolerance::{EXACT_EPS, FILTERED_UNIT_EPS, SIM_END_TOL, TIME_EPS};
+use sculpt_core::tolerance::{EXACT_EPS, TIME_EPS};
 use std::collections::BTreeMap;
 use std::time::Duration;
 use tracking::calibration::Calibration;
 use tracking::filter::FilterConfig;
 use tracking::sim::{Script, SimConfig, Simulator};
 use tracking::stage::{FrameStage, StageConfig, StageEvent, WandSample};
+use tracking::tolerance::{FILTERED_UNIT_EPS, SIM_END_TOL};
 use tracking::{Body, Frame, Pose, Wand};
 
 fn unfiltered() -> StageConfig {
