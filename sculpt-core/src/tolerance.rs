@@ -790,6 +790,10 @@ pub const SOLID_SEARCH_HALF_SIZE: f64 = 4.0;
 pub const SOLID_BOUNDS_DEPTH: usize = 7;
 /// Points a side of the sampling grid that tightens the searched box.
 pub const SOLID_BOUNDS_SAMPLES: usize = 65;
+/// Step (in grid cells) of the central differences that give a solid's drawn vertex
+/// normals from its combined field (half a cell: below the mesh's own resolution, far
+/// above f32 rounding of the field).
+pub const SOLID_NORMAL_STEP_CELLS: f64 = 0.5;
 
 #[cfg(test)]
 mod tests {
