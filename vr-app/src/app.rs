@@ -190,7 +190,9 @@ impl AppState {
     /// selected one (a press there selects it first), as its position.
     pub fn pointer_target_to_select(&self) -> Option<TargetIndex> {
         let id = self.pointer.last.as_ref().and_then(Aim::target)?;
-        let position = self.session.doc.targets().iter().position(|t| t.id == id)?;
+        // Positions as the interaction counts them: the sheets, then the solids.
+        let ids = self.session.doc.stroke_target_ids();
+        let position = ids.iter().position(|&t| t == id)?;
         let index = TargetIndex(u32::try_from(position).ok()?);
         (index != self.session.interaction.target_position()).then_some(index)
     }

@@ -351,6 +351,9 @@ pub struct FilesConfig {
     /// A solid target added to the base scene (`--solid`): a JSON solid document or a
     /// `.vm` model file ([`crate::solid_view::load_solid`]); absent means none.
     pub solid: Option<PathBuf>,
+    /// Grid cells along the solid's longest side (`--solid-cells`; default
+    /// [`sculpt_core::solid::DEFAULT_CELLS`], in [`sculpt_core::solid::CELLS_RANGE`]).
+    pub solid_cells: usize,
 }
 
 impl Default for FilesConfig {
@@ -360,6 +363,7 @@ impl Default for FilesConfig {
             autosave_every: 5,
             scene: None,
             solid: None,
+            solid_cells: sculpt_core::solid::DEFAULT_CELLS,
         }
     }
 }

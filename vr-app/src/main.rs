@@ -49,6 +49,9 @@ struct Cli {
     /// model (docs/solids.md), carved by the same strokes; Tab selects it.
     #[arg(long, value_name = "MODEL")]
     solid: Option<PathBuf>,
+    /// With --solid: grid cells along the solid's longest side (8..=1024, default 128).
+    #[arg(long, value_name = "N", requires = "solid")]
+    solid_cells: Option<usize>,
     /// Output mode: dual, side-by-side, anaglyph or mono.
     #[arg(long, value_name = "MODE")]
     mode: Option<OutputMode>,
@@ -284,6 +287,9 @@ fn run(cli: Cli) -> Result<()> {
     if let Some(solid) = &cli.solid {
         config.files.solid = Some(solid.clone());
     }
+    if let Some(cells) = cli.solid_cells {
+        config.files.solid_cells = cells;
+    }
     if let Some(m) = cli.mode {
         config.display.mode = m;
     }
@@ -336,6 +342,15 @@ fn run(cli: Cli) -> Result<()> {
     };
     if let Some(model) = &config.files.solid {
         vr_app::solid_view::read_model(model)?;
+        let range = sculpt_core::solid::CELLS_RANGE;
+        if !range.contains(&config.files.solid_cells) {
+            bail!(
+                "--solid-cells {}: must be in {}..={}",
+                config.files.solid_cells,
+                range.start(),
+                range.end()
+            );
+        }
     }
     if cli.headless {
         vr_app::render::check_offscreen_size(config.display.width, config.display.height)?;

@@ -515,7 +515,7 @@ impl Session {
             None => editor::default_document(),
         };
         if let Some(model) = &config.files.solid {
-            crate::solid_view::load_solid(&mut doc, model)?;
+            crate::solid_view::load_solid(&mut doc, model, config.files.solid_cells)?;
         }
         check_output_dir(&dir).map_err(|e| io_err(&dir, e))?;
         let journal_path = dir.join(JOURNAL_FILE);

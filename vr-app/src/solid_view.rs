@@ -43,23 +43,21 @@ pub fn read_model(path: &Path) -> VrResult<String> {
 
 /// Adds the solid that the model file `path` holds ([`read_model`]) to `doc` as part
 /// of its base (never undone, [`Document::seal_history`]), named by the file's stem and
-/// meshed with [`sculpt_core::solid::DEFAULT_CELLS`] cells along its longest side. A
-/// file that cannot be read, holds no model or a model with nothing inside is refused
-/// and says why.
-pub fn load_solid(doc: &mut Document, path: &Path) -> VrResult<TargetId> {
+/// meshed with `cells` grid cells along its longest side. A file that cannot be read,
+/// holds no model or a model with nothing inside, or `cells` out of
+/// [`sculpt_core::solid::CELLS_RANGE`], is refused and says why.
+pub fn load_solid(doc: &mut Document, path: &Path, cells: usize) -> VrResult<TargetId> {
     let text = read_model(path)?;
     let name = path
         .file_stem()
         .map_or_else(|| "solid".to_string(), |s| s.to_string_lossy().into_owned());
-    let id = doc
-        .add_solid(&name, &text, sculpt_core::solid::DEFAULT_CELLS)
-        .map_err(|e| match e {
-            sculpt_core::Error::Solid(reason) => VrError::Solid {
-                path: path.to_path_buf(),
-                reason,
-            },
-            other => VrError::Core(other),
-        })?;
+    let id = doc.add_solid(&name, &text, cells).map_err(|e| match e {
+        sculpt_core::Error::Solid(reason) => VrError::Solid {
+            path: path.to_path_buf(),
+            reason,
+        },
+        other => VrError::Core(other),
+    })?;
     doc.seal_history();
     Ok(id)
 }
@@ -225,16 +223,20 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let mut doc = Document::new();
         let missing = dir.path().join("missing.json");
-        let e = load_solid(&mut doc, &missing).unwrap_err().to_string();
+        let e = load_solid(&mut doc, &missing, 32).unwrap_err().to_string();
         assert!(e.contains("missing.json"), "{e}");
         let bad = dir.path().join("bad.vm");
         std::fs::write(&bad, "not a model").unwrap();
-        let e = load_solid(&mut doc, &bad).unwrap_err().to_string();
+        let e = load_solid(&mut doc, &bad, 32).unwrap_err().to_string();
         assert!(e.contains("bad.vm"), "{e}");
         assert!(doc.solids().is_empty());
+        let good_text = dir.path().join("cells.json");
+        std::fs::write(&good_text, PLATE).unwrap();
+        let e = load_solid(&mut doc, &good_text, 4).unwrap_err().to_string();
+        assert!(e.contains("cells.json"), "{e}");
         let good = dir.path().join("plate.json");
         std::fs::write(&good, PLATE).unwrap();
-        let id = load_solid(&mut doc, &good).unwrap();
+        let id = load_solid(&mut doc, &good, 32).unwrap();
         assert_eq!(doc.solid(id).unwrap().name, "plate");
         assert!(!doc.undo(), "the loaded solid is part of the base");
     }

@@ -46,7 +46,7 @@ use crate::mesh::{MeshSink, MeshVertex, PatchKey, WeldedMesh};
 use crate::sculpt::stroke::{Mode, StrokeInput};
 use crate::tolerance::{
     SOLID_BOUNDS_DEPTH, SOLID_BOUNDS_SAMPLES, SOLID_MARGIN_CELLS, SOLID_NORMAL_STEP_CELLS,
-    SOLID_SEARCH_HALF_SIZE,
+    SOLID_RAY_BISECTIONS, SOLID_RAY_STEP_CELLS, SOLID_SEARCH_HALF_SIZE,
 };
 use blocks::{BlockMesh, GridFrame, TetTable};
 use tool::SweptTool;
@@ -238,6 +238,50 @@ impl SolidTarget {
             f64::from(self.eval(p + DVec3::Z * d) - self.eval(p - DVec3::Z * d)),
         );
         (-g).normalize_or_zero()
+    }
+
+    /// Where the ray `origin + t dir` (`dir` a unit vector, `t >= 0`) first enters the
+    /// solid: marched through the grid's box in steps of [`SOLID_RAY_STEP_CELLS`] cells
+    /// on [`Self::eval`], the step where the field turns positive bisected
+    /// [`SOLID_RAY_BISECTIONS`] times. Returns `t`, the point and the outward normal
+    /// there ([`Self::normal`]); `None` when the ray misses (or starts inside).
+    pub fn cast(&self, origin: DVec3, dir: DVec3) -> Option<(f64, DVec3, DVec3)> {
+        let f = &self.frame;
+        let lo = f.lo;
+        let hi = f.lo + DVec3::from(f.n.map(|k| k as f64)) * f.h;
+        let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+        for a in 0..3 {
+            let (ta, tb) = ((lo[a] - origin[a]) / dir[a], (hi[a] - origin[a]) / dir[a]);
+            t0 = t0.max(ta.min(tb));
+            t1 = t1.min(ta.max(tb));
+        }
+        if t0.is_nan() || t0 > t1 {
+            return None;
+        }
+        let step = f.h * SOLID_RAY_STEP_CELLS;
+        let inside = |t: f64| self.eval(origin + dir * t) > 0.0;
+        if inside(t0) {
+            return None;
+        }
+        let mut t = t0;
+        while t < t1 {
+            let next = (t + step).min(t1);
+            if inside(next) {
+                let (mut a, mut b) = (t, next);
+                for _ in 0..SOLID_RAY_BISECTIONS {
+                    let m = 0.5 * (a + b);
+                    if inside(m) {
+                        b = m;
+                    } else {
+                        a = m;
+                    }
+                }
+                let p = origin + dir * b;
+                return Some((b, p, self.normal(p)));
+            }
+            t = next;
+        }
+        None
     }
 
     /// Writes block `b`'s mesh (an index into [`Self::block_meshes`]) into `sink` as the
