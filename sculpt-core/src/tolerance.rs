@@ -738,6 +738,16 @@ pub const SOLID_SEARCH_HALF_SIZE: f64 = 4.0;
 pub const SOLID_BOUNDS_DEPTH: usize = 7;
 /// Points a side of the sampling grid that tightens the searched box.
 pub const SOLID_BOUNDS_SAMPLES: usize = 65;
+/// Step (in grid cells) of the central differences that give a solid's drawn vertex
+/// normals from its combined field (half a cell: below the mesh's own resolution, far
+/// above f32 rounding of the field).
+pub const SOLID_NORMAL_STEP_CELLS: f64 = 0.5;
+/// Step (in grid cells) of the ray march that finds where a ray enters a solid (the
+/// desktop pointer): half a cell, so no wall the mesh shows is stepped over.
+pub const SOLID_RAY_STEP_CELLS: f64 = 0.5;
+/// Bisections that refine a solid's ray hit once its step is found (a half-cell step
+/// halved 40 times: far below f32 rounding of the field).
+pub const SOLID_RAY_BISECTIONS: usize = 40;
 
 // ---------------------------------------------------------------------------------
 // Octree simplification of dual contouring (sculpt_core::implicit::octree, issue 34).

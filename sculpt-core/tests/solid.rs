@@ -289,3 +289,38 @@ proptest::proptest! {
         let _ = Document::from_json(&text.as_bytes()[..cut]);
     }
 }
+
+/// The desktop pointer's ray hit on a solid (`SolidTarget::cast`, through
+/// `sculpt::ray::cast_document`): on the plate's top face from above, with the outward
+/// normal; through the slot a groove cut, it meets nothing (the hole is open); a ray
+/// that misses the plate misses.
+#[test]
+fn a_ray_meets_the_plate_and_passes_through_its_slot() {
+    use sculpt_core::sculpt::ray::{Ray, cast_document};
+    let mut doc = Document::new();
+    let id = doc.add_solid("plate", PLATE, 64).unwrap();
+    let down = |x: f64, y: f64| Ray::new(DVec3::new(x, y, 0.5), DVec3::NEG_Z).unwrap();
+    let hit = cast_document(&doc, &down(0.1, 0.05)).expect("the top face");
+    assert_eq!(hit.target, id);
+    // The field is exact, not the mesh: the top face at z = 0.01.
+    sculpt_core::assert_near!(hit.hit.point.z, 0.01, sculpt_core::tolerance::RAY_HIT_TOL);
+    sculpt_core::assert_near!(hit.hit.t, 0.49, sculpt_core::tolerance::RAY_HIT_TOL);
+    assert!(hit.hit.normal.z > 0.99, "{:?}", hit.hit.normal);
+    assert!(
+        cast_document(&doc, &down(0.4, 0.0)).is_none(),
+        "beside the plate"
+    );
+    let input = StrokeInput {
+        samples: line(-0.1, 0.1, 0.0, 0.01),
+        tool: tool(Profile::V, 0.05, Mode::Carve),
+    };
+    doc.apply_solid_stroke(id, input).unwrap();
+    assert!(
+        cast_document(&doc, &down(0.0, 0.0)).is_none(),
+        "through the slot"
+    );
+    assert!(
+        cast_document(&doc, &down(0.0, 0.1)).is_some(),
+        "beside the slot"
+    );
+}

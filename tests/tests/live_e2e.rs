@@ -244,34 +244,51 @@ fn a_display_server_killed_mid_session_recovers_every_acknowledged_operation() {
     assert_eq!(doc.strokes().len(), journal_strokes, "{log}");
 }
 
-/// Issue 35 item 1: a lattice deformation survives a kill -9 as a stroke does. The
-/// recorded lattice bend is served (at a quarter of real time, so the process is still
-/// running after the release) to a headless display server, which is killed with
-/// SIGKILL as soon as its journal holds the deform record. The session opened on its
-/// directory recovers the bent document: the journalled edits applied in order, and
-/// the same document the offline replay of the whole session builds.
-#[test]
-fn a_display_server_killed_after_a_lattice_bend_recovers_the_deformation() {
-    let name = "lattice-bend";
+/// What a display server killed with SIGKILL left behind: its session directory and
+/// the journal it held at the kill, beside the offline replay of the same session.
+struct Killed {
+    _dir: tempfile::TempDir,
+    /// The killed server's session directory.
+    live: PathBuf,
+    /// Its journal, read when it first held what the test waited for.
+    journal: Vec<JournalEntry>,
+    /// The offline replay's `scene.json`.
+    offline: Vec<u8>,
+}
+
+/// Serves the shipped session `name` over TCP (at a quarter of real time, so the
+/// server keeps running) to a headless display server whose config ends with `files`
+/// (TOML keys of `[files]`, or nothing), and kills it with SIGKILL as soon as its
+/// journal satisfies `done`; checks it was killed running and before it could save.
+fn killed_when(name: &str, files: &str, done: impl Fn(&[JournalEntry]) -> bool) -> Killed {
     let dir = tempfile::tempdir().unwrap();
     let offline = replay_offline(name, &dir.path().join("offline"), &[]);
     // Killed with the test's end, by its own pid (ChildGuard).
     let (_server, addr) = serve_tcp(name, 0.25, TIMEOUT);
     let live = dir.path().join("live");
-    let mut app = wandsculpt(&display_config(dir.path(), &addr), &live);
+    let config = display_config(dir.path(), &addr);
+    if !files.is_empty() {
+        let mut toml = std::fs::read_to_string(&config).unwrap();
+        toml.push_str(&format!("\n[files]\n{files}\n"));
+        std::fs::write(&config, toml).unwrap();
+    }
+    let mut app = wandsculpt(&config, &live);
     let deadline = std::time::Instant::now() + TIMEOUT;
     let journal = loop {
         if let Ok(entries) = Journal::read(live.join(JOURNAL_FILE))
-            && entries.iter().any(|e| matches!(e.edit, Edit::Deform(_)))
+            && done(&entries)
         {
             break entries;
         }
         assert!(
             matches!(app.0.try_wait(), Ok(None)),
-            "wandsculpt exited before journalling the bend:\n{}",
+            "{name}: wandsculpt exited before journalling what was waited for:\n{}",
             stderr_of(&mut app)
         );
-        assert!(std::time::Instant::now() < deadline, "no deform journalled");
+        assert!(
+            std::time::Instant::now() < deadline,
+            "{name}: not journalled in time"
+        );
         std::thread::sleep(Duration::from_millis(10));
     };
     assert!(
@@ -284,8 +301,20 @@ fn a_display_server_killed_after_a_lattice_bend_recovers_the_deformation() {
         !live.join(DOCUMENT_FILE).exists(),
         "killed before it could save: the document comes from the journal alone"
     );
-    let mut expected = editor::default_document();
-    for entry in &journal {
+    Killed {
+        _dir: dir,
+        live,
+        journal,
+        offline,
+    }
+}
+
+/// The session opened with `cfg` on the killed server's directory: it must recover
+/// every journalled edit, refuse none, and build the document of `base` with the
+/// journalled edits applied in order, which is also the offline replay's.
+fn recovered(killed: &Killed, base: Document, mut cfg: vr_app::config::Config) -> Document {
+    let mut expected = base;
+    for entry in &killed.journal {
         let applied = editor::apply(&mut expected, &entry.edit);
         assert!(
             !matches!(applied, editor::Applied::Rejected(_)),
@@ -293,23 +322,72 @@ fn a_display_server_killed_after_a_lattice_bend_recovers_the_deformation() {
             entry.seq
         );
     }
-    assert_eq!(expected.deforms().len(), 1);
-    let mut cfg = vr_app::config::Config::default();
-    cfg.files.dir = live.clone();
-    let recovered = vr_app::session::Session::open(&cfg).unwrap();
-    assert_eq!(recovered.recovered, journal.len());
-    assert_eq!(recovered.rejected, 0);
-    assert_eq!(recovered.doc.deforms().len(), 1, "the bend is recovered");
-    let json = recovered.doc.to_json();
+    cfg.files.dir = killed.live.clone();
+    let session = vr_app::session::Session::open(&cfg).unwrap();
+    assert_eq!(session.recovered, killed.journal.len());
+    assert_eq!(session.rejected, 0);
+    let json = session.doc.to_json();
     assert!(
         json == expected.to_json(),
         "the recovered document differs from the journalled edits applied in order"
     );
     assert!(
-        json == offline,
+        json == killed.offline,
         "the recovered document differs from the offline replay's: {}",
-        first_difference(&json, &offline)
+        first_difference(&json, &killed.offline)
     );
+    session.doc.clone()
+}
+
+/// Issue 35 item 1: the shipped `lattice-bend` session served (the server still
+/// running after the release) to a headless display server, which is killed with
+/// SIGKILL as soon as its journal holds the deform record. The session opened on its
+/// directory recovers the bent document: the journalled edits applied in order, and
+/// the same document the offline replay of the whole session builds.
+#[test]
+fn a_display_server_killed_after_a_lattice_bend_recovers_the_deformation() {
+    let killed = killed_when("lattice-bend", "", |entries| {
+        entries.iter().any(|e| matches!(e.edit, Edit::Deform(_)))
+    });
+    let base = editor::default_document();
+    let doc = recovered(&killed, base, vr_app::config::Config::default());
+    assert_eq!(doc.deforms().len(), 1, "the bend is recovered");
+}
+
+/// Issue 35 item 3: the shipped `carve-solid` session served to a display server
+/// started with the plate its pose log's header names (`[files] solid`, as `--solid`
+/// loads it), killed with SIGKILL as soon as its journal holds both strokes on the
+/// plate. The session opened on its directory recovers the plate carved through (two
+/// slots, Euler characteristic -2): the journalled edits applied in order to the base
+/// with the plate, and the offline replay's document.
+#[test]
+fn a_display_server_killed_after_strokes_on_a_solid_recovers_them() {
+    let name = "carve-solid";
+    let header = {
+        let bytes = std::fs::read(session_log(name)).unwrap();
+        tracking::poselog::PoseLogReader::new(bytes.as_slice())
+            .unwrap()
+            .header()
+            .clone()
+    };
+    let plate = header.solid.clone().expect("the session names its solid");
+    let base = replay::pipeline::with_session_solid(editor::default_document(), &header).unwrap();
+    let solid_id = base.solids()[0].id;
+    let models = tempfile::tempdir().unwrap();
+    let model = models.path().join(format!("{}.json", plate.name));
+    std::fs::write(&model, &plate.model).unwrap();
+    let files = format!("solid = {:?}\nsolid_cells = {}", model, plate.cells);
+    let on_solid = |e: &JournalEntry| matches!(&e.edit, Edit::Stroke(s) if s.target == solid_id);
+    let killed = killed_when(name, &files, |entries| {
+        entries.iter().filter(|e| on_solid(e)).count() == 2
+    });
+    let mut cfg = vr_app::config::Config::default();
+    cfg.files.solid = Some(model);
+    cfg.files.solid_cells = plate.cells;
+    let doc = recovered(&killed, base, cfg);
+    let solid = &doc.solids()[0].solid;
+    assert_eq!(solid.cuts().len(), 2, "both strokes are recovered");
+    assert_eq!(sculpt_core::solid::euler_characteristic(&solid.mesh()), -2);
 }
 
 /// A socat pseudo-terminal pair (`socat -d -d pty,raw,echo=0 pty,raw,echo=0`), killed

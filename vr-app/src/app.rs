@@ -121,13 +121,14 @@ impl AppState {
     }
 
     /// The bounding box of the document's targets (their control nets, which hold
-    /// the surfaces), display frame; `None` for an empty document.
+    /// the surfaces) and solids (their grids), display frame; `None` for an empty
+    /// document.
     pub fn document_bounds(&self) -> Option<(DVec3, DVec3)> {
-        self.session
-            .doc
-            .targets()
+        let doc = &self.session.doc;
+        doc.targets()
             .iter()
             .map(|t| t.surface.control_bounds())
+            .chain(doc.solid_bounds())
             .filter(|(lo, hi)| lo.is_finite() && hi.is_finite())
             .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
     }
@@ -189,7 +190,9 @@ impl AppState {
     /// selected one (a press there selects it first), as its position.
     pub fn pointer_target_to_select(&self) -> Option<TargetIndex> {
         let id = self.pointer.last.as_ref().and_then(Aim::target)?;
-        let position = self.session.doc.targets().iter().position(|t| t.id == id)?;
+        // Positions as the interaction counts them: the sheets, then the solids.
+        let ids = self.session.doc.stroke_target_ids();
+        let position = ids.iter().position(|&t| t == id)?;
         let index = TargetIndex(u32::try_from(position).ok()?);
         (index != self.session.interaction.target_position()).then_some(index)
     }
@@ -337,11 +340,12 @@ impl AppState {
         };
         let mut lines = vec![
             format!(
-                "{mode} {profile} {:.1}x{:.1}mm  target {}/{}{live}",
+                "{mode} {profile} {:.1}x{:.1}mm  target {}/{} {}{live}",
                 t.width * 1000.0,
                 t.depth * 1000.0,
                 i.target_position().0 + 1,
-                self.session.doc.targets().len()
+                i.target_count(),
+                crate::solid_view::target_kind(&self.session.doc, i.target())
             ),
             format!(
                 "{tracking}  {:.0} fps  ops {}",

@@ -348,6 +348,12 @@ pub struct FilesConfig {
     /// The base scene the session starts from (a `Document::to_json` file, like a
     /// saved `scene.json`); absent means the shared default surface.
     pub scene: Option<PathBuf>,
+    /// A solid target added to the base scene (`--solid`): a JSON solid document or a
+    /// `.vm` model file ([`crate::solid_view::load_solid`]); absent means none.
+    pub solid: Option<PathBuf>,
+    /// Grid cells along the solid's longest side (`--solid-cells`; default
+    /// [`sculpt_core::solid::DEFAULT_CELLS`], in [`sculpt_core::solid::CELLS_RANGE`]).
+    pub solid_cells: usize,
 }
 
 impl Default for FilesConfig {
@@ -356,6 +362,8 @@ impl Default for FilesConfig {
             dir: PathBuf::from("wandsculpt-session"),
             autosave_every: 5,
             scene: None,
+            solid: None,
+            solid_cells: sculpt_core::solid::DEFAULT_CELLS,
         }
     }
 }

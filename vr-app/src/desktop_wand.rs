@@ -307,13 +307,20 @@ impl DesktopPointer {
             Aim::Surface { hit, .. } => {
                 let offset = self.wand.offset;
                 let position = doc
-                    .targets()
+                    .stroke_target_ids()
                     .iter()
-                    .position(|t| t.id == hit.target)
+                    .position(|&id| id == hit.target)
                     .map_or(0, |p| p + 1);
-                let snap = doc
+                let size = doc
                     .target(hit.target)
-                    .map_or(f64::INFINITY, |t| snap_distance(tool, t.surface.size()));
+                    .map(|t| t.surface.size())
+                    .or_else(|| {
+                        doc.solid(hit.target).map(|s| {
+                            let f = s.solid.frame();
+                            f.h * s.solid.cells() as f64
+                        })
+                    });
+                let snap = size.map_or(f64::INFINITY, |size| snap_distance(tool, size));
                 let mm = offset.abs() * 1000.0;
                 let height = if offset > 0.0 {
                     format!("hovering {mm:.0} mm")

@@ -79,6 +79,15 @@ pub enum VrError {
         /// Why it was refused.
         reason: Box<sculpt_core::Error>,
     },
+    /// A `--solid` model file (a JSON solid document or a `.vm` model) was refused.
+    #[error("solid {}", path.display())]
+    Solid {
+        /// The model file.
+        path: PathBuf,
+        /// Why it was refused.
+        #[source]
+        reason: sculpt_core::solid::SolidError,
+    },
     /// A tracking input (pose log, simulator script) could not be used.
     #[error("{what}: {reason}")]
     Tracking {

@@ -73,6 +73,7 @@ pub mod quadtree;
 pub mod render;
 pub mod scene;
 pub mod session;
+pub mod solid_view;
 pub mod study;
 pub mod thumbstick;
 #[cfg(feature = "window")]

@@ -32,7 +32,7 @@ struct Cli {
     config: Option<PathBuf>,
     /// Run without a window: consume the input, then write the document, journal,
     /// operator log and left/right/frame PNGs into the session directory. With
-    /// `--scene` and no other input, renders the scene as it is.
+    /// `--scene` or `--solid` and no other input, renders the scene as it is.
     #[arg(long)]
     headless: bool,
     /// Play the built-in demo session instead of live input.
@@ -45,6 +45,13 @@ struct Cli {
     /// default is the shared default surface.
     #[arg(long, value_name = "FILE")]
     scene: Option<PathBuf>,
+    /// A solid target added to the base scene: a JSON solid document or a `.vm`
+    /// model (docs/solids.md), carved by the same strokes; Tab selects it.
+    #[arg(long, value_name = "MODEL")]
+    solid: Option<PathBuf>,
+    /// With --solid: grid cells along the solid's longest side (8..=1024, default 128).
+    #[arg(long, value_name = "N", requires = "solid")]
+    solid_cells: Option<usize>,
     /// Output mode: dual, side-by-side, anaglyph or mono.
     #[arg(long, value_name = "MODE")]
     mode: Option<OutputMode>,
@@ -277,6 +284,12 @@ fn run(cli: Cli) -> Result<()> {
     if let Some(scene) = &cli.scene {
         config.files.scene = Some(scene.clone());
     }
+    if let Some(solid) = &cli.solid {
+        config.files.solid = Some(solid.clone());
+    }
+    if let Some(cells) = cli.solid_cells {
+        config.files.solid_cells = cells;
+    }
     if let Some(m) = cli.mode {
         config.display.mode = m;
     }
@@ -312,10 +325,11 @@ fn run(cli: Cli) -> Result<()> {
     }
     // Every argument is checked, and the study manifest and the GPU are opened, before
     // the session touches a file (journal, operator log): a usage error changes nothing.
-    if cli.headless && !cli.demo && config.tracking.is_none() && config.files.scene.is_none() {
+    let still = config.files.scene.is_some() || config.files.solid.is_some();
+    if cli.headless && !cli.demo && config.tracking.is_none() && !still {
         bail!(
             "--headless needs an input: --demo, a [tracking] section in --config, or \
-             --scene (rendered as it is)"
+             --scene or --solid (rendered as it is)"
         );
     }
     let study = match (&cli.study, &cli.participant) {
@@ -326,6 +340,18 @@ fn run(cli: Cli) -> Result<()> {
         )?),
         _ => None,
     };
+    if let Some(model) = &config.files.solid {
+        vr_app::solid_view::read_model(model)?;
+        let range = sculpt_core::solid::CELLS_RANGE;
+        if !range.contains(&config.files.solid_cells) {
+            bail!(
+                "--solid-cells {}: must be in {}..={}",
+                config.files.solid_cells,
+                range.start(),
+                range.end()
+            );
+        }
+    }
     if cli.headless {
         vr_app::render::check_offscreen_size(config.display.width, config.display.height)?;
     }
@@ -369,7 +395,7 @@ fn run(cli: Cli) -> Result<()> {
             let live = start_live(section, cli.addr_file.as_deref())?;
             Box::new(live_inputs(live, cli.idle_exit, cli.duration))
         } else {
-            // A scene and no input (checked above): render the scene as it is.
+            // A scene or solid and no input (checked above): render it as it is.
             Box::new(std::iter::empty())
         };
         let opts = HeadlessOptions {

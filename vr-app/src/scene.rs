@@ -16,6 +16,7 @@ use crate::lattice_view::LatticePreview;
 pub use crate::line_vertex::LineVertex;
 use crate::preview::write_stroke_ribbon;
 use crate::projection::{EyeCamera, HeadPose, Screen, StereoRig, kooima};
+use crate::solid_view::SolidView;
 
 /// Patch key of the live stroke preview (in the preview sink).
 pub const PREVIEW_KEY: PatchKey = PatchKey::MAX - 1;
@@ -180,6 +181,8 @@ pub struct SceneState {
     preview_carved: bool,
     /// The live lattice drag's bent targets in the interactive sink.
     lattice: LatticePreview,
+    /// The solid targets' blocks in both document sinks.
+    solids: SolidView,
 }
 
 impl SceneState {
@@ -235,6 +238,7 @@ impl SceneState {
                 .patches_written;
         }
         self.primed = true;
+        written += self.solids.sync(doc, sinks.final_detail, sinks.interactive);
         // A lattice drag bends a copy of the document over the interactive detail;
         // when it ends the document is put back there.
         let preview_bent = self.lattice.sync(doc, interaction, sinks.interactive);

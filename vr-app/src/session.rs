@@ -510,10 +510,13 @@ impl Session {
     /// one, a bad scene) fails before any file is touched.
     pub fn open(config: &Config) -> VrResult<Self> {
         let dir = config.files.dir.clone();
-        let doc = match &config.files.scene {
+        let mut doc = match &config.files.scene {
             Some(p) => load_scene(p)?,
             None => editor::default_document(),
         };
+        if let Some(model) = &config.files.solid {
+            crate::solid_view::load_solid(&mut doc, model, config.files.solid_cells)?;
+        }
         check_output_dir(&dir).map_err(|e| io_err(&dir, e))?;
         let journal_path = dir.join(JOURNAL_FILE);
         let stored = Journal::recover(&journal_path, &journal::document_id(&doc))?;

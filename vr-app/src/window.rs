@@ -181,7 +181,13 @@ pub const KEYS: &[KeyBinding] = &[
     bind("Ctrl+Z", "z", true, KeyAction::Undo, "undo"),
     bind("Ctrl+Y", "y", true, KeyAction::Redo, "redo"),
     bind("Ctrl+S", "s", true, KeyAction::Save, "save"),
-    bind("Tab", "Tab", false, KeyAction::NextTarget, "next target"),
+    bind(
+        "Tab",
+        "Tab",
+        false,
+        KeyAction::NextTarget,
+        "next target: the sheets, then the solids (--solid MODEL); the HUD names its kind",
+    ),
     bind("W", "w", false, KeyAction::Wireframe, "wireframe on/off"),
     bind(
         "G",

@@ -21,10 +21,14 @@
 //! These tests need Mesa's lavapipe (`apt-get install mesa-vulkan-drivers libvulkan1`):
 //! a missing adapter is a failure, never a skip.
 
+#[path = "support/frames.rs"]
+mod frames;
 #[path = "support/golden_image.rs"]
 mod golden_image;
 #[path = "support/raycast.rs"]
 mod raycast;
+
+use frames::{lavapipe, render_at};
 
 use golden_image::compare_or_bless;
 
@@ -38,7 +42,7 @@ use vr_app::config::Config;
 use vr_app::demo::demo_events;
 use vr_app::headless::{HeadlessOptions, Input, render_still, run_headless};
 use vr_app::output::OutputMode;
-use vr_app::render::{FrameInput, Gpu, OffscreenFrame, Renderer, ViewDepth};
+use vr_app::render::{FrameInput, Gpu, Renderer, ViewDepth};
 
 /// Size of the golden pictures.
 const GOLDEN_SIZE: (u32, u32) = (320, 180);
@@ -75,13 +79,6 @@ const SCENES: [&str; 6] = [
     "saddle",
     "wavy",
 ];
-
-fn lavapipe() -> Gpu {
-    match Gpu::headless_named(Some("llvmpipe")) {
-        Ok(gpu) => gpu,
-        Err(e) => panic!("these tests need lavapipe: {e}"),
-    }
-}
 
 fn scene_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../tests/data/scenes/{name}.json"))
@@ -145,31 +142,6 @@ fn golden_picture_of_the_demo() {
             .collect()
     });
     compare_or_bless("doc-demo.png", &frame);
-}
-
-/// `app` drawn at 1 eye, mono, `w` x `h`, with its document at `detail`: at
-/// [`Detail::Final`] as [`render_still`] draws it, at [`Detail::Interactive`] as the live
-/// view shows it while a gesture is live.
-fn render_at(
-    app: &mut AppState,
-    renderer: &mut Renderer,
-    detail: Detail,
-    w: u32,
-    h: u32,
-) -> OffscreenFrame {
-    renderer.sync_with(|sinks| app.sync_meshes(sinks));
-    renderer.shown = detail;
-    renderer.classes = app.surface_classes();
-    let views = app.views().unwrap();
-    let lines = app.overlay_lines();
-    let input = FrameInput {
-        views: &views,
-        lines: &lines,
-        hud: &[],
-    };
-    renderer
-        .render_offscreen(&input, OutputMode::Mono, w, h)
-        .unwrap()
 }
 
 /// What the depth comparison found.

@@ -233,7 +233,8 @@ pub struct DocumentHit {
 }
 
 /// The first hit of `ray` over all of `doc`'s targets: each target whose control box
-/// the ray enters before the best hit so far is cast ([`cast`]), nearest box first.
+/// the ray enters before the best hit so far is cast ([`cast`]), nearest box first;
+/// then each solid target ([`crate::solid::SolidTarget::cast`]).
 pub fn cast_document(doc: &Document, ray: &Ray) -> Option<DocumentHit> {
     let mut order: Vec<(f64, usize)> = doc
         .targets()
@@ -258,6 +259,24 @@ pub fn cast_document(doc: &Document, ray: &Ray) -> Option<DocumentHit> {
             best = Some(DocumentHit {
                 target: rec.id,
                 hit,
+            });
+        }
+    }
+    // The solid targets (issue 35): marched on their fields (no parameter: uv is 0).
+    for s in doc.solids() {
+        if let Some((t, point, normal)) = s.solid.cast(ray.origin, ray.dir)
+            && best.is_none_or(|b| t < b.hit.t)
+        {
+            best = Some(DocumentHit {
+                target: s.id,
+                hit: RayHit {
+                    t,
+                    point,
+                    uv: DVec2::ZERO,
+                    normal,
+                    certified: false,
+                    steps: 0,
+                },
             });
         }
     }

@@ -42,10 +42,11 @@ use glam::DVec3;
 use crate::implicit::Model;
 use crate::implicit::interval::Interval;
 use crate::implicit::tape::Tape;
-use crate::mesh::WeldedMesh;
+use crate::mesh::{MeshSink, MeshVertex, PatchKey, WeldedMesh};
 use crate::sculpt::stroke::{Mode, StrokeInput};
 use crate::tolerance::{
-    SOLID_BOUNDS_DEPTH, SOLID_BOUNDS_SAMPLES, SOLID_MARGIN_CELLS, SOLID_SEARCH_HALF_SIZE,
+    SOLID_BOUNDS_DEPTH, SOLID_BOUNDS_SAMPLES, SOLID_MARGIN_CELLS, SOLID_NORMAL_STEP_CELLS,
+    SOLID_RAY_BISECTIONS, SOLID_RAY_STEP_CELLS, SOLID_SEARCH_HALF_SIZE,
 };
 use blocks::{BlockMesh, GridFrame, TetTable};
 use tool::SweptTool;
@@ -223,6 +224,91 @@ impl SolidTarget {
         let mut v: Vec<usize> = self.changed.drain().collect();
         v.sort_unstable();
         v
+    }
+
+    /// The outward unit normal of the combined field at `p`: minus its gradient, by
+    /// central differences of [`Self::eval`] with a step of
+    /// [`SOLID_NORMAL_STEP_CELLS`] cells (the tool functions have no tape to
+    /// differentiate); zero where the differences vanish.
+    pub fn normal(&self, p: DVec3) -> DVec3 {
+        let d = self.frame.h * SOLID_NORMAL_STEP_CELLS;
+        let g = DVec3::new(
+            f64::from(self.eval(p + DVec3::X * d) - self.eval(p - DVec3::X * d)),
+            f64::from(self.eval(p + DVec3::Y * d) - self.eval(p - DVec3::Y * d)),
+            f64::from(self.eval(p + DVec3::Z * d) - self.eval(p - DVec3::Z * d)),
+        );
+        (-g).normalize_or_zero()
+    }
+
+    /// Where the ray `origin + t dir` (`dir` a unit vector, `t >= 0`) first enters the
+    /// solid: marched through the grid's box in steps of [`SOLID_RAY_STEP_CELLS`] cells
+    /// on [`Self::eval`], the step where the field turns positive bisected
+    /// [`SOLID_RAY_BISECTIONS`] times. Returns `t`, the point and the outward normal
+    /// there ([`Self::normal`]); `None` when the ray misses (or starts inside).
+    pub fn cast(&self, origin: DVec3, dir: DVec3) -> Option<(f64, DVec3, DVec3)> {
+        let f = &self.frame;
+        let lo = f.lo;
+        let hi = f.lo + DVec3::from(f.n.map(|k| k as f64)) * f.h;
+        let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+        for a in 0..3 {
+            let (ta, tb) = ((lo[a] - origin[a]) / dir[a], (hi[a] - origin[a]) / dir[a]);
+            t0 = t0.max(ta.min(tb));
+            t1 = t1.min(ta.max(tb));
+        }
+        if t0.is_nan() || t0 > t1 {
+            return None;
+        }
+        let step = f.h * SOLID_RAY_STEP_CELLS;
+        let inside = |t: f64| self.eval(origin + dir * t) > 0.0;
+        if inside(t0) {
+            return None;
+        }
+        let mut t = t0;
+        while t < t1 {
+            let next = (t + step).min(t1);
+            if inside(next) {
+                let (mut a, mut b) = (t, next);
+                for _ in 0..SOLID_RAY_BISECTIONS {
+                    let m = 0.5 * (a + b);
+                    if inside(m) {
+                        b = m;
+                    } else {
+                        a = m;
+                    }
+                }
+                let p = origin + dir * b;
+                return Some((b, p, self.normal(p)));
+            }
+            t = next;
+        }
+        None
+    }
+
+    /// Writes block `b`'s mesh (an index into [`Self::block_meshes`]) into `sink` as the
+    /// patch `key`, with the field's normals ([`Self::normal`]) and no surface
+    /// parameter; a block with no triangles is removed from `sink` instead. Returns
+    /// whether a patch was written. Blocks share their vertices' positions and normals
+    /// bit for bit where they meet (both come from the grid edge alone), so the drawn
+    /// mesh shows no seam.
+    pub fn write_block(&self, b: usize, key: PatchKey, sink: &mut dyn MeshSink) -> bool {
+        let Some(block) = self.meshes.get(b).filter(|m| !m.triangles.is_empty()) else {
+            sink.remove_patch(key);
+            return false;
+        };
+        sink.begin_patch(key);
+        for &(_, position) in &block.vertices {
+            let n = self.normal(DVec3::from(position.map(f64::from)));
+            sink.push_vertex(MeshVertex {
+                position,
+                normal: n.as_vec3().to_array(),
+                uv: [0.0; 2],
+            });
+        }
+        for t in &block.triangles {
+            sink.push_triangle(t[0], t[1], t[2]);
+        }
+        sink.end_patch();
+        true
     }
 
     fn blocks_of(&self, tool: &SweptTool) -> Vec<usize> {
