@@ -122,3 +122,110 @@ fn a_headset_session_replays_to_the_same_document() {
 
 /// Frames with the thumbstick held (90 Hz: half a second).
 const STICK_FRAMES: u64 = 45;
+
+/// Issue 35 item 1 in the headset: the lattice action (a left-hand button,
+/// [`WandAction::Lattice`](vr_app::xr::actions::WandAction::Lattice)) turns lattice
+/// mode on, the trigger grabs the cage's control point at the wand tip (with the
+/// group within the grab radius) and the controller drags it 3 cm up and 8 cm towards
+/// the viewer. Through `XrWand` (the feeder, edit loop, journal and operator log of
+/// every driver): the release is one deformation with its pulse, the sheet bends, the
+/// replay of the headset's pose log builds the same document byte for byte, and the
+/// undo button puts the flat sheet back.
+#[test]
+fn a_headset_lattice_drag_bends_the_sheet_and_replays() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = Config::default();
+    cfg.files.dir = dir.path().to_path_buf();
+    let mut app = AppState::new(cfg).unwrap();
+    let flat = app.session.doc.targets()[0].surface.clone();
+    let (lo, hi) = app.document_bounds().unwrap();
+    let display_from = display_from_stage(ReferenceSpace::Stage, (lo + hi) * 0.5);
+    let mut wand = XrWand::create(
+        dir.path(),
+        "scripted",
+        &display_from,
+        app.config.interaction.buttons,
+        PoseSource::Grip,
+    )
+    .unwrap();
+    let grip_at = |p_in_display: DVec3| XrPose {
+        position: display_from.orientation.inverse() * (p_in_display - display_from.position),
+        orientation: DQuat::IDENTITY,
+    };
+    // The cage's top front point, a third in from the left: the point the recorded
+    // desktop session grabs.
+    let grab = replay::sessions::lattice_grab_point();
+    let dt = 1.0 / 90.0;
+    let mut t = 0.0;
+    let mut pulses = Vec::new();
+    let mut step = |app: &mut AppState, state: ControllerState| {
+        let pulse = wand.step(app, t, &state, None).unwrap();
+        t += dt;
+        pulse
+    };
+    // Hover near the point, press and release the lattice button.
+    for lattice in [false, true, false, false] {
+        let state = ControllerState {
+            grip: Some(grip_at(grab + DVec3::Z * 0.05)),
+            lattice,
+            ..ControllerState::default()
+        };
+        pulses.extend(step(&mut app, state));
+    }
+    assert_eq!(
+        app.session.interaction.mode(),
+        sculpt_core::interaction::InteractionMode::Lattice,
+        "the lattice button turned lattice mode on"
+    );
+    // Onto the point, squeeze, drag, let go, move away.
+    let drag = DVec3::new(0.0, 0.03, 0.08);
+    let mut path: Vec<(DVec3, f64)> = vec![(grab, 0.1), (grab, 0.9)];
+    path.extend((1..=30).map(|k| (grab + drag * (f64::from(k) / 30.0), 0.9)));
+    path.extend([(grab + drag, 0.1), (grab + drag + DVec3::Z * 0.05, 0.1)]);
+    for (p, trigger) in path {
+        let state = ControllerState {
+            grip: Some(grip_at(p)),
+            trigger,
+            ..ControllerState::default()
+        };
+        pulses.extend(step(&mut app, state));
+    }
+    assert_eq!(pulses, [Feedback::Applied], "one pulse for the deformation");
+    assert_eq!(app.session.doc.deforms().len(), 1);
+    let bent = app.session.doc.targets()[0].surface.clone();
+    let moved = bent
+        .control_points()
+        .iter()
+        .flatten()
+        .zip(flat.control_points().iter().flatten())
+        .map(|(p, q)| p.distance(*q))
+        .fold(0.0, f64::max);
+    assert!(moved > 0.005, "the sheet bent: {moved} m");
+    assert!(
+        bent.point(0.33, 1.0).z > flat.point(0.33, 1.0).z,
+        "towards the drag"
+    );
+    let live = app.session.doc.to_json();
+
+    let log = std::fs::read(dir.path().join(POSE_LOG_FILE)).unwrap();
+    let config = std::fs::read_to_string(dir.path().join(REPLAY_CONFIG_FILE)).unwrap();
+    let replay_cfg = ReplayConfig::from_toml_str(&config).unwrap();
+    let outcome = replay_log(&log, &replay_cfg, default_document(), "xr", false, None).unwrap();
+    assert_eq!(outcome.document.deforms().len(), 1);
+    assert_eq!(
+        String::from_utf8_lossy(&outcome.document.to_json()),
+        String::from_utf8_lossy(&live),
+        "replay of the headset's lattice drag"
+    );
+
+    // The undo button takes the deformation back.
+    for undo in [true, false] {
+        let state = ControllerState {
+            grip: Some(grip_at(grab + DVec3::Z * 0.1)),
+            undo,
+            ..ControllerState::default()
+        };
+        step(&mut app, state);
+    }
+    assert_eq!(app.session.doc.targets()[0].surface, flat);
+}

@@ -34,13 +34,17 @@ use golden_image::compare_or_bless;
 
 use std::path::{Path, PathBuf};
 
-use glam::{DVec2, DVec3};
+use glam::{DQuat, DVec2, DVec3};
+use sculpt_core::editor::{self, default_surface_point};
+use sculpt_core::interaction::{Command, InteractionMode, WandEvent, WandSample};
+use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::surface::{ParamSurface, normal_from};
 use sculpt_core::sculpt::tessellate::{Detail, height};
 use vr_app::app::AppState;
 use vr_app::config::Config;
 use vr_app::demo::demo_events;
 use vr_app::headless::{HeadlessOptions, Input, render_still, run_headless};
+use vr_app::lattice_view::rest_cage;
 use vr_app::output::OutputMode;
 use vr_app::render::{FrameInput, Gpu, Renderer, ViewDepth};
 
@@ -169,12 +173,23 @@ struct DepthCheck {
 /// Renders `app`'s document at one sample per pixel (depth at the pixel centres, as the
 /// ray caster samples them) and compares the GPU depth with the exact one.
 fn check_depth(app: &mut AppState, gpu: &Gpu, detail: Detail) -> DepthCheck {
+    check_depth_against(app, gpu, detail, None)
+}
+
+/// [`check_depth`] against the exact geometry of `shown` (the document the picture
+/// shows, when it is not the session's: the bent copy of a live lattice drag).
+fn check_depth_against(
+    app: &mut AppState,
+    gpu: &Gpu,
+    detail: Detail,
+    shown: Option<&Document>,
+) -> DepthCheck {
     let (w, h) = DEPTH_SIZE;
     let mut renderer = Renderer::with_samples(gpu, wgpu::TextureFormat::Rgba8Unorm, 1);
     render_at(app, &mut renderer, detail, w, h);
     let drawn = renderer.read_view_depth(0).unwrap().unwrap();
     let cam = app.views().unwrap().center;
-    let doc = &app.session.doc;
+    let doc = shown.unwrap_or(&app.session.doc);
     let exact = raycast::cast(doc, &cam, w, h);
     let tol = doc
         .targets()
@@ -278,6 +293,118 @@ fn gpu_depth_of_the_demo_matches_the_exact_geometry() {
     assert!(!app.session.doc.strokes().is_empty());
     let c = check_depth(&mut app, &gpu, Detail::Final);
     assert_depth("demo", &c);
+}
+
+/// A lattice bend as the recorded session `lattice-bend` makes it (issue 35 item 1):
+/// a groove across the default sheet, lattice mode, then the cage's top front control
+/// point (and the group within the grab radius) dragged up to 3 cm up and 8 cm out,
+/// `steps` of the drag's 10, and released when `release`.
+fn lattice_bend_events(app: &AppState, steps: u32, release: bool) -> Vec<WandEvent> {
+    let q = DQuat::IDENTITY;
+    let mut events: Vec<WandEvent> = (0..=10)
+        .map(|i| {
+            let p = default_surface_point(-0.3 + 0.06 * f64::from(i), 1.27);
+            WandEvent::sample(
+                0.02 * f64::from(i),
+                WandSample::tracked(p, q, u32::from(i < 10)),
+            )
+        })
+        .collect();
+    let lattice = Command::SetMode {
+        mode: InteractionMode::Lattice,
+    };
+    events.push(WandEvent::command(0.3, lattice));
+    // The cage is fitted to the targets' control points, which the groove leaves as
+    // they are: the start's cage is the one the drag meets.
+    let cage = rest_cage(&app.session.doc, &app.session.interaction).unwrap();
+    let grab = cage
+        .control_points()
+        .into_iter()
+        .max_by(|a, b| (a.y + a.z).total_cmp(&(b.y + b.z)))
+        .unwrap();
+    for k in 0..=steps {
+        let p = grab + DVec3::new(0.0, 0.003, 0.008) * f64::from(k);
+        let held = !release || k < steps;
+        events.push(WandEvent::sample(
+            0.4 + 0.02 * f64::from(k),
+            WandSample::tracked(p, q, u32::from(held)),
+        ));
+    }
+    events
+}
+
+/// The lattice bend played into a session in `dir`: released (one deformation), or
+/// halfway through the drag with the button still held (the live view's preview).
+fn bent_app(dir: &Path, release: bool) -> AppState {
+    let mut app = app(None, dir);
+    let (steps, deforms) = if release { (10, 1) } else { (5, 0) };
+    for ev in lattice_bend_events(&app, steps, release) {
+        app.session.handle(&ev).unwrap();
+    }
+    assert_eq!(app.session.doc.deforms().len(), deforms);
+    assert_eq!(app.session.doc.strokes().len(), 1);
+    app
+}
+
+/// The bent sheet and its groove at final detail, as a headless run of the bend writes
+/// it (`doc-lattice-bend.png`); its independent check is
+/// [`gpu_depth_of_the_lattice_bend_matches_the_exact_geometry`].
+#[test]
+fn golden_picture_of_a_lattice_bend() {
+    let frame = headless_frame(None, |app| {
+        lattice_bend_events(app, 10, true)
+            .into_iter()
+            .map(Input::Wand)
+            .collect()
+    });
+    compare_or_bless("doc-lattice-bend.png", &frame);
+}
+
+/// The bent document's GPU depth against the ray caster of its exact geometry (the
+/// deformed NURBS sheet displaced by the carried groove).
+#[test]
+fn gpu_depth_of_the_lattice_bend_matches_the_exact_geometry() {
+    let gpu = lavapipe();
+    let dir = tempfile::tempdir().unwrap();
+    let mut app = bent_app(dir.path(), true);
+    let c = check_depth(&mut app, &gpu, Detail::Final);
+    assert_depth("lattice bend", &c);
+}
+
+/// The live view halfway through the drag (`live-lattice-drag.png`): the bent copy at
+/// interactive detail, with the cage and its grabbed group. Its independent check is
+/// [`gpu_depth_of_the_live_lattice_drag_matches_the_bent_geometry`].
+#[test]
+fn golden_picture_of_a_lattice_drag_in_the_live_view() {
+    let gpu = lavapipe();
+    let dir = tempfile::tempdir().unwrap();
+    let mut app = bent_app(dir.path(), false);
+    let mut renderer = Renderer::new(&gpu, wgpu::TextureFormat::Rgba8Unorm);
+    let (w, h) = GOLDEN_SIZE;
+    let frame = render_at(&mut app, &mut renderer, Detail::Interactive, w, h);
+    compare_or_bless("live-lattice-drag.png", &frame.composite);
+}
+
+/// The live drag's GPU depth at interactive detail against the ray caster of the
+/// document bent by the edit a release would apply; and not against the unbent
+/// document (the preview really shows the bend).
+#[test]
+fn gpu_depth_of_the_live_lattice_drag_matches_the_bent_geometry() {
+    let gpu = lavapipe();
+    let dir = tempfile::tempdir().unwrap();
+    let mut app = bent_app(dir.path(), false);
+    let edit = app.session.interaction.live_deform().expect("a live drag");
+    let mut bent = app.session.doc.clone();
+    assert!(editor::apply_deform(&mut bent, &edit).unwrap().changed());
+    let c = check_depth_against(&mut app, &gpu, Detail::Interactive, Some(&bent));
+    assert_depth("live lattice drag", &c);
+    let unbent = app.session.doc.clone();
+    let c = check_depth_against(&mut app, &gpu, Detail::Interactive, Some(&unbent));
+    let agree = c.agree as f64 / c.both.max(1) as f64;
+    assert!(
+        agree < DEPTH_AGREE_MIN,
+        "the live view shows the unbent sheet: {c:?}"
+    );
 }
 
 /// Luma (8-bit levels) at a sub-pixel position, bilinear.

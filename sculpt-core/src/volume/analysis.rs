@@ -133,6 +133,19 @@ impl Volume {
         let k = self.components();
         let point = slot_vector(row, k, 0, g);
         let covariant: [DVec3; 3] = std::array::from_fn(|d| slot_vector(row, k, 1 + d, g));
+        Frame::from_covariant(u, point, covariant)
+    }
+}
+
+impl Frame {
+    /// The frame at `u` of the point `point` with the covariant base vectors
+    /// `covariant` (`dB/du_i`, sec. 4, eq. 29): the Jacobian and the contravariant
+    /// base vectors (eq. 32); fails where the Jacobian is singular (naming `u`).
+    pub(super) fn from_covariant(
+        u: &[f64],
+        point: DVec3,
+        covariant: [DVec3; 3],
+    ) -> VolumeResult<Frame> {
         let [bu, bv, bw] = covariant;
         let jacobian = bu.dot(bv.cross(bw));
         let scale = bu.length() * bv.length() * bw.length();
@@ -154,7 +167,9 @@ impl Volume {
             contravariant,
         })
     }
+}
 
+impl Volume {
     /// The frame at `u` with the derivative row it came from.
     fn frame_and_row(&self, u: &[f64], what: &'static str) -> VolumeResult<(Frame, Vec<f64>)> {
         let g = self.geometry3(what)?;

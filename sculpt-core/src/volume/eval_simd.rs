@@ -67,6 +67,33 @@ impl Hp {
         }
     }
 
+    /// [`Self::mul_add`] in the lanes a derivative needs: all of them (`ALL`), or
+    /// only `hi` (the last three attributes and the weight; `lo` stays zero).
+    #[inline(always)]
+    fn mul_add_d<const D: usize, const ALL: bool>(simd: V3, w: f64x4, p: Hp, acc: Hp) -> Self {
+        if ALL {
+            Self::mul_add::<D>(simd, w, p, acc)
+        } else {
+            Hp {
+                lo: ZERO,
+                hi: simd.mul_add_f64x4(w, p.hi, acc.hi),
+            }
+        }
+    }
+
+    /// [`Self::mul`] in the lanes a derivative needs (see [`Self::mul_add_d`]).
+    #[inline(always)]
+    fn mul_d<const D: usize, const ALL: bool>(simd: V3, w: f64x4, p: Hp) -> Self {
+        if ALL {
+            Self::mul::<D>(simd, w, p)
+        } else {
+            Hp {
+                lo: ZERO,
+                hi: simd.mul_f64x4(w, p.hi),
+            }
+        }
+    }
+
     #[inline(always)]
     fn store<const D: usize>(self) -> [f64; D] {
         let mut out = [0.0; D];
@@ -80,13 +107,14 @@ impl Hp {
     }
 }
 
-/// `sum_l w_l p_l` over four points.
+/// `sum_l w_l p_l` over four points, in every lane (`ALL`) or only in `hi`
+/// ([`Hp::mul_add_d`]).
 #[inline(always)]
-fn combine<const D: usize>(simd: V3, w: &[f64x4; 4], p: &[Hp; 4]) -> Hp {
-    let mut acc = Hp::mul::<D>(simd, w[0], p[0]);
-    acc = Hp::mul_add::<D>(simd, w[1], p[1], acc);
-    acc = Hp::mul_add::<D>(simd, w[2], p[2], acc);
-    Hp::mul_add::<D>(simd, w[3], p[3], acc)
+fn combine<const D: usize, const ALL: bool>(simd: V3, w: &[f64x4; 4], p: &[Hp; 4]) -> Hp {
+    let mut acc = Hp::mul_d::<D, ALL>(simd, w[0], p[0]);
+    acc = Hp::mul_add_d::<D, ALL>(simd, w[1], p[1], acc);
+    acc = Hp::mul_add_d::<D, ALL>(simd, w[2], p[2], acc);
+    Hp::mul_add_d::<D, ALL>(simd, w[3], p[3], acc)
 }
 
 /// The knot span of `t` (clamped into the domain) as [`KnotVector::find_span`] finds
@@ -190,15 +218,17 @@ fn cubic_bases3(simd: V3, vol: &Volume, u: &[f64]) -> ([usize; 3], [[f64; 4]; 3]
     (spans, nd, dnd)
 }
 
-/// The kernel with its arguments, run by [`V3::vectorize`] with AVX2 and FMA enabled.
-struct CubicD1<'a, const D: usize> {
+/// The kernel with its arguments, run by [`V3::vectorize`] with AVX2 and FMA enabled:
+/// the first derivatives of every component (`ALL`, [`d1_cubic`]) or of the last three
+/// attributes only ([`d1_cubic_last3`]).
+struct CubicD1<'a, const D: usize, const ALL: bool> {
     simd: V3,
     vol: &'a Volume,
     u: &'a [f64],
     out: &'a mut [f64],
 }
 
-impl<const D: usize> WithSimd for CubicD1<'_, D> {
+impl<const D: usize, const ALL: bool> WithSimd for CubicD1<'_, D, ALL> {
     type Output = ();
 
     #[inline(always)]
@@ -233,19 +263,42 @@ impl<const D: usize> WithSimd for CubicD1<'_, D> {
                     Hp::load(&row[3]),
                 ];
                 // The last direction: c0 = sum_l N_l P_ijl, c1 = sum_l N'_l P_ijl.
-                let c0 = combine::<D>(simd, &n[2], &p);
-                let c1 = combine::<D>(simd, &dn[2], &p);
+                let c0 = combine::<D, true>(simd, &n[2], &p);
+                let c1 = combine::<D, ALL>(simd, &dn[2], &p);
                 b[0] = Hp::mul_add::<D>(simd, n[1][j], c0, b[0]);
-                b[1] = Hp::mul_add::<D>(simd, dn[1][j], c0, b[1]);
-                b[2] = Hp::mul_add::<D>(simd, n[1][j], c1, b[2]);
+                b[1] = Hp::mul_add_d::<D, ALL>(simd, dn[1][j], c0, b[1]);
+                b[2] = Hp::mul_add_d::<D, ALL>(simd, n[1][j], c1, b[2]);
             }
             a[0] = Hp::mul_add::<D>(simd, n[0][i], b[0], a[0]);
-            a[1] = Hp::mul_add::<D>(simd, dn[0][i], b[0], a[1]);
-            a[2] = Hp::mul_add::<D>(simd, n[0][i], b[1], a[2]);
-            a[3] = Hp::mul_add::<D>(simd, n[0][i], b[2], a[3]);
+            a[1] = Hp::mul_add_d::<D, ALL>(simd, dn[0][i], b[0], a[1]);
+            a[2] = Hp::mul_add_d::<D, ALL>(simd, n[0][i], b[1], a[2]);
+            a[3] = Hp::mul_add_d::<D, ALL>(simd, n[0][i], b[2], a[3]);
         }
         let h: [[f64; D]; 4] = [a[0].store(), a[1].store(), a[2].store(), a[3].store()];
-        d1_quotient(&h, out);
+        if ALL {
+            d1_quotient(&h, out);
+        } else {
+            d1_quotient_last3(&h, out);
+        }
+    }
+}
+
+/// The rational values of all `k = D - 1` attributes and the first derivatives of the
+/// last three, in the layout of [`Volume::eval_d1_last3_into`], from the homogeneous
+/// `a = [A^w, d/du_1 A^w, ..]` of which only the last four components of the
+/// derivatives are read (P&T eq. 4.8 differentiated, as [`d1_quotient`]).
+#[inline(always)]
+fn d1_quotient_last3<const D: usize>(a: &[[f64; D]; 4], out: &mut [f64]) {
+    let k = D - 1;
+    let inv_w = 1.0 / a[0][k];
+    for c in 0..k {
+        out[c] = a[0][c] * inv_w;
+    }
+    for d in 1..4 {
+        let wd = a[d][k];
+        for c in 0..3 {
+            out[k + 3 * (d - 1) + c] = (a[d][k - 3 + c] - wd * out[k - 3 + c]) * inv_w;
+        }
     }
 }
 
@@ -260,7 +313,25 @@ pub(super) fn d1_cubic<const D: usize>(vol: &Volume, u: &[f64], out: &mut [f64])
     let Some(simd) = V3::try_new() else {
         return false;
     };
-    <V3 as Simd>::vectorize(simd, CubicD1::<D> { simd, vol, u, out });
+    <V3 as Simd>::vectorize(simd, CubicD1::<D, true> { simd, vol, u, out });
+    true
+}
+
+/// The values of every attribute and the first derivatives of the last three of the
+/// all-cubic trivariate `vol` (`D = k + 1` from 5 to 8) at `u` into `out`, as
+/// [`Volume::eval_d1_last3_into`] lays them out: the derivatives are contracted in the
+/// upper vector alone, 224 vector multiply-adds per point against 384 for every
+/// component. False (and `out` untouched) when the processor lacks AVX2 or FMA or `D`
+/// is out of range.
+#[inline(always)]
+pub(super) fn d1_cubic_last3<const D: usize>(vol: &Volume, u: &[f64], out: &mut [f64]) -> bool {
+    if !(5..=8).contains(&D) {
+        return false;
+    }
+    let Some(simd) = V3::try_new() else {
+        return false;
+    };
+    <V3 as Simd>::vectorize(simd, CubicD1::<D, false> { simd, vol, u, out });
     true
 }
 
@@ -323,7 +394,51 @@ mod tests {
             vol.d1_cubic_scalar::<D>(&u, &mut scalar);
             let scale = scalar.iter().fold(1.0_f64, |m, v| m.max(v.abs()));
             assert_near!(simd, scalar, VOLUME_EVAL_REL * scale, "D {D} at {u:?}");
+            // The geometry-only kernel: the same values, and the derivatives of the
+            // last three attributes, from the public entry and from the kernel.
+            if D >= 5 {
+                let k = D - 1;
+                let mut part = vec![0.0; k + 9];
+                assert!(
+                    d1_cubic_last3::<D>(&vol, &u, &mut part),
+                    "D {D}: path not taken"
+                );
+                let mut public = vec![0.0; k + 9];
+                vol.eval_d1_last3_into(&u, &mut public).unwrap();
+                assert_eq!(part, public, "D {D} at {u:?}: the entry takes the kernel");
+                let mut expected = scalar[..k].to_vec();
+                for d in 1..4 {
+                    expected.extend_from_slice(&scalar[d * k + k - 3..(d + 1) * k]);
+                }
+                assert_near!(part, expected, VOLUME_EVAL_REL * scale, "D {D} at {u:?}");
+            }
         }
+    }
+
+    /// The entry's other paths (a quadratic volume, a volume of two attributes, a
+    /// wrong output length) keep the part of [`Volume::eval_d1_into`] asked for.
+    #[test]
+    fn last3_entry_keeps_the_part_of_the_full_row_on_every_path() {
+        for (vol, m) in [(wavy(5).elevate_degree(0, 1).unwrap(), 3), (wavy(2), 2)] {
+            let k = vol.components();
+            for u in params(&vol) {
+                let mut full = vec![0.0; 4 * k];
+                vol.eval_d1_into(&u, &mut full).unwrap();
+                let mut part = vec![0.0; k + 3 * m];
+                vol.eval_d1_last3_into(&u, &mut part).unwrap();
+                let mut expected = full[..k].to_vec();
+                for d in 1..4 {
+                    expected.extend_from_slice(&full[d * k + k - m..(d + 1) * k]);
+                }
+                let scale = full.iter().fold(1.0_f64, |a, v| a.max(v.abs()));
+                assert_near!(part, expected, VOLUME_EVAL_REL * scale, "k {k} at {u:?}");
+            }
+        }
+        let mut short = [0.0; 5];
+        assert!(matches!(
+            wavy(5).eval_d1_last3_into(&[0.0, 0.5, 1.0], &mut short),
+            Err(crate::volume::VolumeError::OutputLength { got: 5, need: 14 })
+        ));
     }
 
     #[test]

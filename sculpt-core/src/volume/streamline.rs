@@ -132,14 +132,13 @@ pub struct Streamline {
 
 /// The velocity attributes of a trivariate volume with geometry, ready for tracing.
 ///
-/// It keeps its own copy of the volume with only the six attributes it reads
-/// (`x, y, z` and the velocity): evaluation costs in proportion to the attributes, and
-/// a flow data set carries more (density, energy, pressure: `k = 8` in the paper).
+/// It keeps its own copy of the volume with only the six attributes it reads, the
+/// velocity first and `x, y, z` last: evaluation costs in proportion to the attributes
+/// (a flow data set carries more: density, energy, pressure, `k = 8` in the paper), and
+/// only the geometry is differentiated ([`Volume::eval_d1_last3_into`]).
 #[derive(Debug, Clone)]
 pub struct FlowField {
     vol: Volume,
-    geometry: [usize; 3],
-    velocity: [usize; 3],
     lo: [f64; 3],
     hi: [f64; 3],
 }
@@ -148,6 +147,10 @@ pub struct FlowField {
 type Rhs = ([f64; 3], DVec3);
 
 impl FlowField {
+    /// The scratch [`Self::param_velocity`] needs: the six values and the three
+    /// derivatives of the geometry in each of three directions.
+    pub const ROW: usize = 6 + 3 * 3;
+
     /// The flow of the velocity attributes `velocity` (three attribute indices) of
     /// `vol`, which must be trivariate with geometry `x, y, z`.
     pub fn new(vol: &Volume, velocity: [usize; 3]) -> VolumeResult<Self> {
@@ -157,29 +160,28 @@ impl FlowField {
         }
         let domain = vol.domain();
         let picked = [
-            geometry[0],
-            geometry[1],
-            geometry[2],
             velocity[0],
             velocity[1],
             velocity[2],
+            geometry[0],
+            geometry[1],
+            geometry[2],
         ];
         Ok(Self {
             vol: vol.with_attributes(&picked)?,
-            geometry: [0, 1, 2],
-            velocity: [3, 4, 5],
             lo: std::array::from_fn(|d| domain[d].0),
             hi: std::array::from_fn(|d| domain[d].1),
         })
     }
 
     /// The contravariant velocity `du_i/dt = grad u_i . V` (eq. 49) at `u` and the
-    /// point `B(u)`; `row` is scratch of `4 k` values.
+    /// point `B(u)`; `row` is scratch of [`Self::ROW`] values.
     pub fn param_velocity(&self, u: &[f64; 3], row: &mut [f64]) -> VolumeResult<Rhs> {
-        self.vol.eval_d1_into(u, row)?;
-        let f = self.vol.frame_from_row(u, row, self.geometry)?;
-        let [a, b, c] = self.velocity;
-        let v = DVec3::new(row[a], row[b], row[c]);
+        // The velocity's values, the geometry's, then dB/du_1, dB/du_2, dB/du_3.
+        self.vol.eval_d1_last3_into(u, row)?;
+        let at = |i: usize| DVec3::new(row[i], row[i + 1], row[i + 2]);
+        let f = super::Frame::from_covariant(u, at(3), [at(6), at(9), at(12)])?;
+        let v = at(0);
         let du = [
             f.contravariant[0].dot(v),
             f.contravariant[1].dot(v),
@@ -201,7 +203,7 @@ impl FlowField {
     /// ([`StreamlineEnd`]).
     pub fn trace(&self, seed: [f64; 3], opts: &StreamlineOptions) -> VolumeResult<Streamline> {
         self.vol.check_params(&seed)?;
-        let mut row = vec![0.0; self.vol.components() * 4];
+        let mut row = [0.0; Self::ROW];
         let width: [f64; 3] = std::array::from_fn(|d| self.hi[d] - self.lo[d]);
         let mut u: [f64; 3] = std::array::from_fn(|d| seed[d].clamp(self.lo[d], self.hi[d]));
         let sign = if opts.time < 0.0 { -1.0 } else { 1.0 };

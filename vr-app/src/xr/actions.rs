@@ -75,13 +75,17 @@ pub enum WandAction {
     NextTarget,
     /// Width (x) and depth (y) of the tool.
     Thumbstick,
+    /// Lattice mode on and off (issue 35 item 1): in lattice mode the draw action
+    /// grabs the cage's control point at the wand tip, with the group within the
+    /// grab radius, and the wand drags it.
+    Lattice,
     /// The haptic pulse on stroke applied or rejected.
     Haptic,
 }
 
 impl WandAction {
     /// Every action, in the order the action set creates them.
-    pub const ALL: [WandAction; 10] = [
+    pub const ALL: [WandAction; 11] = [
         WandAction::GripPose,
         WandAction::AimPose,
         WandAction::Draw,
@@ -91,6 +95,7 @@ impl WandAction {
         WandAction::Redo,
         WandAction::NextTarget,
         WandAction::Thumbstick,
+        WandAction::Lattice,
         WandAction::Haptic,
     ];
 
@@ -106,6 +111,7 @@ impl WandAction {
             WandAction::Redo => "redo",
             WandAction::NextTarget => "next_target",
             WandAction::Thumbstick => "thumbstick",
+            WandAction::Lattice => "lattice",
             WandAction::Haptic => "haptic",
         }
     }
@@ -122,6 +128,7 @@ impl WandAction {
             WandAction::Redo => "Redo",
             WandAction::NextTarget => "Next target",
             WandAction::Thumbstick => "Tool width and depth",
+            WandAction::Lattice => "Lattice mode",
             WandAction::Haptic => "Stroke feedback",
         }
     }
@@ -155,7 +162,8 @@ pub struct ProfileBindings<'a> {
     pub bindings: &'a [(WandAction, &'a str)],
 }
 
-/// The right hand holds the wand; the left hand's buttons undo and redo.
+/// The right hand holds the wand; the left hand's buttons undo and redo, and (where the
+/// controller has a spare one) turn lattice mode on and off.
 pub const PROFILES: [ProfileBindings<'static>; 4] = [
     ProfileBindings {
         profile: "/interaction_profiles/khr/simple_controller",
@@ -214,6 +222,10 @@ pub const PROFILES: [ProfileBindings<'static>; 4] = [
             (WandAction::NextTarget, "/user/hand/right/input/b/click"),
             (WandAction::Undo, "/user/hand/left/input/x/click"),
             (WandAction::Redo, "/user/hand/left/input/y/click"),
+            (
+                WandAction::Lattice,
+                "/user/hand/left/input/thumbstick/click",
+            ),
             (WandAction::Thumbstick, "/user/hand/right/input/thumbstick"),
             (WandAction::Haptic, "/user/hand/right/output/haptic"),
         ],
@@ -258,6 +270,10 @@ pub const PROFILES: [ProfileBindings<'static>; 4] = [
             (WandAction::NextTarget, "/user/hand/right/input/b/click"),
             (WandAction::Undo, "/user/hand/left/input/a/click"),
             (WandAction::Redo, "/user/hand/left/input/b/click"),
+            (
+                WandAction::Lattice,
+                "/user/hand/left/input/thumbstick/click",
+            ),
             (WandAction::Thumbstick, "/user/hand/right/input/thumbstick"),
             (WandAction::Haptic, "/user/hand/right/output/haptic"),
         ],
@@ -291,6 +307,7 @@ pub const PROFILES: [ProfileBindings<'static>; 4] = [
             ),
             (WandAction::Undo, "/user/hand/left/input/menu/click"),
             (WandAction::Redo, "/user/hand/left/input/trackpad/click"),
+            (WandAction::Lattice, "/user/hand/left/input/squeeze/click"),
             (WandAction::Thumbstick, "/user/hand/right/input/trackpad"),
             (WandAction::Haptic, "/user/hand/right/output/haptic"),
         ],
@@ -423,6 +440,8 @@ pub struct ControllerState {
     pub redo: bool,
     /// Next-target button.
     pub next_target: bool,
+    /// Lattice-mode button ([`WandAction::Lattice`]).
+    pub lattice: bool,
     /// Thumbstick (or trackpad): x right, y up, each in [-1, 1].
     pub thumbstick: [f64; 2],
 }
@@ -453,6 +472,10 @@ pub struct WandMapper {
     trigger_down: bool,
 }
 
+/// Buttons of the wand in the frames the mapper writes: the [`ButtonMap`] bits 0 to 7
+/// (a frame's reader drops the bits above its count, so the lattice bit, 6, needs
+/// more than the Flystick's six).
+const BUTTON_COUNT: u8 = 8;
 /// The wand's Flystick id in the frames the mapper writes.
 pub const WAND_ID: u32 = 0;
 /// The head's body id in the frames the mapper writes.
@@ -487,6 +510,7 @@ impl WandMapper {
             (c.undo, b.undo),
             (c.redo, b.redo),
             (c.next_target, b.select),
+            (c.lattice, b.lattice),
         ]
         .into_iter()
         .filter(|&(down, bit)| down && bit < 64)
@@ -523,7 +547,7 @@ impl WandMapper {
             id: WAND_ID,
             quality: -1.0,
             pose: Pose::from_position_mm(DVec3::ZERO),
-            button_count: 6,
+            button_count: BUTTON_COUNT,
             buttons,
             analog: vec![axis(c.thumbstick[0]), axis(c.thumbstick[1])],
         };
@@ -762,6 +786,31 @@ mod tests {
         );
         c.mode = true;
         assert_eq!(m.button_mask(&c), 1 << 7);
+    }
+
+    /// The lattice button reaches the interaction's lattice bit through the frame the
+    /// pose log stores. Regression: frames said six buttons, and a reader drops the
+    /// bits above the count, so bit 6 (lattice) never reached the session.
+    #[test]
+    fn the_lattice_button_survives_the_frame_encoding() {
+        let mut m = WandMapper::default();
+        let mut c = state_at(DVec3::new(0.0, 1.2, 0.3));
+        c.lattice = true;
+        let b = ButtonMap::default();
+        assert_eq!(m.button_mask(&c), 1 << b.lattice);
+        let frame = m.frame(3, 0.1, &c, None);
+        let mut bytes = Vec::new();
+        tracking::dtrack::encode_frame(&frame, &mut bytes);
+        let read = tracking::dtrack::parse_frame(&bytes).unwrap();
+        assert!(read.wand(WAND_ID).unwrap().button(b.lattice));
+        // Bound on every profile with a spare button, as a button.
+        for p in &PROFILES[1..] {
+            assert!(
+                p.bindings.iter().any(|&(a, _)| a == WandAction::Lattice),
+                "{}",
+                p.profile
+            );
+        }
     }
 
     #[test]

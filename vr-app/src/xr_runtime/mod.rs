@@ -223,6 +223,7 @@ struct Actions {
     undo: xr::Action<bool>,
     redo: xr::Action<bool>,
     next_target: xr::Action<bool>,
+    lattice: xr::Action<bool>,
     stick: xr::Action<xr::Vector2f>,
     haptic: xr::Action<xr::Haptic>,
 }
@@ -248,6 +249,7 @@ impl Actions {
             undo: action!(bool, WandAction::Undo),
             redo: action!(bool, WandAction::Redo),
             next_target: action!(bool, WandAction::NextTarget),
+            lattice: action!(bool, WandAction::Lattice),
             stick: action!(xr::Vector2f, WandAction::Thumbstick),
             haptic: action!(xr::Haptic, WandAction::Haptic),
             set,
@@ -273,6 +275,7 @@ impl Actions {
                     WandAction::Undo => xr::Binding::new(&self.undo, path),
                     WandAction::Redo => xr::Binding::new(&self.redo, path),
                     WandAction::NextTarget => xr::Binding::new(&self.next_target, path),
+                    WandAction::Lattice => xr::Binding::new(&self.lattice, path),
                     WandAction::Thumbstick => xr::Binding::new(&self.stick, path),
                     WandAction::Haptic => xr::Binding::new(&self.haptic, path),
                 });
@@ -372,6 +375,7 @@ fn controller_state(
         undo: button(&acts.undo),
         redo: button(&acts.redo),
         next_target: button(&acts.next_target),
+        lattice: button(&acts.lattice),
         thumbstick,
     }
 }
