@@ -1,6 +1,6 @@
 //! The document: target surfaces and the strokes applied to them, in order, with undo
 //! and redo of every step back to the start, a versioned JSON file format, tessellation
-//! into [`MeshSink`]s and export.
+//! into [`MeshSink`](crate::mesh::MeshSink)s (through a view) and export.
 //!
 //! This is the API the interaction state machine and `replay` call:
 //!
@@ -590,7 +590,7 @@ impl Document {
 
     /// The document's revision: a number every change (a step applied, undone or
     /// redone, a target added or read) raises. Revisions are unique in the process
-    /// ([`next_revision`]): equal revisions mean the same document at the same point
+    /// (one counter shared by all documents): equal revisions mean the same document at the same point
     /// (or a clone made there), never two different models, so a view handed another
     /// document sees every target as new rather than mistaking it for one it drew.
     pub fn revision(&self) -> u64 {
