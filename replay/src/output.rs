@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 
 use sculpt_core::formats::{MeshFormat, iges};
 use sculpt_core::sculpt::tessellate::Detail;
+use sculpt_core::sculpt::view::DocumentView;
 
 use crate::error::{Error, Result};
 use crate::pipeline::Outcome;
@@ -75,10 +76,11 @@ pub fn write_outputs(outcome: &Outcome, dir: &Path) -> Result<Vec<PathBuf>> {
         }
     })?;
     files.push(("scene.ply", ply));
-    let iges = iges::write(&doc.iges_surfaces()).map_err(|source| Error::Export {
-        file: "scene.igs",
-        source,
-    })?;
+    let iges =
+        iges::write(&DocumentView::new().iges_surfaces(doc)).map_err(|source| Error::Export {
+            file: "scene.igs",
+            source,
+        })?;
     files.push(("scene.igs", iges));
     files.push(("operator.log", outcome.oplog.clone()));
     files.push(("metrics.json", pretty(&outcome.metrics)?.into_bytes()));

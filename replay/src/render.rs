@@ -21,6 +21,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+use sculpt_core::sculpt::view::DocumentView;
 use std::path::{Path, PathBuf};
 
 use vr_app::config::Config;
@@ -152,21 +153,23 @@ impl SceneRenderer {
     pub fn render(&mut self, replayer: &Replayer) -> Result<StereoShot> {
         let err = Error::Render;
         let interaction = replayer.interaction();
-        // The preview is carved into (a copy of) the document, as the app does.
-        let mut doc = replayer.document().clone();
+        // The preview is carved into a view of the document, as the app does.
+        let doc = replayer.document();
         let head = replayer
             .head()
             .copied()
             .filter(|h| Views::new(&self.rig, &self.screen, h).is_ok())
             .unwrap_or(self.fixed_head);
         let views = Views::new(&self.rig, &self.screen, &head).map_err(err)?;
-        // Each picture is written from scratch: empty stores and a fresh scene state.
+        // Each picture is written from scratch: empty stores, a fresh view of the
+        // document and a fresh scene state.
         self.renderer.clear_meshes();
         let mut scene = SceneState::default();
+        let mut view = DocumentView::new();
         let facing = self.screen.basis().2;
         self.renderer
-            .sync_with(|sinks| scene.sync_meshes(&mut doc, interaction, facing, sinks));
-        let lines = scene.overlay_lines(&doc, interaction, &self.screen);
+            .sync_with(|sinks| scene.sync_meshes(doc, &mut view, interaction, facing, sinks));
+        let lines = scene.overlay_lines(doc, interaction, &self.screen);
         let input = FrameInput {
             views: &views,
             lines: &lines,

@@ -19,6 +19,7 @@ use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::ray::{Ray, cast_document};
 use sculpt_core::sculpt::stroke::{Mode, Profile, StrokeInput, Tool};
 use sculpt_core::sculpt::tessellate::Detail;
+use sculpt_core::sculpt::view::DocumentView;
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -79,35 +80,38 @@ fn report() {
     let t = doc.add_target("bicubic", bicubic_16());
     for detail in [Detail::Interactive, Detail::Final] {
         let mut d = doc.clone();
+        let mut view = DocumentView::new();
         let mut sink = PatchMesh::new();
-        let before = d.tessellate(detail, &mut sink).triangles_total;
-        let mem_before = d.memory_bytes();
+        let before = view.tessellate(&d, detail, &mut sink).triangles_total;
+        let mem_before = d.memory_bytes() + view.memory_bytes();
         d.apply_stroke(t, stroke_200()).expect("stroke applies");
-        let after = d.tessellate(detail, &mut sink);
+        let after = view.tessellate(&d, detail, &mut sink);
         println!(
             "bicubic 16x16, one 200-sample stroke, {detail:?}: {} -> {} triangles ({} rewritten in {} patches), derived memory +{} KiB",
             before,
             after.triangles_total,
             after.triangles_written,
             after.patches_written,
-            (d.memory_bytes() - mem_before) / 1024
+            (d.memory_bytes() + view.memory_bytes() - mem_before) / 1024
         );
     }
-    let mut doc = scene4();
+    let doc = scene4();
+    let mut view = DocumentView::new();
     for detail in [Detail::Interactive, Detail::Final] {
-        let stats = doc.tessellate(detail, &mut PatchMesh::new());
+        let stats = view.tessellate(&doc, detail, &mut PatchMesh::new());
+        let memory = doc.memory_bytes() + view.memory_bytes();
         println!(
             "scene 4 (mask face, {} strokes), {detail:?}: {} triangles, derived memory {} KiB ({} KiB per stroke)",
             doc.strokes().len(),
             stats.triangles_total,
-            doc.memory_bytes() / 1024,
-            doc.memory_bytes() / 1024 / doc.strokes().len().max(1)
+            memory / 1024,
+            memory / 1024 / doc.strokes().len().max(1)
         );
     }
     let target = doc.targets()[0].id;
-    let surfaces = doc.stroke_surfaces(target);
+    let surfaces = view.stroke_surfaces(&doc, target);
     for detail in [Detail::Interactive, Detail::Final] {
-        let triangles = doc.stroke_surfaces_mesh(detail, &mut PatchMesh::new());
+        let triangles = view.stroke_surfaces_mesh(&doc, detail, &mut PatchMesh::new());
         println!(
             "scene 4 stroke surfaces, {detail:?}: {} surfaces, {triangles} triangles, {} KiB",
             surfaces.len(),
@@ -122,19 +126,20 @@ fn report() {
 
 fn benches(c: &mut Criterion) {
     report();
+    let mut view = DocumentView::new();
     let mut base = Document::new();
     let target = base.add_target("bicubic", bicubic_16());
     let mut base_sink = PatchMesh::new();
-    base.tessellate(Detail::Interactive, &mut base_sink);
+    view.tessellate(&base, Detail::Interactive, &mut base_sink);
     let input = stroke_200();
     c.bench_function("stroke_interactive", |b| {
         b.iter_batched(
-            || (base.clone(), base_sink.clone()),
-            |(mut doc, mut sink)| {
+            || (base.clone(), view.clone(), base_sink.clone()),
+            |(mut doc, mut view, mut sink)| {
                 doc.apply_stroke(target, input.clone())
                     .expect("stroke applies");
-                black_box(doc.tessellate(Detail::Interactive, &mut sink));
-                (doc, sink)
+                black_box(view.tessellate(&doc, Detail::Interactive, &mut sink));
+                (doc, view, sink)
             },
             BatchSize::LargeInput,
         )
@@ -159,14 +164,14 @@ fn benches(c: &mut Criterion) {
     c.bench_function("scene4_final", |b| {
         b.iter(|| black_box(doc.mesh(Detail::Final)))
     });
-    // A fresh clone has no stroke surfaces yet: each iteration builds all of them.
+    // A fresh view has no stroke surfaces yet: each iteration builds all of them.
     let target = doc.targets()[0].id;
     c.bench_function("scene4_stroke_surfaces", |b| {
         b.iter_batched(
-            || doc.clone(),
-            |d| {
-                black_box(d.stroke_surfaces(target).len());
-                d
+            DocumentView::new,
+            |mut view| {
+                black_box(view.stroke_surfaces(&doc, target).len());
+                view
             },
             BatchSize::LargeInput,
         )

@@ -4,6 +4,7 @@
 use sculpt_core::mesh::PatchMesh;
 use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::tessellate::Detail;
+use sculpt_core::sculpt::view::DocumentView;
 use std::time::Instant;
 
 fn main() {
@@ -16,7 +17,7 @@ fn main() {
             }
         };
         let t0 = Instant::now();
-        let mut doc = match Document::from_json(&bytes) {
+        let doc = match Document::from_json(&bytes) {
             Ok(d) => d,
             Err(e) => {
                 eprintln!("{path}: {e}");
@@ -24,17 +25,18 @@ fn main() {
             }
         };
         let load = t0.elapsed();
+        let mut view = DocumentView::new();
         for detail in [Detail::Interactive, Detail::Final] {
             let t = Instant::now();
             let mut mesh = PatchMesh::new();
-            let stats = doc.tessellate(detail, &mut mesh);
+            let stats = view.tessellate(&doc, detail, &mut mesh);
             println!(
                 "{path}: {detail:?}: {} triangles, {} patches, {:.1} ms (load {:.1} ms), derived state {} KiB",
                 stats.triangles_total,
                 stats.patches_written,
                 t.elapsed().as_secs_f64() * 1e3,
                 load.as_secs_f64() * 1e3,
-                doc.memory_bytes() / 1024
+                (doc.memory_bytes() + view.memory_bytes()) / 1024
             );
         }
     }

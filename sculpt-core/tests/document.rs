@@ -12,6 +12,7 @@ use sculpt_core::nurbs::NurbsSurface;
 use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::stroke::{Mode, Profile, StrokeInput, Tool};
 use sculpt_core::sculpt::tessellate::Detail;
+use sculpt_core::sculpt::view::DocumentView;
 use sculpt_core::tolerance::{MESH_HIT_EPS, POINT_WELD_EPS, TEST_WELD_EPS};
 
 fn plane() -> NurbsSurface {
@@ -65,10 +66,11 @@ fn mesh_of(doc: &Document, detail: Detail) -> PatchMesh {
 
 #[test]
 fn undo_redo_back_to_the_start_and_incremental_equals_fresh() {
+    let mut view = DocumentView::new();
     let mut doc = Document::new();
     let t = doc.add_target("plane", plane());
     let mut live = PatchMesh::new();
-    doc.tessellate(Detail::Interactive, &mut live);
+    view.tessellate(&doc, Detail::Interactive, &mut live);
     let empty = mesh_of(&doc, Detail::Interactive);
     let a = doc
         .apply_stroke(
@@ -79,7 +81,7 @@ fn undo_redo_back_to_the_start_and_incremental_equals_fresh() {
             },
         )
         .unwrap();
-    doc.tessellate(Detail::Interactive, &mut live);
+    view.tessellate(&doc, Detail::Interactive, &mut live);
     let one = mesh_of(&doc, Detail::Interactive);
     assert_eq!(live, one, "incremental after one stroke");
     let b = doc
@@ -92,17 +94,17 @@ fn undo_redo_back_to_the_start_and_incremental_equals_fresh() {
         )
         .unwrap();
     assert!(b > a);
-    doc.tessellate(Detail::Interactive, &mut live);
+    view.tessellate(&doc, Detail::Interactive, &mut live);
     let two = mesh_of(&doc, Detail::Interactive);
     assert_eq!(live, two);
     assert!(doc.undo());
-    doc.tessellate(Detail::Interactive, &mut live);
+    view.tessellate(&doc, Detail::Interactive, &mut live);
     assert_eq!(live, one, "undo restores the mesh");
     assert!(doc.undo());
-    doc.tessellate(Detail::Interactive, &mut live);
+    view.tessellate(&doc, Detail::Interactive, &mut live);
     assert_eq!(live, empty);
     assert!(doc.undo(), "undo the target too");
-    doc.tessellate(Detail::Interactive, &mut live);
+    view.tessellate(&doc, Detail::Interactive, &mut live);
     assert_eq!(
         live.triangle_count(),
         0,
@@ -111,7 +113,7 @@ fn undo_redo_back_to_the_start_and_incremental_equals_fresh() {
     assert!(!doc.undo());
     assert!(doc.redo() && doc.redo() && doc.redo());
     assert!(!doc.redo());
-    doc.tessellate(Detail::Interactive, &mut live);
+    view.tessellate(&doc, Detail::Interactive, &mut live);
     assert_eq!(live, two, "redo restores everything");
     // A new stroke clears the redo stack.
     doc.undo();
@@ -130,11 +132,12 @@ fn undo_redo_back_to_the_start_and_incremental_equals_fresh() {
 /// (and their neighbours), not the whole target.
 #[test]
 fn edits_rewrite_only_the_cells_of_the_affected_stroke() {
+    let mut view = DocumentView::new();
     let mut doc = Document::new();
     let t = doc.add_target("plane", plane());
     let mut live = PatchMesh::new();
-    let all = doc
-        .tessellate(Detail::Interactive, &mut live)
+    let all = view
+        .tessellate(&doc, Detail::Interactive, &mut live)
         .patches_written;
     assert_eq!(all, doc.patch_count(Detail::Interactive));
     assert!(all >= 64);
@@ -146,16 +149,16 @@ fn edits_rewrite_only_the_cells_of_the_affected_stroke() {
         Mode::Carve,
     )
     .unwrap();
-    let apply = doc
-        .tessellate(Detail::Interactive, &mut live)
+    let apply = view
+        .tessellate(&doc, Detail::Interactive, &mut live)
         .patches_written;
     assert!(doc.undo());
-    let undo = doc
-        .tessellate(Detail::Interactive, &mut live)
+    let undo = view
+        .tessellate(&doc, Detail::Interactive, &mut live)
         .patches_written;
     assert!(doc.redo());
-    let redo = doc
-        .tessellate(Detail::Interactive, &mut live)
+    let redo = view
+        .tessellate(&doc, Detail::Interactive, &mut live)
         .patches_written;
     for (what, n) in [("apply", apply), ("undo", undo), ("redo", redo)] {
         assert!(
@@ -171,10 +174,11 @@ fn edits_rewrite_only_the_cells_of_the_affected_stroke() {
 /// changed since (none): `forget_sinks` makes the next tessellation write them all.
 #[test]
 fn after_forget_sinks_a_new_sink_gets_every_patch() {
+    let mut view = DocumentView::new();
     let mut doc = Document::new();
     let t = doc.add_target("plane", plane());
     let mut first = PatchMesh::new();
-    doc.tessellate(Detail::Final, &mut first);
+    view.tessellate(&doc, Detail::Final, &mut first);
     stroke(
         &mut doc,
         t,
@@ -183,13 +187,17 @@ fn after_forget_sinks_a_new_sink_gets_every_patch() {
         Mode::Carve,
     )
     .unwrap();
-    doc.tessellate(Detail::Final, &mut first);
+    view.tessellate(&doc, Detail::Final, &mut first);
     let mut second = PatchMesh::new();
-    let stale = doc.tessellate(Detail::Final, &mut second).patches_written;
+    let stale = view
+        .tessellate(&doc, Detail::Final, &mut second)
+        .patches_written;
     assert_eq!(stale, 0, "without forgetting, nothing changed since");
-    doc.forget_sinks();
+    view.forget_sinks();
     let mut third = PatchMesh::new();
-    let all = doc.tessellate(Detail::Final, &mut third).patches_written;
+    let all = view
+        .tessellate(&doc, Detail::Final, &mut third)
+        .patches_written;
     assert_eq!(all, doc.patch_count(Detail::Final));
     assert_eq!(third, first);
     assert_eq!(third, doc.mesh(Detail::Final));
@@ -197,11 +205,12 @@ fn after_forget_sinks_a_new_sink_gets_every_patch() {
 
 #[test]
 fn a_preview_carves_only_the_interactive_mesh_and_leaves_no_trace() {
+    let mut view = DocumentView::new();
     let mut doc = Document::new();
     let t = doc.add_target("plane", plane());
     let (mut live, mut fin) = (PatchMesh::new(), PatchMesh::new());
-    doc.tessellate(Detail::Interactive, &mut live);
-    doc.tessellate(Detail::Final, &mut fin);
+    view.tessellate(&doc, Detail::Interactive, &mut live);
+    view.tessellate(&doc, Detail::Final, &mut fin);
     let (live_before, fin_before) = (live.clone(), fin.clone());
     let input = StrokeInput {
         samples: line(DVec3::new(0.3, 0.5, 0.0), DVec3::new(0.7, 0.5, 0.0)),
@@ -213,9 +222,9 @@ fn a_preview_carves_only_the_interactive_mesh_and_leaves_no_trace() {
             samples: input.samples[..n].to_vec(),
             tool: input.tool.clone(),
         };
-        doc.set_preview(t, &partial).unwrap();
-        let written = doc
-            .tessellate(Detail::Interactive, &mut live)
+        view.set_preview(&doc, t, &partial).unwrap();
+        let written = view
+            .tessellate(&doc, Detail::Interactive, &mut live)
             .patches_written;
         assert!(
             written > 0 && written <= doc.patch_count(Detail::Interactive) / 4,
@@ -224,7 +233,11 @@ fn a_preview_carves_only_the_interactive_mesh_and_leaves_no_trace() {
     }
     let hit = |m: &PatchMesh| m.first_hit([0.5, 0.5, 1.0], [0.0, 0.0, -1.0]).unwrap();
     sculpt_core::assert_near!(hit(&live), 1.0 + 0.01, MESH_HIT_EPS);
-    assert_eq!(doc.tessellate(Detail::Final, &mut fin).patches_written, 0);
+    assert_eq!(
+        view.tessellate(&doc, Detail::Final, &mut fin)
+            .patches_written,
+        0
+    );
     assert_eq!(fin, fin_before, "the final detail never shows a preview");
     assert!(doc.strokes().is_empty() && !doc.can_redo());
     assert_eq!(doc.to_json(), {
@@ -234,12 +247,12 @@ fn a_preview_carves_only_the_interactive_mesh_and_leaves_no_trace() {
     });
     // The preview looks exactly like the stroke once applied.
     let previewed = live.clone();
-    doc.clear_preview();
+    view.clear_preview();
     doc.apply_stroke(t, input.clone()).unwrap();
-    doc.tessellate(Detail::Interactive, &mut live);
+    view.tessellate(&doc, Detail::Interactive, &mut live);
     assert_eq!(live, previewed);
     assert!(doc.undo());
-    doc.tessellate(Detail::Interactive, &mut live);
+    view.tessellate(&doc, Detail::Interactive, &mut live);
     assert_eq!(live, live_before, "clearing the preview restores the mesh");
     // A rejected preview says why and leaves none behind.
     let off = StrokeInput {
@@ -247,11 +260,11 @@ fn a_preview_carves_only_the_interactive_mesh_and_leaves_no_trace() {
         tool: tool(Mode::Carve),
     };
     assert!(matches!(
-        doc.set_preview(t, &off),
+        view.set_preview(&doc, t, &off),
         Err(Error::StrokeRejected(StrokeRejection::OffSurface))
     ));
-    assert!(doc.preview().is_none());
-    assert!(doc.set_preview(t + 100, &input).is_err());
+    assert!(view.preview().is_none());
+    assert!(view.set_preview(&doc, t + 100, &input).is_err());
 }
 
 /// Issue 20 ("shards while carving"): the live preview is meshed by the same graded
@@ -264,12 +277,13 @@ fn a_preview_carves_only_the_interactive_mesh_and_leaves_no_trace() {
 /// over the flat target, fails it.
 #[test]
 fn no_preview_triangle_lies_outside_the_footprint_plus_the_tolerance() {
+    let mut view = DocumentView::new();
     use glam::DVec2;
     use sculpt_core::sculpt::jordan::{Location, point_segment_distance};
     let mut doc = Document::new();
     let t = doc.add_target("plane", plane());
     let mut live = PatchMesh::new();
-    doc.tessellate(Detail::Interactive, &mut live);
+    view.tessellate(&doc, Detail::Interactive, &mut live);
     let tol = Detail::Interactive.tolerance(2f64.sqrt());
     // A bent stroke across several root cells, previewed as it grows.
     let samples: Vec<(f64, DVec3)> = (0..80)
@@ -285,9 +299,9 @@ fn no_preview_triangle_lies_outside_the_footprint_plus_the_tolerance() {
             samples: samples[..n].to_vec(),
             tool: tool(Mode::Carve),
         };
-        doc.set_preview(t, &partial).unwrap();
-        doc.tessellate(Detail::Interactive, &mut live);
-        let (_, pieces) = doc.preview().unwrap();
+        view.set_preview(&doc, t, &partial).unwrap();
+        view.tessellate(&doc, Detail::Interactive, &mut live);
+        let (_, pieces) = view.preview().unwrap();
         let [stroke] = pieces.pieces.as_slice() else {
             panic!("the preview falls into pieces");
         };
@@ -402,7 +416,8 @@ fn exports_read_back() {
         let rewelded = sculpt_core::mesh::weld(&v, &tr, TEST_WELD_EPS);
         assert_eq!(rewelded.vertices.len(), welded.vertices.len(), "{f:?}");
     }
-    let model = iges::read(&iges::write(&doc.iges_surfaces()).unwrap()).unwrap();
+    let model =
+        iges::read(&iges::write(&DocumentView::new().iges_surfaces(&doc)).unwrap()).unwrap();
     // The target (trimmed by one hole) and one stroke surface.
     assert_eq!(model.surfaces.len(), 2);
     assert_eq!(model.trimmed, vec![(0, 2)]);
@@ -427,12 +442,13 @@ proptest! {
         emboss in any::<bool>(),
         u in any::<bool>(),
     ) {
+        let mut view = DocumentView::new();
         let mut doc = Document::new();
         let t = doc.add_target("plane", plane());
         doc.apply_stroke(t, StrokeInput { samples: line(DVec3::new(0.2, 0.5, 0.0), DVec3::new(0.8, 0.5, 0.0)), tool: tool(Mode::Carve) }).unwrap();
         let before_json = doc.to_json();
         let mut live = PatchMesh::new();
-        doc.tessellate(Detail::Interactive, &mut live);
+        view.tessellate(&doc, Detail::Interactive, &mut live);
         let samples = pts.iter().enumerate().map(|(i, p)| (i as f64, *p)).collect();
         let tool = Tool {
             profile: if u { Profile::U } else { Profile::V },
@@ -446,7 +462,7 @@ proptest! {
                 prop_assert_eq!(doc.to_json(), before_json);
             }
         }
-        doc.tessellate(Detail::Interactive, &mut live);
+        view.tessellate(&doc, Detail::Interactive, &mut live);
         let (verts, tris) = live.merged();
         prop_assert!(verts.iter().all(|v| v.position.iter().chain(&v.normal).all(|x| x.is_finite())));
         prop_assert!(tris.iter().all(|t| t.iter().all(|&i| (i as usize) < verts.len())));
@@ -509,6 +525,7 @@ proptest! {
     fn wild_strokes_never_panic_or_give_nan(
         strokes in proptest::collection::vec((arb_wild_path(), arb_tool()), 1..4),
     ) {
+        let mut view = DocumentView::new();
         let mut doc = Document::new();
         let t = doc.add_target("plane", plane());
         let mut live = [PatchMesh::new(), PatchMesh::new()];
@@ -517,7 +534,7 @@ proptest! {
                 prop_assert!(matches!(e, Error::StrokeRejected(_)), "{e:?}");
             }
             for (detail, sink) in [Detail::Interactive, Detail::Final].into_iter().zip(&mut live) {
-                doc.tessellate(detail, sink);
+                view.tessellate(&doc, detail, sink);
             }
         }
         for (detail, sink) in [Detail::Interactive, Detail::Final].into_iter().zip(&live) {

@@ -14,6 +14,7 @@ use sculpt_core::lattice::{DeformEdit, Lattice, LatticeSpec};
 use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::surface::{ParamSurface, TargetSurface};
 use sculpt_core::sculpt::tessellate::Detail;
+use sculpt_core::sculpt::view::DocumentView;
 use sculpt_core::tolerance::{EXPORT_WELD_EPS, POINT_EPS};
 
 /// How close a carried stroke's centreline stays to its old `(u, v)`: point inversion
@@ -160,7 +161,8 @@ fn iges_and_glb_exports_read_back_the_deformed_surface() {
         Applied::Deform { .. }
     ));
     let bent = doc.targets()[0].surface.clone();
-    let model = iges::read(&iges::write(&doc.iges_surfaces()).unwrap()).unwrap();
+    let model =
+        iges::read(&iges::write(&DocumentView::new().iges_surfaces(&doc)).unwrap()).unwrap();
     assert_eq!(model.surfaces.len(), 1);
     let read = &model.surfaces[0].control_points;
     let (want, old) = (bent.control_points(), original.control_points());

@@ -18,6 +18,7 @@ use sculpt_core::reconstruct::sample::{sphere, torus};
 use sculpt_core::reconstruct::segment::SegmentSettings;
 use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::tessellate::Detail;
+use sculpt_core::sculpt::view::DocumentView;
 use sculpt_core::tolerance::FOLD_AREA_FRACTION;
 
 /// What the half-edge count found.
@@ -161,10 +162,11 @@ fn scan_document(points: Vec<DVec3>, patches: usize) -> Document {
 /// view does) and afresh (`Document::mesh`), and checks each is one closed,
 /// consistently oriented body of Euler characteristic `euler` with at most
 /// `FOLD_AREA_FRACTION` of its area facing against `reference`.
-fn check_whole(mut doc: Document, euler: i64, reference: impl Fn(DVec3) -> DVec3) {
+fn check_whole(doc: Document, euler: i64, reference: impl Fn(DVec3) -> DVec3) {
+    let mut view = DocumentView::new();
     for detail in [Detail::Interactive, Detail::Final] {
         let mut live = PatchMesh::new();
-        doc.tessellate(detail, &mut live);
+        view.tessellate(&doc, detail, &mut live);
         for mesh in [live, doc.mesh(detail)] {
             let tris = triangles(&mesh);
             let s = count(&tris);
@@ -220,6 +222,7 @@ fn patches_meshed_apart_leave_open_edges() {
 /// same watertight surface as before the stroke.
 #[test]
 fn a_stroke_and_its_undo_keep_the_live_view_in_step() {
+    let mut view = DocumentView::new();
     use sculpt_core::editor::{self, Applied};
     use sculpt_core::interaction::{Edit, StrokeEdit, StrokeSample};
     use sculpt_core::sculpt::document::conform_key;
@@ -227,7 +230,7 @@ fn a_stroke_and_its_undo_keep_the_live_view_in_step() {
 
     let mut doc = scan_document(torus(4000, 0.2, 0.08, 7), 30);
     let mut live = PatchMesh::new();
-    doc.tessellate(Detail::Interactive, &mut live);
+    view.tessellate(&doc, Detail::Interactive, &mut live);
     let before = triangles(&live);
     assert!(count(&before).is_closed_manifold());
     let keys = |m: &PatchMesh| m.patches().map(|(k, _)| k).collect::<Vec<_>>();
@@ -248,7 +251,7 @@ fn a_stroke_and_its_undo_keep_the_live_view_in_step() {
         editor::apply(&mut doc, &edit),
         Applied::Stroke { .. }
     ));
-    doc.tessellate(Detail::Interactive, &mut live);
+    view.tessellate(&doc, Detail::Interactive, &mut live);
     // Issue 30, watertight after strokes: the carved patch's shared sides are the
     // network's, so the live view stays one closed surface.
     let after = count(&triangles(&live));
@@ -263,7 +266,7 @@ fn a_stroke_and_its_undo_keep_the_live_view_in_step() {
     }
     assert_eq!(live, doc.mesh(Detail::Interactive));
     assert!(doc.undo());
-    doc.tessellate(Detail::Interactive, &mut live);
+    view.tessellate(&doc, Detail::Interactive, &mut live);
     let mut again = triangles(&live);
     let mut first = before;
     let order = |a: &[[f32; 3]; 3], b: &[[f32; 3]; 3]| {
@@ -324,16 +327,17 @@ fn deepest_below_torus(mesh: &PatchMesh, major: f64, minor: f64) -> f64 {
 /// its grooves carved.
 #[test]
 fn a_carved_network_stays_one_closed_surface() {
+    let mut view = DocumentView::new();
     let (major, minor) = (0.2, 0.08);
     let mut doc = scan_document(torus(4000, major, minor, 7), 30);
     let mut live = [PatchMesh::new(), PatchMesh::new()];
     for (mesh, detail) in live.iter_mut().zip([Detail::Interactive, Detail::Final]) {
-        doc.tessellate(detail, mesh);
+        view.tessellate(&doc, detail, mesh);
     }
     carve(&mut doc, 0, (0.32, 0.47), (0.71, 0.52));
     carve(&mut doc, 5, (0.47, 0.43), (0.52, 1.0));
     for (mesh, detail) in live.iter_mut().zip([Detail::Interactive, Detail::Final]) {
-        doc.tessellate(detail, mesh);
+        view.tessellate(&doc, detail, mesh);
         let s = count(&triangles(mesh));
         eprintln!(
             "{detail:?} after strokes (live): {s:?}, Euler {}",
@@ -346,7 +350,7 @@ fn a_carved_network_stays_one_closed_surface() {
         assert!(depth > 0.003, "{detail:?}: deepest {depth}");
     }
     // Afresh (new sinks), with the fold check.
-    doc.forget_sinks();
+    view.forget_sinks();
     check_whole(doc, 0, |p| {
         let core = DVec3::new(p.x, p.y, 0.0).normalize() * major;
         (p - core).normalize()
@@ -441,7 +445,7 @@ fn a_stroke_across_a_patch_boundary_carves_one_continuous_groove() {
     assert_eq!(doc.strokes().len(), 1);
     assert!(doc.stroke(id).expect("built").pieces.len() >= 2);
     let mut live = PatchMesh::new();
-    doc.tessellate(Detail::Final, &mut live);
+    DocumentView::new().tessellate(&doc, Detail::Final, &mut live);
     let s = count(&triangles(&live));
     eprintln!("across: {s:?}, Euler {}", s.euler());
     assert!(s.is_closed_manifold(), "{s:?}");

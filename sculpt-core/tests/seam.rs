@@ -16,6 +16,7 @@ use sculpt_core::sculpt::jordan::Location;
 use sculpt_core::sculpt::stroke::{Mode, Profile, Stroke, StrokeInput, Tool};
 use sculpt_core::sculpt::surface::{ParamSurface, normal_at, wrap_uv};
 use sculpt_core::sculpt::tessellate::{Detail, height};
+use sculpt_core::sculpt::view::DocumentView;
 use sculpt_core::tolerance::{
     ARC_LEN_REL, AREA_SYMMETRY_REL, CENTRELINE_TOL_REL, EXACT_EPS, EXPORT_WELD_EPS, POINT_EPS,
     SEAM_DEPTH_TOL,
@@ -338,11 +339,12 @@ fn regression_clipping_at_the_seam_lost_the_short_side() {
 /// brings back the bare target's mesh.
 #[test]
 fn incremental_tessellation_across_the_seam_equals_a_fresh_one() {
+    let mut view = DocumentView::new();
     use std::f64::consts::TAU;
     let mut doc = Document::new();
     let t = doc.add_target("torus", torus());
     let mut sink = PatchMesh::new();
-    doc.tessellate(Detail::Interactive, &mut sink);
+    view.tessellate(&doc, Detail::Interactive, &mut sink);
     let bare = sink.clone();
     let input = StrokeInput {
         samples: samples(120, |t| {
@@ -351,7 +353,7 @@ fn incremental_tessellation_across_the_seam_equals_a_fresh_one() {
         tool: tool(0.01),
     };
     doc.apply_stroke(t, input).expect("the stroke applies");
-    let stats = doc.tessellate(Detail::Interactive, &mut sink);
+    let stats = view.tessellate(&doc, Detail::Interactive, &mut sink);
     let roots = doc.patch_count(Detail::Interactive);
     assert!(
         stats.patches_written > 0 && stats.patches_written < roots / 2,
@@ -359,7 +361,7 @@ fn incremental_tessellation_across_the_seam_equals_a_fresh_one() {
     );
     assert_eq!(sink, doc.mesh(Detail::Interactive));
     assert!(doc.undo());
-    doc.tessellate(Detail::Interactive, &mut sink);
+    view.tessellate(&doc, Detail::Interactive, &mut sink);
     assert_eq!(sink, bare);
 }
 

@@ -24,6 +24,7 @@ use sculpt_core::oplog::EventKind;
 use sculpt_core::sculpt::document::{Document, TargetId};
 use sculpt_core::sculpt::stroke::{StrokeInput, StrokePieces, Tool};
 use sculpt_core::sculpt::tessellate::{Detail, StrokeRef, TargetTessellation, height};
+use sculpt_core::sculpt::view::DocumentView;
 use sculpt_core::tolerance::BASIN_JUMP_RATIO;
 
 mod brute;
@@ -344,7 +345,11 @@ fn a_stroke_in_pieces_is_one_operation() {
         assert_ne!(mesh_of(&without), carved, "piece {key} carves nothing");
     }
     // Each piece has its own stroke surface, named after the stroke in the export.
-    let names: Vec<String> = doc.iges_surfaces().into_iter().map(|s| s.name).collect();
+    let names: Vec<String> = DocumentView::new()
+        .iges_surfaces(&doc)
+        .into_iter()
+        .map(|s| s.name)
+        .collect();
     let own = |n: &String| {
         *n == format!("stroke{id}") || (2..=pieces).any(|k| *n == format!("stroke{id}-{k}"))
     };

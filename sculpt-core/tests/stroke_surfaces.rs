@@ -25,6 +25,7 @@ use sculpt_core::sculpt::stroke::{Mode, Profile, StrokeInput, Tool};
 use sculpt_core::sculpt::stroke_surface::{StrokeSurface, map_cap, visibility_margin};
 use sculpt_core::sculpt::surface::{ParamSurface, extent, normal_at, wrap_uv};
 use sculpt_core::sculpt::tessellate::{Detail, height};
+use sculpt_core::sculpt::view::DocumentView;
 use sculpt_core::tolerance::{CENTRELINE_TOL_REL, EXACT_EPS, POINT_EPS, ULP_EPS};
 
 const SCENES: [&str; 7] = [
@@ -62,13 +63,14 @@ fn mesh_tol(doc: &Document, profile: &Profile, depth: f64) -> f64 {
 /// stroke's data and `Stroke::depth_at`), cubic along the stroke, degree 1 across a V.
 #[test]
 fn stroke_surfaces_fit_the_grooves_of_the_paper_scenes() {
+    let mut view = DocumentView::new();
     for name in SCENES {
         let doc = load(name);
         let target = &doc.targets()[0];
         let surface = &target.surface;
         for (id, stroke) in doc.strokes_on(target.id) {
-            let ss = doc
-                .stroke_surface(id)
+            let ss = view
+                .stroke_surface(&doc, id)
                 .unwrap_or_else(|| panic!("{name}: stroke {id} has a surface"));
             let tol = ss.fit_tolerance();
             if name != "hooked-tapered-end.json" {
@@ -157,6 +159,7 @@ struct Tally {
 /// mesh tolerance wherever the mesh is within its own tolerance of the height field
 /// (the mesh is coarser than the fit on the rim walls of tapered U ends).
 fn check_trims(name: &str, doc: &Document) -> Tally {
+    let mut view = DocumentView::new();
     let target = &doc.targets()[0];
     let surface = &target.surface;
     let closed = closed(surface);
@@ -169,7 +172,7 @@ fn check_trims(name: &str, doc: &Document) -> Tally {
         on_mesh: 0,
     };
     for (own, &(id, stroke)) in strokes.iter().enumerate() {
-        let ss = doc.stroke_surface(id).expect("a stroke surface");
+        let ss = view.stroke_surface(doc, id).expect("a stroke surface");
         let fit = ss.fit_tolerance();
         let tol = mesh_tol(doc, &stroke.tool.profile, stroke.tool.depth);
         let same_mode = strokes.iter().all(|(_, o)| o.tool.mode == stroke.tool.mode);
@@ -345,11 +348,12 @@ fn three_strokes(mode: Mode) -> (Document, Vec<StrokeId>) {
 
 #[test]
 fn three_mutually_overlapping_strokes_trim_each_other() {
+    let mut view = DocumentView::new();
     for mode in [Mode::Carve, Mode::Emboss] {
         let (doc, ids) = three_strokes(mode);
         let name = format!("three strokes {mode:?}");
         for &id in &ids {
-            let ss = doc.stroke_surface(id).expect("surface");
+            let ss = view.stroke_surface(&doc, id).expect("surface");
             assert!(!ss.trim().is_empty(), "{name}: stroke {id} is trimmed");
             assert!(
                 ss.fit_error() <= ss.fit_tolerance(),
@@ -381,11 +385,22 @@ fn three_mutually_overlapping_strokes_trim_each_other() {
 #[test]
 fn undo_and_redo_keep_stroke_surfaces_right() {
     let (mut doc, ids) = three_strokes(Mode::Carve);
-    let area = |doc: &Document, id| doc.stroke_surface(id).map(|s| s.trim().area());
-    let before: Vec<_> = ids.iter().map(|&id| area(&doc, id)).collect();
+    // One view follows `doc` through undo and redo; `two` gets its own.
+    let mut view = DocumentView::new();
+    let area = |view: &mut DocumentView, doc: &Document, id| {
+        view.stroke_surface(doc, id).map(|s| s.trim().area())
+    };
+    let before: Vec<_> = ids.iter().map(|&id| area(&mut view, &doc, id)).collect();
     assert!(doc.undo());
-    assert_eq!(area(&doc, ids[2]), None, "an undone stroke has no surface");
-    let fewer: Vec<_> = ids[..2].iter().map(|&id| area(&doc, id)).collect();
+    assert_eq!(
+        area(&mut view, &doc, ids[2]),
+        None,
+        "an undone stroke has no surface"
+    );
+    let fewer: Vec<_> = ids[..2]
+        .iter()
+        .map(|&id| area(&mut view, &doc, id))
+        .collect();
     // Without the third stroke the first two are trimmed less (or the same).
     for (a, b) in fewer.iter().zip(&before) {
         assert!(a.unwrap() <= b.unwrap() + EXACT_EPS);
@@ -396,10 +411,14 @@ fn undo_and_redo_keep_stroke_surfaces_right() {
     let mut two = full.clone();
     two.undo();
     for (k, &id) in ids[..2].iter().enumerate() {
-        assert_near!(area(&two, id).unwrap(), fewer[k].unwrap(), ULP_EPS);
+        assert_near!(
+            area(&mut DocumentView::new(), &two, id).unwrap(),
+            fewer[k].unwrap(),
+            ULP_EPS
+        );
     }
     assert!(doc.redo());
-    let after: Vec<_> = ids.iter().map(|&id| area(&doc, id)).collect();
+    let after: Vec<_> = ids.iter().map(|&id| area(&mut view, &doc, id)).collect();
     for (a, b) in after.iter().zip(&before) {
         assert_near!(a.unwrap(), b.unwrap(), ULP_EPS);
     }
@@ -408,7 +427,7 @@ fn undo_and_redo_keep_stroke_surfaces_right() {
 #[test]
 fn iges_export_carries_each_stroke_surface_trimmed_by_its_visible_faces() {
     let doc = load("sphere-overlaps.json");
-    let surfaces = doc.iges_surfaces();
+    let surfaces = DocumentView::new().iges_surfaces(&doc);
     // The target and one surface per stroke.
     assert_eq!(surfaces.len(), 1 + doc.strokes().len());
     let model = iges::read(&iges::write(&surfaces).expect("finite")).expect("reads back");
@@ -430,8 +449,8 @@ fn iges_export_carries_each_stroke_surface_trimmed_by_its_visible_faces() {
     assert!(trimmed_strokes >= 2, "{:?}", model.trimmed);
     // A lone stroke's surface is a plain entity 128, cubic along the stroke.
     let doc = load("curved-patch-carved.json");
-    let model =
-        iges::read(&iges::write(&doc.iges_surfaces()).expect("finite")).expect("reads back");
+    let model = iges::read(&iges::write(&DocumentView::new().iges_surfaces(&doc)).expect("finite"))
+        .expect("reads back");
     assert_eq!(model.surfaces.len(), 4);
     assert!(model.trimmed.iter().all(|(base, _)| *base == 0));
     assert!(
@@ -443,13 +462,14 @@ fn iges_export_carries_each_stroke_surface_trimmed_by_its_visible_faces() {
 
 #[test]
 fn stroke_surface_meshes_are_finite_face_out_and_skip_the_trimmed_part() {
+    let mut view = DocumentView::new();
     let doc = load("sphere-overlaps.json");
     let target = &doc.targets()[0];
     for &(id, stroke) in &doc.strokes_on(target.id) {
-        let ss = doc.stroke_surface(id).expect("surface");
+        let ss = view.stroke_surface(&doc, id).expect("surface");
         for detail in [Detail::Interactive, Detail::Final] {
             let mut mesh = PatchMesh::new();
-            let n = doc.stroke_surface_mesh(id, detail, &mut mesh);
+            let n = view.stroke_surface_mesh(&doc, id, detail, &mut mesh);
             assert!(n > 100, "stroke {id}: {n} triangles");
             let (verts, tris) = mesh.merged();
             assert_eq!(tris.len(), n);
@@ -512,7 +532,7 @@ fn stroke_surface_meshes_are_finite_face_out_and_skip_the_trimmed_part() {
     }
     // All of them at once, each under its own key, next to nothing else.
     let mut all = PatchMesh::new();
-    let n = doc.stroke_surfaces_mesh(Detail::Final, &mut all);
+    let n = view.stroke_surfaces_mesh(&doc, Detail::Final, &mut all);
     assert_eq!(all.patches().count(), 2);
     assert_eq!(all.triangle_count(), n);
 }
@@ -535,6 +555,7 @@ impl MeshSink for Count {
 
 #[test]
 fn degenerate_strokes_get_a_defined_result() {
+    let mut view = DocumentView::new();
     // Very short, tapered away, and over the pole of the sphere: either rejected as a
     // stroke (as today) or given a finite surface, never a panic or NaN.
     let sphere = load("sphere-overlaps.json");
@@ -567,11 +588,11 @@ fn degenerate_strokes_get_a_defined_result() {
         let Ok(id) = doc.apply_stroke(t, input) else {
             continue; // rejected with a reason, as before
         };
-        match doc.stroke_surface(id) {
+        match view.stroke_surface(&doc, id) {
             Some(ss) => {
                 assert!(ss.fit_error().is_finite(), "case {k}");
                 let mut mesh = PatchMesh::new();
-                doc.stroke_surface_mesh(id, Detail::Final, &mut mesh);
+                view.stroke_surface_mesh(&doc, id, Detail::Final, &mut mesh);
                 let (verts, _) = mesh.merged();
                 assert!(
                     verts
@@ -582,11 +603,14 @@ fn degenerate_strokes_get_a_defined_result() {
             }
             None => {
                 let mut sink = Count::default();
-                assert_eq!(doc.stroke_surface_mesh(id, Detail::Final, &mut sink), 0);
+                assert_eq!(
+                    view.stroke_surface_mesh(&doc, id, Detail::Final, &mut sink),
+                    0
+                );
                 assert_eq!(sink.0, 0, "case {k}: nothing written without a surface");
             }
         }
-        let _ = doc.iges_surfaces();
+        let _ = DocumentView::new().iges_surfaces(&doc);
     }
     // Built directly from a stroke with its width zeroed: no surface, a typed error.
     let doc = load("curved-patch-carved.json");

@@ -19,6 +19,7 @@ use sculpt_core::formats::iges::{self, Face, IgesSurface, NurbsPatch};
 use sculpt_core::nurbs::NurbsSurface;
 use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::jordan::Location;
+use sculpt_core::sculpt::view::DocumentView;
 use sculpt_core::tolerance::{
     OCCT_AREA_ABS as AREA_ABS, OCCT_AREA_REL as AREA_REL, OCCT_POINT_REL as POINT_REL,
     OCCT_STROKE_AREA_REL as STROKE_AREA_REL,
@@ -590,7 +591,7 @@ fn paper_scenes_read_by_opencascade_match_our_geometry() {
     let Some(exe) = checker() else { return };
     for name in SCENES {
         let doc = scene(name);
-        let surfaces = doc.iges_surfaces();
+        let surfaces = DocumentView::new().iges_surfaces(&doc);
         let hidden = footprint_points(&doc, &surfaces);
         assert!(
             hidden.len() >= doc.strokes().len(),
@@ -612,7 +613,7 @@ fn torus_read_by_opencascade_matches_our_geometry() {
     let torus = NurbsSurface::torus(DVec3::ZERO, 0.3, 0.1).unwrap();
     let mut doc = Document::new();
     let target = doc.add_target("torus", torus);
-    let whole_torus = doc.iges_surfaces();
+    let whole_torus = DocumentView::new().iges_surfaces(&doc);
     assert!(
         whole_torus[0].patch.weights.is_some(),
         "the torus is rational"
@@ -638,7 +639,7 @@ fn torus_read_by_opencascade_matches_our_geometry() {
         .collect();
     doc.apply_stroke(target, StrokeInput { samples, tool })
         .unwrap();
-    let surfaces = doc.iges_surfaces();
+    let surfaces = DocumentView::new().iges_surfaces(&doc);
     let hidden = footprint_points(&doc, &surfaces);
     assert!(!hidden.is_empty());
     let seen = check_export(exe, "torus-carved", &surfaces, &hidden);
@@ -720,7 +721,7 @@ fn checker_rejects_files_opencascade_cannot_read() {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("occt-iges-check");
     std::fs::create_dir_all(&dir).unwrap();
     let doc = scene("saddle");
-    let bytes = iges::write(&doc.iges_surfaces()).expect("finite surfaces");
+    let bytes = iges::write(&DocumentView::new().iges_surfaces(&doc)).expect("finite surfaces");
     for (name, content) in [
         ("not-iges", b"this is not an IGES file\n".to_vec()),
         ("truncated", bytes[..400].to_vec()),

@@ -266,7 +266,11 @@ fn mesh_part_selects_target_strokes_or_all() {
     let doc = Document::from_json(&std::fs::read(scene).unwrap()).unwrap();
     let target = doc.mesh(Detail::Final).triangle_count();
     let mut strokes = PatchMesh::new();
-    let stroke_tris = doc.stroke_surfaces_mesh(Detail::Final, &mut strokes);
+    let stroke_tris = sculpt_core::sculpt::view::DocumentView::new().stroke_surfaces_mesh(
+        &doc,
+        Detail::Final,
+        &mut strokes,
+    );
     assert!(stroke_tris > 0);
     let dir = tempfile::tempdir().unwrap();
     let mut counts = Vec::new();

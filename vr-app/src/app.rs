@@ -260,8 +260,9 @@ impl AppState {
     /// changed are written, and patches of removed targets are removed.
     pub fn sync_meshes(&mut self, sinks: MeshSinks<'_>) -> MeshSync {
         let facing = self.facing();
-        let (doc, interaction) = self.session.draw_parts();
-        self.scene.sync_meshes(doc, interaction, facing, sinks)
+        let (doc, view, interaction) = self.session.draw_parts();
+        self.scene
+            .sync_meshes(doc, view, interaction, facing, sinks)
     }
 
     /// The closest point of the selected target to `p` and the surface normal there,
@@ -292,15 +293,15 @@ impl AppState {
     }
 
     /// The UV quadtree overlay ([`crate::quadtree`]) of the document at final detail,
-    /// rebuilt only when its targets or strokes changed.
+    /// the maps of the session's view, rebuilt only when the document changed.
     fn quadtree_lines(&mut self) -> &[LineVertex] {
         let doc = &self.session.doc;
-        let key: Vec<u64> = std::iter::once(doc.targets().len() as u64)
-            .chain(doc.strokes().iter().map(|s| s.id))
-            .collect();
+        // Every edit (a deformation too) raises the revision.
+        let key = vec![doc.revision()];
         if self.quadtree.as_ref().is_none_or(|(k, _)| *k != key) {
             let mut lines = Vec::new();
-            crate::quadtree::quadtree_lines(doc, Detail::Final, &mut lines);
+            let view = self.session.view();
+            crate::quadtree::quadtree_lines(doc, view, Detail::Final, &mut lines);
             self.quadtree = Some((key, lines));
         }
         self.quadtree.as_ref().map_or(&[], |(_, l)| l.as_slice())
@@ -503,10 +504,8 @@ mod tests {
 
     /// A fresh tessellation of `doc` at `detail` into an empty mesh.
     fn fresh(doc: &sculpt_core::sculpt::document::Document, detail: Detail) -> PatchMesh {
-        let mut doc = doc.clone();
-        doc.forget_sinks();
         let mut mesh = PatchMesh::new();
-        doc.tessellate(detail, &mut mesh);
+        sculpt_core::sculpt::view::DocumentView::new().tessellate(doc, detail, &mut mesh);
         mesh
     }
 
@@ -543,7 +542,7 @@ mod tests {
         assert!(!m.sync(&mut app).preview_bent);
         let flat = m.interactive.clone();
         assert_eq!(flat, fresh(&app.session.doc, Detail::Interactive));
-        let (doc, interaction) = app.session.draw_parts();
+        let (doc, _, interaction) = app.session.draw_parts();
         let cage = crate::lattice_view::rest_cage(doc, interaction).unwrap();
         let grab = cage
             .control_points()
@@ -591,7 +590,7 @@ mod tests {
         // A drag out and back to where it grabbed is a click: nothing is applied, and
         // the preview it showed on the way goes.
         let bent_once = m.interactive.clone();
-        let (doc, interaction) = app.session.draw_parts();
+        let (doc, _, interaction) = app.session.draw_parts();
         let grab = crate::lattice_view::rest_cage(doc, interaction)
             .unwrap()
             .control_points()[0];

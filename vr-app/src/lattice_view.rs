@@ -38,6 +38,7 @@ use sculpt_core::mesh::{MeshSink, MeshVertex, PatchKey};
 use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::ray::Ray;
 use sculpt_core::sculpt::tessellate::Detail;
+use sculpt_core::sculpt::view::DocumentView;
 
 use crate::desktop_wand::plane_hit;
 use crate::line_vertex::LineVertex;
@@ -182,7 +183,8 @@ impl LatticePreview {
     /// Returns whether a bent copy is shown.
     pub fn sync(
         &mut self,
-        doc: &mut Document,
+        doc: &Document,
+        view: &mut DocumentView,
         interaction: &Interaction,
         interactive: &mut dyn MeshSink,
     ) -> bool {
@@ -202,7 +204,9 @@ impl LatticePreview {
                     sink: interactive,
                     keys: &mut self.keys,
                 };
-                bent.tessellate(Detail::Interactive, &mut noting);
+                // The bent copy's view starts from the document's, as the copy does.
+                view.clone()
+                    .tessellate(&bent, Detail::Interactive, &mut noting);
                 self.bent = true;
                 return true;
             }
@@ -210,8 +214,8 @@ impl LatticePreview {
         self.bent = false;
         if was_bent {
             // The sink lacks what the preview replaced: the document, whole.
-            doc.forget_sink(Detail::Interactive);
-            doc.tessellate(Detail::Interactive, interactive);
+            view.forget_sink(Detail::Interactive);
+            view.tessellate(doc, Detail::Interactive, interactive);
         }
         false
     }

@@ -3,8 +3,8 @@
 //! target is drawn there) blue, boundary leaves (cut along a stroke's outline) amber,
 //! interior leaves (hidden, the stroke surface fills them) red.
 //!
-//! The map is the one sculpting uses, asked of the document
-//! ([`Document::uv_map`]): the target's tessellation view at the detail drawn, with
+//! The map is the one sculpting uses, asked of the session's document view
+//! ([`DocumentView::uv_map`]): the target's tessellation view at the detail drawn, with
 //! the grid planned for the detail's chord tolerance of the surface's extent, wrapped
 //! on closed sides, and updated with the target's stroke footprints. So draw it after
 //! the meshes were synchronised at that detail; a target not yet tessellated there
@@ -16,6 +16,7 @@ use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::jordan::NodeClass;
 use sculpt_core::sculpt::surface::{ParamSurface, extent, normal_from};
 use sculpt_core::sculpt::tessellate::{Detail, height};
+use sculpt_core::sculpt::view::DocumentView;
 
 use crate::scene::LineVertex;
 
@@ -45,13 +46,19 @@ fn lift(surface: &dyn ParamSurface, detail: Detail) -> f64 {
     LIFT_TOLERANCES * detail.tolerance(extent(surface).diagonal())
 }
 
-/// The leaves of every target's UV map at `detail` ([`Document::uv_map`]: the map
-/// sculpting uses), as line segments (vertex pairs) on the sculpted surfaces,
-/// appended to `out`. Returns the number of leaves drawn.
-pub fn quadtree_lines(doc: &Document, detail: Detail, out: &mut Vec<LineVertex>) -> usize {
+/// The leaves of every target's UV map at `detail` in `view` ([`DocumentView::uv_map`]:
+/// the map sculpting and the renderer's mesh use), as line segments (vertex pairs) on
+/// the sculpted surfaces of `doc`, appended to `out`. Returns the number of leaves
+/// drawn.
+pub fn quadtree_lines(
+    doc: &Document,
+    view: &DocumentView,
+    detail: Detail,
+    out: &mut Vec<LineVertex>,
+) -> usize {
     let mut leaves = 0;
     for target in doc.targets() {
-        let Some(map) = doc.uv_map(target.id, detail) else {
+        let Some(map) = view.uv_map(target.id, detail) else {
             continue;
         };
         let surface = target.target_surface();
@@ -94,10 +101,12 @@ mod tests {
         Document::from_json(&std::fs::read(path).unwrap()).unwrap()
     }
 
-    /// `doc` tessellated at `detail`, as the renderer's sync does before the overlay.
-    fn tessellated(mut doc: Document, detail: Detail) -> Document {
-        doc.tessellate(detail, &mut sculpt_core::mesh::PatchMesh::default());
-        doc
+    /// `doc` and its view tessellated at `detail`, as the renderer's sync does before
+    /// the overlay.
+    fn tessellated(doc: Document, detail: Detail) -> (Document, DocumentView) {
+        let mut view = DocumentView::new();
+        view.tessellate(&doc, detail, &mut sculpt_core::mesh::PatchMesh::default());
+        (doc, view)
     }
 
     /// Regression (issue 32): the overlay rebuilt the UV map on its own, sized by the
@@ -109,26 +118,32 @@ mod tests {
     fn regression_the_overlay_draws_the_map_sculpting_uses() {
         let doc = scene("sphere-overlaps.json");
         let mut lines = Vec::new();
-        assert_eq!(quadtree_lines(&doc, Detail::Final, &mut lines), 0);
-        let doc = tessellated(doc, Detail::Final);
+        assert_eq!(
+            quadtree_lines(&doc, &DocumentView::new(), Detail::Final, &mut lines),
+            0
+        );
+        let (doc, view) = tessellated(doc, Detail::Final);
         let leaves: usize = doc
             .targets()
             .iter()
-            .map(|t| doc.uv_map(t.id, Detail::Final).unwrap().leaves().count())
+            .map(|t| view.uv_map(t.id, Detail::Final).unwrap().leaves().count())
             .sum();
         assert!(leaves > 0);
-        assert_eq!(quadtree_lines(&doc, Detail::Final, &mut lines), leaves);
+        assert_eq!(
+            quadtree_lines(&doc, &view, Detail::Final, &mut lines),
+            leaves
+        );
         assert!(
-            doc.uv_map(doc.targets()[0].id, Detail::Interactive)
+            view.uv_map(doc.targets()[0].id, Detail::Interactive)
                 .is_none()
         );
     }
 
     #[test]
     fn leaves_of_every_class_are_drawn_in_their_colours_on_the_surface() {
-        let doc = tessellated(scene("curved-patch-carved.json"), Detail::Final);
+        let (doc, view) = tessellated(scene("curved-patch-carved.json"), Detail::Final);
         let mut lines = Vec::new();
-        let leaves = quadtree_lines(&doc, Detail::Final, &mut lines);
+        let leaves = quadtree_lines(&doc, &view, Detail::Final, &mut lines);
         assert!(leaves > 100, "{leaves}");
         assert_eq!(lines.len() % 2, 0);
         for color in [EXTERIOR_COLOR, BOUNDARY_COLOR, INTERIOR_COLOR] {
@@ -163,9 +178,9 @@ mod tests {
         let mut doc = Document::new();
         let t = &scene.targets()[0];
         doc.add_target(&t.name, t.surface.clone());
-        let doc = tessellated(doc, Detail::Interactive);
+        let (doc, view) = tessellated(doc, Detail::Interactive);
         let mut lines = Vec::new();
-        assert!(quadtree_lines(&doc, Detail::Interactive, &mut lines) > 0);
+        assert!(quadtree_lines(&doc, &view, Detail::Interactive, &mut lines) > 0);
         assert!(lines.iter().all(|v| v.color == EXTERIOR_COLOR));
     }
 }

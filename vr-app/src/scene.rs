@@ -10,6 +10,7 @@ use sculpt_core::interaction::Interaction;
 use sculpt_core::mesh::{MeshSink, PatchKey};
 use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::tessellate::Detail;
+use sculpt_core::sculpt::view::DocumentView;
 
 use crate::error::VrResult;
 use crate::lattice_view::LatticePreview;
@@ -168,7 +169,7 @@ pub struct MeshSync {
 }
 
 /// What a scene has written into its [`MeshSinks`] so far: the document's
-/// tessellation state lives in the document, this keeps the rest (whether the first
+/// tessellation state lives in the session's [`DocumentView`], this keeps the rest (whether the first
 /// full write happened, the live preview). The tool footprint projects through the
 /// target's own inverter, which the document builds once and shares. One per set of
 /// sinks: a fresh one for empty sinks.
@@ -176,7 +177,7 @@ pub struct MeshSync {
 pub struct SceneState {
     primed: bool,
     preview_shown: bool,
-    /// Samples of the live stroke last handed to `Document::set_preview` (0: none).
+    /// Samples of the live stroke last handed to `DocumentView::set_preview` (0: none).
     previewed_samples: usize,
     preview_carved: bool,
     /// The live lattice drag's bent targets in the interactive sink.
@@ -195,7 +196,8 @@ impl SceneState {
     /// removed.
     pub fn sync_meshes(
         &mut self,
-        doc: &mut Document,
+        doc: &Document,
+        view: &mut DocumentView,
         interaction: &Interaction,
         facing: DVec3,
         sinks: MeshSinks<'_>,
@@ -214,13 +216,13 @@ impl SceneState {
                 self.previewed_samples = stroke.samples.len();
                 let target = doc.target(stroke.target).map(|t| t.id);
                 self.preview_carved = target.is_some_and(|id| {
-                    doc.set_preview(id, &sculpt_core::editor::stroke_input(stroke))
+                    view.set_preview(doc, id, &sculpt_core::editor::stroke_input(stroke))
                         .is_ok()
                 });
             }
             Some(_) => {}
             None if self.previewed_samples > 0 => {
-                doc.clear_preview();
+                view.clear_preview();
                 self.previewed_samples = 0;
                 self.preview_carved = false;
             }
@@ -228,20 +230,20 @@ impl SceneState {
         }
         let mut written = 0;
         if !self.primed || shown == Detail::Interactive {
-            written += doc
-                .tessellate(Detail::Interactive, sinks.interactive)
+            written += view
+                .tessellate(doc, Detail::Interactive, sinks.interactive)
                 .patches_written;
         }
         if !self.primed || shown == Detail::Final {
-            written += doc
-                .tessellate(Detail::Final, sinks.final_detail)
+            written += view
+                .tessellate(doc, Detail::Final, sinks.final_detail)
                 .patches_written;
         }
         self.primed = true;
         written += self.solids.sync(doc, sinks.final_detail, sinks.interactive);
         // A lattice drag bends a copy of the document over the interactive detail;
         // when it ends the document is put back there.
-        let preview_bent = self.lattice.sync(doc, interaction, sinks.interactive);
+        let preview_bent = self.lattice.sync(doc, view, interaction, sinks.interactive);
         match live_stroke {
             Some(stroke) if !self.preview_carved => {
                 write_stroke_ribbon(&stroke, facing, PREVIEW_KEY, sinks.preview);

@@ -49,6 +49,7 @@ use sculpt_core::error::{Chain, StrokeRejection};
 use sculpt_core::interaction::{Command, Edit, Interaction, OperatorEvent, TargetIndex, WandEvent};
 use sculpt_core::oplog::{EventKind, ModeSegments, OpEvent, OpLogHeader, OpLogWriter};
 use sculpt_core::sculpt::document::Document;
+use sculpt_core::sculpt::view::DocumentView;
 
 use crate::config::Config;
 use crate::error::{JournalError, VrError, VrResult};
@@ -433,6 +434,9 @@ impl EditHooks for SessionFiles {
 #[derive(Debug)]
 pub struct Session {
     edit_loop: EditLoop,
+    /// What is drawn from the document (its tessellation into the renderer's sinks,
+    /// the preview, stroke surfaces): derived state, synced from `&Document`.
+    view: DocumentView,
     files: SessionFiles,
     /// Operations recovered from the journal at open.
     pub recovered: usize,
@@ -477,29 +481,37 @@ impl crate::feeder::Sink for Session {
 }
 
 impl Session {
-    /// The document (mutable for its tessellation views only: the renderer's mesh
-    /// sync) and the interaction, for drawing. Edits go only through
+    /// The document (read only), its view (the derived state the renderer's mesh sync
+    /// brings up to date) and the interaction, for drawing. Edits go only through
     /// [`Session::handle`] and [`Session::tick`], which journal them first, and a whole
     /// document only through [`Session::replace_document`]: the session gives out no
-    /// `&mut EditLoop`.
-    pub fn draw_parts(&mut self) -> (&mut Document, &Interaction) {
-        let edits = &mut self.edit_loop;
-        (&mut edits.doc, &edits.interaction)
+    /// `&mut Document` and no `&mut EditLoop`.
+    pub fn draw_parts(&mut self) -> (&Document, &mut DocumentView, &Interaction) {
+        let edits = &self.edit_loop;
+        (&edits.doc, &mut self.view, &edits.interaction)
+    }
+
+    /// The document's view as last synced (its UV maps for the quadtree overlay).
+    pub fn view(&self) -> &DocumentView {
+        &self.view
     }
 
     /// Replaces the whole document with `doc` (a cluster node's document rebuilt
     /// from its operation stream): the interaction is told the new document's
-    /// targets, and the next mesh sync writes every patch (`doc`'s views start
-    /// fresh). Not journalled: the caller's record (the stream) holds the operations.
+    /// targets, and the view starts over ([`DocumentView::start_over`]): the next
+    /// mesh sync takes the old document's patches out of the sinks and writes the new
+    /// one whole. Not journalled: the caller's record (the stream) holds the
+    /// operations.
     pub fn replace_document(&mut self, doc: Document) {
         self.edit_loop.doc = doc;
         self.edit_loop.sync_targets();
+        self.view.start_over();
     }
 
-    /// Forgets what the document's tessellation views wrote (a new renderer with
-    /// empty mesh sinks): the next mesh sync writes every patch again.
+    /// Forgets what the document's view wrote (a new renderer with empty mesh sinks):
+    /// the next mesh sync writes every patch again.
     pub fn forget_sinks(&mut self) {
-        self.edit_loop.doc.forget_sinks();
+        self.view.forget_sinks();
     }
 
     /// Opens the session in `config.files.dir`: loads the base scene
@@ -577,6 +589,7 @@ impl Session {
         }
         Ok(Self {
             edit_loop,
+            view: DocumentView::new(),
             files: SessionFiles {
                 dir,
                 journal,

@@ -27,7 +27,7 @@ fn bend(s: &mut Session) -> Vec<Edit> {
             },
         ))
         .unwrap();
-    let (doc, interaction) = s.draw_parts();
+    let (doc, _, interaction) = s.draw_parts();
     let cage = vr_app::lattice_view::rest_cage(doc, interaction).unwrap();
     // The highest, frontmost control point.
     let grab = cage

@@ -1,6 +1,6 @@
 //! The document: target surfaces and the strokes applied to them, in order, with undo
 //! and redo of every step back to the start, a versioned JSON file format, tessellation
-//! into [`MeshSink`]s and export.
+//! into [`MeshSink`](crate::mesh::MeshSink)s (through a view) and export.
 //!
 //! This is the API the interaction state machine and `replay` call:
 //!
@@ -11,6 +11,7 @@
 //! use sculpt_core::sculpt::document::Document;
 //! use sculpt_core::sculpt::stroke::{Mode, Profile, StrokeInput, Tool};
 //! use sculpt_core::sculpt::tessellate::Detail;
+//! use sculpt_core::sculpt::view::DocumentView;
 //!
 //! // A flat 1 m square target.
 //! let plane = NurbsSurface::new(1, 1, vec![0.0, 0.0, 1.0, 1.0], vec![0.0, 0.0, 1.0, 1.0],
@@ -21,8 +22,10 @@
 //! let samples = (0..=50).map(|i| (i as f64 / 100.0, DVec3::new(0.2 + 0.012 * i as f64, 0.5, 0.001))).collect();
 //! let stroke = doc.apply_stroke(target, StrokeInput { samples, tool })?;
 //!
+//! // What is drawn is a view's: it syncs from `&doc` and keeps the tessellation.
+//! let mut view = DocumentView::new();
 //! let mut gpu_like = PatchMesh::new(); // vr-app passes its GPU-buffer sink here
-//! let stats = doc.tessellate(Detail::Interactive, &mut gpu_like);
+//! let stats = view.tessellate(&doc, Detail::Interactive, &mut gpu_like);
 //! assert!(stats.triangles_total > 0);
 //!
 //! doc.undo();                          // the groove disappears ...
@@ -61,6 +64,25 @@
 //! unique positive integers; a stroke names a target listed before it. Unknown fields,
 //! other versions, duplicate ids, dangling targets and strokes that the sculpting rules
 //! reject are errors that say which entry is wrong. Scene files are documents.
+//!
+//! # The model and its views
+//!
+//! A `Document` is the model and its history only: targets, strokes, deformations,
+//! paint, solids, the undo and redo stacks and the ids. What is drawn from it (the
+//! tessellation of each target at each detail with its UV map, the grids, the patch
+//! network's conforming state, the stroke being drawn, the stroke surfaces) is derived
+//! state and lives in a [`DocumentView`](super::view::DocumentView), which reads the
+//! document through `&Document` and syncs from the revisions it records
+//! ([`Document::revision`], [`Document::target_revision`]).
+//!
+//! Each stroke's pieces as built ([`Document::stroke`], [`Document::strokes_on`]) stay
+//! in the model, because the model's own edits need them: a stroke is accepted only
+//! once it builds (the sculpting rules reject it otherwise, [`StrokePieces::build`]), a
+//! redone stroke is built again, and a deformation is refused when a carried stroke no
+//! longer builds. Building is the validation, so its result is kept
+//! with the stroke; the pieces' keys are the names views, exports and the tessellator
+//! share. Views never build document strokes again; only the preview, which the model
+//! never holds, is built by a view ([`Document::build_stroke`]).
 
 use super::conform::{
     Network, NetworkPlan, SharedSide, holder_params, shared_side, write_network_with,
@@ -68,19 +90,15 @@ use super::conform::{
 use super::jordan::Rect;
 use super::network_stroke::build_on_network;
 use super::stroke::{StrokeInput, StrokePieces, Tool};
-use super::stroke_surface::StrokeSurface;
 use super::surface::{TargetSurface, extent};
-use super::tessellate::{
-    Detail, FixedSides, GridPlan, StrokeRef, TargetTessellation, TessStats, pole_height,
-};
+use super::tessellate::{Detail, FixedSides, GridPlan, StrokeRef, TargetTessellation, pole_height};
 use crate::error::{ControlNetError, DocumentError, Error, Result, StrokeRejection};
-use crate::formats::iges::{Face, IgesSurface, NurbsPatch};
-use crate::mesh::{MeshSink, PatchMesh};
+use crate::formats::iges::{Face, NurbsPatch};
+use crate::mesh::PatchMesh;
 use crate::nurbs::NurbsSurface;
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
-use std::sync::{Arc, Mutex};
 
 /// The format tag of document files.
 pub const FORMAT: &str = "wandsculpt-document";
@@ -197,11 +215,25 @@ mod solid;
 mod tessellation;
 pub use deform::{DeformRecord, MAX_DEFORMS, carry_stroke};
 use pieces::*;
+pub(crate) use pieces::{Built, fixed_sides};
 pub use solid::{MAX_SOLIDS, SolidRecord, SolidStep};
-use tessellation::*;
+pub(crate) use tessellation::{
+    ConformState, bounds_meet, grid_of, patch_of, plan_grid, visible_faces,
+};
 pub use tessellation::{conform_key, stroke_patch_key};
 
-/// Targets, strokes, history and the derived sculpting state.
+/// Targets, strokes and their history: the model. What is drawn from it (tessellation
+/// views, grids, the preview, stroke surfaces) is a [`DocumentView`](super::view::DocumentView)'s.
+///
+/// The one derived thing the model keeps is each stroke's pieces as built: a stroke is
+/// accepted only once it builds (the sculpting rules reject it otherwise, and a
+/// deformation is refused when a carried stroke no longer builds), so building is part
+/// of every stroke edit, and the pieces' keys are the names exports and views share.
+/// Views read the pieces; they never build document strokes again.
+///
+/// Every change is recorded as revisions ([`Self::revision`]; per target, when its
+/// geometry was last put in place and when the pieces on it last changed), from which
+/// a view syncs without `&mut Document`.
 #[derive(Debug, Clone, Default)]
 pub struct Document {
     targets: Vec<TargetRecord>,
@@ -215,32 +247,42 @@ pub struct Document {
     /// Steps with ids up to this are the document's base (made before its first edit,
     /// or loaded): undo stops there ([`Self::seal_history`]).
     history_floor: u64,
+    /// Each stroke as built (its pieces and their keys): see the type's docs.
     built: HashMap<StrokeId, Built>,
-    views: HashMap<(TargetId, Detail), TargetTessellation>,
-    /// Areas changed since the last tessellation, per target and detail
-    /// (`None` inside: the whole target).
-    dirty: HashMap<(TargetId, Detail), Option<Rect>>,
-    /// Targets removed since the last tessellation at each detail, with their patches.
-    removed: Vec<(Detail, Vec<u64>)>,
-    /// The grid of each target at each detail, planned once.
-    grids: HashMap<(TargetId, Detail), GridPlan>,
-    /// The stroke being drawn, shown at interactive detail only (never saved or undone).
-    preview: Option<(TargetId, Built)>,
-    /// Preview pieces so far (each gets a fresh key, so the tessellator sees it change).
-    preview_serial: u64,
     /// Pieces after the first of document strokes so far (each gets a fresh key).
     piece_serial: u64,
-    /// Stroke surfaces, built lazily when first asked for (export, stroke meshes).
-    surfaces: SurfaceCache,
     /// Wand samples of all strokes in [`Self::strokes`] (for [`MAX_DOCUMENT_SAMPLES`]).
     samples_total: usize,
-    /// The conforming tessellation of the targets that form a patch network, per
-    /// detail ([`super::conform`]).
-    conform: HashMap<Detail, ConformState>,
     /// Solid targets ([`solid`]) and the ids of their steps (adding one, a stroke on
     /// one), in history order.
     solids: Vec<SolidRecord>,
     solid_history: Vec<u64>,
+    /// Bumped by every change ([`Self::revision`]).
+    revision: u64,
+    /// Per target: the revision its geometry was put in place at (added, redone or
+    /// deformed) and the revision the pieces carved into it last changed at.
+    target_revs: HashMap<TargetId, TargetRevision>,
+}
+
+/// When a target last changed ([`Document::target_revision`]), in
+/// [`Document::revision`]s.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct TargetRevision {
+    /// The revision its surface was put in place at: added, redone or deformed. A view
+    /// whose mesh of it is older drops that mesh and writes it whole.
+    pub geometry: u64,
+    /// The revision the pieces carved into it (or its geometry) last changed at.
+    pub touched: u64,
+}
+
+/// The next revision of any document in this process: a counter shared by all
+/// documents (an atomic, so documents on several threads stay unique), so that
+/// revisions name one state of one document's history (see [`Document::revision`]).
+/// Revisions never reach a file or an output.
+fn next_revision() -> u64 {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static NEXT: AtomicU64 = AtomicU64::new(1);
+    NEXT.fetch_add(1, Ordering::Relaxed)
 }
 
 /// Preview strokes' pieces take keys from here up; document strokes never get this far.
@@ -411,6 +453,7 @@ impl Document {
         };
         match step {
             Some(step) => {
+                self.bump();
                 self.redo.push(step);
                 true
             }
@@ -420,6 +463,15 @@ impl Document {
 
     /// Redoes the last undone step; false when there is nothing to redo.
     pub fn redo(&mut self) -> bool {
+        let done = self.redo_step();
+        if done {
+            self.bump();
+        }
+        done
+    }
+
+    /// [`Self::redo`] before the revision is raised.
+    fn redo_step(&mut self) -> bool {
         match self.redo.pop() {
             Some(Step::Target(t)) => {
                 self.push_target(t);
@@ -458,26 +510,15 @@ impl Document {
     }
 
     fn push_target(&mut self, t: TargetRecord) {
-        for detail in [Detail::Interactive, Detail::Final] {
-            self.dirty.insert((t.id, detail), None);
-            self.grids
-                .entry((t.id, detail))
-                .or_insert_with(|| plan_grid(&t.surface, detail));
-        }
+        self.put_geometry(t.id);
         self.next_id = self.next_id.max(t.id + 1);
         self.targets.push(t);
     }
 
     fn pop_target(&mut self) -> Option<Step> {
         let t = self.targets.pop()?;
-        for detail in [Detail::Interactive, Detail::Final] {
-            self.dirty.remove(&(t.id, detail));
-            if let Some(view) = self.views.remove(&(t.id, detail)) {
-                let n = view.map().n();
-                self.removed
-                    .push((detail, (0..n * n).map(|r| view.patch_key(r)).collect()));
-            }
-        }
+        self.bump();
+        self.target_revs.remove(&t.id);
         Some(Step::Target(t))
     }
 
@@ -501,12 +542,14 @@ impl Document {
                 PIECE_KEYS + self.piece_serial
             }))
             .collect();
+        self.bump();
         let built = Built {
             keys,
             pieces,
             targets,
+            revision: self.revision,
         };
-        self.mark_built_dirty(&built);
+        self.touch_built(&built);
         self.built.insert(record.id, built);
         self.next_id = self.next_id.max(record.id + 1);
         self.samples_total += record.input.samples.len();
@@ -518,75 +561,66 @@ impl Document {
         let s = self.strokes.pop()?;
         self.samples_total -= s.input.samples.len();
         if let Some(built) = self.built.remove(&s.id) {
-            let mut surfaces = self.surfaces.lock();
-            for key in &built.keys {
-                surfaces.remove(key);
-            }
-            drop(surfaces);
-            self.mark_built_dirty(&built);
+            self.touch_built(&built);
         }
         Some(Step::Stroke(s))
     }
 
-    /// Marks the area of every piece of `built` dirty on its target.
-    fn mark_built_dirty(&mut self, built: &Built) {
-        for (t, area) in built.areas() {
-            self.mark_dirty(t, area);
-        }
-    }
-
-    fn mark_dirty(&mut self, target: TargetId, area: Rect) {
-        for detail in [Detail::Interactive, Detail::Final] {
-            let entry = self.dirty.entry((target, detail)).or_insert(Some(area));
-            if let Some(r) = entry {
-                *r = Rect::new(r.min.min(area.min), r.max.max(area.max));
+    /// Records that the pieces of `built` changed on their targets (a new revision).
+    fn touch_built(&mut self, built: &Built) {
+        self.bump();
+        for &t in &built.targets {
+            if let Some(r) = self.target_revs.get_mut(&t) {
+                r.touched = self.revision;
             }
         }
     }
 
-    /// Shows `input` on `target` as the stroke being drawn: it is carved into the
-    /// [`Detail::Interactive`] tessellation (only the cells it touches, and the cells of
-    /// the preview it replaces, are rewritten) but it is not part of the document: not
-    /// in [`Self::strokes`], the history, the final detail, the exports or the JSON.
-    /// A stroke the sculpting layer rejects clears the preview and says why. The preview
-    /// is carved in pieces as the stroke will be ([`StrokePieces`]).
-    pub fn set_preview(&mut self, target: TargetId, input: &StrokeInput) -> Result<()> {
-        self.clear_preview();
-        let record = self
-            .targets
-            .iter()
-            .find(|t| t.id == target)
-            .ok_or(Error::NotFound {
-                kind: "target",
-                id: target,
-            })?;
-        let (pieces, targets) = self.build_pieces(record, input)?;
-        let keys = (0..pieces.pieces.len())
-            .map(|_| {
-                self.preview_serial += 1;
-                PREVIEW_IDS + self.preview_serial
-            })
-            .collect();
-        let built = Built {
-            keys,
-            pieces,
-            targets,
-        };
-        self.mark_built_dirty(&built);
-        self.preview = Some((target, built));
-        Ok(())
+    /// Records that `target`'s geometry was (re)put in place (a new revision).
+    fn put_geometry(&mut self, target: TargetId) {
+        self.bump();
+        self.target_revs.insert(
+            target,
+            TargetRevision {
+                geometry: self.revision,
+                touched: self.revision,
+            },
+        );
     }
 
-    /// Removes the preview stroke, if any.
-    pub fn clear_preview(&mut self) {
-        if let Some((_, built)) = self.preview.take() {
-            self.mark_built_dirty(&built);
-        }
+    /// The document's revision: a number every change (a step applied, undone or
+    /// redone, a target added or read) raises. Revisions are unique in the process
+    /// (one counter shared by all documents): equal revisions mean the same document at the same point
+    /// (or a clone made there), never two different models, so a view handed another
+    /// document sees every target as new rather than mistaking it for one it drew.
+    pub fn revision(&self) -> u64 {
+        self.revision
     }
 
-    /// The preview stroke's pieces and its target.
-    pub fn preview(&self) -> Option<(TargetId, &StrokePieces)> {
-        self.preview.as_ref().map(|(t, b)| (*t, &b.pieces))
+    /// Moves the document to a new revision ([`next_revision`]).
+    fn bump(&mut self) {
+        self.revision = next_revision();
+    }
+
+    /// When target `id` last changed; `None` for a target not in the document.
+    pub fn target_revision(&self, id: TargetId) -> Option<TargetRevision> {
+        self.target_revs.get(&id).copied()
+    }
+
+    /// Builds `input` on `target` as [`Self::apply_stroke`] would, without applying
+    /// it: its pieces and the target each is carved into (on a patch network, maybe a
+    /// neighbour). Views build the stroke being drawn this way
+    /// ([`DocumentView::set_preview`](super::view::DocumentView::set_preview)).
+    pub fn build_stroke(
+        &self,
+        target: TargetId,
+        input: &StrokeInput,
+    ) -> Result<(StrokePieces, Vec<TargetId>)> {
+        let record = self.target(target).ok_or(Error::NotFound {
+            kind: "target",
+            id: target,
+        })?;
+        self.build_pieces(record, input)
     }
 
     /// The strokes on one target, in order, as the tessellator takes them: every piece
@@ -596,16 +630,12 @@ impl Document {
         pieces_on(&self.strokes, &self.built, target).collect()
     }
 
-    /// Memory held by the derived state (projected strokes, UV maps), bytes.
+    /// Memory held by the strokes as built (their projected pieces), bytes; a view's
+    /// own is [`DocumentView::memory_bytes`](super::view::DocumentView::memory_bytes).
     pub fn memory_bytes(&self) -> usize {
         self.built
             .values()
             .map(|b| b.pieces.memory_bytes())
             .sum::<usize>()
-            + self
-                .views
-                .values()
-                .map(TargetTessellation::memory_bytes)
-                .sum::<usize>()
     }
 }

@@ -12,3 +12,4 @@ pub mod stroke_surface;
 pub mod surface;
 pub mod tessellate;
 pub mod uvmap;
+pub mod view;

@@ -6,6 +6,7 @@ use crate::progress::Progress;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use sculpt_core::formats::iges;
+use sculpt_core::sculpt::view::DocumentView;
 use std::path::PathBuf;
 
 /// Arguments of `export`.
@@ -32,7 +33,7 @@ pub fn run(args: ExportArgs) -> Result<()> {
     progress.set_message("reading the scene");
     let doc = load_scene(&args.scene)?;
     progress.set_message("building trimmed surfaces");
-    let surfaces = doc.iges_surfaces();
+    let surfaces = DocumentView::new().iges_surfaces(&doc);
     progress.set_message("writing IGES");
     let bytes = iges::write(&surfaces).context("writing IGES")?;
     super::io::write_file(&args.out, &bytes)?;

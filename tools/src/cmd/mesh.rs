@@ -10,6 +10,7 @@ use sculpt_core::formats::MeshFormat;
 use sculpt_core::mesh::{MeshSink, MeshVertex, PatchKey, PatchMesh};
 use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::tessellate::{Detail, TargetTessellation};
+use sculpt_core::sculpt::view::DocumentView;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `mesh`.
@@ -101,14 +102,16 @@ impl MeshSink for Ticking<'_> {
 
 /// Tessellates a document, reporting progress per patch (see [`crate::progress`]).
 pub fn tessellate_with_progress(
-    doc: &mut Document,
+    doc: &Document,
+    view: &mut DocumentView,
     detail: Detail,
     progress: &mut Progress,
 ) -> PatchMesh {
     progress.set_length(doc.patch_count(detail) as u64);
     progress.set_message("tessellating patches");
     let mut mesh = PatchMesh::new();
-    doc.tessellate(
+    view.tessellate(
+        doc,
         detail,
         &mut Ticking {
             mesh: &mut mesh,
@@ -128,7 +131,8 @@ pub fn run(args: MeshArgs) -> Result<()> {
     };
     let mut progress = Progress::new("mesh", 0);
     progress.set_message("reading the scene");
-    let mut doc = load_scene(&args.scene)?;
+    let doc = load_scene(&args.scene)?;
+    let mut view = DocumentView::new();
     let detail = Detail::from(args.depth);
     let mut mesh = if args.part == PartArg::Strokes {
         PatchMesh::new()
@@ -140,11 +144,11 @@ pub fn run(args: MeshArgs) -> Result<()> {
         }
         mesh
     } else {
-        tessellate_with_progress(&mut doc, detail, &mut progress)
+        tessellate_with_progress(&doc, &mut view, detail, &mut progress)
     };
     if args.part != PartArg::Target {
         progress.set_message("stroke surfaces");
-        doc.stroke_surfaces_mesh(detail, &mut mesh);
+        view.stroke_surfaces_mesh(&doc, detail, &mut mesh);
     }
     progress.set_message("welding and writing");
     let size = doc

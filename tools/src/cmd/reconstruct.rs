@@ -23,6 +23,7 @@ use sculpt_core::reconstruct::sample::torus;
 use sculpt_core::reconstruct::segment::{SegmentSettings, Segmentation};
 use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::tessellate::Detail;
+use sculpt_core::sculpt::view::DocumentView;
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -321,7 +322,8 @@ fn outputs(
             files.push((path.clone(), json));
         }
         if let Some(path) = &args.igs {
-            let bytes = iges::write(&doc.iges_surfaces()).context("writing IGES")?;
+            let bytes =
+                iges::write(&DocumentView::new().iges_surfaces(&doc)).context("writing IGES")?;
             files.push((path.clone(), bytes));
         }
         if let Some(path) = &args.obj {

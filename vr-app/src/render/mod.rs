@@ -204,7 +204,7 @@ struct OutputSlot {
 
 /// The renderer. Owns the pipelines, the per-eye offscreen targets and the mesh
 /// stores: the sculpted document at final and at interactive detail (one store per
-/// detail, as `Document::tessellate` wants; [`Renderer::shown`] picks which is drawn)
+/// detail, as `DocumentView::tessellate` wants; [`Renderer::shown`] picks which is drawn)
 /// and the live stroke preview.
 #[derive(Debug)]
 pub struct Renderer {

@@ -11,13 +11,12 @@
 
 use glam::DVec2;
 
-use super::{Built, Document, PIECE_KEYS, Step, StrokeId, TargetId, TargetRecord, plan_grid};
+use super::{Built, Document, PIECE_KEYS, Step, StrokeId, TargetId, TargetRecord};
 use crate::error::{DocumentError, Error, Result};
 use crate::lattice::Lattice;
 use crate::nurbs::NurbsSurface;
 use crate::sculpt::stroke::{StrokeInput, StrokePieces};
 use crate::sculpt::surface::{ParamSurface, TargetSurface, normal_from};
-use crate::sculpt::tessellate::Detail;
 
 /// Most deformations a document's history holds (each keeps its targets' surfaces
 /// before and after): a further one is refused ([`DocumentError::TooManyDeforms`]).
@@ -163,33 +162,15 @@ impl Document {
                 return Err(e);
             }
         };
-        self.clear_preview();
+        // Views see the new geometry by its revision: they drop their meshes of these
+        // targets, plan their grids again and find the patch network anew.
         for &(pos, _) in &replaced {
-            let record = &self.targets[pos];
-            for detail in [Detail::Interactive, Detail::Final] {
-                let key = (record.id, detail);
-                if let Some(view) = self.views.remove(&key) {
-                    let n = view.map().n();
-                    self.removed
-                        .push((detail, (0..n * n).map(|r| view.patch_key(r)).collect()));
-                }
-                self.dirty.insert(key, None);
-                self.grids.insert(key, plan_grid(&record.surface, detail));
-            }
-        }
-        // The patch network is found again from the new surfaces.
-        for state in self.conform.values_mut() {
-            state.ids.clear();
+            self.put_geometry(self.targets[pos].id);
         }
         for (pos, input, (pieces, targets)) in built {
             let sid = self.strokes[pos].id;
             if let Some(old) = self.built.remove(&sid) {
-                let mut surfaces = self.surfaces.lock();
-                for key in &old.keys {
-                    surfaces.remove(key);
-                }
-                drop(surfaces);
-                self.mark_built_dirty(&old);
+                self.touch_built(&old);
             }
             let keys: Vec<u64> = std::iter::once(sid)
                 .chain((1..pieces.pieces.len()).map(|_| {
@@ -200,12 +181,14 @@ impl Document {
             self.samples_total =
                 self.samples_total - self.strokes[pos].input.samples.len() + input.samples.len();
             self.strokes[pos].input = input;
+            self.bump();
             let built = Built {
                 keys,
                 pieces,
                 targets,
+                revision: self.revision,
             };
-            self.mark_built_dirty(&built);
+            self.touch_built(&built);
             self.built.insert(sid, built);
         }
         Ok(())

@@ -174,6 +174,7 @@ impl Document {
             deposited: positions.len(),
         });
         self.next_id = id + 1;
+        self.bump();
         self.redo.clear();
         Ok((id, positions.len()))
     }

@@ -65,6 +65,7 @@ impl Document {
         }
         let solid = SolidTarget::new(text, cells)?;
         let id = self.fresh_id();
+        self.bump();
         self.redo.clear();
         self.solid_history.push(id);
         self.solids.push(SolidRecord {
@@ -95,6 +96,7 @@ impl Document {
         let remeshed = record.solid.cut(id, &input)?;
         self.samples_total += input.samples.len();
         self.next_id = id + 1;
+        self.bump();
         self.redo.clear();
         self.solid_history.push(id);
         Ok((id, remeshed))
