@@ -14,6 +14,7 @@ use sculpt_core::sculpt::tessellate::Detail;
 use crate::error::VrResult;
 use crate::lattice_view::LatticePreview;
 pub use crate::line_vertex::LineVertex;
+use crate::paint_view::PaintView;
 use crate::preview::write_stroke_ribbon;
 use crate::projection::{EyeCamera, HeadPose, Screen, StereoRig, kooima};
 
@@ -180,6 +181,8 @@ pub struct SceneState {
     preview_carved: bool,
     /// The live lattice drag's bent targets in the interactive sink.
     lattice: LatticePreview,
+    /// The paint shading given to the document's sinks.
+    paint: PaintView,
 }
 
 impl SceneState {
@@ -223,6 +226,8 @@ impl SceneState {
             }
             None => {}
         }
+        self.paint
+            .sync(doc, [&mut *sinks.final_detail, &mut *sinks.interactive]);
         let mut written = 0;
         if !self.primed || shown == Detail::Interactive {
             written += doc
@@ -256,6 +261,16 @@ impl SceneState {
             preview_carved: self.preview_carved,
             preview_bent,
         }
+    }
+
+    /// The paint shading: the heat-map switch ([`PaintView`]).
+    pub fn paint_view(&mut self) -> &mut PaintView {
+        &mut self.paint
+    }
+
+    /// The paint shading, to read.
+    pub fn paint_view_ref(&self) -> &PaintView {
+        &self.paint
     }
 
     /// The closest point of the selected target to `p` and the surface normal there,
