@@ -241,6 +241,14 @@ pub enum DocumentError {
         /// Why.
         error: Box<Error>,
     },
+    /// A paint stroke of the file could not be applied again.
+    #[error("paint stroke {index} (from 0): {error}")]
+    Paint {
+        /// Its position in the file's `paints`.
+        index: usize,
+        /// Why.
+        error: Box<Error>,
+    },
 }
 
 /// What went wrong reading points or clustering them. Every variant says where (line,

@@ -40,6 +40,43 @@ pub trait MeshSink {
     fn end_patch(&mut self);
     /// Removes a patch that is no longer part of the output.
     fn remove_patch(&mut self, key: PatchKey);
+    /// Tints every vertex written into this sink, now and later, by `tint` of its
+    /// position (`None`: no tint, the surface's own colour). A sink without colours
+    /// ignores it (the default).
+    fn set_tint(&mut self, tint: Option<Tint>) {
+        let _ = tint;
+    }
+}
+
+/// A tint as [`MeshSink::set_tint`] takes it: a box of the display frame and a
+/// function of position (display frame metres) to `[r, g, b, a]`, linear RGB blended
+/// over the surface's own albedo by `a` in `[0, 1]`, zero outside the box (e.g. the
+/// painted colour fields, `sculpt_core::paint::PaintShading::into_tint`). Clones
+/// share the function ([`Tint::same`]).
+#[derive(Clone)]
+pub struct Tint {
+    /// The box's least corner.
+    pub lo: [f32; 3],
+    /// Its greatest corner.
+    pub hi: [f32; 3],
+    /// The tint at a point of the box.
+    pub at: std::sync::Arc<dyn Fn([f32; 3]) -> [f32; 4] + Send + Sync>,
+}
+
+impl Tint {
+    /// Whether `self` and `other` are clones of one tint.
+    pub fn same(&self, other: &Tint) -> bool {
+        std::sync::Arc::ptr_eq(&self.at, &other.at)
+    }
+}
+
+impl std::fmt::Debug for Tint {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Tint")
+            .field("lo", &self.lo)
+            .field("hi", &self.hi)
+            .finish_non_exhaustive()
+    }
 }
 
 /// A plain indexed triangle mesh, one entry per patch, that collects what a

@@ -598,5 +598,8 @@ impl SpatialGrid {
     }
 }
 
+mod shading;
+pub use shading::{PaintShading, Shown, strongest};
+
 #[cfg(test)]
 mod tests;

@@ -379,3 +379,89 @@ fn exports_carry_the_painted_colours() {
     assert!(ply::write(&m, Some(&colours[1..])).is_err());
     assert!(glb::write_coloured(&m, Some(&colours[1..])).is_err());
 }
+
+#[test]
+fn the_document_file_keeps_the_paint() {
+    let mut doc = painted_document();
+    let density = paint("density", &[250.0], DEFAULT_SURFACE_CENTER.y + 0.2);
+    assert!(matches!(
+        editor::apply(&mut doc, &density),
+        Applied::Paint { .. }
+    ));
+    let json = doc.to_json();
+    let loaded = Document::from_json(&json).unwrap();
+    for attribute in [COLOUR, "density"] {
+        assert_eq!(
+            loaded.attribute_field(DEFAULT_TARGET, attribute),
+            doc.attribute_field(DEFAULT_TARGET, attribute),
+            "{attribute}"
+        );
+    }
+    assert_eq!(loaded.paints().len(), 2);
+    assert_eq!(loaded.to_json(), json, "saved again, the same file");
+    let m = mesh(&doc);
+    assert_eq!(
+        loaded.vertex_colours(&m, GREY),
+        doc.vertex_colours(&m, GREY)
+    );
+    // What was loaded is the base: it is not undone.
+    let mut base = loaded;
+    assert!(!base.undo());
+}
+
+#[test]
+fn a_document_file_from_before_paint_loads_unpainted() {
+    // Written before paint existed: no `paints` section.
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../tests/data/scenes/curved-patch-carved.json"
+    );
+    let bytes = std::fs::read(path).unwrap();
+    assert!(!String::from_utf8_lossy(&bytes).contains("\"paints\""));
+    let doc = Document::from_json(&bytes).unwrap();
+    assert!(doc.paints().is_empty());
+    // An unpainted document is written without the section, as before.
+    assert!(!String::from_utf8_lossy(&doc.to_json()).contains("\"paints\""));
+}
+
+#[test]
+fn a_paint_stroke_the_document_refuses_is_the_files_error() {
+    let mut file: serde_json::Value =
+        serde_json::from_slice(&painted_document().to_json()).unwrap();
+    // The brush 2 m above the sheet reaches nothing.
+    file["paints"][0]["samples"] = serde_json::json!([[0.0, 1.17, 2.0]]);
+    let e = Document::from_json(file.to_string().as_bytes()).unwrap_err();
+    assert!(e.to_string().contains("paint stroke 0"), "{e}");
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(16))]
+
+    /// The document reader's `paints` section: any attribute name, values, radius and
+    /// samples, and any cut of a painted file, give a document or a clear error, never
+    /// a panic.
+    #[test]
+    fn document_paints_section_never_panics(
+        attribute in "\\PC{0,12}",
+        value in proptest::collection::vec(-2.0f64..2.0, 0..5),
+        radius in -0.5f64..1.5,
+        samples in proptest::collection::vec(proptest::array::uniform3(-1.0f64..1.0), 0..4),
+        target in 0u64..4,
+        cut in 0usize..400,
+    ) {
+        let good = serde_json::json!({
+            "format": "wandsculpt-document", "version": 1,
+            "targets": [{"id": 1, "name": "sheet", "surface": editor::default_surface()}],
+            "strokes": [],
+            "paints": [{"target": 1, "attribute": "colour", "value": [0.5, 0.5, 0.5],
+                        "radius": 0.03, "samples": [[0.0, 5.0, 0.0]]}]
+        });
+        let mut bad = good.clone();
+        bad["paints"][0] = serde_json::json!({"target": target, "attribute": attribute,
+            "value": value, "radius": radius, "samples": samples});
+        let _ = Document::from_json(bad.to_string().as_bytes());
+        let text = good.to_string();
+        let cut = cut.min(text.len());
+        let _ = Document::from_json(&text.as_bytes()[..cut]);
+    }
+}

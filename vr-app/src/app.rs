@@ -117,6 +117,8 @@ impl AppState {
             cage: true,
         };
         app.reset_view();
+        let heat = app.config.display.heat_map;
+        app.scene.paint_view().set_heat(heat);
         Ok(app)
     }
 
@@ -265,6 +267,17 @@ impl AppState {
             .sync_meshes(doc, view, interaction, facing, sinks)
     }
 
+    /// Shows the first painted scalar as a heat map, or the painted colour again
+    /// (the `T` key; [`crate::paint_view`]).
+    pub fn toggle_heat_map(&mut self) {
+        self.scene.paint_view().toggle_heat();
+    }
+
+    /// Whether the heat map is shown.
+    pub fn heat_map(&self) -> bool {
+        self.scene.paint_view_ref().heat()
+    }
+
     /// The closest point of the selected target to `p` and the surface normal there,
     /// when `p` is within [`FOOTPRINT_REACH`] of it.
     pub fn project_on_target(&mut self, p: DVec3) -> Option<(DVec3, DVec3)> {
@@ -356,6 +369,7 @@ impl AppState {
         ];
         lines.extend(self.study.as_ref().map(crate::study::StudyRun::hud_line));
         lines.extend(crate::lattice_view::hud_line(i, self.cage));
+        lines.extend(self.scene.paint_view_ref().hud_line(&self.session.doc));
         if self.view.is_some() {
             let follow = self.pointer_follows_surface();
             lines.extend(self.pointer.hud_line(&self.session.doc, t, follow));

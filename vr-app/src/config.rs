@@ -87,6 +87,9 @@ pub struct DisplayConfig {
     pub wireframe: bool,
     /// Draw the UV quadtree leaves, coloured by class (`G` toggles it).
     pub quadtree: bool,
+    /// Show the first painted scalar (e.g. `density`) as a heat map instead of the
+    /// painted colour (`T` toggles it; [`crate::paint_view`]).
+    pub heat_map: bool,
     /// Show the HUD.
     pub hud: bool,
 }
@@ -102,6 +105,7 @@ impl Default for DisplayConfig {
             height: 720,
             wireframe: false,
             quadtree: false,
+            heat_map: false,
             hud: true,
         }
     }

@@ -67,6 +67,7 @@ pub mod lattice_view;
 pub mod line_vertex;
 pub mod live;
 pub mod output;
+pub mod paint_view;
 pub mod preview;
 pub mod projection;
 pub mod quadtree;

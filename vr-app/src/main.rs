@@ -86,6 +86,10 @@ struct Cli {
     /// Draw the UV quadtree leaves coloured by class (exterior, boundary, interior).
     #[arg(long)]
     quadtree: bool,
+    /// Show the first painted scalar (e.g. `density`) as a heat map instead of the
+    /// painted colour (the `T` key in the window).
+    #[arg(long)]
+    heat_map: bool,
     /// Desktop mode: turn the framed start view by YAW,PITCH degrees about the
     /// document's centre (as the orbit drag turns it), e.g. for headless pictures from
     /// another side.
@@ -315,6 +319,7 @@ fn run(cli: Cli) -> Result<()> {
     }
     config.display.wireframe |= cli.wireframe;
     config.display.quadtree |= cli.quadtree;
+    config.display.heat_map |= cli.heat_map;
     config.display.swap_eyes ^= cli.swap_eyes;
     config.validate()?;
     if cli.xr {

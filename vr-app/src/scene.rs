@@ -15,6 +15,7 @@ use sculpt_core::sculpt::view::DocumentView;
 use crate::error::VrResult;
 use crate::lattice_view::LatticePreview;
 pub use crate::line_vertex::LineVertex;
+use crate::paint_view::PaintView;
 use crate::preview::write_stroke_ribbon;
 use crate::projection::{EyeCamera, HeadPose, Screen, StereoRig, kooima};
 use crate::solid_view::SolidView;
@@ -184,6 +185,8 @@ pub struct SceneState {
     lattice: LatticePreview,
     /// The solid targets' blocks in both document sinks.
     solids: SolidView,
+    /// The paint shading given to the document's sinks.
+    paint: PaintView,
 }
 
 impl SceneState {
@@ -228,6 +231,8 @@ impl SceneState {
             }
             None => {}
         }
+        self.paint
+            .sync(doc, [&mut *sinks.final_detail, &mut *sinks.interactive]);
         let mut written = 0;
         if !self.primed || shown == Detail::Interactive {
             written += view
@@ -262,6 +267,16 @@ impl SceneState {
             preview_carved: self.preview_carved,
             preview_bent,
         }
+    }
+
+    /// The paint shading: the heat-map switch ([`PaintView`]).
+    pub fn paint_view(&mut self) -> &mut PaintView {
+        &mut self.paint
+    }
+
+    /// The paint shading, to read.
+    pub fn paint_view_ref(&self) -> &PaintView {
+        &self.paint
     }
 
     /// The closest point of the selected target to `p` and the surface normal there,

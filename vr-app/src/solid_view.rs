@@ -75,6 +75,9 @@ struct Written {
     slot: u32,
     /// Blocks written as patches (non-empty).
     blocks: Vec<usize>,
+    /// The stamp of each block as last written ([`SolidTarget::block_stamps`](sculpt_core::solid::SolidTarget::block_stamps); 0: not
+    /// written).
+    stamps: Vec<u64>,
 }
 
 /// Which solid blocks are in a set of mesh sinks. One per set of sinks (a fresh one for
@@ -82,25 +85,25 @@ struct Written {
 #[derive(Debug, Default)]
 pub struct SolidView {
     written: BTreeMap<TargetId, Written>,
-    primed: bool,
 }
 
 impl SolidView {
-    /// Writes the solids' changed blocks into both sinks (a solid has one mesh, shown
-    /// at every detail; the first call writes every block) and removes the patches of
-    /// solids no longer in `doc` (an undone add). Returns the patches written.
+    /// Writes the blocks of the solids that changed since this view last wrote them
+    /// into both sinks (a solid has one mesh, shown at every detail; a fresh view writes
+    /// every block), and removes the patches of solids no longer in `doc` (an undone
+    /// add). A block changed when its stamp ([`SolidTarget::block_stamps`](sculpt_core::solid::SolidTarget::block_stamps)) differs
+    /// from the one written, so the document is only read. Returns the patches written.
     pub fn sync(
         &mut self,
-        doc: &mut Document,
+        doc: &Document,
         final_detail: &mut dyn MeshSink,
         interactive: &mut dyn MeshSink,
     ) -> usize {
-        let changes = doc.take_solid_changes();
         let gone: Vec<TargetId> = self
             .written
             .keys()
             .copied()
-            .filter(|id| !changes.iter().any(|(c, _)| c == id))
+            .filter(|&id| doc.solid(id).is_none())
             .collect();
         for id in gone {
             if let Some(w) = self.written.remove(&id) {
@@ -111,20 +114,19 @@ impl SolidView {
             }
         }
         let mut patches = 0;
-        for (id, changed) in changes {
-            let Some(record) = doc.solid(id) else {
-                continue;
-            };
-            let fresh = !self.primed || !self.written.contains_key(&id);
-            let slot = self.slot_for(id);
-            let blocks: Vec<usize> = if fresh {
-                (0..record.solid.block_meshes().1.len()).collect()
-            } else {
-                changed
-            };
-            let w = self.written.entry(id).or_default();
+        for record in doc.solids() {
+            let slot = self.slot_for(record.id);
+            let stamps = record.solid.block_stamps();
+            let w = self.written.entry(record.id).or_default();
             w.slot = slot;
-            for b in blocks {
+            if w.stamps.len() != stamps.len() {
+                w.stamps = vec![0; stamps.len()];
+            }
+            for (b, &stamp) in stamps.iter().enumerate() {
+                if w.stamps[b] == stamp {
+                    continue;
+                }
+                w.stamps[b] = stamp;
                 let key = solid_patch_key(slot, b);
                 let drawn = record.solid.write_block(b, key, final_detail);
                 record.solid.write_block(b, key, interactive);
@@ -135,7 +137,6 @@ impl SolidView {
                 }
             }
         }
-        self.primed = true;
         patches
     }
 
@@ -170,16 +171,12 @@ mod tests {
         let id = doc.add_solid("plate", PLATE, 48).unwrap();
         let (mut fin, mut live) = (PatchMesh::new(), PatchMesh::new());
         let mut view = SolidView::default();
-        let first = view.sync(&mut doc, &mut fin, &mut live);
+        let first = view.sync(&doc, &mut fin, &mut live);
         let whole = doc.solid_mesh(id).unwrap();
         assert_eq!(triangles(&fin), whole.triangles.len());
         assert_eq!(triangles(&live), whole.triangles.len());
         assert!(first > 1);
-        assert_eq!(
-            view.sync(&mut doc, &mut fin, &mut live),
-            0,
-            "nothing changed"
-        );
+        assert_eq!(view.sync(&doc, &mut fin, &mut live), 0, "nothing changed");
         let samples = (0..=10)
             .map(|i| {
                 let x = -0.1 + 0.02 * f64::from(i);
@@ -195,15 +192,23 @@ mod tests {
             },
         };
         doc.apply_solid_stroke(id, input).unwrap();
-        let again = view.sync(&mut doc, &mut fin, &mut live);
+        let again = view.sync(&doc, &mut fin, &mut live);
         assert!(again > 0 && again < first, "{again} of {first}");
         let carved = doc.solid_mesh(id).unwrap();
         // Cut through (a hole: one handle more).
         assert_eq!(sculpt_core::solid::euler_characteristic(&carved), 0);
         assert_eq!(triangles(&fin), carved.triangles.len());
+        // Regression (the model/view split): changes were once drained from the
+        // document by the first view that asked, so a second view of the same
+        // document never saw them. Views now compare stamps and only read.
+        let (mut fin2, mut live2) = (PatchMesh::new(), PatchMesh::new());
+        SolidView::default().sync(&doc, &mut fin2, &mut live2);
+        assert_eq!(triangles(&fin2), carved.triangles.len());
         doc.undo();
+        view.sync(&doc, &mut fin, &mut live);
+        assert_eq!(triangles(&fin), whole.triangles.len(), "the stroke undone");
         doc.undo();
-        view.sync(&mut doc, &mut fin, &mut live);
+        view.sync(&doc, &mut fin, &mut live);
         assert!(doc.solids().is_empty());
         assert_eq!(fin.patches().count(), 0);
         assert_eq!(live.patches().count(), 0);

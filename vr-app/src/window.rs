@@ -58,6 +58,8 @@ pub enum KeyAction {
     NextTarget,
     /// Lattice mode: show or hide the cage.
     Cage,
+    /// Show the first painted scalar as a heat map, or the painted colour again.
+    HeatMap,
     /// Lattice mode: grab radius down by a factor 1.5.
     SmallerGroup,
     /// Lattice mode: grab radius up by a factor 1.5.
@@ -149,6 +151,13 @@ pub const KEYS: &[KeyBinding] = &[
         false,
         KeyAction::Mode(InteractionMode::Paint),
         "paint mode: sweep over a target to paint it",
+    ),
+    bind(
+        "T",
+        "t",
+        false,
+        KeyAction::HeatMap,
+        "heat map of the painted scalar (e.g. density) / painted colour",
     ),
     bind(
         "L",
@@ -662,6 +671,7 @@ impl<'n> WindowApp<'n> {
                 depth: (tool.depth * 1.25).min(0.1),
             }),
             KeyAction::Cage => self.app.cage = !self.app.cage,
+            KeyAction::HeatMap => self.app.toggle_heat_map(),
             KeyAction::SmallerGroup | KeyAction::LargerGroup => {
                 let r = self.app.session.interaction.lattice_radius();
                 let radius = if action == KeyAction::LargerGroup {

@@ -54,6 +54,10 @@
 //!     {"id": 2, "target": 1,
 //!      "tool": {"profile": "v", "width": 0.03, "depth": 0.008, "mode": "carve", "taper": 0.02},
 //!      "samples": [[t, x, y, z], ..]}
+//!   ],
+//!   "paints": [
+//!     {"target": 1, "attribute": "colour", "value": [0.8, 0.3, 0.15], "radius": 0.03,
+//!      "samples": [[x, y, z], ..]}
 //!   ]
 //! }
 //! ```
@@ -64,6 +68,8 @@
 //! unique positive integers; a stroke names a target listed before it. Unknown fields,
 //! other versions, duplicate ids, dangling targets and strokes that the sculpting rules
 //! reject are errors that say which entry is wrong. Scene files are documents.
+//! `paints` (absent when nothing is painted) are paint strokes
+//! ([`crate::paint::PaintEdit`]), applied again in order on loading.
 //!
 //! # The model and its views
 //!

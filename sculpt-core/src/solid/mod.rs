@@ -36,6 +36,7 @@ pub mod blocks;
 pub mod tool;
 
 use std::collections::HashSet;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::DVec3;
 
@@ -89,8 +90,16 @@ pub struct SolidTarget {
     table: TetTable,
     meshes: Vec<BlockMesh>,
     cuts: Vec<Cut>,
-    /// Blocks re-meshed since [`Self::take_changed`] last ran.
-    changed: HashSet<usize>,
+    /// Each block's meshing stamp ([`Self::block_stamps`]).
+    stamps: Vec<u64>,
+}
+
+/// The next block meshing stamp ([`SolidTarget::block_stamps`]): one counter for the
+/// process (an atomic, so solids on several threads stay unique). Stamps start at 1, so a
+/// view's 0 means "not written".
+fn next_stamp() -> u64 {
+    static NEXT: AtomicU64 = AtomicU64::new(1);
+    NEXT.fetch_add(1, Ordering::Relaxed)
 }
 
 impl PartialEq for SolidTarget {
@@ -131,7 +140,7 @@ impl SolidTarget {
             table: TetTable::new(),
             meshes: vec![BlockMesh::default(); nb[0] * nb[1] * nb[2]],
             cuts: Vec::new(),
-            changed: HashSet::new(),
+            stamps: vec![0; nb[0] * nb[1] * nb[2]],
         };
         solid.remesh_all();
         Ok(solid)
@@ -219,11 +228,13 @@ impl SolidTarget {
         (self.frame.blocks(), &self.meshes)
     }
 
-    /// The blocks re-meshed since the last call (a renderer uploads only these).
-    pub fn take_changed(&mut self) -> Vec<usize> {
-        let mut v: Vec<usize> = self.changed.drain().collect();
-        v.sort_unstable();
-        v
+    /// Each block's meshing stamp (x fastest, as [`Self::block_meshes`]): a number
+    /// unique in the process for each time a block is meshed, so equal stamps mean the
+    /// same block mesh, in this solid or a clone of it. A view keeps the stamps it wrote
+    /// and writes again only the blocks whose stamp differs; it needs no `&mut` to the
+    /// solid, and a solid swapped for another is never mistaken for it.
+    pub fn block_stamps(&self) -> &[u64] {
+        &self.stamps
     }
 
     /// The outward unit normal of the combined field at `p`: minus its gradient, by
@@ -347,7 +358,7 @@ impl SolidTarget {
         for (b, mesh, p) in done {
             pruned += usize::from(p);
             self.meshes[b] = mesh;
-            self.changed.insert(b);
+            self.stamps[b] = next_stamp();
         }
         Remeshed {
             blocks: which.len(),

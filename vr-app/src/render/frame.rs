@@ -89,6 +89,9 @@ impl Renderer {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("frame"),
             });
+        // The document's paint, sampled into its texture when it changed.
+        let tint = self.document_store().tint().cloned();
+        self.paint.prepare(&self.device, &self.queue, tint.as_ref());
         let eye_count = if mono { 1 } else { 2 };
         let eyes = self.eyes.as_ref().expect("eye targets were just created");
         let bg = self.background.map(srgb_to_linear);
@@ -157,6 +160,9 @@ impl Renderer {
             ];
             for (store, class_of) in stores {
                 pass.set_pipeline(&self.mesh_pipeline);
+                // The paint is the document's; the stroke preview has none.
+                let painted = std::ptr::eq(store, self.document_store());
+                pass.set_bind_group(2, self.paint.bind_group(painted), &[]);
                 let mut bound = None;
                 for (batch, p) in store.keyed_batches() {
                     let class = class_of(batch);

@@ -53,6 +53,13 @@ impl Material {
     }
 
     /// The shading parameters of this material for a surface of `class`.
+    /// The albedo of `class` in this material (linear RGB), before its pattern and
+    /// any paint ([`crate::render::paint_texture`]).
+    pub fn albedo(self, class: SurfaceClass) -> [f32; 3] {
+        let a = self.uniform(class).albedo;
+        [a[0], a[1], a[2]]
+    }
+
     pub(crate) fn uniform(self, class: SurfaceClass) -> MaterialUniform {
         // albedo (linear), specular strength, Blinn-Phong exponent, pattern.
         let (albedo, spec, power, pattern) = match self {

@@ -10,7 +10,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use bytemuck::{Pod, Zeroable};
-use sculpt_core::mesh::{MeshSink, MeshVertex, PatchKey};
+use sculpt_core::mesh::{MeshSink, MeshVertex, PatchKey, Tint};
 use wgpu::util::DeviceExt;
 
 pub use crate::scene::BATCH_SHIFT;
@@ -81,6 +81,8 @@ pub struct GpuMeshStore {
     dirty: BTreeSet<u64>,
     current: Option<(PatchKey, Vec<GpuVertex>, Vec<[u32; 3]>)>,
     stats: UploadStats,
+    /// The paint drawn over these patches ([`super::paint_texture`]).
+    tint: Option<Tint>,
 }
 
 impl GpuMeshStore {
@@ -93,6 +95,7 @@ impl GpuMeshStore {
             dirty: BTreeSet::new(),
             current: None,
             stats: UploadStats::default(),
+            tint: None,
         }
     }
 
@@ -130,6 +133,11 @@ impl GpuMeshStore {
             .sum()
     }
 
+    /// The paint drawn over the patches, if any ([`MeshSink::set_tint`]).
+    pub fn tint(&self) -> Option<&Tint> {
+        self.tint.as_ref()
+    }
+
     /// Upload counters.
     pub fn stats(&self) -> UploadStats {
         self.stats
@@ -141,6 +149,7 @@ impl GpuMeshStore {
         self.batches.clear();
         self.dirty.clear();
         self.current = None;
+        self.tint = None;
     }
 
     fn store(&mut self, key: PatchKey, vertices: Vec<GpuVertex>, triangles: Vec<[u32; 3]>) {
@@ -258,5 +267,9 @@ impl MeshSink for GpuMeshStore {
         if self.patches.remove(&key).is_some() {
             self.dirty.insert(batch_of(key));
         }
+    }
+
+    fn set_tint(&mut self, tint: Option<Tint>) {
+        self.tint = tint;
     }
 }

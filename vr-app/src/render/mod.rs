@@ -40,6 +40,7 @@ pub mod hud;
 pub(crate) mod limits;
 pub mod material;
 pub mod mesh_store;
+pub mod paint_texture;
 mod pipelines;
 mod readback;
 
@@ -243,6 +244,7 @@ pub struct Renderer {
     material_ubufs: Vec<wgpu::Buffer>,
     material_bgs: Vec<wgpu::BindGroup>,
     line_vbuf: Option<(wgpu::Buffer, u64)>,
+    paint: paint_texture::PaintTextures,
     eyes: Option<EyeTargets>,
     slots: Vec<OutputSlot>,
     last: FrameStats,

@@ -104,6 +104,11 @@ impl Renderer {
             })
         };
         let scene_layout = layout("scene", &[Some(&camera_bgl), Some(&material_bgl)]);
+        let paint = super::paint_texture::PaintTextures::new(&device, &gpu.queue);
+        let mesh_layout = layout(
+            "mesh",
+            &[Some(&camera_bgl), Some(&material_bgl), Some(paint.layout())],
+        );
         let line_layout = layout("lines", &[Some(&camera_bgl)]);
         let compose_layout = layout("compose", &[Some(&compose_bgl)]);
         let hud_layout = layout("hud", &[Some(&hud_bgl)]);
@@ -189,7 +194,7 @@ impl Renderer {
         let lines = wgpu::PrimitiveTopology::LineList;
         let mesh_pipeline = make(PipelineSpec {
             label: "mesh",
-            layout: &scene_layout,
+            layout: &mesh_layout,
             vs: "vs_mesh",
             fs: "fs_mesh",
             buffers: &[Some(GpuVertex::LAYOUT)],
@@ -331,6 +336,7 @@ impl Renderer {
             material_ubufs,
             material_bgs,
             line_vbuf: None,
+            paint,
             eyes: None,
             slots,
             last: FrameStats::default(),

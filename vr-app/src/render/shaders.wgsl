@@ -23,6 +23,27 @@ struct Material {
 @group(0) @binding(0) var<uniform> cam: Camera;
 @group(1) @binding(0) var<uniform> mat: Material;
 
+// The paint over the document (render/paint_texture.rs): a 3D texture of the tint,
+// premultiplied by coverage, over a box of the display frame.
+struct PaintBox {
+    // The box's least corner; w is 1 with paint, 0 without.
+    lo: vec4<f32>,
+    inv_size: vec4<f32>,
+};
+
+@group(2) @binding(0) var paint_tex: texture_3d<f32>;
+@group(2) @binding(1) var paint_sampler: sampler;
+@group(2) @binding(2) var<uniform> paint_box: PaintBox;
+
+// The premultiplied paint at a display point: (r a, g a, b a, a), zero outside the box.
+fn paint_at(p: vec3<f32>) -> vec4<f32> {
+    let s = (p - paint_box.lo.xyz) * paint_box.inv_size.xyz;
+    if (paint_box.lo.w < 0.5 || any(s < vec3<f32>(0.0)) || any(s > vec3<f32>(1.0))) {
+        return vec4<f32>(0.0);
+    }
+    return textureSampleLevel(paint_tex, paint_sampler, s, 0.0);
+}
+
 struct MeshIn {
     @location(0) position: vec3<f32>,
     @location(1) normal: vec3<f32>,
@@ -155,7 +176,10 @@ fn fs_mesh(f: MeshOut) -> SceneOut {
     let h = normalize(key + v_view);
     let spec = pow(max(dot(n_view, h), 0.0), mat.params.y) * mat.params.x
         * step(0.0, dot(n_view, key));
-    let rgb = albedo_at(f.p_in_display) * (hemi + vec3<f32>(diffuse)) + vec3<f32>(spec);
+    // Paint over the material by its coverage, before lighting.
+    let paint = paint_at(f.p_in_display);
+    let albedo = albedo_at(f.p_in_display) * (1.0 - paint.a) + paint.rgb;
+    let rgb = albedo * (hemi + vec3<f32>(diffuse)) + vec3<f32>(spec);
     var o: SceneOut;
     o.color = vec4<f32>(clamp(rgb, vec3<f32>(0.0), vec3<f32>(1.0)), 1.0);
     o.geom = geometry(curved_point(f), mat.params.w);

@@ -14,6 +14,11 @@ pub(super) struct DocumentJson {
     /// Solid targets with their strokes ([`super::solid`]); absent when there are none.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub(super) solids: Vec<SolidJson>,
+    /// Paint strokes in the order applied (the journal's `paint` edits,
+    /// [`crate::paint::PaintEdit`]); absent when nothing is painted, so a file from
+    /// before paint reads as unpainted.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub(super) paints: Vec<crate::paint::PaintEdit>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -66,6 +71,7 @@ impl Document {
                 })
                 .collect(),
             solids: self.solids_json(),
+            paints: self.paints.iter().map(|p| p.edit.clone()).collect(),
         };
         serde_json::to_vec_pretty(&doc).unwrap_or_default()
     }
@@ -143,6 +149,7 @@ impl Document {
             .unwrap_or(0)
             + 1;
         doc.load_solids(json.solids)?;
+        doc.load_paints(json.paints)?;
         // A loaded document has no history: what it holds is the base.
         doc.seal_history();
         Ok(doc)

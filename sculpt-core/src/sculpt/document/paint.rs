@@ -9,7 +9,7 @@ use glam::DVec3;
 use super::{Document, Step, TargetId};
 use crate::error::{DocumentError, Error, Result};
 use crate::mesh::WeldedMesh;
-use crate::paint::{AttributeField, COLOUR, PaintEdit, blend, deposit};
+use crate::paint::{AttributeField, COLOUR, PaintEdit, PaintShading, deposit, strongest};
 
 /// Most paint strokes a document's history holds (each keeps its field before and
 /// after): a further one is refused ([`DocumentError::TooManyPaints`]).
@@ -28,6 +28,8 @@ pub struct PaintRecord {
     pub after: AttributeField,
     /// Samples the stroke deposited.
     pub deposited: usize,
+    /// The stroke as applied (the document file keeps it, [`Document::to_json`]).
+    pub edit: PaintEdit,
 }
 
 impl Document {
@@ -73,29 +75,25 @@ impl Document {
     /// `attribute` at a point in space: of the targets' fields of it, the one with
     /// the most coverage there; `(value, coverage)`, or `None` where no field has any.
     pub fn attribute_at_point(&self, attribute: &str, p: DVec3) -> Option<(Vec<f64>, f64)> {
-        self.fields_of(attribute)
-            .map(|f| f.eval(p))
-            .filter(|(_, a)| *a > 0.0)
-            .max_by(|a, b| a.1.total_cmp(&b.1))
+        strongest(self.fields_of(attribute), p)
+    }
+
+    /// What a renderer tints the targets with: the colour fields (`heat: None`), or
+    /// the scalar `heat`'s fields as a heat map; `None` when nothing of it was painted.
+    pub fn paint_shading(&self, heat: Option<&str>) -> Option<PaintShading> {
+        match heat {
+            None => PaintShading::colour(self.fields_of(COLOUR).cloned().collect()),
+            Some(attribute) => {
+                PaintShading::heat(attribute, self.fields_of(attribute).cloned().collect())
+            }
+        }
     }
 
     /// The painted colour of every vertex of `mesh` (the document's mesh: vertices on
     /// its targets) blended over `base`; `None` when no target was painted with
     /// colour (the mesh keeps its material).
     pub fn vertex_colours(&self, mesh: &WeldedMesh, base: [f32; 3]) -> Option<Vec<[f32; 3]>> {
-        self.fields_of(COLOUR).next()?;
-        Some(
-            mesh.vertices
-                .iter()
-                .map(|v| {
-                    let p = DVec3::from(v.position.map(f64::from));
-                    match self.attribute_at_point(COLOUR, p) {
-                        Some((value, a)) => blend(base, &value, a),
-                        None => base,
-                    }
-                })
-                .collect(),
-        )
+        Some(self.paint_shading(None)?.colours_over(mesh, base))
     }
 
     /// The heat map of the scalar `attribute` at every vertex of `mesh`: the painted
@@ -108,27 +106,19 @@ impl Document {
         attribute: &str,
         base: [f32; 3],
     ) -> Option<Vec<[f32; 3]>> {
-        let (lo, hi) = self
-            .fields_of(attribute)
-            .filter_map(AttributeField::value_range)
-            .reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))?;
-        let span = (hi - lo).max(f64::MIN_POSITIVE);
         Some(
-            mesh.vertices
-                .iter()
-                .map(|v| {
-                    let p = DVec3::from(v.position.map(f64::from));
-                    match self.attribute_at_point(attribute, p) {
-                        Some((value, a)) => {
-                            let t = (value[0] - lo) / span;
-                            let heat = crate::paint::heat(if hi > lo { t } else { 1.0 });
-                            blend(base, &heat.map(f64::from), a)
-                        }
-                        None => base,
-                    }
-                })
-                .collect(),
+            self.paint_shading(Some(attribute))?
+                .colours_over(mesh, base),
         )
+    }
+
+    /// The name of the first scalar (not [`COLOUR`]) painted on any target, in
+    /// history order: the attribute a heat map shows.
+    pub fn first_scalar(&self) -> Option<&str> {
+        self.paints
+            .iter()
+            .map(|p| p.after.name())
+            .find(|n| *n != COLOUR)
     }
 
     /// Applies a paint stroke as one undoable step: deposits its samples on the
@@ -172,11 +162,33 @@ impl Document {
             before,
             after,
             deposited: positions.len(),
+            edit: edit.clone(),
         });
         self.next_id = id + 1;
         self.bump();
         self.redo.clear();
         Ok((id, positions.len()))
+    }
+
+    /// Reads the document file's paint strokes into a document that holds its
+    /// targets: each is applied again in order, as a paint stroke is (the file keeps
+    /// the strokes, not the fields they made), and any the document refuses (a bad
+    /// edit, a missing target, a brush off its target) is the file's error.
+    pub(super) fn load_paints(&mut self, paints: Vec<PaintEdit>) -> Result<()> {
+        if paints.len() > MAX_PAINTS {
+            return Err(Error::Document(DocumentError::TooManyPaints {
+                max: MAX_PAINTS,
+            }));
+        }
+        for (index, edit) in paints.iter().enumerate() {
+            self.apply_paint(edit).map_err(|e| {
+                Error::Document(DocumentError::Paint {
+                    index,
+                    error: Box::new(e),
+                })
+            })?;
+        }
+        Ok(())
     }
 
     /// Checks that one more paint stroke fits the history ([`MAX_PAINTS`]).

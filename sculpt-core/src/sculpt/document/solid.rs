@@ -107,17 +107,6 @@ impl Document {
         self.solid(id).map(|s| s.solid.mesh())
     }
 
-    /// Each solid's blocks re-meshed since the last call (strokes, undo and redo
-    /// re-mesh only the blocks a tool reaches): what a renderer re-uploads, through
-    /// [`crate::solid::SolidTarget::write_block`]. A solid added since shows every
-    /// block it was meshed with.
-    pub fn take_solid_changes(&mut self) -> Vec<(TargetId, Vec<usize>)> {
-        self.solids
-            .iter_mut()
-            .map(|s| (s.id, s.solid.take_changed()))
-            .collect()
-    }
-
     /// The box holding every solid's grid, display frame; `None` without solids.
     pub fn solid_bounds(&self) -> Option<(glam::DVec3, glam::DVec3)> {
         self.solids
