@@ -36,10 +36,12 @@ use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
 use super::ImplicitError;
 use super::contour::{ContourStats, contour_sparse, par_map, unit};
-use super::octree::{OctreeSimplify, collapse_chains, collapse_nodes};
+pub mod octree;
+
 use super::tape::Tape;
 use crate::mesh::{MeshVertex, WeldedMesh};
 use crate::tolerance::{CONTOUR_EDGE_T_MIN, DUAL_QEF_SVD_REL};
+use octree::{OctreeSimplify, collapse_chains, collapse_nodes};
 
 /// Halvings of an edge that find a Hermite sample (2^-24 of the edge: f32 resolution).
 pub const DUAL_BISECTIONS: usize = 24;
@@ -78,7 +80,7 @@ pub fn dual_contour(
     dual_contour_with(tape, n, lo, hi, None)
 }
 
-/// [`dual_contour`] followed by octree simplification ([`super::octree`]): smooth
+/// [`dual_contour`] followed by octree simplification ([`octree`]): smooth
 /// regions collapse into one vertex per octree node and their boundaries into long
 /// edges, within `settings`' error bounds; sharp features stay at cell resolution.
 /// The mesh stays closed, 2-manifold and outward.
@@ -189,7 +191,7 @@ fn dual_contour_with(
             });
         }
     }
-    // Octree nodes above the cells (`super::octree`, step 1).
+    // Octree nodes above the cells (`octree`, step 1).
     let collapsed = simplify.map(|settings| {
         let mut alive = vec![false; mesh.triangles.len()];
         for p in &cell_patches {

@@ -31,7 +31,7 @@ pub mod dual;
 pub mod expr;
 pub mod interval;
 pub mod material;
-pub mod octree;
+pub use dual::octree;
 pub mod rfm;
 pub mod rfunc;
 mod rsystem;

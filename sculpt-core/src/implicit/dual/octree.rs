@@ -1,4 +1,4 @@
-//! Octree simplification of the dual-contouring mesh ([`super::dual`]): cells whose
+//! Octree simplification of the dual-contouring mesh ([`super`]): cells whose
 //! surface is flat enough are collapsed into one vertex per octree node, bottom up,
 //! bounded by the error of the quadric (QEF) of their Hermite data, as in Ju,
 //! Losasso, Schaefer and Warren, *Dual Contouring of Hermite Data* (2002), sec. 3
@@ -16,7 +16,7 @@
 //!      boundary and the mesh stays closed and manifold (Manifold Dual Contouring's
 //!      aim, reached without its vertex clustering);
 //!    - its QEF (Ju et al. sec. 2.3) has rank 1 (a smooth piece; sharp edges and
-//!      corners stay at cell resolution, where [`super::dual`] placed and joined them);
+//!      corners stay at cell resolution, where [`super`] placed and joined them);
 //!    - the QEF minimiser lies in the node's box and within
 //!      [`OctreeSimplify::qef_error`] cells of every tangent plane of the patch (the
 //!      QEF error bound of Ju et al. sec. 3.1, as a largest plane distance rather than
@@ -42,9 +42,9 @@
 
 use nalgebra::Vector3;
 
-use super::contour::par_map;
-use super::dual::{disk_boundary, patches, qef_solve};
-use super::tape::Tape;
+use super::{disk_boundary, patches, qef_solve};
+use crate::implicit::contour::par_map;
+use crate::implicit::tape::Tape;
 use crate::mesh::MeshVertex;
 use crate::tolerance::{DUAL_OCTREE_QEF_CELL_FRAC, DUAL_OCTREE_SAMPLE_CELL_FRAC};
 
