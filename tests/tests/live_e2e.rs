@@ -354,6 +354,35 @@ fn a_display_server_killed_after_a_lattice_bend_recovers_the_deformation() {
     assert_eq!(doc.deforms().len(), 1, "the bend is recovered");
 }
 
+/// Issue 35 item 2: paint survives a kill -9 as a stroke does. The shipped `paint`
+/// session (a groove, then three paint strokes) served to a headless display server,
+/// killed with SIGKILL once its journal holds the three paint strokes. The session
+/// opened on its directory recovers the painted document (the document file keeps the
+/// paint strokes, so comparing files compares the paint): the journalled edits applied
+/// in order, and the offline replay's document.
+///
+/// Regression: a paint refit slower than `--idle-exit` (about 10 s in a debug build)
+/// once ended the live input while the tracker was still sending, so the two later
+/// paint strokes were lost (the idle test read the last frame polled, not received).
+#[test]
+fn a_display_server_killed_after_paint_strokes_recovers_the_paint() {
+    let killed = killed_when("paint", "", |entries| {
+        entries
+            .iter()
+            .filter(|e| matches!(e.edit, Edit::Paint(_)))
+            .count()
+            >= 3
+    });
+    let base = editor::default_document();
+    let doc = recovered(&killed, base, vr_app::config::Config::default());
+    assert_eq!(doc.paints().len(), 3, "the paint is recovered");
+    assert!(
+        doc.attribute_field(doc.targets()[0].id, sculpt_core::paint::COLOUR)
+            .is_some(),
+        "the colour field is rebuilt"
+    );
+}
+
 /// Issue 35 item 3: the shipped `carve-solid` session served to a display server
 /// started with the plate its pose log's header names (`[files] solid`, as `--solid`
 /// loads it), killed with SIGKILL as soon as its journal holds both strokes on the

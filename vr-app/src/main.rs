@@ -592,12 +592,17 @@ fn live_inputs(
             // Checked before draining: frames sent before the sources went are
             // already queued, so this last poll gets all of them.
             let gone = live.sources_done();
-            let idle = live
-                .last_report()
-                .is_some_and(|last| live.now().saturating_sub(last).as_secs_f64() > idle_exit);
             let timed_out = start.elapsed().as_secs_f64() > duration;
             let polled = live.poll();
             let quiet = matches!(polled.as_slice(), [Input::Silence(_)]);
+            // Idle only when this poll got nothing: the last frame's time is updated by
+            // polling, so a step slower than `idle_exit` (a paint refit in a debug
+            // build) once ended a session whose tracker was still sending, and the
+            // strokes after it were lost (the `paint` session's kill -9 test).
+            let idle = quiet
+                && live
+                    .last_report()
+                    .is_some_and(|last| live.now().saturating_sub(last).as_secs_f64() > idle_exit);
             pending.extend(polled);
             if gone || idle || timed_out {
                 tracing::info!(
