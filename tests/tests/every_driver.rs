@@ -17,6 +17,8 @@
 //! Operator logs are compared below their header line, which names the program that
 //! wrote it (`replay` or `wandsculpt`).
 
+mod support;
+
 use std::io::Write;
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
@@ -36,8 +38,7 @@ use vr_app::live::LiveTracking;
 use vr_app::output::OutputMode;
 use vr_app::render::Gpu;
 use vr_app::session::{DOCUMENT_FILE, OPLOG_FILE};
-use vr_app::xr::XrPose;
-use vr_app::xr::actions::{ControllerState, PoseSource, ReferenceSpace, display_from_stage};
+use vr_app::xr::actions::ControllerState;
 use vr_app::xr::wand::{POSE_LOG_FILE, REPLAY_CONFIG_FILE, XrWand};
 
 /// A document and an operator log (below its header line).
@@ -82,20 +83,7 @@ fn record_headset_session(dir: &std::path::Path) -> Recorded {
     let mut cfg = Config::default();
     cfg.files.dir = dir.to_path_buf();
     let mut app = AppState::new(cfg).unwrap();
-    let (lo, hi) = app.document_bounds().unwrap();
-    let display_from = display_from_stage(ReferenceSpace::Stage, (lo + hi) * 0.5);
-    let mut wand = XrWand::create(
-        dir,
-        "scripted",
-        &display_from,
-        app.config.interaction.buttons,
-        PoseSource::Grip,
-    )
-    .unwrap();
-    let grip_at = |p_in_display: DVec3| XrPose {
-        position: display_from.orientation.inverse() * (p_in_display - display_from.position),
-        orientation: DQuat::from_rotation_x(-0.3),
-    };
+    let (mut wand, grip_at) = support::scripted_headset(&app, dir, DQuat::from_rotation_x(-0.3));
     let hover = grip_at(default_surface_point(0.0, 1.2) + DVec3::Z * 0.1);
     let dt = 1.0 / 90.0;
     let mut t = 0.0;

@@ -4,17 +4,16 @@
 //! with the replay config it wrote, builds the same document byte for byte, the
 //! thumbstick's tool changes included. No OpenXR runtime is involved.
 
+mod support;
+
 use glam::{DQuat, DVec3};
 use replay::config::ReplayConfig;
 use replay::pipeline::{default_document, replay_log};
 use sculpt_core::editor::default_surface_point;
 use vr_app::app::AppState;
 use vr_app::config::Config;
-use vr_app::xr::XrPose;
-use vr_app::xr::actions::{
-    ControllerState, Feedback, PoseSource, ReferenceSpace, display_from_stage,
-};
-use vr_app::xr::wand::{POSE_LOG_FILE, REPLAY_CONFIG_FILE, XrWand};
+use vr_app::xr::actions::{ControllerState, Feedback};
+use vr_app::xr::wand::{POSE_LOG_FILE, REPLAY_CONFIG_FILE};
 
 #[test]
 fn a_headset_session_replays_to_the_same_document() {
@@ -23,21 +22,9 @@ fn a_headset_session_replays_to_the_same_document() {
     cfg.files.dir = dir.path().to_path_buf();
     let mut app = AppState::new(cfg).unwrap();
     let start_tool = app.session.interaction.tool().clone();
-    let (lo, hi) = app.document_bounds().unwrap();
-    let display_from = display_from_stage(ReferenceSpace::Stage, (lo + hi) * 0.5);
-    let mut wand = XrWand::create(
-        dir.path(),
-        "scripted",
-        &display_from,
-        app.config.interaction.buttons,
-        PoseSource::Grip,
-    )
-    .unwrap();
     // A grip pose in the stage for a point of the display frame.
-    let grip_at = |p_in_display: DVec3| XrPose {
-        position: display_from.orientation.inverse() * (p_in_display - display_from.position),
-        orientation: DQuat::from_rotation_x(-0.3),
-    };
+    let (mut wand, grip_at) =
+        support::scripted_headset(&app, dir.path(), DQuat::from_rotation_x(-0.3));
     let dt = 1.0 / 90.0;
     let mut t = 0.0;
     let mut pulses = Vec::new();
@@ -138,20 +125,7 @@ fn a_headset_lattice_drag_bends_the_sheet_and_replays() {
     cfg.files.dir = dir.path().to_path_buf();
     let mut app = AppState::new(cfg).unwrap();
     let flat = app.session.doc.targets()[0].surface.clone();
-    let (lo, hi) = app.document_bounds().unwrap();
-    let display_from = display_from_stage(ReferenceSpace::Stage, (lo + hi) * 0.5);
-    let mut wand = XrWand::create(
-        dir.path(),
-        "scripted",
-        &display_from,
-        app.config.interaction.buttons,
-        PoseSource::Grip,
-    )
-    .unwrap();
-    let grip_at = |p_in_display: DVec3| XrPose {
-        position: display_from.orientation.inverse() * (p_in_display - display_from.position),
-        orientation: DQuat::IDENTITY,
-    };
+    let (mut wand, grip_at) = support::scripted_headset(&app, dir.path(), DQuat::IDENTITY);
     // The cage's top front point, a third in from the left: the point the recorded
     // desktop session grabs.
     let grab = replay::sessions::lattice_grab_point();
