@@ -12,9 +12,9 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use sculpt_core::implicit::Model;
-use sculpt_core::implicit::tape::Grid;
+use sculpt_core::implicit::tape::{Grid, Tape};
 use serde_json::{Value, json};
-use vr_app::gpu_eval::{GpuEvalError, GpuTape};
+use vr_app::gpu_eval::{EvalTiming, GpuEvalError, GpuTape, Wait, pruned};
 use vr_app::render::Gpu;
 
 /// The arguments of `--gpu-eval`.
@@ -29,6 +29,10 @@ pub struct GpuEvalArgs<'a> {
     pub out: &'a Path,
     /// Evaluations (timed each).
     pub repeat: usize,
+    /// How to wait for the readback (`None`: [`Wait::for_adapter`]).
+    pub wait: Option<Wait>,
+    /// Prune the tape per tile of this many cells on a side first.
+    pub prune: Option<usize>,
 }
 
 /// The grid of `--grid` and `--bounds`: a 2D grid (`NxM`) is one layer centred on
@@ -62,6 +66,78 @@ fn grid_of(spec: &str, bounds: &str) -> Result<Grid> {
         (lo, hi)
     };
     Ok(Grid::new(n, [lo, lo, zlo], [hi, hi, zhi])?)
+}
+
+/// The timing fields of the report: every run's GPU time (submit to values read
+/// back) and copy time (out of the mapped buffer), the first, median and minimum.
+fn report_runs(report: &mut Value, runs: &[EvalTiming]) {
+    let gpu: Vec<f64> = runs.iter().map(|t| ms(t.gpu)).collect();
+    let copy: Vec<f64> = runs.iter().map(|t| ms(t.copy)).collect();
+    report["path"] = json!("gpu");
+    report["chunks"] = json!(runs.last().map_or(0, |t| t.chunks));
+    report["gpu_ms"] = json!(gpu[0]);
+    report["gpu_ms_median"] = json!(median(&gpu));
+    report["gpu_ms_min"] = json!(gpu.iter().copied().fold(f64::INFINITY, f64::min));
+    report["gpu_ms_runs"] = json!(gpu);
+    report["copy_ms_median"] = json!(median(&copy));
+    report["copy_ms_runs"] = json!(copy);
+}
+
+/// The whole tape on every cell, `repeat` times into one destination (allocated and
+/// written once before the first run, so no run pays for its pages).
+fn eval_whole(
+    gpu: &Gpu,
+    tape: &Tape,
+    grid: &Grid,
+    wait: Wait,
+    repeat: usize,
+    report: &mut Value,
+) -> Result<Vec<f32>, GpuEvalError> {
+    let mut compiled = GpuTape::compile(gpu, tape)?;
+    compiled.set_wait(wait);
+    let job = compiled.grid_job(gpu, grid);
+    let mut values = vec![f32::NAN; job.len()];
+    let runs = (0..repeat.max(1))
+        .map(|_| job.run_into(gpu, &mut values))
+        .collect::<Result<Vec<_>, _>>()?;
+    report["compile_ms"] = json!(ms(compiled.compile));
+    report["shader_bytes"] = json!(compiled.shader_bytes);
+    report_runs(report, &runs);
+    Ok(values)
+}
+
+/// The tape pruned per tile of `tile` cells, `repeat` times (pruning and compiling
+/// each time, reported apart from the GPU time).
+fn eval_pruned(
+    gpu: &Gpu,
+    tape: &Tape,
+    grid: &Grid,
+    wait: Wait,
+    tile: usize,
+    repeat: usize,
+    report: &mut Value,
+) -> Result<Vec<f32>, GpuEvalError> {
+    let mut runs = Vec::new();
+    let mut values = Vec::new();
+    let mut prune = pruned::PruneReport::default();
+    for _ in 0..repeat.max(1) {
+        let (v, timing, r) = pruned::eval_grid_pruned(gpu, tape, grid, tile, wait)?;
+        runs.push(timing);
+        values = v;
+        prune = r;
+    }
+    report["compile_ms"] = json!(ms(prune.compile));
+    report["prune"] = json!({
+        "tile": tile,
+        "tiles": prune.tiles,
+        "tapes": prune.tapes,
+        "full_len": prune.full_len,
+        "longest": prune.longest,
+        "mean_len": prune.mean_len,
+        "prune_ms": ms(prune.prune),
+    });
+    report_runs(report, &runs);
+    Ok(values)
 }
 
 /// Milliseconds.
@@ -99,28 +175,14 @@ pub fn run(args: &GpuEvalArgs<'_>) -> Result<Value> {
         "device_type": format!("{:?}", info.device_type),
         "driver": info.driver_info,
     });
-    let values = match GpuTape::compile(&gpu, &tape) {
-        Ok(compiled) => {
-            let job = compiled.grid_job(&gpu, &grid);
-            let mut runs = Vec::with_capacity(args.repeat);
-            let mut values = Vec::new();
-            let mut chunks = 0;
-            for _ in 0..args.repeat {
-                let (v, timing) = job.run(&gpu)?;
-                runs.push(ms(timing.gpu));
-                chunks = timing.chunks;
-                values = v;
-            }
-            report["path"] = json!("gpu");
-            report["compile_ms"] = json!(ms(compiled.compile));
-            report["shader_bytes"] = json!(compiled.shader_bytes);
-            report["chunks"] = json!(chunks);
-            report["gpu_ms"] = json!(runs[0]);
-            report["gpu_ms_median"] = json!(median(&runs));
-            report["gpu_ms_min"] = json!(runs.iter().copied().fold(f64::INFINITY, f64::min));
-            report["gpu_ms_runs"] = json!(runs);
-            values
-        }
+    let wait = args.wait.unwrap_or_else(|| Wait::for_adapter(&gpu));
+    report["wait"] = json!(format!("{wait:?}").to_lowercase());
+    let evaluated = match args.prune {
+        None => eval_whole(&gpu, &tape, &grid, wait, args.repeat, &mut report),
+        Some(tile) => eval_pruned(&gpu, &tape, &grid, wait, tile, args.repeat, &mut report),
+    };
+    let values = match evaluated {
+        Ok(values) => values,
         Err(e @ GpuEvalError::TapeTooLong { .. }) => {
             eprintln!("wandsculpt: {e}; evaluating on the CPU instead");
             let cpu = Instant::now();

@@ -183,6 +183,16 @@ struct Cli {
     #[arg(long, value_name = "N", default_value_t = 1,
         value_parser = clap::value_parser!(u32).range(1..=1000))]
     repeat: u32,
+    /// With --gpu-eval: how the CPU waits for the values (`spin`: poll until they are
+    /// mapped, lowest latency; `block`: sleep in the driver's wait). Default: block on
+    /// a software adapter, spin on a GPU.
+    #[arg(long, value_name = "HOW", requires = "gpu_eval")]
+    gpu_wait: Option<GpuWait>,
+    /// With --gpu-eval: prune the tape per tile of this many cells on a side on the
+    /// CPU first, and send each tile its pruned tape (docs/implicit.md).
+    #[arg(long, value_name = "CELLS", requires = "gpu_eval",
+        value_parser = clap::value_parser!(u32).range(1..=65536))]
+    gpu_prune: Option<u32>,
     /// Evaluate a volume (`wandsculpt-volume` JSON) on the GPU at the points of a
     /// uniform parameter grid (--res), with no window; --out names the little-endian
     /// f32 file, laid out as `sculpt-tools volume grid --f32` writes it (docs/volumes.md).
@@ -192,6 +202,15 @@ struct Cli {
     /// With --gpu-volume-eval: grid points per direction, `R1,..,Rn`.
     #[arg(long, value_name = "R1,..,Rn", requires = "gpu_volume_eval")]
     res: Option<String>,
+}
+
+/// `--gpu-wait` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum GpuWait {
+    /// Poll until the values are mapped.
+    Spin,
+    /// Sleep in the driver's wait.
+    Block,
 }
 
 /// `--cluster` roles.
@@ -264,6 +283,11 @@ fn run(cli: Cli) -> Result<()> {
             bounds,
             out,
             repeat: cli.repeat as usize,
+            wait: cli.gpu_wait.map(|w| match w {
+                GpuWait::Spin => vr_app::gpu_eval::Wait::Spin,
+                GpuWait::Block => vr_app::gpu_eval::Wait::Block,
+            }),
+            prune: cli.gpu_prune.map(|t| t as usize),
         })?;
         println!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(());

@@ -20,7 +20,7 @@ use sculpt_core::tolerance::{
     GPU_EVAL_ULPS,
 };
 use vr_app::gpu_eval::wgsl::MAX_GPU_TAPE;
-use vr_app::gpu_eval::{GpuEvalError, GpuTape, pruned};
+use vr_app::gpu_eval::{GpuEvalError, GpuTape, Wait, pruned};
 use vr_app::render::Gpu;
 
 /// The adapter named by `WANDSCULPT_ADAPTER`, else lavapipe; `None` (the test skips)
@@ -379,6 +379,46 @@ fn chunked_grids_equal_one_dispatch() {
     );
 }
 
+/// Both ways of waiting for the readback, and a reused destination, give the same
+/// values bit for bit; every value is written (the destination starts as NaN).
+#[test]
+fn readback_waits_and_reused_destinations_agree() {
+    let Some(gpu) = gpu() else { return };
+    let text = std::fs::read_to_string(data("bracket.json")).unwrap();
+    let tape = Model::from_text(&text).unwrap().tape_negative_inside();
+    let grid = Grid::new([37, 21, 13], [-1.2; 3], [1.2; 3]).unwrap();
+    let mut compiled = GpuTape::compile(&gpu, &tape).unwrap();
+    let bits = |v: &[f32]| v.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    let mut runs = Vec::new();
+    for wait in [Wait::Block, Wait::Spin] {
+        compiled.set_wait(wait);
+        assert_eq!(compiled.wait(), wait);
+        // Chunks of 960 cells, so the copy out of the mapped buffer runs in pieces.
+        compiled.limit_chunks(1000);
+        let job = compiled.grid_job(&gpu, &grid);
+        assert_eq!(job.len(), grid.len());
+        let mut dst = vec![f32::NAN; job.len()];
+        for _ in 0..2 {
+            let timing = job.run_into(&gpu, &mut dst).unwrap();
+            assert!(timing.copy <= timing.gpu, "{timing:?}");
+            runs.push(bits(&dst));
+        }
+    }
+    for run in &runs {
+        assert_eq!(run, &runs[0]);
+    }
+    let worst = check_tape(
+        "bracket via run_into",
+        &tape,
+        &grid_points(&grid),
+        &runs[0]
+            .iter()
+            .map(|&b| f32::from_bits(b))
+            .collect::<Vec<_>>(),
+    );
+    eprintln!("waits agree, worst {worst:e}");
+}
+
 /// A union (`min`) of 27 spheres of radius 0.4 on a 3 x 3 x 3 lattice, as `.vm`.
 fn sphere_lattice() -> String {
     let mut text = String::from("x var-x\ny var-y\nz var-z\nr const 0.4\n");
@@ -414,7 +454,8 @@ fn pruned_tiles_agree_with_the_cpu() {
         .tape_negative_inside();
     for (n, tile) in [([45, 38, 29], 16), ([300, 170, 1], 64)] {
         let grid = Grid::new(n, [-1.6; 3], [1.6; 3]).unwrap();
-        let (got, timing, report) = pruned::eval_grid_pruned(&gpu, &tape, &grid, tile).unwrap();
+        let (got, timing, report) =
+            pruned::eval_grid_pruned(&gpu, &tape, &grid, tile, Wait::for_adapter(&gpu)).unwrap();
         let cpu = tape.eval_grid(&grid);
         assert_eq!(got.len(), cpu.len());
         let worst = check_tape("sphere lattice (pruned)", &tape, &grid_points(&grid), &got);
@@ -456,6 +497,16 @@ fn tapes_past_the_limit_are_refused() {
 
 /// Runs `wandsculpt --gpu-eval` on `model`; returns its JSON report, stderr and values.
 fn run_cli(model: &Path, grid: &str, bounds: &str) -> (serde_json::Value, String, Vec<f32>) {
+    run_cli_with(model, grid, bounds, &[])
+}
+
+/// [`run_cli`] with more arguments.
+fn run_cli_with(
+    model: &Path,
+    grid: &str,
+    bounds: &str,
+    extra: &[&str],
+) -> (serde_json::Value, String, Vec<f32>) {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("v.f32");
     let adapter = std::env::var(vr_app::render::gpu::ADAPTER_ENV)
@@ -467,6 +518,7 @@ fn run_cli(model: &Path, grid: &str, bounds: &str) -> (serde_json::Value, String
         .arg(model)
         .args(["--grid", grid, "--bounds", bounds, "--repeat", "3", "--out"])
         .arg(&out)
+        .args(extra)
         .env(vr_app::render::gpu::ADAPTER_ENV, adapter)
         .output()
         .unwrap();
@@ -505,6 +557,42 @@ fn the_cli_writes_the_cpu_paths_file() {
         &grid_points(&grid),
         &values,
     );
+}
+
+/// `--gpu-prune` sends each tile its pruned tape and writes the same file as the
+/// whole tape (to the models' bound); `--gpu-wait` is reported as chosen.
+#[test]
+fn the_cli_prunes_per_tile_on_request() {
+    let Some(_gpu) = gpu() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("spheres.vm");
+    std::fs::write(&model, sphere_lattice()).unwrap();
+    let (report, _, values) = run_cli_with(
+        &model,
+        "40x36x30",
+        "-1.6,1.6",
+        &["--gpu-prune", "16", "--gpu-wait", "spin"],
+    );
+    assert_eq!(report["path"], "gpu", "{report}");
+    assert_eq!(report["wait"], "spin", "{report}");
+    assert_eq!(report["prune"]["tile"], 16, "{report}");
+    assert_eq!(report["prune"]["tiles"], 3 * 3 * 2, "{report}");
+    assert!(report["prune"]["tapes"].as_u64().unwrap() > 1, "{report}");
+    assert_eq!(report["copy_ms_runs"].as_array().map(Vec::len), Some(3));
+    let tape = Model::from_vm(&sphere_lattice())
+        .unwrap()
+        .tape_negative_inside();
+    let grid = Grid::new([40, 36, 30], [-1.6; 3], [1.6; 3]).unwrap();
+    assert_eq!(values.len(), grid.len());
+    check_tape(
+        "spheres via --gpu-prune",
+        &tape,
+        &grid_points(&grid),
+        &values,
+    );
+    let (whole, _, _) = run_cli_with(&model, "40x36x30", "-1.6,1.6", &["--gpu-wait", "block"]);
+    assert_eq!(whole["wait"], "block", "{whole}");
+    assert!(whole.get("prune").is_none(), "{whole}");
 }
 
 #[test]

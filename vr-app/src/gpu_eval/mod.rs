@@ -68,6 +68,8 @@ pub struct GpuTape {
     pub compile: Duration,
     /// Bytes of WGSL generated.
     pub shader_bytes: usize,
+    /// How readbacks wait for the GPU.
+    wait: Wait,
 }
 
 /// The timing of one evaluation.
@@ -76,6 +78,8 @@ pub struct EvalTiming {
     /// Sum over chunks of the time from `submit` until the chunk's values were copied
     /// out of the mapped readback buffer.
     pub gpu: Duration,
+    /// Of `gpu`, the time spent copying the values out of the mapped buffer.
+    pub copy: Duration,
     /// Chunks dispatched.
     pub chunks: usize,
 }
@@ -202,7 +206,18 @@ impl GpuTape {
             max_groups,
             compile: start.elapsed(),
             shader_bytes: source.len(),
+            wait: Wait::for_adapter(gpu),
         })
+    }
+
+    /// How readbacks wait for the GPU ([`Wait::for_adapter`] unless set).
+    pub fn wait(&self) -> Wait {
+        self.wait
+    }
+
+    /// Sets how readbacks wait for the GPU.
+    pub fn set_wait(&mut self, wait: Wait) {
+        self.wait = wait;
     }
 
     /// The most cells or points one dispatch handles (from the device's limits).
@@ -357,7 +372,7 @@ impl GpuTape {
         gpu: &Gpu,
         points: &[[f32; 3]],
     ) -> Result<(Vec<f32>, EvalTiming), GpuEvalError> {
-        let mut values = vec![0.0f32; points.len()];
+        let mut values = vec![f32::NAN; points.len()];
         let (out, readback) =
             Self::output_buffers(gpu, points.len().min(self.chunk_limit as usize));
         let mut timing = EvalTiming::default();
@@ -382,15 +397,15 @@ impl GpuTape {
                 count,
                 groups,
             };
-            timing.gpu += run_chunk(
+            timing.add(run_chunk(
                 gpu,
                 &self.points_pipeline,
                 &chunk,
                 &out,
                 &readback,
                 &mut values[first..first + count],
-            )?;
-            timing.chunks += 1;
+                self.wait,
+            )?);
         }
         Ok((values, timing))
     }
@@ -399,20 +414,51 @@ impl GpuTape {
 impl GridJob<'_> {
     /// Runs every chunk and reads the values back.
     pub fn run(&self, gpu: &Gpu) -> Result<(Vec<f32>, EvalTiming), GpuEvalError> {
-        let mut values = vec![0.0f32; self.len];
+        let mut values = vec![f32::NAN; self.len];
+        let timing = self.run_into(gpu, &mut values)?;
+        Ok((values, timing))
+    }
+
+    /// Cells in the job.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether the job has no cells (never: a grid has at least one).
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Runs every chunk and reads the values back into `values` (of length
+    /// [`len`](Self::len)), so repeated runs reuse one destination whose pages are
+    /// already in memory.
+    ///
+    /// # Panics
+    /// When `values.len()` is not [`len`](Self::len): a caller's bug.
+    pub fn run_into(&self, gpu: &Gpu, values: &mut [f32]) -> Result<EvalTiming, GpuEvalError> {
+        assert_eq!(values.len(), self.len, "destination of the wrong length");
         let mut timing = EvalTiming::default();
         for chunk in &self.chunks {
-            timing.gpu += run_chunk(
+            timing.add(run_chunk(
                 gpu,
                 &self.tape.grid_pipeline,
                 chunk,
                 &self.out,
                 &self.readback,
                 &mut values[chunk.first..chunk.first + chunk.count],
-            )?;
-            timing.chunks += 1;
+                self.tape.wait,
+            )?);
         }
-        Ok((values, timing))
+        Ok(timing)
+    }
+}
+
+impl EvalTiming {
+    /// Adds one chunk's readback.
+    fn add(&mut self, t: ReadbackTime) {
+        self.gpu += t.total;
+        self.copy += t.copy;
+        self.chunks += 1;
     }
 }
 
@@ -426,14 +472,15 @@ fn run_chunk(
     out: &wgpu::Buffer,
     readback: &wgpu::Buffer,
     dst: &mut [f32],
-) -> Result<Duration, GpuEvalError> {
+    wait: Wait,
+) -> Result<ReadbackTime, GpuEvalError> {
     let dispatch = Dispatch {
         label: "implicit tape",
         pipeline,
         bind_group: &chunk.bind_group,
         groups: chunk.groups,
     };
-    Ok(dispatch.read_back(gpu, out, readback, dst)?)
+    Ok(dispatch.read_back(gpu, out, readback, dst, wait)?)
 }
 
 /// One compute dispatch whose output buffer holds f32 values (the implicit tapes and
@@ -473,17 +520,62 @@ impl From<ReadbackFailure> for GpuEvalError {
     }
 }
 
+/// How the CPU waits for a readback to be mapped.
+///
+/// The driver's fence wait puts the thread to sleep until the GPU is done, and the
+/// wake-up costs from tens of microseconds to milliseconds (scheduler and driver); a
+/// non-blocking poll in a loop sees the mapping as soon as it is ready, at the price
+/// of one busy core while the GPU works. On a software adapter (lavapipe) the GPU *is*
+/// the CPU's cores, so there a spinning thread would take time from the work it waits
+/// for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Wait {
+    /// Block in the driver's wait (`PollType::wait_indefinitely`).
+    Block,
+    /// Poll without blocking until the mapping is ready, yielding between polls.
+    Spin,
+}
+
+impl Wait {
+    /// The default for `gpu`'s adapter: [`Wait::Block`] on a software (CPU) adapter,
+    /// [`Wait::Spin`] on a real GPU.
+    pub fn for_adapter(gpu: &Gpu) -> Self {
+        if gpu.adapter.get_info().device_type == wgpu::DeviceType::Cpu {
+            Self::Block
+        } else {
+            Self::Spin
+        }
+    }
+}
+
+/// Values per piece of the copy out of the mapped readback buffer (256 KiB): large
+/// enough that a thread's start is small against its copy, small enough that an 8 MB
+/// readback spreads over every core.
+const COPY_PIECE: usize = 1 << 16;
+
+/// The time of one readback.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(crate) struct ReadbackTime {
+    /// From the submit until the values are in the destination.
+    pub total: Duration,
+    /// Of which copying out of the mapped buffer.
+    pub copy: Duration,
+}
+
 impl Dispatch<'_> {
     /// Runs the dispatch, copies the first `dst.len()` values of `out` to `readback`,
-    /// submits, waits for the mapping and copies the values into `dst`; returns the
-    /// time from the submit to the values in `dst`.
+    /// submits, waits for the mapping (as `wait` says) and copies the values into
+    /// `dst`, in pieces on the rayon pool; returns the time from the submit to the
+    /// values in `dst`.
     pub(crate) fn read_back(
         &self,
         gpu: &Gpu,
         out: &wgpu::Buffer,
         readback: &wgpu::Buffer,
         dst: &mut [f32],
-    ) -> Result<Duration, ReadbackFailure> {
+        wait: Wait,
+    ) -> Result<ReadbackTime, ReadbackFailure> {
+        use rayon::prelude::*;
         let bytes = (dst.len() * 4) as u64;
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         {
@@ -502,23 +594,46 @@ impl Dispatch<'_> {
         let slice = readback.slice(..bytes);
         let (tx, rx) = std::sync::mpsc::channel();
         slice.map_async(wgpu::MapMode::Read, move |r| {
-            // The receiver outlives the poll below; a send failure cannot happen.
+            // The receiver outlives the polls below; a send failure cannot happen.
             let _ = tx.send(r);
         });
-        gpu.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(ReadbackFailure::Poll)?;
-        rx.recv()
-            .map_err(|_| ReadbackFailure::MapLost)?
-            .map_err(ReadbackFailure::Map)?;
+        let mapped = match wait {
+            Wait::Block => {
+                gpu.device
+                    .poll(wgpu::PollType::wait_indefinitely())
+                    .map_err(ReadbackFailure::Poll)?;
+                rx.recv().map_err(|_| ReadbackFailure::MapLost)?
+            }
+            Wait::Spin => loop {
+                gpu.device
+                    .poll(wgpu::PollType::Poll)
+                    .map_err(ReadbackFailure::Poll)?;
+                match rx.try_recv() {
+                    Ok(r) => break r,
+                    Err(std::sync::mpsc::TryRecvError::Empty) => std::thread::yield_now(),
+                    Err(std::sync::mpsc::TryRecvError::Disconnected) => {
+                        return Err(ReadbackFailure::MapLost);
+                    }
+                }
+            },
+        };
+        mapped.map_err(ReadbackFailure::Map)?;
+        let copy_start = Instant::now();
         {
             let data = slice
                 .get_mapped_range()
                 .map_err(ReadbackFailure::MapRange)?;
-            dst.copy_from_slice(bytemuck::cast_slice(&data));
+            let src: &[f32] = bytemuck::cast_slice(&data);
+            dst.par_chunks_mut(COPY_PIECE)
+                .zip(src.par_chunks(COPY_PIECE))
+                .for_each(|(d, s)| d.copy_from_slice(s));
         }
         readback.unmap();
-        Ok(start.elapsed())
+        let end = Instant::now();
+        Ok(ReadbackTime {
+            total: end - start,
+            copy: end - copy_start,
+        })
     }
 }
 

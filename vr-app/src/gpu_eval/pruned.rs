@@ -26,7 +26,7 @@ use sculpt_core::implicit::interval::Interval;
 use sculpt_core::implicit::tape::{Grid, Tape};
 use wgpu::util::DeviceExt;
 
-use super::{Chunk, EvalTiming, GpuEvalError, GpuTape, run_chunk};
+use super::{Chunk, EvalTiming, GpuEvalError, GpuTape, Wait, run_chunk};
 use crate::render::Gpu;
 
 /// Default tile edge (cells) on grids one cell deep.
@@ -109,7 +109,8 @@ fn group_tiles(
 }
 
 /// Values at the cell centres of `grid`, x fastest (as [`Tape::eval_grid`]), with
-/// the tape pruned per tile of `tile` cells on a side (module docs).
+/// the tape pruned per tile of `tile` cells on a side (module docs); readbacks wait
+/// as `wait` says.
 ///
 /// # Errors
 /// As [`GpuTape::compile`] for a pruned tape (so [`GpuEvalError::TapeTooLong`] when
@@ -120,10 +121,12 @@ pub fn eval_grid_pruned(
     tape: &Tape,
     grid: &Grid,
     tile: usize,
+    wait: Wait,
 ) -> Result<(Vec<f32>, EvalTiming, PruneReport), GpuEvalError> {
     if grid.n.iter().any(|&k| k >= MAX_AXIS) {
         // The tile table cannot hold such indices: one tape for the whole grid.
-        let compiled = GpuTape::compile(gpu, tape)?;
+        let mut compiled = GpuTape::compile(gpu, tape)?;
+        compiled.set_wait(wait);
         let (values, timing) = compiled.eval_grid(gpu, grid)?;
         let report = PruneReport {
             tiles: 1,
@@ -160,7 +163,7 @@ pub fn eval_grid_pruned(
             });
         let len = origins.len() * per_tile;
         let (out, readback) = GpuTape::output_buffers(gpu, len.min(compiled.chunk_limit as usize));
-        let mut tiled = vec![0.0f32; len];
+        let mut tiled = vec![f32::NAN; len];
         for (first, count) in compiled.chunk_ranges(len) {
             let (mut params, groups) = compiled.params(first, count);
             params.n = grid.n.map(|k| k as u32);
@@ -175,15 +178,15 @@ pub fn eval_grid_pruned(
                 count,
                 groups,
             };
-            timing.gpu += run_chunk(
+            timing.add(run_chunk(
                 gpu,
                 &compiled.tiles_pipeline,
                 &chunk,
                 &out,
                 &readback,
                 &mut tiled[first..first + count],
-            )?;
-            timing.chunks += 1;
+                wait,
+            )?);
         }
         scatter(&tiled, origins, td, grid, &mut values);
     }

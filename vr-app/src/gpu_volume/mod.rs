@@ -24,7 +24,7 @@ use sculpt_core::volume::{Volume, VolumeError};
 use thiserror::Error;
 use wgpu::util::DeviceExt;
 
-use crate::gpu_eval::{Dispatch, ReadbackFailure};
+use crate::gpu_eval::{Dispatch, ReadbackFailure, Wait};
 use crate::render::Gpu;
 
 /// The shader source.
@@ -337,7 +337,8 @@ impl GpuVolume {
             "volume readback",
             wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
         );
-        let mut values = vec![0.0f32; total * k];
+        // Written once here (NaN) so the timed copies do not fault its pages in.
+        let mut values = vec![f32::NAN; total * k];
         let mut timing = GridTiming::default();
         for first in (0..total).step_by(step) {
             let count = step.min(total - first);
@@ -399,7 +400,9 @@ impl GpuVolume {
             bind_group,
             groups,
         };
-        Ok(dispatch.read_back(gpu, out, readback, dst)?)
+        Ok(dispatch
+            .read_back(gpu, out, readback, dst, Wait::for_adapter(gpu))?
+            .total)
     }
 }
 
