@@ -60,9 +60,9 @@ pub fn fans(model: &PolygonModel, patch: usize) -> Vec<Vec<usize>> {
         }
     }
     let mut groups: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
-    for i in 0..link.len() {
+    for (i, (face, _)) in link.iter().enumerate() {
         let r = root(&mut parent, i);
-        groups.entry(r).or_default().push(link[i].0);
+        groups.entry(r).or_default().push(*face);
     }
     groups.into_values().collect()
 }
