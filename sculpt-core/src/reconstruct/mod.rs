@@ -20,6 +20,7 @@ mod joint;
 pub mod kmeans;
 pub mod network;
 pub mod normals;
+pub mod pinch;
 pub mod pipeline;
 pub mod polygon;
 mod quads;

@@ -7,6 +7,7 @@ use super::network::{
     place_corners, quad_grids,
 };
 use super::normals::point_tree;
+use super::pinch::split_pinched;
 use super::polygon::{PolygonModel, polygon_model};
 use super::read::PointCloud;
 use super::segment::{SegmentSettings, Segmentation, bbox_diagonal, segment};
@@ -77,8 +78,9 @@ pub fn reconstruct(
     mut progress: impl FnMut(&'static str),
 ) -> Result<Reconstruction, ReconstructError> {
     settings.validate()?;
-    let seg = segment(cloud, segment_settings, &mut progress)?;
+    let mut seg = segment(cloud, segment_settings, &mut progress)?;
     progress("polygonal model");
+    split_pinched(&mut seg, segment_settings.min_votes);
     let model = polygon_model(&seg.clusters.labels, &seg.neighbours, &seg.adjacency);
     if model.quads.is_empty() {
         return Err(ReconstructError::NoQuads);

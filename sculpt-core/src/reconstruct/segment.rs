@@ -52,6 +52,9 @@ pub struct Segmentation {
     pub adjacency: Vec<(usize, usize, usize)>,
     /// The `k` nearest neighbours of each point.
     pub neighbours: Vec<Vec<usize>>,
+    /// Adjacent pairs left out of [`Self::adjacency`]: the two sides of a pocket at a
+    /// patch the polygonal model pinched ([`super::pinch::split_pinched`]).
+    pub dropped_adjacency: Vec<(usize, usize)>,
 }
 
 /// The diagonal of the axis-aligned bounding box of `points` (0 when empty).
@@ -123,6 +126,7 @@ pub fn segment(
         clusters,
         adjacency,
         neighbours,
+        dropped_adjacency: Vec::new(),
     })
 }
 

@@ -88,6 +88,9 @@ pub struct Report {
     pub normals: &'static str,
     /// K.
     pub patches: usize,
+    /// Patches after the ones the polygonal model pinched were split (K plus two per
+    /// split; `sculpt_core::reconstruct::pinch`).
+    pub patches_after_split: usize,
     /// Lloyd iterations.
     pub iterations: usize,
     /// Smallest and largest patch, in points.
@@ -230,6 +233,7 @@ pub fn reconstruct(args: &ReconstructArgs) -> Result<(Reconstruction, Report)> {
             "file"
         },
         patches: args.patches,
+        patches_after_split: seg.clusters.centres.len(),
         iterations: seg.clusters.iterations,
         patch_points_min: sizes.iter().copied().min().unwrap_or(0),
         patch_points_max: sizes.iter().copied().max().unwrap_or(0),
@@ -238,7 +242,7 @@ pub fn reconstruct(args: &ReconstructArgs) -> Result<(Reconstruction, Report)> {
         patch_degree_max: degrees.iter().copied().max().unwrap_or(0),
         patches_in_pieces: seg.pieces_per_patch().iter().filter(|&&p| p > 1).count(),
         model_faces: model.faces.len(),
-        euler_characteristic: args.patches as i64 - seg.adjacency.len() as i64
+        euler_characteristic: seg.clusters.centres.len() as i64 - seg.adjacency.len() as i64
             + model.faces.len() as i64,
         open_model_edges: seg
             .adjacency
