@@ -415,3 +415,61 @@ fn the_fast_stroke_path_equals_the_plain_evaluation() {
     // The grooves through the wall open holes: fewer than a sphere's 2.
     assert!(euler_characteristic(&solid.mesh()) < 2);
 }
+
+/// The live groove (`SolidTarget::preview`, through `DocumentView::set_preview` as the
+/// display server shows it): while a stroke grows sample by sample on a solid that
+/// already has a stroke, the preview's blocks are the meshes the applied stroke gives
+/// them, every other block's mesh is unchanged by the stroke, and the solid and the
+/// document stay as they were; a stroke off the surface is refused and clears it.
+#[test]
+fn a_preview_shows_what_the_stroke_will_make() {
+    use sculpt_core::sculpt::view::DocumentView;
+    let mut doc = Document::new();
+    let id = doc.add_solid("shell", SHELL, 48).unwrap();
+    doc.apply_solid_stroke(
+        id,
+        StrokeInput {
+            samples: arc(-0.5, 0.5, 0.0),
+            tool: tool(Profile::V, 0.03, Mode::Carve),
+        },
+    )
+    .unwrap();
+    let json = doc.to_json();
+    let mut view = DocumentView::new();
+    let samples = arc(-0.3, 0.6, 0.8);
+    for n in [3, 12, samples.len()] {
+        let input = StrokeInput {
+            samples: samples[..n].to_vec(),
+            tool: tool(Profile::U, 0.02, Mode::Carve),
+        };
+        view.set_preview(&doc, id, &input).unwrap();
+        let (target, preview) = view.solid_preview().expect("a solid preview");
+        assert_eq!(target, id);
+        let solid = &doc.solid(id).unwrap().solid;
+        let mut applied = solid.clone();
+        applied.cut(99, &input).unwrap();
+        let (_, after) = applied.block_meshes();
+        let (_, before) = solid.block_meshes();
+        let shown: Vec<usize> = preview.blocks().map(|(b, _, _)| b).collect();
+        assert!(!shown.is_empty(), "{n} samples: no block previewed");
+        for (b, mesh, _) in preview.blocks() {
+            assert!(
+                *mesh == after[b],
+                "{n} samples: block {b} differs from the stroke applied"
+            );
+        }
+        for b in (0..before.len()).filter(|b| !shown.contains(b)) {
+            assert!(
+                before[b] == after[b],
+                "{n} samples: block {b} changed but not previewed"
+            );
+        }
+    }
+    assert_eq!(doc.to_json(), json, "the document is unchanged");
+    let off = StrokeInput {
+        samples: line(-0.1, 0.1, 0.0, 0.6),
+        tool: tool(Profile::V, 0.01, Mode::Carve),
+    };
+    assert!(view.set_preview(&doc, id, &off).is_err());
+    assert!(view.solid_preview().is_none());
+}

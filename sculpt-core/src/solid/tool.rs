@@ -50,6 +50,10 @@ pub struct SweptTool {
     hi: DVec3,
     /// How far from a segment its piece reaches (metres).
     reach: f64,
+    /// Per segment (at its end's index less one): unit direction, length and a bound
+    /// on `|n . direction|` over the normals interpolated along it
+    /// ([`Self::along_above`]).
+    axes: Vec<(DVec3, f64, f64)>,
 }
 
 impl SweptTool {
@@ -104,6 +108,24 @@ impl SweptTool {
         let reach = half_width.max(tool.depth).max(cap) + margin;
         let lo = points.iter().fold(DVec3::INFINITY, |a, p| a.min(*p)) - DVec3::splat(reach);
         let hi = points.iter().fold(DVec3::NEG_INFINITY, |a, p| a.max(*p)) + DVec3::splat(reach);
+        let axes = (1..points.len())
+            .map(|i| {
+                let ab = points[i] - points[i - 1];
+                let length = ab.length();
+                let u = ab / length;
+                let (n0, n1) = (normals[i - 1], normals[i]);
+                // |(1 - t) n0 + t n1| >= sqrt((1 + n0 . n1) / 2) for unit n0, n1, and
+                // the lerp's component along u lies between the ends'.
+                let least = (0.5 * (1.0 + n0.dot(n1))).max(0.0).sqrt();
+                let cosine = n0.dot(u).abs().max(n1.dot(u).abs());
+                let bound = if least > 0.0 {
+                    cosine / least
+                } else {
+                    f64::INFINITY
+                };
+                (u, length, bound)
+            })
+            .collect();
         Ok(Self {
             mode: tool.mode,
             profile: tool.profile.clone(),
@@ -117,6 +139,7 @@ impl SweptTool {
             lo,
             hi,
             reach,
+            axes,
         })
     }
 
@@ -217,8 +240,66 @@ impl SweptTool {
     /// [`SOLID_TOOL_BOUND_SLACK`] is added for the rounding of the f64 arithmetic.
     fn radius_above(&self, tau: f64) -> f64 {
         let across = (self.half_width - tau).max(0.0);
-        let height = (tau - self.depth).abs().max((self.cap - tau).abs());
+        let height = self.height_above(tau);
         (across * across + height * height).sqrt() + SOLID_TOOL_BOUND_SLACK
+    }
+
+    /// The most `|v|` can be where a piece is above `tau`: `max(|tau - d|, |h - tau|)`.
+    fn height_above(&self, tau: f64) -> f64 {
+        (tau - self.depth).abs().max((self.cap - tau).abs())
+    }
+
+    /// How far `p` lies past the ends of segment `i` along it (0 beside it).
+    fn beyond(&self, i: usize, p: DVec3) -> f64 {
+        let (u, length, _) = self.axes[i - 1];
+        let s = (p - self.points[i - 1]).dot(u);
+        (-s).max(s - length).max(0.0)
+    }
+
+    /// A length `a_i(tau)` with: a piece of segment `i` above `tau` at `p` means `p`
+    /// lies less than `a_i` past the segment's ends along it ([`Self::beyond`]). Where
+    /// the closest point `c` is an end, `q = p - c` has `|q . u| = beyond` along the
+    /// segment's direction `u`, and the distance across is
+    /// `l = |q - n (q . n)| >= |q . u| - |v| |n . u|`; with `|n . u| <= e_i` (the
+    /// interpolated normals' bound), `l < w - tau` and `|v| <` [`Self::height_above`],
+    /// `beyond < max(w - tau, 0) + e_i max(|tau - d|, |h - tau|)`: convex in `tau`, like
+    /// [`Self::radius_above`]. [`SOLID_TOOL_BOUND_SLACK`] is added for rounding.
+    fn along_above(&self, i: usize, tau: f64) -> f64 {
+        let bound = self.axes[i - 1].2;
+        (self.half_width - tau).max(0.0) + bound * self.height_above(tau) + SOLID_TOOL_BOUND_SLACK
+    }
+
+    /// The maximum of the pieces of the segments `near` at `p` where it is above
+    /// `tau` (`None` or at most `tau` otherwise): a segment is skipped when `p` lies
+    /// outside either bound ([`Self::along_above`], [`Self::radius_above`]) of
+    /// `beta = max(tau, best so far)` (its piece can neither change a value above
+    /// `tau` nor raise the maximum), and the scan stops once `beta` reaches `ceiling`
+    /// ([`Self::ceiling`]). NaN distances are evaluated.
+    fn above(&self, p: DVec3, tau: f64, near: &[(f64, usize)], ceiling: f64) -> Option<f64> {
+        let mut best: Option<f64> = None;
+        let mut beta = tau;
+        let (mut across, mut height) = ((self.half_width - beta).max(0.0), self.height_above(beta));
+        let mut radius = self.radius_above(beta);
+        for &(_, s) in near {
+            if beta >= ceiling {
+                break;
+            }
+            // along_above(s, beta), with the terms shared by every segment.
+            let along = across + self.axes[s - 1].2 * height + SOLID_TOOL_BOUND_SLACK;
+            if self.beyond(s, p) >= along || self.distance_to_segment(s, p) >= radius {
+                continue;
+            }
+            if let Some(g) = self.piece(s, p) {
+                best = Some(best.map_or(g, |b| b.max(g)));
+                if g > beta {
+                    beta = g;
+                    across = (self.half_width - beta).max(0.0);
+                    height = self.height_above(beta);
+                    radius = self.radius_above(beta);
+                }
+            }
+        }
+        best
     }
 
     /// Combines this tool into the corner values `values` of a box of grid corners
@@ -230,11 +311,12 @@ impl SweptTool {
     /// A carve leaves `v` alone where `g <= -v`, an emboss where `g <= v` (the f32
     /// rounding of `g` is monotone and `v` is an f32), so with `tau = -v` (carve) or `v`
     /// (emboss) a segment matters at a corner only within [`Self::radius_above`]`(tau)`
-    /// of it. The box is split into sub-boxes of [`SUB_CORNERS`] corners a side; for
-    /// each, the segments whose reach box meets it ([`Self::segments_near`]) are kept
-    /// when the sub-box's nearest point may lie within the radius of its extreme `tau`,
-    /// nearest first. A sub-box keeping none is left alone. At each corner of the rest a
-    /// segment is skipped when the corner lies beyond the radius of
+    /// of it, and only less than [`Self::along_above`]`(tau)` past its ends along it.
+    /// The box is split into sub-boxes of [`SUB_CORNERS`] corners a side; for each, the
+    /// segments whose reach box meets it ([`Self::segments_near`]) are kept when the
+    /// sub-box's nearest point may lie within both bounds at its extreme `tau` (the
+    /// distances from its centre less its half diagonal), nearest first. A sub-box keeping none is left alone. At each corner of the rest a
+    /// segment is skipped when the corner lies outside either bound of
     /// `max(tau, best so far)` (its piece can neither change the value nor raise the
     /// maximum past `tau`), and the scan stops once that exceeds [`Self::ceiling`]. A
     /// corner whose value is NaN (the R-functions' "undefined") takes every kept segment.
@@ -280,8 +362,15 @@ impl SweptTool {
                     near.clear();
                     near.extend(candidates.into_iter().filter_map(|s| {
                         let d = self.distance_to_segment(s, centre);
+                        let a_max = if nan {
+                            f64::INFINITY
+                        } else {
+                            self.along_above(s, t_lo).max(self.along_above(s, t_hi))
+                        };
+                        let past = self.beyond(s, centre) - half;
                         // NaN keeps the segment.
-                        (d.is_nan() || d - half < r_max).then_some((d, s))
+                        let may = !(d - half >= r_max || past >= a_max);
+                        may.then_some((d, s))
                     }));
                     if near.is_empty() {
                         continue;
@@ -296,23 +385,7 @@ impl SweptTool {
                                 let g = if old.is_nan() {
                                     self.value_among(p, near.iter().map(|s| s.1))
                                 } else {
-                                    let t = tau(old);
-                                    let mut best: Option<f64> = None;
-                                    for &(_, s) in &near {
-                                        let beta = best.map_or(t, |b| b.max(t));
-                                        if beta >= ceiling {
-                                            break;
-                                        }
-                                        // NaN distances are evaluated.
-                                        if self.distance_to_segment(s, p) >= self.radius_above(beta)
-                                        {
-                                            continue;
-                                        }
-                                        if let Some(g) = self.piece(s, p) {
-                                            best = Some(best.map_or(g, |b| b.max(g)));
-                                        }
-                                    }
-                                    best
+                                    self.above(p, tau(old), &near, ceiling)
                                 };
                                 super::combine(self.mode, g, &mut values[c]);
                                 changed |= values[c].to_bits() != old.to_bits();
