@@ -207,6 +207,13 @@ mod tests {
 
     const PLATE: &str = r#"{"version": 1, "solid": {"box": {"min": [-0.3, -0.3, -0.01], "max": [0.3, 0.3, 0.01]}}}"#;
 
+    /// A document holding the plate (48 cells), its id, and two empty sinks.
+    fn plate_and_sinks() -> (Document, TargetId, PatchMesh, PatchMesh) {
+        let mut doc = Document::new();
+        let id = doc.add_solid("plate", PLATE, 48).unwrap();
+        (doc, id, PatchMesh::new(), PatchMesh::new())
+    }
+
     fn triangles(mesh: &PatchMesh) -> usize {
         mesh.patches().map(|(_, p)| p.triangles.len()).sum()
     }
@@ -215,9 +222,7 @@ mod tests {
     /// (only the touched blocks written again) and after the add is undone (removed).
     #[test]
     fn the_sinks_follow_the_solid_through_a_stroke_and_an_undo() {
-        let mut doc = Document::new();
-        let id = doc.add_solid("plate", PLATE, 48).unwrap();
-        let (mut fin, mut live) = (PatchMesh::new(), PatchMesh::new());
+        let (mut doc, id, mut fin, mut live) = plate_and_sinks();
         let mut view = SolidView::default();
         let first = view.sync(&doc, None, &mut fin, &mut live);
         let whole = doc.solid_mesh(id).unwrap();
@@ -282,14 +287,13 @@ mod tests {
 
     /// The live groove (issue 35 item 3): while a stroke is drawn on a solid, the
     /// interactive sink shows the solid carved by it, patch for patch (positions and
-    /// triangles) what the applied stroke gives, while the final sink and the document stay as they were; once the
-    /// preview ends the interactive sink holds the document's solid again.
+    /// triangles) what the applied stroke gives, while the final sink and the document
+    /// stay as they were; once the preview ends the interactive sink holds the
+    /// document's solid again.
     #[test]
     fn the_interactive_sink_shows_the_groove_being_drawn() {
         use sculpt_core::sculpt::view::DocumentView;
-        let mut doc = Document::new();
-        let id = doc.add_solid("plate", PLATE, 48).unwrap();
-        let (mut fin, mut live) = (PatchMesh::new(), PatchMesh::new());
+        let (doc, id, mut fin, mut live) = plate_and_sinks();
         let mut solids = SolidView::default();
         let mut view = DocumentView::new();
         solids.sync(&doc, view.solid_preview(), &mut fin, &mut live);
