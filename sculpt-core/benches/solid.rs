@@ -5,7 +5,9 @@
 //! 20 cm over the top; each run carves it (timed: sample projection, the tool solid,
 //! re-evaluating and re-meshing the blocks it reaches) and takes it back (not timed).
 //! After criterion the stroke is timed once per run over [`TIMED_RUNS`] runs and its
-//! median and p99 printed.
+//! median and p99 printed. A stroke where one was made before finds the blocks' corner
+//! values kept and combines only its own tool; the first stroke on a region evaluates
+//! the blocks from the model: it is timed first, [`FIRST_RUNS`] times on fresh clones.
 //!
 //! `cargo bench -p sculpt-core --bench solid`
 
@@ -20,6 +22,8 @@ use sculpt_core::solid::SolidTarget;
 
 /// Runs timed one by one for the median and p99.
 const TIMED_RUNS: usize = 200;
+/// Runs of the first stroke on a fresh solid (each on a clone).
+const FIRST_RUNS: usize = 30;
 
 /// A hollow sphere: radius 0.25, inner radius 0.23.
 const SHELL: &str = r#"{"version": 1, "solid": {"and": {"system": "min_max", "solids": [
@@ -47,14 +51,35 @@ fn stroke() -> StrokeInput {
 }
 
 fn carve(c: &mut Criterion) {
-    let mut solid = SolidTarget::new(SHELL, 256).expect("the shell");
+    let fresh = SolidTarget::new(SHELL, 256).expect("the shell");
     let input = stroke();
+    // The first stroke on a region: no corner values kept yet, every block the tool's
+    // box reaches is evaluated from the model.
+    let mut first: Vec<f64> = (0..FIRST_RUNS)
+        .map(|_| {
+            let mut solid = fresh.clone();
+            let t0 = Instant::now();
+            black_box(solid.cut(1, &input).expect("carved"));
+            t0.elapsed().as_secs_f64()
+        })
+        .collect();
+    first.sort_by(f64::total_cmp);
+    let mut solid = fresh.clone();
     let r = solid.cut(1, &input).expect("carved");
     println!(
-        "solid/stroke_256: {} blocks re-meshed of {}",
+        "solid/stroke_256: {} blocks reached, {} re-meshed, {} decided by intervals, of {}",
+        r.reached,
         r.blocks,
+        r.pruned,
         solid.block_meshes().1.len()
     );
+    println!(
+        "solid/stroke_256 first stroke on the region over {FIRST_RUNS} runs: median {:.3} ms, p99 {:.3} ms",
+        percentile::median(&first).unwrap_or(f64::NAN) * 1e3,
+        percentile::p99(&first).unwrap_or(f64::NAN) * 1e3,
+    );
+    // Taken back: the blocks are evaluated again without it and their values kept,
+    // as after any stroke there; the timed strokes below are the next stroke there.
     solid.uncut();
     let mut group = c.benchmark_group("solid");
     group.measurement_time(Duration::from_secs(5));

@@ -748,6 +748,11 @@ pub const SOLID_RAY_STEP_CELLS: f64 = 0.5;
 /// Bisections that refine a solid's ray hit once its step is found (a half-cell step
 /// halved 40 times: far below f32 rounding of the field).
 pub const SOLID_RAY_BISECTIONS: usize = 40;
+/// Slack (metres) added to the radius within which a stroke's tool piece can change a
+/// solid's field (`sculpt_core::solid::tool`, the bound that lets a stroke skip corners):
+/// the bound is exact in real arithmetic and its f64 evaluation errs by a few ulps of a
+/// metre-sized distance (about 1e-16 m), so a nanometre covers it with room to spare.
+pub const SOLID_TOOL_BOUND_SLACK: f64 = 1e-9;
 
 // ---------------------------------------------------------------------------------
 // Octree simplification of dual contouring (sculpt_core::implicit::octree, issue 34).

@@ -129,14 +129,8 @@ fn a_headset_lattice_drag_bends_the_sheet_and_replays() {
     // The cage's top front point, a third in from the left: the point the recorded
     // desktop session grabs.
     let grab = replay::sessions::lattice_grab_point();
-    let dt = 1.0 / 90.0;
-    let mut t = 0.0;
     let mut pulses = Vec::new();
-    let mut step = |app: &mut AppState, state: ControllerState| {
-        let pulse = wand.step(app, t, &state, None).unwrap();
-        t += dt;
-        pulse
-    };
+    let mut step = at_90_hz(&mut wand);
     // Hover near the point, press and release the lattice button.
     for lattice in [false, true, false, false] {
         let state = ControllerState {
@@ -156,12 +150,7 @@ fn a_headset_lattice_drag_bends_the_sheet_and_replays() {
     let mut path: Vec<(DVec3, f64)> = vec![(grab, 0.1), (grab, 0.9)];
     path.extend((1..=30).map(|k| (grab + drag * (f64::from(k) / 30.0), 0.9)));
     path.extend([(grab + drag, 0.1), (grab + drag + DVec3::Z * 0.05, 0.1)]);
-    for (p, trigger) in path {
-        let state = ControllerState {
-            grip: Some(grip_at(p)),
-            trigger,
-            ..ControllerState::default()
-        };
+    for state in trigger_path(&path, &grip_at) {
         pulses.extend(step(&mut app, state));
     }
     assert_eq!(pulses, [Feedback::Applied], "one pulse for the deformation");
@@ -181,25 +170,145 @@ fn a_headset_lattice_drag_bends_the_sheet_and_replays() {
     );
     let live = app.session.doc.to_json();
 
-    let log = std::fs::read(dir.path().join(POSE_LOG_FILE)).unwrap();
-    let config = std::fs::read_to_string(dir.path().join(REPLAY_CONFIG_FILE)).unwrap();
-    let replay_cfg = ReplayConfig::from_toml_str(&config).unwrap();
-    let outcome = replay_log(&log, &replay_cfg, default_document(), "xr", false, None).unwrap();
+    let outcome = replay_headset(dir.path(), default_document(), &live, "lattice drag");
     assert_eq!(outcome.document.deforms().len(), 1);
-    assert_eq!(
-        String::from_utf8_lossy(&outcome.document.to_json()),
-        String::from_utf8_lossy(&live),
-        "replay of the headset's lattice drag"
-    );
 
     // The undo button takes the deformation back.
-    for undo in [true, false] {
-        let state = ControllerState {
-            grip: Some(grip_at(grab + DVec3::Z * 0.1)),
-            undo,
-            ..ControllerState::default()
-        };
+    for state in undo_press(grip_at(grab + DVec3::Z * 0.1)) {
         step(&mut app, state);
     }
     assert_eq!(app.session.doc.targets()[0].surface, flat);
+}
+
+/// Issue 35 items 3 and 4 in the headset: with the `carve-solid` session's plate as
+/// the base's solid (`[files] solid`), the next-target button selects it and a trigger
+/// sweep across its top face carves a groove through it, through `XrWand` (the feeder,
+/// edit loop, journal and operator log of every driver): one pulse, one cut on the
+/// plate, a slot through it (the Euler characteristic drops from 2 to 0), and the
+/// replay of the headset's pose log on the same base builds the same document byte for
+/// byte. The undo button takes the groove back.
+#[test]
+fn a_headset_stroke_carves_through_a_solid_and_replays() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = replay::sessions::carve_solid_plate();
+    let model = dir.path().join("plate.json");
+    std::fs::write(&model, &spec.model).unwrap();
+    let mut cfg = Config::default();
+    cfg.files.dir = dir.path().to_path_buf();
+    cfg.files.solid = Some(model.clone());
+    cfg.files.solid_cells = spec.cells;
+    let mut app = AppState::new(cfg).unwrap();
+    let plate = app.session.doc.solids()[0].id;
+    let uncut = app.session.doc.solid_mesh(plate).unwrap();
+    assert_eq!(sculpt_core::solid::euler_characteristic(&uncut), 2);
+    let (mut wand, grip_at) = support::scripted_headset(&app, dir.path(), DQuat::IDENTITY);
+    let top = replay::sessions::CARVE_SOLID_TOP;
+    let mut pulses = Vec::new();
+    let mut step = at_90_hz(&mut wand);
+    // Above the plate, press and release the next-target button.
+    let above = DVec3::new(-0.1, 1.17, top + 0.05);
+    for next_target in [false, true, false, false] {
+        let state = ControllerState {
+            grip: Some(grip_at(above)),
+            next_target,
+            ..ControllerState::default()
+        };
+        pulses.extend(step(&mut app, state));
+    }
+    assert_eq!(
+        app.session.interaction.target(),
+        plate,
+        "the button selected the plate"
+    );
+    // Down onto the top face, squeeze, sweep 20 cm across, let go, lift.
+    let mut path: Vec<(DVec3, f64)> = vec![(DVec3::new(-0.1, 1.17, top), 0.1)];
+    path.extend((0..=40).map(|k| (DVec3::new(-0.1 + 0.005 * f64::from(k), 1.17, top), 0.9)));
+    path.extend([
+        (DVec3::new(0.1, 1.17, top), 0.1),
+        (DVec3::new(0.1, 1.17, top + 0.05), 0.1),
+    ]);
+    for state in trigger_path(&path, &grip_at) {
+        pulses.extend(step(&mut app, state));
+    }
+    assert_eq!(pulses, [Feedback::Applied], "one pulse for the groove");
+    let record = &app.session.doc.solids()[0];
+    assert_eq!(record.solid.cuts().len(), 1, "the groove cut the plate");
+    let carved = app.session.doc.solid_mesh(plate).unwrap();
+    assert_eq!(
+        sculpt_core::solid::euler_characteristic(&carved),
+        0,
+        "a slot through the plate"
+    );
+    let live = app.session.doc.to_json();
+
+    let mut base = default_document();
+    vr_app::solid_view::load_solid(&mut base, &model, spec.cells).unwrap();
+    let outcome = replay_headset(dir.path(), base, &live, "groove");
+    assert_eq!(outcome.document.solids()[0].solid.cuts().len(), 1);
+
+    // The undo button takes the groove back.
+    for state in undo_press(grip_at(DVec3::new(0.0, 1.17, top + 0.1))) {
+        step(&mut app, state);
+    }
+    assert_eq!(
+        app.session.doc.solid_mesh(plate).unwrap().triangles,
+        uncut.triangles
+    );
+}
+
+/// The controller states of a wand path: the grip at each point (display frame) with
+/// the trigger at its value.
+fn trigger_path(
+    path: &[(DVec3, f64)],
+    grip_at: &impl Fn(DVec3) -> vr_app::xr::XrPose,
+) -> Vec<ControllerState> {
+    path.iter()
+        .map(|&(p, trigger)| ControllerState {
+            grip: Some(grip_at(p)),
+            trigger,
+            ..ControllerState::default()
+        })
+        .collect()
+}
+
+/// A step of `wand` per call, 90 times a second from 0: its pulse, if any.
+fn at_90_hz(
+    wand: &mut vr_app::xr::wand::XrWand,
+) -> impl FnMut(&mut AppState, ControllerState) -> Option<Feedback> + '_ {
+    let mut t = 0.0;
+    move |app, state| {
+        let pulse = wand.step(app, t, &state, None).unwrap();
+        t += 1.0 / 90.0;
+        pulse
+    }
+}
+
+/// The undo button pressed and released with the grip at `grip`.
+fn undo_press(grip: vr_app::xr::XrPose) -> [ControllerState; 2] {
+    [true, false].map(|undo| ControllerState {
+        grip: Some(grip),
+        undo,
+        ..ControllerState::default()
+    })
+}
+
+/// `replay` of the pose log the headset wrote into `dir`, with the replay config it
+/// wrote, on `base`: its document must equal `live` (the headset session's) byte for
+/// byte.
+fn replay_headset(
+    dir: &std::path::Path,
+    base: sculpt_core::sculpt::document::Document,
+    live: &[u8],
+    what: &str,
+) -> replay::pipeline::Outcome {
+    let log = std::fs::read(dir.join(POSE_LOG_FILE)).unwrap();
+    let config = std::fs::read_to_string(dir.join(REPLAY_CONFIG_FILE)).unwrap();
+    let replay_cfg = ReplayConfig::from_toml_str(&config).unwrap();
+    let outcome = replay_log(&log, &replay_cfg, base, "xr", false, None).unwrap();
+    assert_eq!(
+        String::from_utf8_lossy(&outcome.document.to_json()),
+        String::from_utf8_lossy(live),
+        "replay of the headset's {what}"
+    );
+    outcome
 }

@@ -217,7 +217,11 @@ impl SceneState {
         match &live_stroke {
             Some(stroke) if stroke.samples.len() != self.previewed_samples => {
                 self.previewed_samples = stroke.samples.len();
-                let target = doc.target(stroke.target).map(|t| t.id);
+                // A NURBS target or a solid (whose groove the solid view shows).
+                let target = doc
+                    .target(stroke.target)
+                    .map(|t| t.id)
+                    .or_else(|| doc.solid(stroke.target).map(|s| s.id));
                 self.preview_carved = target.is_some_and(|id| {
                     view.set_preview(doc, id, &sculpt_core::editor::stroke_input(stroke))
                         .is_ok()
@@ -245,7 +249,12 @@ impl SceneState {
                 .patches_written;
         }
         self.primed = true;
-        written += self.solids.sync(doc, sinks.final_detail, sinks.interactive);
+        written += self.solids.sync(
+            doc,
+            view.solid_preview(),
+            sinks.final_detail,
+            sinks.interactive,
+        );
         // A lattice drag bends a copy of the document over the interactive detail;
         // when it ends the document is put back there.
         let preview_bent = self.lattice.sync(doc, view, interaction, sinks.interactive);

@@ -10,10 +10,17 @@
 //!
 //! The field is meshed on a grid over the solid's box ([`blocks`]), in blocks of
 //! [`blocks::BLOCK`] cells that are meshed alone and welded by grid edge, so the mesh is
-//! closed and manifold. A stroke re-evaluates and re-meshes only the blocks its tool's
-//! box meets; a block no tool reaches is first bounded by interval arithmetic over its
-//! box ([`Tape::simplify`]): one that is surely all outside (or all inside, away from
-//! the grid's faces) is skipped, the rest evaluated on the tape pruned for the box.
+//! closed and manifold. A stroke looks only at the blocks its tool's box meets and
+//! re-meshes only those whose corner values it changes; the other blocks keep their
+//! meshes, which weld to the new ones by grid edge as before. A block is first bounded
+//! by interval arithmetic over its box ([`Tape::simplify`]): one that is surely all
+//! outside (or all inside, away from the grid's faces) is decided without corner
+//! values, the rest evaluated on the tape pruned for the box. The corner values of the
+//! blocks a stroke reaches are kept, so the next stroke there combines only its own
+//! tool into them, and the tool is evaluated only at corners it can change
+//! ([`SweptTool::apply`]: a distance bound per segment, per sub-box and per corner).
+//! The result equals the plain evaluation of every corner against every segment
+//! ([`SolidTarget::remesh_reference`]) bit for bit.
 //!
 //! ```
 //! use glam::DVec3;
@@ -35,7 +42,7 @@
 pub mod blocks;
 pub mod tool;
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::DVec3;
@@ -72,12 +79,18 @@ pub struct Cut {
     pub tool: SweptTool,
 }
 
+/// Most blocks whose corner values a solid keeps for the next stroke (16^3 cells:
+/// 4,913 f32 values, about 20 kB, a block; 40 MB in all).
+pub const MAX_CACHED_BLOCKS: usize = 2048;
+
 /// What a stroke did to the mesh.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Remeshed {
-    /// Blocks re-evaluated and re-meshed.
+    /// Blocks the tool's box reaches (each looked at).
+    pub reached: usize,
+    /// Of those, blocks whose values changed, re-meshed (the rest keep their mesh).
     pub blocks: usize,
-    /// Of those, blocks decided by interval arithmetic alone.
+    /// Of the reached, blocks decided by interval arithmetic alone.
     pub pruned: usize,
 }
 
@@ -92,6 +105,24 @@ pub struct SolidTarget {
     cuts: Vec<Cut>,
     /// Each block's meshing stamp ([`Self::block_stamps`]).
     stamps: Vec<u64>,
+    /// Corner values of blocks a stroke reached, for the strokes in `cuts` (at most
+    /// [`MAX_CACHED_BLOCKS`]): the next stroke there combines only its own tool.
+    values: HashMap<usize, Vec<f32>>,
+    /// Process-unique number of the solid's current strokes (new at every change of
+    /// `cuts`), so a preview's evaluated values are used only on the solid they came from.
+    revision: u64,
+}
+
+/// One block's new state from [`SolidTarget::remesh`].
+struct Redone {
+    /// The block.
+    b: usize,
+    /// Its new mesh, `None` when its mesh stays.
+    mesh: Option<BlockMesh>,
+    /// Its corner values, `None` when interval arithmetic decided it.
+    values: Option<Vec<f32>>,
+    /// Whether interval arithmetic decided it.
+    pruned: bool,
 }
 
 /// The next block meshing stamp ([`SolidTarget::block_stamps`]): one counter for the
@@ -141,6 +172,8 @@ impl SolidTarget {
             meshes: vec![BlockMesh::default(); nb[0] * nb[1] * nb[2]],
             cuts: Vec::new(),
             stamps: vec![0; nb[0] * nb[1] * nb[2]],
+            values: HashMap::new(),
+            revision: next_stamp(),
         };
         solid.remesh_all();
         Ok(solid)
@@ -183,24 +216,123 @@ impl SolidTarget {
                 max: MAX_SOLID_CUTS,
             });
         }
-        let size = self.frame.h * self.cells() as f64;
-        let snap = crate::sculpt::document::snap_distance(&input.tool, size);
-        let margin = self.frame.h * SOLID_MARGIN_CELLS as f64;
-        let tool = SweptTool::new(&self.tape, input, snap, margin)?;
+        let tool = self.tool_of(input)?;
         let touched = self.blocks_of(&tool);
         self.cuts.push(Cut {
             id,
             input: input.clone(),
             tool,
         });
-        Ok(self.remesh(&touched))
+        Ok(self.remesh(&touched, true, true))
     }
 
-    /// Removes the last stroke and re-meshes where it was; it is returned.
+    /// The tool solid of `input` on this solid (samples within
+    /// [`crate::sculpt::document::snap_distance`] of the surface).
+    fn tool_of(&self, input: &StrokeInput) -> Result<SweptTool, SolidError> {
+        let size = self.frame.h * self.cells() as f64;
+        let snap = crate::sculpt::document::snap_distance(&input.tool, size);
+        let margin = self.frame.h * SOLID_MARGIN_CELLS as f64;
+        SweptTool::new(&self.tape, input, snap, margin)
+    }
+
+    /// What [`Self::cut`] of `input` would make of the blocks it changes, leaving the
+    /// solid as it is: the live groove shown while a stroke is drawn. The blocks'
+    /// values before the stroke are taken from the kept values, from `previous` (the
+    /// preview of the same stroke with fewer samples, on the solid as it is now) or
+    /// evaluated; the new preview keeps them for the next one. Each block's mesh equals
+    /// the one [`Self::cut`] would give it. A stroke `cut` would refuse is refused.
+    pub fn preview(
+        &self,
+        input: &StrokeInput,
+        previous: Option<SolidPreview>,
+    ) -> Result<SolidPreview, SolidError> {
+        let cut = Cut {
+            id: 0,
+            input: input.clone(),
+            tool: self.tool_of(input)?,
+        };
+        let mut base = previous
+            .filter(|p| p.revision == self.revision)
+            .map(|p| p.base)
+            .unwrap_or_default();
+        let nb = self.frame.blocks();
+        let touched = self.blocks_of(&cut.tool);
+        let job = |&b: &usize| {
+            let idx = [b % nb[0], (b / nb[0]) % nb[1], b / (nb[0] * nb[1])];
+            let before = match (self.values.get(&b), base.get(&b)) {
+                (Some(v), _) | (None, Some(v)) => Some(v.clone()),
+                (None, None) => None,
+            };
+            let (after, fresh) = match before {
+                Some(mut values) => {
+                    let m = self.block_size(idx);
+                    let changed = cut.tool.apply(&self.block_points(idx), m, &mut values);
+                    (changed.then_some(values), None)
+                }
+                None => {
+                    let fresh = self.evaluate(idx);
+                    let after = self.evaluate_with(idx, Some(&cut));
+                    (after.filter(|a| Some(a) != fresh.as_ref()), fresh)
+                }
+            };
+            let mesh = after.map(|v| self.frame.march(idx, &v, &self.table));
+            (b, mesh, fresh)
+        };
+        #[cfg(feature = "parallel")]
+        let done: Vec<(usize, Option<BlockMesh>, Option<Vec<f32>>)> = {
+            use rayon::prelude::*;
+            touched.par_iter().map(job).collect()
+        };
+        #[cfg(not(feature = "parallel"))]
+        let done: Vec<(usize, Option<BlockMesh>, Option<Vec<f32>>)> =
+            touched.iter().map(job).collect();
+        let mut blocks = Vec::new();
+        for (b, mesh, fresh) in done {
+            if let Some(v) = fresh.filter(|_| base.len() < MAX_CACHED_BLOCKS) {
+                base.insert(b, v);
+            }
+            if let Some(mesh) = mesh.filter(|m| *m != self.meshes[b]) {
+                blocks.push((b, mesh, next_stamp()));
+            }
+        }
+        Ok(SolidPreview {
+            cut,
+            blocks,
+            base,
+            revision: self.revision,
+        })
+    }
+
+    /// Writes block `k` of `preview` ([`SolidPreview::blocks`]) into `sink` as the
+    /// patch `key`, as [`Self::write_block`] writes the solid's own blocks, with normals
+    /// from the field with the previewed stroke; a block with no triangles is removed
+    /// from `sink` instead. Returns whether a patch was written.
+    pub fn write_preview_block(
+        &self,
+        preview: &SolidPreview,
+        k: usize,
+        key: PatchKey,
+        sink: &mut dyn MeshSink,
+    ) -> bool {
+        let Some((_, block, _)) = preview.blocks.get(k) else {
+            sink.remove_patch(key);
+            return false;
+        };
+        let field = |p: DVec3| {
+            let mut v = self.eval(p);
+            let pf = DVec3::from(p.as_vec3().to_array().map(f64::from));
+            apply_cut(&preview.cut, pf, &mut v);
+            v
+        };
+        self.write_mesh(block, key, sink, field)
+    }
+
+    /// Removes the last stroke and re-meshes where it was (evaluating those blocks
+    /// again from the model and the strokes left); it is returned.
     pub fn uncut(&mut self) -> Option<Cut> {
         let cut = self.cuts.pop()?;
         let touched = self.blocks_of(&cut.tool);
-        self.remesh(&touched);
+        self.remesh(&touched, false, true);
         Some(cut)
     }
 
@@ -208,14 +340,73 @@ impl SolidTarget {
     pub fn recut(&mut self, cut: Cut) -> Remeshed {
         let touched = self.blocks_of(&cut.tool);
         self.cuts.push(cut);
-        self.remesh(&touched)
+        self.remesh(&touched, true, true)
     }
 
     /// Re-evaluates and re-meshes every block (what [`Self::new`] does; a stroke
-    /// re-meshes only its blocks, and gives the same mesh).
+    /// re-meshes only the blocks it changes, and gives the same mesh). Forgets the
+    /// corner values kept for strokes.
     pub fn remesh_all(&mut self) -> Remeshed {
+        self.values.clear();
         let all: Vec<usize> = (0..self.meshes.len()).collect();
-        self.remesh(&all)
+        self.remesh(&all, false, false)
+    }
+
+    /// Re-evaluates every block the plain way, the reference the fast paths must equal:
+    /// each corner of each block not decided by interval arithmetic takes the model's
+    /// value and then, stroke by stroke, [`SweptTool::value_among`] over every segment
+    /// reaching the block, with no bound on the tool; then every block is re-meshed.
+    /// Forgets the kept corner values.
+    pub fn remesh_reference(&mut self) {
+        self.values.clear();
+        self.revision = next_stamp();
+        let nb = self.frame.blocks();
+        for b in 0..self.meshes.len() {
+            let idx = [b % nb[0], (b / nb[0]) % nb[1], b / (nb[0] * nb[1])];
+            let values = self.reference_values(b);
+            self.meshes[b] = values.map_or_else(BlockMesh::default, |v| {
+                self.frame.march(idx, &v, &self.table)
+            });
+            self.stamps[b] = next_stamp();
+        }
+    }
+
+    /// Block `b`'s corner values (x fastest over its corner range) as kept for the next
+    /// stroke, if kept (blocks a stroke reached and interval arithmetic did not decide).
+    pub fn block_values(&self, b: usize) -> Option<&[f32]> {
+        self.values.get(&b).map(Vec::as_slice)
+    }
+
+    /// Block `b`'s corner values the plain way ([`Self::remesh_reference`]); `None`
+    /// when interval arithmetic decides the block (or `b` is out of range).
+    pub fn reference_values(&self, b: usize) -> Option<Vec<f32>> {
+        let nb = self.frame.blocks();
+        if b >= self.meshes.len() {
+            return None;
+        }
+        let idx = [b % nb[0], (b / nb[0]) % nb[1], b / (nb[0] * nb[1])];
+        let (box_lo, box_hi) = self.block_box(idx);
+        let cuts: Vec<(&Cut, Vec<usize>)> = self
+            .cuts
+            .iter()
+            .filter_map(|c| {
+                let segments = c.tool.segments_near(box_lo, box_hi);
+                (!segments.is_empty()).then_some((c, segments))
+            })
+            .collect();
+        let only_carves = cuts.iter().all(|(c, _)| c.tool.mode == Mode::Carve);
+        let pruned = self.decide(idx, cuts.is_empty(), only_carves)?;
+        let points = self.block_points(idx);
+        let mut values = vec![0f32; points.len()];
+        pruned.eval_points(&points, &mut values);
+        for (p, v) in points.iter().zip(values.iter_mut()) {
+            let p = DVec3::from(p.map(f64::from));
+            for (c, segments) in &cuts {
+                let g = c.tool.value_among(p, segments.iter().copied());
+                combine(c.tool.mode, g, v);
+            }
+        }
+        Some(values)
     }
 
     /// The whole mesh, welded: closed, 2-manifold, wound outward.
@@ -242,13 +433,7 @@ impl SolidTarget {
     /// [`SOLID_NORMAL_STEP_CELLS`] cells (the tool functions have no tape to
     /// differentiate); zero where the differences vanish.
     pub fn normal(&self, p: DVec3) -> DVec3 {
-        let d = self.frame.h * SOLID_NORMAL_STEP_CELLS;
-        let g = DVec3::new(
-            f64::from(self.eval(p + DVec3::X * d) - self.eval(p - DVec3::X * d)),
-            f64::from(self.eval(p + DVec3::Y * d) - self.eval(p - DVec3::Y * d)),
-            f64::from(self.eval(p + DVec3::Z * d) - self.eval(p - DVec3::Z * d)),
-        );
-        (-g).normalize_or_zero()
+        field_normal(|q| self.eval(q), p, self.frame.h)
     }
 
     /// Where the ray `origin + t dir` (`dir` a unit vector, `t >= 0`) first enters the
@@ -302,13 +487,29 @@ impl SolidTarget {
     /// bit for bit where they meet (both come from the grid edge alone), so the drawn
     /// mesh shows no seam.
     pub fn write_block(&self, b: usize, key: PatchKey, sink: &mut dyn MeshSink) -> bool {
-        let Some(block) = self.meshes.get(b).filter(|m| !m.triangles.is_empty()) else {
+        let Some(block) = self.meshes.get(b) else {
             sink.remove_patch(key);
             return false;
         };
+        self.write_mesh(block, key, sink, |p| self.eval(p))
+    }
+
+    /// Writes `block` into `sink` as the patch `key` with the normals of the field
+    /// `field` ([`field_normal`]), or removes the patch when `block` has no triangles.
+    fn write_mesh(
+        &self,
+        block: &BlockMesh,
+        key: PatchKey,
+        sink: &mut dyn MeshSink,
+        field: impl Fn(DVec3) -> f32,
+    ) -> bool {
+        if block.triangles.is_empty() {
+            sink.remove_patch(key);
+            return false;
+        }
         sink.begin_patch(key);
         for &(_, position) in &block.vertices {
-            let n = self.normal(DVec3::from(position.map(f64::from)));
+            let n = field_normal(&field, DVec3::from(position.map(f64::from)), self.frame.h);
             sink.push_vertex(MeshVertex {
                 position,
                 normal: n.as_vec3().to_array(),
@@ -322,10 +523,13 @@ impl SolidTarget {
         true
     }
 
+    /// The blocks the box of `tool` reaches, widened by a cell so that a corner on a
+    /// block face the box passes within f32 rounding of is re-evaluated in both blocks.
     fn blocks_of(&self, tool: &SweptTool) -> Vec<usize> {
         let (lo, hi) = tool.bounds();
+        let pad = DVec3::splat(self.frame.h);
         let nb = self.frame.blocks();
-        let Some((first, last)) = self.frame.blocks_in(lo, hi) else {
+        let Some((first, last)) = self.frame.blocks_in(lo - pad, hi + pad) else {
             return Vec::new();
         };
         let mut out = Vec::new();
@@ -339,81 +543,190 @@ impl SolidTarget {
         out
     }
 
-    /// Re-evaluates and re-meshes the blocks `which`.
-    fn remesh(&mut self, which: &[usize]) -> Remeshed {
+    /// Re-evaluates the blocks `which` and re-meshes those whose values changed. With
+    /// `last_only`, a block whose corner values are kept combines only the last cut
+    /// into them ([`SweptTool::apply`]); the others are evaluated from the model and
+    /// every cut ([`Self::evaluate`]). With `keep`, the values are kept for the next
+    /// stroke.
+    fn remesh(&mut self, which: &[usize], last_only: bool, keep: bool) -> Remeshed {
+        self.revision = next_stamp();
         let nb = self.frame.blocks();
-        let job = |&b: &usize| {
+        let last = self.cuts.last().filter(|_| last_only);
+        let job = |&b: &usize| -> Redone {
             let idx = [b % nb[0], (b / nb[0]) % nb[1], b / (nb[0] * nb[1])];
-            let (mesh, pruned) = self.mesh_block(idx);
-            (b, mesh, pruned)
+            if let (Some(cut), Some(old)) = (last, self.values.get(&b)) {
+                let mut values = old.clone();
+                let points = self.block_points(idx);
+                let m = self.block_size(idx);
+                let mesh = cut
+                    .tool
+                    .apply(&points, m, &mut values)
+                    .then(|| self.frame.march(idx, &values, &self.table));
+                return Redone {
+                    b,
+                    mesh,
+                    values: Some(values),
+                    pruned: false,
+                };
+            }
+            let values = self.evaluate(idx);
+            let mesh = values.as_ref().map_or_else(BlockMesh::default, |v| {
+                self.frame.march(idx, v, &self.table)
+            });
+            Redone {
+                b,
+                pruned: values.is_none(),
+                mesh: (mesh != self.meshes[b]).then_some(mesh),
+                values,
+            }
         };
         #[cfg(feature = "parallel")]
-        let done: Vec<(usize, BlockMesh, bool)> = {
+        let done: Vec<Redone> = {
             use rayon::prelude::*;
             which.par_iter().map(job).collect()
         };
         #[cfg(not(feature = "parallel"))]
-        let done: Vec<(usize, BlockMesh, bool)> = which.iter().map(job).collect();
-        let mut pruned = 0;
-        for (b, mesh, p) in done {
-            pruned += usize::from(p);
-            self.meshes[b] = mesh;
-            self.stamps[b] = next_stamp();
+        let done: Vec<Redone> = which.iter().map(job).collect();
+        if keep && self.values.len() + done.len() > MAX_CACHED_BLOCKS {
+            let now: HashSet<usize> = which.iter().copied().collect();
+            self.values.retain(|b, _| now.contains(b));
         }
-        Remeshed {
-            blocks: which.len(),
-            pruned,
-        }
-    }
-
-    /// One block's mesh, and whether interval arithmetic decided it alone.
-    fn mesh_block(&self, b: [usize; 3]) -> (BlockMesh, bool) {
-        let f = &self.frame;
-        let (lo, hi) = f.block_corners(b);
-        let (plo, phi) = (f.corner(lo), f.corner(hi));
-        let box_lo = DVec3::from(plo.map(f64::from));
-        let box_hi = DVec3::from(phi.map(f64::from));
-        // Each cut that reaches the block, with the segments of its tool that do.
-        let cuts: Vec<(&Cut, Vec<usize>)> = self
-            .cuts
-            .iter()
-            .filter_map(|c| {
-                let segments = c.tool.segments_near(box_lo, box_hi);
-                (!segments.is_empty()).then_some((c, segments))
-            })
-            .collect();
-        let region = [0, 1, 2].map(|a| Interval::new(plo[a], phi[a]));
-        let (range, pruned) = self.tape.simplify(region);
-        if !range.nan {
-            let on_face = (0..3).any(|a| lo[a] == 0 || hi[a] == f.n[a]);
-            // Carving only removes material: a block surely outside the model stays
-            // empty under carves, and one surely inside with no cut is full.
-            let only_carves = cuts.iter().all(|(c, _)| c.tool.mode == Mode::Carve);
-            if (range.hi <= 0.0 && only_carves) || (range.lo > 0.0 && !on_face && cuts.is_empty()) {
-                return (BlockMesh::default(), true);
+        let mut r = Remeshed {
+            reached: which.len(),
+            blocks: 0,
+            pruned: 0,
+        };
+        for d in done {
+            r.pruned += usize::from(d.pruned);
+            if let Some(mesh) = d.mesh {
+                r.blocks += 1;
+                self.meshes[d.b] = mesh;
+                self.stamps[d.b] = next_stamp();
+            }
+            match d.values {
+                Some(v) if keep && self.values.len() < MAX_CACHED_BLOCKS => {
+                    self.values.insert(d.b, v);
+                }
+                _ => {
+                    self.values.remove(&d.b);
+                }
             }
         }
-        let m = [0, 1, 2].map(|a| hi[a] - lo[a] + 1);
+        r
+    }
+
+    /// The box of block `b` (metres, its corners as the field reads them).
+    fn block_box(&self, b: [usize; 3]) -> (DVec3, DVec3) {
+        let (lo, hi) = self.frame.block_corners(b);
+        let (plo, phi) = (self.frame.corner(lo), self.frame.corner(hi));
+        (
+            DVec3::from(plo.map(f64::from)),
+            DVec3::from(phi.map(f64::from)),
+        )
+    }
+
+    /// Corners per axis of block `b`.
+    fn block_size(&self, b: [usize; 3]) -> [usize; 3] {
+        let (lo, hi) = self.frame.block_corners(b);
+        [0, 1, 2].map(|a| hi[a] - lo[a] + 1)
+    }
+
+    /// The positions of block `b`'s corners, x fastest.
+    fn block_points(&self, b: [usize; 3]) -> Vec<[f32; 3]> {
+        let (lo, hi) = self.frame.block_corners(b);
+        let m = self.block_size(b);
         let mut points = Vec::with_capacity(m[0] * m[1] * m[2]);
         for k in lo[2]..=hi[2] {
             for j in lo[1]..=hi[1] {
                 for i in lo[0]..=hi[0] {
-                    points.push(f.corner([i, j, k]));
+                    points.push(self.frame.corner([i, j, k]));
                 }
             }
         }
+        points
+    }
+
+    /// The model's tape pruned for block `b`, or `None` when interval arithmetic over
+    /// the block's box decides it: surely outside with only carves reaching it (carving
+    /// only removes material, so it stays empty), or surely inside, away from the grid's
+    /// faces, with no cut reaching it (full). Either way it has no triangles.
+    fn decide(&self, b: [usize; 3], no_cuts: bool, only_carves: bool) -> Option<Tape> {
+        let f = &self.frame;
+        let (lo, hi) = f.block_corners(b);
+        let (plo, phi) = (f.corner(lo), f.corner(hi));
+        let region = [0, 1, 2].map(|a| Interval::new(plo[a], phi[a]));
+        let (range, pruned) = self.tape.simplify(region);
+        if !range.nan {
+            let on_face = (0..3).any(|a| lo[a] == 0 || hi[a] == f.n[a]);
+            if (range.hi <= 0.0 && only_carves) || (range.lo > 0.0 && !on_face && no_cuts) {
+                return None;
+            }
+        }
+        Some(pruned)
+    }
+
+    /// Block `b`'s corner values from the model and every cut reaching it (each
+    /// combined by [`SweptTool::apply`], equal to the plain way,
+    /// [`Self::reference_values`]); `None` when interval arithmetic decides it.
+    fn evaluate(&self, b: [usize; 3]) -> Option<Vec<f32>> {
+        self.evaluate_with(b, None)
+    }
+
+    /// [`Self::evaluate`] with `extra` as one cut more, after the others.
+    fn evaluate_with(&self, b: [usize; 3], extra: Option<&Cut>) -> Option<Vec<f32>> {
+        let (box_lo, box_hi) = self.block_box(b);
+        let reaching = |c: &&Cut| !c.tool.segments_near(box_lo, box_hi).is_empty();
+        let cuts: Vec<&Cut> = self.cuts.iter().chain(extra).filter(reaching).collect();
+        let only_carves = cuts.iter().all(|c| c.tool.mode == Mode::Carve);
+        let pruned = self.decide(b, cuts.is_empty(), only_carves)?;
+        let points = self.block_points(b);
+        let m = self.block_size(b);
         let mut values = vec![0f32; points.len()];
         pruned.eval_points(&points, &mut values);
-        if !cuts.is_empty() {
-            for (p, v) in points.iter().zip(values.iter_mut()) {
-                let p = DVec3::from(p.map(f64::from));
-                for (c, segments) in &cuts {
-                    let g = c.tool.value_among(p, segments.iter().copied());
-                    combine(c.tool.mode, g, v);
-                }
-            }
+        for c in cuts {
+            c.tool.apply(&points, m, &mut values);
         }
-        (f.march(b, &values, &self.table), false)
+        Some(values)
+    }
+}
+
+/// The outward unit normal of `field` (positive inside) at `p`: minus its gradient by
+/// central differences with a step of [`SOLID_NORMAL_STEP_CELLS`] cells of edge `h`;
+/// zero where the differences vanish.
+fn field_normal(field: impl Fn(DVec3) -> f32, p: DVec3, h: f64) -> DVec3 {
+    let d = h * SOLID_NORMAL_STEP_CELLS;
+    let g = DVec3::new(
+        f64::from(field(p + DVec3::X * d) - field(p - DVec3::X * d)),
+        f64::from(field(p + DVec3::Y * d) - field(p - DVec3::Y * d)),
+        f64::from(field(p + DVec3::Z * d) - field(p - DVec3::Z * d)),
+    );
+    (-g).normalize_or_zero()
+}
+
+/// A stroke shown on a solid before it is applied ([`SolidTarget::preview`]).
+#[derive(Debug, Clone)]
+pub struct SolidPreview {
+    /// The stroke as a cut (id 0).
+    cut: Cut,
+    /// The blocks whose mesh the stroke changes: block, its mesh with the stroke, and a
+    /// meshing stamp (process-unique, as [`SolidTarget::block_stamps`]).
+    blocks: Vec<(usize, BlockMesh, u64)>,
+    /// The values of blocks before the stroke that the solid did not keep.
+    base: HashMap<usize, Vec<f32>>,
+    /// The solid's revision they belong to.
+    revision: u64,
+}
+
+impl SolidPreview {
+    /// The blocks whose mesh the stroke changes, with their meshes and meshing stamps
+    /// (a view writes a block again when its stamp differs from the one it wrote).
+    pub fn blocks(&self) -> impl Iterator<Item = (usize, &BlockMesh, u64)> {
+        self.blocks.iter().map(|(b, m, s)| (*b, m, *s))
+    }
+
+    /// The previewed stroke as a cut.
+    pub fn cut(&self) -> &Cut {
+        &self.cut
     }
 }
 

@@ -52,6 +52,7 @@ use super::stroke_surface::StrokeSurface;
 use super::tessellate::{Detail, GridPlan, TargetTessellation};
 use super::uvmap::UvMap;
 use crate::error::Result;
+use crate::solid::SolidPreview;
 use std::collections::{HashMap, HashSet};
 use std::sync::Arc;
 
@@ -74,6 +75,9 @@ pub struct DocumentView {
     preview: Option<(TargetId, Built)>,
     /// Preview pieces so far (each gets a fresh key, so the tessellator sees it change).
     preview_serial: u64,
+    /// The stroke being drawn on a solid target: the blocks it changes, meshed
+    /// ([`SolidTarget::preview`](crate::solid::SolidTarget::preview)).
+    solid_preview: Option<(TargetId, SolidPreview)>,
     /// The conforming tessellation of the targets that form a patch network, per
     /// detail ([`crate::sculpt::conform`]).
     conform: HashMap<Detail, ConformState>,
@@ -140,7 +144,9 @@ impl DocumentView {
         }
     }
 
-    /// Shows `input` on `target` as the stroke being drawn: it is carved into the
+    /// Shows `input` on `target` as the stroke being drawn. On a solid target the
+    /// blocks it changes are meshed with it ([`Self::solid_preview`], shown by the
+    /// solid's view). On a NURBS target it is carved into the
     /// [`Detail::Interactive`] tessellation (only the cells it touches, and the cells of
     /// the preview it replaces, are rewritten) but it is not part of the document: not
     /// in [`Document::strokes`], the history, the final detail, the exports or the JSON.
@@ -152,6 +158,19 @@ impl DocumentView {
         target: TargetId,
         input: &StrokeInput,
     ) -> Result<()> {
+        if let Some(record) = doc.solid(target) {
+            // The same stroke with fewer samples: its evaluated blocks are reused.
+            let previous = self
+                .solid_preview
+                .take()
+                .filter(|(t, _)| *t == target)
+                .map(|(_, p)| p);
+            self.clear_preview();
+            doc.check_stroke_caps(input.samples.len())?;
+            let preview = record.solid.preview(input, previous)?;
+            self.solid_preview = Some((target, preview));
+            return Ok(());
+        }
         self.clear_preview();
         let (pieces, targets) = doc.build_stroke(target, input)?;
         let keys = (0..pieces.pieces.len())
@@ -173,9 +192,17 @@ impl DocumentView {
 
     /// Removes the preview stroke, if any.
     pub fn clear_preview(&mut self) {
+        self.solid_preview = None;
         if let Some((_, built)) = self.preview.take() {
             self.mark_dirty(&built);
         }
+    }
+
+    /// The preview stroke on a solid target and the target: what a solid's view shows
+    /// at interactive detail in place of the blocks it changes. [`Self::set_preview`]
+    /// on a solid sets it; a NURBS target's preview is [`Self::preview`].
+    pub fn solid_preview(&self) -> Option<(TargetId, &SolidPreview)> {
+        self.solid_preview.as_ref().map(|(t, p)| (*t, p))
     }
 
     /// The preview stroke's pieces and its target.
@@ -253,6 +280,7 @@ impl DocumentView {
         self.dirty.clear();
         self.grids.clear();
         self.preview = None;
+        self.solid_preview = None;
     }
 
     /// Memory held by the view's tessellation (its UV maps and height fields), bytes.
