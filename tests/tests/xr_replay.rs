@@ -180,6 +180,73 @@ fn a_headset_lattice_drag_bends_the_sheet_and_replays() {
     assert_eq!(app.session.doc.targets()[0].surface, flat);
 }
 
+/// Issue 35 items 2 and 4 in the headset: the paint action (the left trigger,
+/// [`WandAction::Paint`](vr_app::xr::actions::WandAction::Paint)) turns paint mode
+/// on, and three trigger sweeps 8 mm above the default sheet paint it, through
+/// `XrWand` (the feeder, edit loop, journal and operator log of every driver): three
+/// paint strokes, each with its pulse, a colour field on the sheet and its geometry
+/// untouched; the replay of the headset's pose log builds the same document byte for
+/// byte, and the undo button takes the last sweep back. Regression: the headset had no
+/// paint action, so paint (button bit 7) could not be reached from it.
+#[test]
+fn a_headset_paint_sweep_colours_the_sheet_and_replays() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = Config::default();
+    cfg.files.dir = dir.path().to_path_buf();
+    let mut app = AppState::new(cfg).unwrap();
+    let sheet = app.session.doc.targets()[0].surface.clone();
+    let (mut wand, grip_at) = support::scripted_headset(&app, dir.path(), DQuat::IDENTITY);
+    let mut pulses = Vec::new();
+    let mut step = at_90_hz(&mut wand);
+    let above = |x: f64, y: f64, h: f64| default_surface_point(x, y) + DVec3::Z * h;
+    // Hover, press and release the paint button.
+    for paint in [false, true, false, false] {
+        let state = ControllerState {
+            grip: Some(grip_at(above(-0.35, 1.17, 0.05))),
+            paint,
+            ..ControllerState::default()
+        };
+        pulses.extend(step(&mut app, state));
+    }
+    assert_eq!(
+        app.session.interaction.mode(),
+        sculpt_core::interaction::InteractionMode::Paint,
+        "the paint button turned paint mode on"
+    );
+    for y in [1.13, 1.17, 1.21] {
+        let mut path: Vec<(DVec3, f64)> = vec![(above(-0.35, y, 0.05), 0.1)];
+        path.extend((0..=40).map(|k| (above(-0.35 + 0.7 * f64::from(k) / 40.0, y, 0.008), 0.9)));
+        path.extend([(above(0.35, y, 0.008), 0.1), (above(0.35, y, 0.05), 0.1)]);
+        for state in trigger_path(&path, &grip_at) {
+            pulses.extend(step(&mut app, state));
+        }
+    }
+    assert_eq!(
+        pulses,
+        [Feedback::Applied; 3],
+        "one pulse for each sweep: {pulses:?}"
+    );
+    let doc = &app.session.doc;
+    assert_eq!(doc.paints().len(), 3);
+    assert!(doc.paints().iter().all(|p| p.deposited > 0));
+    let target = doc.targets()[0].id;
+    assert!(
+        doc.attribute_field(target, sculpt_core::paint::COLOUR)
+            .is_some()
+    );
+    assert_eq!(doc.targets()[0].surface, sheet, "paint changes no geometry");
+    let live = doc.to_json();
+
+    let outcome = replay_headset(dir.path(), default_document(), &live, "paint sweeps");
+    assert_eq!(outcome.document.paints().len(), 3);
+
+    // The undo button takes the last sweep back.
+    for state in undo_press(grip_at(above(0.0, 1.17, 0.1))) {
+        step(&mut app, state);
+    }
+    assert_eq!(app.session.doc.paints().len(), 2);
+}
+
 /// Issue 35 items 3 and 4 in the headset: with the `carve-solid` session's plate as
 /// the base's solid (`[files] solid`), the next-target button selects it and a trigger
 /// sweep across its top face carves a groove through it, through `XrWand` (the feeder,

@@ -79,13 +79,16 @@ pub enum WandAction {
     /// grabs the cage's control point at the wand tip, with the group within the
     /// grab radius, and the wand drags it.
     Lattice,
+    /// Paint mode on and off (issue 35 item 2): in paint mode the draw action sweeps
+    /// the brush, depositing colour on the surface under it.
+    Paint,
     /// The haptic pulse on stroke applied or rejected.
     Haptic,
 }
 
 impl WandAction {
     /// Every action, in the order the action set creates them.
-    pub const ALL: [WandAction; 11] = [
+    pub const ALL: [WandAction; 12] = [
         WandAction::GripPose,
         WandAction::AimPose,
         WandAction::Draw,
@@ -96,6 +99,7 @@ impl WandAction {
         WandAction::NextTarget,
         WandAction::Thumbstick,
         WandAction::Lattice,
+        WandAction::Paint,
         WandAction::Haptic,
     ];
 
@@ -112,6 +116,7 @@ impl WandAction {
             WandAction::NextTarget => "next_target",
             WandAction::Thumbstick => "thumbstick",
             WandAction::Lattice => "lattice",
+            WandAction::Paint => "paint",
             WandAction::Haptic => "haptic",
         }
     }
@@ -129,6 +134,7 @@ impl WandAction {
             WandAction::NextTarget => "Next target",
             WandAction::Thumbstick => "Tool width and depth",
             WandAction::Lattice => "Lattice mode",
+            WandAction::Paint => "Paint mode",
             WandAction::Haptic => "Stroke feedback",
         }
     }
@@ -163,7 +169,8 @@ pub struct ProfileBindings<'a> {
 }
 
 /// The right hand holds the wand; the left hand's buttons undo and redo, and (where the
-/// controller has a spare one) turn lattice mode on and off.
+/// controller has spare ones) turn lattice mode (the left thumbstick or squeeze) and
+/// paint mode (the left trigger) on and off.
 pub const PROFILES: [ProfileBindings<'static>; 4] = [
     ProfileBindings {
         profile: "/interaction_profiles/khr/simple_controller",
@@ -226,6 +233,7 @@ pub const PROFILES: [ProfileBindings<'static>; 4] = [
                 WandAction::Lattice,
                 "/user/hand/left/input/thumbstick/click",
             ),
+            (WandAction::Paint, "/user/hand/left/input/trigger/value"),
             (WandAction::Thumbstick, "/user/hand/right/input/thumbstick"),
             (WandAction::Haptic, "/user/hand/right/output/haptic"),
         ],
@@ -274,6 +282,7 @@ pub const PROFILES: [ProfileBindings<'static>; 4] = [
                 WandAction::Lattice,
                 "/user/hand/left/input/thumbstick/click",
             ),
+            (WandAction::Paint, "/user/hand/left/input/trigger/click"),
             (WandAction::Thumbstick, "/user/hand/right/input/thumbstick"),
             (WandAction::Haptic, "/user/hand/right/output/haptic"),
         ],
@@ -308,6 +317,7 @@ pub const PROFILES: [ProfileBindings<'static>; 4] = [
             (WandAction::Undo, "/user/hand/left/input/menu/click"),
             (WandAction::Redo, "/user/hand/left/input/trackpad/click"),
             (WandAction::Lattice, "/user/hand/left/input/squeeze/click"),
+            (WandAction::Paint, "/user/hand/left/input/trigger/click"),
             (WandAction::Thumbstick, "/user/hand/right/input/trackpad"),
             (WandAction::Haptic, "/user/hand/right/output/haptic"),
         ],
@@ -442,6 +452,8 @@ pub struct ControllerState {
     pub next_target: bool,
     /// Lattice-mode button ([`WandAction::Lattice`]).
     pub lattice: bool,
+    /// Paint-mode button ([`WandAction::Paint`]).
+    pub paint: bool,
     /// Thumbstick (or trackpad): x right, y up, each in [-1, 1].
     pub thumbstick: [f64; 2],
 }
@@ -473,8 +485,8 @@ pub struct WandMapper {
 }
 
 /// Buttons of the wand in the frames the mapper writes: the [`ButtonMap`] bits 0 to 7
-/// (a frame's reader drops the bits above its count, so the lattice bit, 6, needs
-/// more than the Flystick's six).
+/// (a frame's reader drops the bits above its count, so the lattice bit, 6, and the
+/// paint bit, 7, need more than the Flystick's six).
 const BUTTON_COUNT: u8 = 8;
 /// The wand's Flystick id in the frames the mapper writes.
 pub const WAND_ID: u32 = 0;
@@ -511,6 +523,7 @@ impl WandMapper {
             (c.redo, b.redo),
             (c.next_target, b.select),
             (c.lattice, b.lattice),
+            (c.paint, b.paint),
         ]
         .into_iter()
         .filter(|&(down, bit)| down && bit < 64)
@@ -788,28 +801,36 @@ mod tests {
         assert_eq!(m.button_mask(&c), 1 << 7);
     }
 
-    /// The lattice button reaches the interaction's lattice bit through the frame the
-    /// pose log stores. Regression: frames said six buttons, and a reader drops the
-    /// bits above the count, so bit 6 (lattice) never reached the session.
+    /// The lattice and paint buttons reach the interaction's bits through the frame
+    /// the pose log stores. Regression: frames said six buttons, and a reader drops the
+    /// bits above the count, so bit 6 (lattice) never reached the session; paint (bit
+    /// 7) had no headset action at all.
     #[test]
-    fn the_lattice_button_survives_the_frame_encoding() {
-        let mut m = WandMapper::default();
-        let mut c = state_at(DVec3::new(0.0, 1.2, 0.3));
-        c.lattice = true;
+    fn the_lattice_and_paint_buttons_survive_the_frame_encoding() {
         let b = ButtonMap::default();
-        assert_eq!(m.button_mask(&c), 1 << b.lattice);
-        let frame = m.frame(3, 0.1, &c, None);
-        let mut bytes = Vec::new();
-        tracking::dtrack::encode_frame(&frame, &mut bytes);
-        let read = tracking::dtrack::parse_frame(&bytes).unwrap();
-        assert!(read.wand(WAND_ID).unwrap().button(b.lattice));
-        // Bound on every profile with a spare button, as a button.
-        for p in &PROFILES[1..] {
-            assert!(
-                p.bindings.iter().any(|&(a, _)| a == WandAction::Lattice),
-                "{}",
-                p.profile
-            );
+        let set_lattice: fn(&mut ControllerState) = |c| c.lattice = true;
+        let set_paint: fn(&mut ControllerState) = |c| c.paint = true;
+        for (action, bit, press) in [
+            (WandAction::Lattice, b.lattice, set_lattice),
+            (WandAction::Paint, b.paint, set_paint),
+        ] {
+            let mut m = WandMapper::default();
+            let mut c = state_at(DVec3::new(0.0, 1.2, 0.3));
+            press(&mut c);
+            assert_eq!(m.button_mask(&c), 1 << bit, "{action:?}");
+            let frame = m.frame(3, 0.1, &c, None);
+            let mut bytes = Vec::new();
+            tracking::dtrack::encode_frame(&frame, &mut bytes);
+            let read = tracking::dtrack::parse_frame(&bytes).unwrap();
+            assert!(read.wand(WAND_ID).unwrap().button(bit), "{action:?}");
+            // Bound on every profile with a spare button, as a button.
+            for p in &PROFILES[1..] {
+                assert!(
+                    p.bindings.iter().any(|&(a, _)| a == action),
+                    "{action:?} on {}",
+                    p.profile
+                );
+            }
         }
     }
 

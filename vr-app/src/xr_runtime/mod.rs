@@ -224,6 +224,7 @@ struct Actions {
     redo: xr::Action<bool>,
     next_target: xr::Action<bool>,
     lattice: xr::Action<bool>,
+    paint: xr::Action<bool>,
     stick: xr::Action<xr::Vector2f>,
     haptic: xr::Action<xr::Haptic>,
 }
@@ -250,6 +251,7 @@ impl Actions {
             redo: action!(bool, WandAction::Redo),
             next_target: action!(bool, WandAction::NextTarget),
             lattice: action!(bool, WandAction::Lattice),
+            paint: action!(bool, WandAction::Paint),
             stick: action!(xr::Vector2f, WandAction::Thumbstick),
             haptic: action!(xr::Haptic, WandAction::Haptic),
             set,
@@ -276,6 +278,7 @@ impl Actions {
                     WandAction::Redo => xr::Binding::new(&self.redo, path),
                     WandAction::NextTarget => xr::Binding::new(&self.next_target, path),
                     WandAction::Lattice => xr::Binding::new(&self.lattice, path),
+                    WandAction::Paint => xr::Binding::new(&self.paint, path),
                     WandAction::Thumbstick => xr::Binding::new(&self.stick, path),
                     WandAction::Haptic => xr::Binding::new(&self.haptic, path),
                 });
@@ -376,6 +379,7 @@ fn controller_state(
         redo: button(&acts.redo),
         next_target: button(&acts.next_target),
         lattice: button(&acts.lattice),
+        paint: button(&acts.paint),
         thumbstick,
     }
 }
