@@ -170,7 +170,7 @@ pub struct ProfileBindings<'a> {
 
 /// The right hand holds the wand; the left hand's buttons undo and redo, and (where the
 /// controller has spare ones) turn lattice mode (the left thumbstick or squeeze) and
-/// paint mode (the left trigger) on and off.
+/// paint mode (the left menu button or trigger) on and off.
 pub const PROFILES: [ProfileBindings<'static>; 4] = [
     ProfileBindings {
         profile: "/interaction_profiles/khr/simple_controller",
@@ -233,7 +233,7 @@ pub const PROFILES: [ProfileBindings<'static>; 4] = [
                 WandAction::Lattice,
                 "/user/hand/left/input/thumbstick/click",
             ),
-            (WandAction::Paint, "/user/hand/left/input/trigger/value"),
+            (WandAction::Paint, "/user/hand/left/input/menu/click"),
             (WandAction::Thumbstick, "/user/hand/right/input/thumbstick"),
             (WandAction::Haptic, "/user/hand/right/output/haptic"),
         ],
