@@ -312,8 +312,7 @@ impl SceneState {
         let (vr, vu, vn) = screen.basis();
         let (centre, e1, e2, lift) = match self.project_on_target(doc, interaction, tip) {
             Some((foot, n)) => {
-                let e1 = if n.cross(vu).length_squared() > sculpt_core::tolerance::PARALLEL_SIN2_EPS
-                {
+                let e1 = if n.cross(vu).length_squared() > crate::tolerance::PARALLEL_SIN2_EPS {
                     vu.cross(n).normalize()
                 } else {
                     vr
