@@ -289,7 +289,7 @@ impl SceneState {
     ) -> Option<(DVec3, DVec3)> {
         let target = doc.target(interaction.target())?;
         let hit = target.target_surface().inverter().closest_point(p);
-        let n = target.surface.normal(hit.uv.x, hit.uv.y);
+        let n = target.surface.normal(hit.uv_in_knots.x, hit.uv_in_knots.y);
         (hit.distance <= FOOTPRINT_REACH && hit.point.is_finite() && n.is_finite())
             .then_some((hit.point, n))
     }
