@@ -249,7 +249,7 @@ mod tests {
         .unwrap();
         let p = c
             .calibration
-            .point_in_world(DVec3::new(1000.0, 0.0, -500.0));
+            .point_in_display(DVec3::new(1000.0, 0.0, -500.0));
         assert_eq!(p, DVec3::new(1.0, 1.0, -0.5));
         assert!(!c.filter.enabled);
         let e = ReplayConfig::from_toml_str("[calibration]\naxes = [\"x\", \"x\", \"z\"]\n")

@@ -114,7 +114,7 @@ fn bench(c: &mut Criterion) {
         &answers,
         &qs.iter()
             .zip(&answers)
-            .map(|(q, a)| truck_project(&t, *q, Some(a.uv + 0.02)))
+            .map(|(q, a)| truck_project(&t, *q, Some(a.uv_in_knots + 0.02)))
             .collect::<Vec<_>>(),
     );
     report(
@@ -159,7 +159,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             q32.iter()
                 .zip(&answers)
-                .map(|(q, a)| inv.closest_point_from(*q, a.uv + 0.02).distance)
+                .map(|(q, a)| inv.closest_point_from(*q, a.uv_in_knots + 0.02).distance)
                 .sum::<f64>()
         })
     });
@@ -168,7 +168,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             q32.iter()
                 .zip(&answers)
-                .map(|(q, a)| inv.newton_from(*q, a.uv + 0.02).distance)
+                .map(|(q, a)| inv.newton_from(*q, a.uv_in_knots + 0.02).distance)
                 .sum::<f64>()
         })
     });
@@ -184,7 +184,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             q32.iter()
                 .zip(&answers)
-                .filter_map(|(q, a)| black_box(truck_project(&t, *q, Some(a.uv + 0.02))))
+                .filter_map(|(q, a)| black_box(truck_project(&t, *q, Some(a.uv_in_knots + 0.02))))
                 .map(|(_, d)| d)
                 .sum::<f64>()
         })

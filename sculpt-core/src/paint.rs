@@ -229,10 +229,10 @@ pub fn deposit(target: &TargetSurface, samples: &[DVec3], radius: f64) -> Vec<DV
         if c.distance > radius {
             continue;
         }
-        seed = Some(c.uv);
+        seed = Some(c.uv_in_square);
         last = Some(p);
-        let sp = target.eval(c.uv);
-        let n = normal_from(target, c.uv, &sp);
+        let sp = target.eval(c.uv_in_square);
+        let n = normal_from(target, c.uv_in_square, &sp);
         // An orthonormal tangent frame at the closest point (P&T sec. 6.1: the
         // normal is du x dv; any unit vector orthogonal to it spans the plane).
         let t1 = n.any_orthonormal_vector();
@@ -242,7 +242,7 @@ pub fn deposit(target: &TargetSurface, samples: &[DVec3], radius: f64) -> Vec<DV
             for k in 0..RING_POINTS {
                 let angle = std::f64::consts::TAU * k as f64 / RING_POINTS as f64;
                 let q = sp.p + (t1 * angle.cos() + t2 * angle.sin()) * ring;
-                let on = target.closest_point_from(q, c.uv);
+                let on = target.closest_point_from(q, c.uv_in_square);
                 out.push(on.point);
             }
         }

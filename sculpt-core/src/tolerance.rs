@@ -1,6 +1,9 @@
-//! Tolerances, in one place.
+//! Tolerances, in one place for the workspace.
 //!
-//! Every comparison of floating-point results in Wandsculpt, in code and in tests,
+//! A tolerance only one other crate uses (its code or its tests) lives next to its
+//! users, in that crate's own `src/tolerance.rs` (`tracking::tolerance`,
+//! `vr_app::tolerance`, `sculpt-tools`' and the `tests` crate's); the guard
+//! `tests/tolerance_literals.rs` accepts each crate's own module. Every comparison of floating-point results in Wandsculpt, in code and in tests,
 //! names one of these constants and, in tests, goes through [`assert_near!`](crate::assert_near).
 //! Lengths are metres in the display frame unless a name says otherwise.
 
@@ -24,12 +27,6 @@ pub const RAY_PARALLEL_EPS: f64 = 1e-18;
 /// A cosine between a ray's unit direction and a plane's unit normal below this is a
 /// ray parallel to the plane (no hit).
 pub const PARALLEL_COS_EPS: f64 = 1e-12;
-/// A direction's squared length (`|a x b|^2` of unit vectors, a squared sine) below
-/// this means the two are parallel and their cross product is no direction.
-pub const PARALLEL_SIN2_EPS: f64 = 1e-12;
-/// A squared length (metres^2) below this is a zero vector: the cross product of a
-/// polyline tangent with the view direction that has no direction.
-pub const ZERO_LEN2_EPS: f64 = 1e-18;
 /// Vertices closer than this (metres) are welded in exported meshes.
 pub const EXPORT_WELD_EPS: f32 = 1e-6;
 /// Vertices closer than this (metres) are welded where a test checks watertightness:
@@ -38,11 +35,6 @@ pub const TEST_WELD_EPS: f32 = 1e-7;
 /// Vertices closer than this (metres, f32 coordinates) are welded where a test wants
 /// only coincident points merged.
 pub const POINT_WELD_EPS: f32 = 1e-9;
-/// Command-line mesh export welds vertices closer than this fraction of the scene's
-/// size (metres per metre).
-pub const MESH_WELD_REL: f64 = 1e-7;
-/// The smallest weld distance of a command-line mesh export (metres).
-pub const MESH_WELD_MIN: f64 = 1e-9;
 /// A surface grid whose opposite edges agree to this fraction of its diagonal is
 /// closed in that direction (a seam).
 pub const SEAM_REL: f64 = 1e-7;
@@ -99,22 +91,12 @@ pub const COSINE_EPS: f64 = 1e-9;
 pub const LOOSE_COSINE_EPS: f64 = 1e-6;
 /// Angles (radians) within this of a quarter-turn multiple take the smaller arc count.
 pub const ANGLE_EPS: f64 = 1e-12;
-/// The pitch of a camera stays this far (radians) from a quarter turn, where the
-/// projection degenerates.
-pub const POLE_ANGLE_MARGIN: f64 = 1e-6;
 /// A quaternion (or direction) shorter than this is zero: input, not a rotation.
 pub const ZERO_QUAT_LEN: f64 = 1e-6;
 /// A quaternion whose squared length is below this is zero (an untracked pose).
 pub const ZERO_QUAT_LEN2: f64 = 1e-6;
 /// A quaternion shorter than this cannot be normalised.
 pub const NORMALISABLE_LEN: f64 = 1e-12;
-/// Largest |cos| between a screen's right and up edges that still counts as a
-/// rectangle (about 0.6 degrees off square).
-pub const SQUARE_COS_TOL: f64 = 1e-2;
-/// Smallest screen edge (metres).
-pub const MIN_SCREEN_EDGE: f64 = 1e-4;
-/// Smallest distance (metres) from an eye to the screen plane.
-pub const MIN_EYE_DISTANCE: f64 = 1e-3;
 
 // ---------------------------------------------------------------------------------
 // Relative bounds and solvers.
@@ -150,8 +132,6 @@ pub const NORMAL_DEGENERATE_REL: f64 = 1e-9;
 pub const DIVISOR_MIN: f64 = 1e-300;
 /// The smallest aspect ratio a stroke surface's parameter scaling takes.
 pub const ASPECT_MIN: f64 = 1e-3;
-/// Uniform samples are clamped to at least this before a logarithm (Box-Muller).
-pub const LOG_ARG_MIN: f64 = 1e-12;
 
 // ---------------------------------------------------------------------------------
 // Finite steps and differences.
@@ -182,22 +162,6 @@ pub const DEGENERATE_NORMAL_INSET: f64 = 1e-3;
 pub const TIME_EPS: f64 = 1e-9;
 /// Speeds are estimated over at least this interval (seconds).
 pub const MIN_SPEED_DT: f64 = 1e-3;
-/// A time span (seconds) of a plot is at least this.
-pub const MIN_PLOT_SPAN: f64 = 1e-3;
-
-// ---------------------------------------------------------------------------------
-// Printing and plotting.
-// ---------------------------------------------------------------------------------
-
-/// Added before truncating a percentage to two decimals so values that are exact in
-/// decimal but not in binary (7.74 stored as 7.7399999...) are not truncated down.
-pub const TRUNCATE_EPS: f64 = 1e-9;
-/// The smallest upper end of a plot's value axis (an all-zero series still draws).
-pub const PLOT_RANGE_MIN: f64 = 1e-9;
-/// The smallest upper end of a plot's speed axis.
-pub const PLOT_SPEED_MIN: f64 = 1e-6;
-/// A movement's amplitude (metres) below this has no Fitts width.
-pub const AMPLITUDE_EPS: f64 = 1e-9;
 
 // ---------------------------------------------------------------------------------
 // Test comparisons.
@@ -245,19 +209,11 @@ pub const AREA_SYMMETRY_EPS: f64 = 1e-6;
 /// A bound checked in a test may be exceeded by rounding up to this (in the bound's
 /// units).
 pub const BOUND_MARGIN: f64 = 1e-9;
-/// The cursor ring's points lie at their radius from the foot to this (metres, f32
-/// vertices).
-pub const CURSOR_RING_TOL: f64 = 1e-4;
-/// The cursor ring's points lie on the surface to this (metres): the ring is lifted
-/// 1 mm and the surface curves under its chords.
-pub const CURSOR_RING_Z_TOL: f64 = 2e-3;
 /// A carved depth (metres) reproduces the tool's depth to this at a parameter seam,
 /// where the stroke is split: a tenth of a millimetre.
 pub const SEAM_DEPTH_TOL: f64 = 1e-4;
 /// Areas and widths carried through f32 mesh coordinates agree to this.
 pub const F32_EPS: f64 = 1e-6;
-/// Values published to six decimal digits (a standard's table) agree to this.
-pub const SIX_DIGITS_EPS: f64 = 1e-6;
 /// Lengths along a carved arc agree with the arc to this fraction.
 pub const ARC_LEN_REL: f64 = 1e-3;
 /// Areas of the same stroke carved at two places on a sphere agree to this fraction.
@@ -268,30 +224,6 @@ pub const MESH_HIT_EPS: f64 = 1e-3;
 /// The final-detail mesh reproduces the groove bottom to within this (metres): a tenth
 /// of the 5 mm tool depth, for the V profile's sharp bottom between mesh samples.
 pub const GROOVE_TOL: f64 = 0.5e-3;
-/// Printed statistical tables give 6 significant digits.
-pub const PRINTED_TABLE_EPS: f64 = 1e-5;
-/// Sums and ratios of a few two-decimal numbers (the tools' CSV cells) agree to this.
-pub const DECIMAL_SUM_EPS: f64 = 1e-9;
-/// A glyph's ink in a rasterised plot label against the font's metrics: whole pixels,
-/// an antialiased edge counting on either side (pixels).
-pub const GLYPH_INK_PX: f64 = 1.0;
-/// Sums of a few dozen glyph advances in `f32` pixels, added in another order (pixels).
-pub const GLYPH_ADVANCE_SUM_EPS: f64 = 1e-3;
-/// OCCT's face area against ours (Green's theorem over the same loops, 8-point Gauss
-/// per knot span): relative. Ours is converged to 1e-14; OCCT's adaptive integration
-/// is asked for 1e-8 (`--area-eps`) but on cubic stroke surfaces stays up to 2.4e-6 off
-/// while reporting 2e-7 to 1.3e-6, so this is 5e-6 plus twice the error it reports. A
-/// misread loop or surface changes an area by far more.
-pub const OCCT_AREA_REL: f64 = 5e-6;
-/// The same for stroke surfaces. Since strokes wrap across the sphere's seam, the
-/// wrapped stroke of `sphere-overlaps.json` is a longer, more curved cubic surface on
-/// which OCCT's integration ends 1.8e-5 off (reporting 2.9e-7). Still far below what a
-/// misread loop or surface changes.
-pub const OCCT_STROKE_AREA_REL: f64 = 5e-5;
-/// The OCCT area tolerance's floor for sliver faces, m^2 (a square micrometre).
-pub const OCCT_AREA_ABS: f64 = 1e-12;
-/// OCCT's surface points against our kernel's, relative to the surface's size.
-pub const OCCT_POINT_REL: f64 = 1e-9;
 
 // ---------------------------------------------------------------------------------
 // Tessellation of sculpted targets.
@@ -565,36 +497,6 @@ pub const FOLD_AREA_FRACTION: f64 = 1e-3;
 pub const FIXED_SIDE_SNAP: f64 = 1e-6;
 
 // ---------------------------------------------------------------------------------
-// GPU evaluation of implicit tapes (vr_app::gpu_eval, issue 34).
-// ---------------------------------------------------------------------------------
-
-/// GPU and CPU values of one correctly rounded op (`add sub mul neg abs square floor
-/// ceil round min max compare and or not`) agree to this many f32 ulps of the CPU
-/// value: none, IEEE 754 fixes these results bit for bit (WGSL sec. 15.7.4).
-pub const GPU_EVAL_EXACT_ULPS: f64 = 0.0;
-/// GPU and CPU values of `div`, `recip`, `sqrt` and `mod` agree to this many f32 ulps
-/// (of the CPU value; of the larger argument for `mod`, whose WGSL form
-/// `a - b trunc(a / b)` rounds the product): WGSL allows 2.5 ulps for division and
-/// inherits `sqrt` from `1 / inverseSqrt` (2 + 2.5 ulps), sec. 15.7.4. Lavapipe rounds
-/// them correctly (0 ulps measured; `mod` 0.45).
-pub const GPU_EVAL_ULPS: f64 = 5.0;
-/// GPU and CPU values of `sin cos tan exp ln` agree to this fraction of
-/// max(|value|, 1) on the test domains (vr-app/tests/gpu_eval.rs): the largest
-/// difference measured on lavapipe, 4.6e-7 (`exp` on [-10, 10]), with a margin of 4.
-/// WGSL itself allows more (2^-11 absolute for `sin` and `cos`, sec. 15.7.4), so other
-/// drivers may need a looser bound.
-pub const GPU_EVAL_TRANSCENDENTAL_REL: f64 = 2e-6;
-/// The same for `atan atan2 asin acos` (the last two computed through `atan2`):
-/// measured on lavapipe 3.4e-6, with a margin of 4 (WGSL allows 4096 ulps).
-pub const GPU_EVAL_ARC_REL: f64 = 1.5e-5;
-/// A whole tape on the GPU agrees with the CPU's f32 tape to this fraction of the
-/// largest intermediate magnitude (plus one): the per-op differences above (a final
-/// `atan`'s, and a few ulps where a driver fuses a multiply and an add) carried through
-/// tapes of tens of ops. Measured on lavapipe: 1.6e-6 on random programs ending in
-/// `atan`, 3.7e-7 on the shipped models.
-pub const GPU_EVAL_MODEL_REL: f64 = 1e-5;
-
-// ---------------------------------------------------------------------------------
 // Dual contouring of implicit solids (sculpt_core::implicit::dual, issue 34).
 // ---------------------------------------------------------------------------------
 
@@ -710,17 +612,6 @@ pub const PAINT_COVERAGE_MIN: f64 = 0.05;
 /// is the painted value to this: the least-squares fit (Park 2005, sec. 3.1) smooths
 /// the spot's rim, not its middle.
 pub const PAINT_VALUE_TOL: f64 = 0.1;
-
-// ---------------------------------------------------------------------------------
-// GPU evaluation of volumes (vr_app::gpu_volume, issue 33).
-// ---------------------------------------------------------------------------------
-
-/// The GPU's f32 evaluation of a volume on a parameter grid agrees with the CPU's f64
-/// one rounded to f32 to this, relative to the largest absolute control value of the
-/// attribute (the convex hull property bounds the values by it): the basis functions
-/// (P&T A2.2 in f32, a few roundings each), a sum over up to `(p + 1)^n` products and
-/// the division by the weight, each a few f32 ulps (`2^-24`, about `6e-8`).
-pub const VOLUME_GPU_REL: f64 = 4e-6;
 
 // ---------------------------------------------------------------------------------
 // Solid targets carved through (sculpt_core::solid, issue 35 item 3).

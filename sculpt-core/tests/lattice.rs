@@ -186,7 +186,7 @@ fn iges_and_glb_exports_read_back_the_deformed_surface() {
         // tolerance, f32 positions).
         let on = target.closest_point(p);
         assert!(
-            target.eval(on.uv).p.distance(p) < Detail::Final.tolerance(bent.size()),
+            target.eval(on.uv_in_square).p.distance(p) < Detail::Final.tolerance(bent.size()),
             "{p}"
         );
         glb_top = glb_top.max(p.z);

@@ -92,7 +92,7 @@ fn check_answer(s: &NurbsSurface, inv: &SurfaceInverter, p: DVec3, stats: &mut [
     let (bf, bf_uv) = brute_force(s, p);
     // The answer is a real surface point at the reported distance.
     assert!(
-        (s.point_uv(got.uv) - got.point).length() <= EXACT_EPS,
+        (s.point_uv(got.uv_in_knots) - got.point).length() <= EXACT_EPS,
         "point is S(uv)"
     );
     assert!((got.point.distance(p) - got.distance).abs() <= EXACT_EPS);
@@ -101,7 +101,7 @@ fn check_answer(s: &NurbsSurface, inv: &SurfaceInverter, p: DVec3, stats: &mut [
         "p = {p:?}: distance {} worse than brute force {} (got uv {:?}, brute uv {:?}, converged {})",
         got.distance,
         bf,
-        got.uv,
+        got.uv_in_knots,
         bf_uv,
         got.converged
     );
@@ -224,7 +224,7 @@ fn non_finite_queries_are_safe() {
         let got = inv.closest_point(p);
         assert!(!got.converged);
         assert_eq!(got.distance, f64::INFINITY);
-        assert!(got.point.is_finite() && got.uv.is_finite());
+        assert!(got.point.is_finite() && got.uv_in_knots.is_finite());
         let got = inv.closest_point_from(p, DVec2::splat(0.5));
         assert!(got.point.is_finite() && !got.converged);
     }
@@ -379,7 +379,7 @@ fn stress(seed: u64, surfaces: usize) -> [usize; Certificate::ALL.len()] {
                     eprintln!(
                         "surface {k}, p = {p:?} ({how}, seed {seed_uv:?}): got {} at {:?} (converged {}), brute force {bf} at {bf_uv:?}\n{}",
                         got.distance,
-                        got.uv,
+                        got.uv_in_knots,
                         got.converged,
                         s.to_json(),
                     );

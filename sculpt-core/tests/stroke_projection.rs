@@ -106,11 +106,11 @@ fn strokes_over_a_waved_sheet_follow_the_true_closest_points_and_split_at_basin_
     // The old projection, local Newton seeded from the previous foot (here the
     // inverter's local run), follows a slope past the jump: farther than the truth.
     let inverter = target.inverter();
-    let mut seed = inverter.closest_point(samples[0]).uv;
+    let mut seed = inverter.closest_point(samples[0]).uv_in_knots;
     let mut lost = 0;
     for (p, (d, _)) in samples.iter().zip(&truth) {
         let local = inverter.newton_from(*p, seed);
-        seed = local.uv;
+        seed = local.uv_in_knots;
         if local.distance > d + LOST_TRACK_EPS {
             lost += 1;
         }

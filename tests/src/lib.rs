@@ -15,6 +15,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
+pub mod tolerance;
+
 use replay::config::ReplayConfig;
 use replay::pipeline::{Outcome, default_document, replay_log};
 

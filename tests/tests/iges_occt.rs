@@ -20,11 +20,11 @@ use sculpt_core::nurbs::NurbsSurface;
 use sculpt_core::sculpt::document::Document;
 use sculpt_core::sculpt::jordan::Location;
 use sculpt_core::sculpt::view::DocumentView;
-use sculpt_core::tolerance::{
+use serde_json::Value;
+use tests::tolerance::{
     OCCT_AREA_ABS as AREA_ABS, OCCT_AREA_REL as AREA_REL, OCCT_POINT_REL as POINT_REL,
     OCCT_STROKE_AREA_REL as STROKE_AREA_REL,
 };
-use serde_json::Value;
 
 const CHECKER_SOURCE: &str = "tools/occt-iges-check/iges_check.cpp";
 const OCCT_HEADER: &str = "/usr/include/opencascade/IGESControl_Reader.hxx";

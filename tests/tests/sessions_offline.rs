@@ -29,7 +29,7 @@ fn surface_tol(surface: &NurbsSurface) -> f64 {
 fn depth_at(mesh: &PatchMesh, surface: &NurbsSurface, x: f64, y: f64) -> f64 {
     let p = default_surface_point(x, y);
     let proj = surface.inverter().closest_point(p);
-    let n = surface.normal(proj.uv.x, proj.uv.y);
+    let n = surface.normal(proj.uv_in_knots.x, proj.uv_in_knots.y);
     let n = if n.z < 0.0 { -n } else { n }; // the default sheet faces +z
     let origin = proj.point + n * STANDOFF;
     let hit = mesh

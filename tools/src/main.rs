@@ -41,6 +41,9 @@ use clap::{Parser, Subcommand};
 mod cmd;
 mod goms;
 mod progress;
+// some of its tolerances only the unit tests use
+#[cfg_attr(not(test), allow(dead_code))]
+mod tolerance;
 
 /// The Wandsculpt command-line tools.
 #[derive(Debug, Parser)]

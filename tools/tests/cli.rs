@@ -128,7 +128,11 @@ fn project_reads_stdin_and_writes_out() {
     for (row, q) in got.iter().zip(queries) {
         assert_eq!(row.len(), 6);
         let want = inv.closest_point(q);
-        assert_near!(row[..2].to_vec(), vec![want.uv.x, want.uv.y], 0.0);
+        assert_near!(
+            row[..2].to_vec(),
+            vec![want.uv_in_knots.x, want.uv_in_knots.y],
+            0.0
+        );
         let point = DVec3::new(row[2], row[3], row[4]);
         assert_near!(
             point.to_array(),

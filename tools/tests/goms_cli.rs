@@ -6,8 +6,9 @@ use common::{ok, tools};
 use std::path::Path;
 use std::process::Command;
 
+use common::tolerance::{DECIMAL_SUM_EPS, TRUNCATE_EPS};
 use sculpt_core::assert_near;
-use sculpt_core::tolerance::{DECIMAL_SUM_EPS, TIME_EPS, TRUNCATE_EPS};
+use sculpt_core::tolerance::TIME_EPS;
 
 fn data(name: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -10,8 +10,8 @@ use common::ok;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
+use common::tolerance::DECIMAL_SUM_EPS;
 use sculpt_core::assert_near;
-use sculpt_core::tolerance::DECIMAL_SUM_EPS;
 
 fn rows(path: &Path) -> Vec<Vec<String>> {
     std::fs::read_to_string(path)

@@ -1,10 +1,10 @@
 //! Calibration: tracker millimetres to display metres, and the wand's tool point.
 //!
-//! `world_from_tracker` maps a tracker position `p` (mm) to the display frame (m):
+//! `display_from_tracker` maps a tracker position `p` (mm) to the display frame (m):
 //!
 //! ```text
-//! p_in_world = R · (A · (s · p_in_tracker_mm)) + t
-//! world_from_body = R · A · tracker_from_body
+//! p_in_display = R · (A · (s · p_in_tracker_mm)) + t
+//! display_from_body = R · A · tracker_from_body
 //! ```
 //!
 //! with `s` the unit scale (0.001: mm → m), `A` a signed axis remap (a proper rotation,
@@ -21,10 +21,10 @@
 //! use glam::{DQuat, DVec3};
 //! let truth = Calibration { rotation: DQuat::from_rotation_y(0.5).to_array(), translation_m: [0.1, 0.0, -2.0], ..Calibration::default() };
 //! let tracker_mm = [DVec3::ZERO, DVec3::X * 1000.0, DVec3::Y * 500.0, DVec3::new(300.0, 200.0, 900.0)];
-//! let pairs: Vec<_> = tracker_mm.iter().map(|&p| (p, truth.point_in_world(p))).collect();
+//! let pairs: Vec<_> = tracker_mm.iter().map(|&p| (p, truth.point_in_display(p))).collect();
 //! let got = fit(&pairs, &FitOptions::default()).unwrap();
 //! assert!(got.rms_residual_m < sculpt_core::tolerance::POINT_EPS);
-//! assert!(got.calibration.point_in_world(DVec3::ONE).distance(truth.point_in_world(DVec3::ONE)) < sculpt_core::tolerance::POINT_EPS);
+//! assert!(got.calibration.point_in_display(DVec3::ONE).distance(truth.point_in_display(DVec3::ONE)) < sculpt_core::tolerance::POINT_EPS);
 //! ```
 
 use crate::error::{CalibrationError, Degeneracy, Result, TrackingError};
@@ -36,10 +36,10 @@ use std::collections::BTreeMap;
 
 /// A pose in the display frame: metres and a unit quaternion.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct WorldPose {
+pub struct DisplayPose {
     /// The marker target's origin, metres in the display frame.
     pub position_m: DVec3,
-    /// `world_from_body`.
+    /// `display_from_body`.
     pub orientation: DQuat,
     /// The tool point (marker origin plus the device's tip offset), metres.
     pub tool_m: DVec3,
@@ -129,14 +129,14 @@ impl Calibration {
         })
     }
 
-    /// The rotation part of `world_from_tracker`: `R · A`.
-    pub fn world_from_tracker_rotation(&self) -> DMat3 {
+    /// The rotation part of `display_from_tracker`: `R · A`.
+    pub fn display_from_tracker_rotation(&self) -> DMat3 {
         DMat3::from_quat(DQuat::from_array(self.rotation).normalize()) * self.remap()
     }
 
     /// A tracker position (mm) in the display frame (m).
-    pub fn point_in_world(&self, p_in_tracker_mm: DVec3) -> DVec3 {
-        self.world_from_tracker_rotation() * (p_in_tracker_mm * self.scale)
+    pub fn point_in_display(&self, p_in_tracker_mm: DVec3) -> DVec3 {
+        self.display_from_tracker_rotation() * (p_in_tracker_mm * self.scale)
             + DVec3::from_array(self.translation_m)
     }
 
@@ -149,16 +149,16 @@ impl Calibration {
 
     /// A tracker pose in the display frame, with the device's tool point. `None` when
     /// the pose is not a valid rigid pose.
-    pub fn pose_in_world(&self, device: DeviceId, pose: &Pose) -> Option<WorldPose> {
+    pub fn pose_in_display(&self, device: DeviceId, pose: &Pose) -> Option<DisplayPose> {
         let q_tracker = pose.orientation()?;
         if !pose.position_mm.is_finite() {
             return None;
         }
-        let r = DQuat::from_mat3(&self.world_from_tracker_rotation()).normalize();
+        let r = DQuat::from_mat3(&self.display_from_tracker_rotation()).normalize();
         let orientation = (r * q_tracker).normalize();
-        let position_m = self.point_in_world(pose.position_mm);
+        let position_m = self.point_in_display(pose.position_mm);
         let tool_m = position_m + orientation * self.tip(device);
-        Some(WorldPose {
+        Some(DisplayPose {
             position_m,
             orientation,
             tool_m,
@@ -181,7 +181,7 @@ pub struct FitOptions {
 pub struct Fit {
     /// The calibration.
     pub calibration: Calibration,
-    /// Root-mean-square distance between mapped tracker points and world points, m.
+    /// Root-mean-square distance between mapped tracker points and display-frame points, m.
     pub rms_residual_m: f64,
     /// Largest such distance, m.
     pub max_residual_m: f64,
@@ -193,11 +193,11 @@ fn na(v: DVec3) -> Vector3<f64> {
     Vector3::new(v.x, v.y, v.z)
 }
 
-/// Fits `world_from_tracker` to pairs `(p_in_tracker_mm, p_in_world_m)`.
+/// Fits `display_from_tracker` to pairs `(p_in_tracker_mm, p_in_display_m)`.
 ///
 /// Umeyama (1991), "Least-squares estimation of transformation parameters between two
 /// point patterns": with `a_i = A·s·p_i` (remapped, scaled tracker points) and `b_i` the
-/// world points, centroids `ā, b̄`, covariance `Σ = (1/n) Σ (b_i − b̄)(a_i − ā)ᵀ = U D Vᵀ`,
+/// display-frame points, centroids `ā, b̄`, covariance `Σ = (1/n) Σ (b_i − b̄)(a_i − ā)ᵀ = U D Vᵀ`,
 /// `S = diag(1, 1, sign(det U · det V))`, then `R = U S Vᵀ`, `c = tr(D S) / σ²_a` (when
 /// fitting the scale) and `t = b̄ − c R ā`. Needs ≥ 3 pairs, not all on one line.
 pub fn fit(pairs: &[(DVec3, DVec3)], options: &FitOptions) -> Result<Fit> {
@@ -217,7 +217,7 @@ pub fn fit(pairs: &[(DVec3, DVec3)], options: &FitOptions) -> Result<Fit> {
     base.validate()?;
     let a: Vec<Vector3<f64>> = pairs
         .iter()
-        .map(|(p, _)| na(base.point_in_world(*p)))
+        .map(|(p, _)| na(base.point_in_display(*p)))
         .collect();
     let b: Vec<Vector3<f64>> = pairs.iter().map(|(_, q)| na(*q)).collect();
     let n = pairs.len() as f64;
@@ -276,7 +276,7 @@ pub fn fit(pairs: &[(DVec3, DVec3)], options: &FitOptions) -> Result<Fit> {
     calibration.translation_m = [t.x, t.y, t.z];
     let residuals_m: Vec<f64> = pairs
         .iter()
-        .map(|(p, q)| calibration.point_in_world(*p).distance(*q))
+        .map(|(p, q)| calibration.point_in_display(*p).distance(*q))
         .collect();
     let rms_residual_m = (residuals_m.iter().map(|r| r * r).sum::<f64>() / n).sqrt();
     let max_residual_m = residuals_m.iter().copied().fold(0.0, f64::max);
@@ -294,7 +294,7 @@ pub struct TipFit {
     /// The tip in body axes, metres (what goes in [`Calibration::tips`]).
     pub tip_in_body_m: DVec3,
     /// The fixed point the tip pivoted about, metres in the display frame.
-    pub pivot_in_world_m: DVec3,
+    pub pivot_in_display_m: DVec3,
     /// Root-mean-square distance of each pose's tip from the pivot, m.
     pub rms_residual_m: f64,
     /// Largest such distance, m.
@@ -351,7 +351,7 @@ pub fn fit_tip(poses: &[(DVec3, DQuat)]) -> Result<TipFit> {
     let max_residual_m = residuals.iter().copied().fold(0.0, f64::max);
     Ok(TipFit {
         tip_in_body_m: tip,
-        pivot_in_world_m: pivot,
+        pivot_in_display_m: pivot,
         rms_residual_m,
         max_residual_m,
     })
@@ -370,9 +370,9 @@ mod tests {
         };
         c.validate().unwrap();
         // Tracker: 1 m up (z). Display: 1 m up (y).
-        let p = c.point_in_world(DVec3::new(0.0, 0.0, 1000.0));
+        let p = c.point_in_display(DVec3::new(0.0, 0.0, 1000.0));
         assert!(p.distance(DVec3::Y) < EXACT_EPS);
-        let p = c.point_in_world(DVec3::new(0.0, 1000.0, 0.0));
+        let p = c.point_in_display(DVec3::new(0.0, 1000.0, 0.0));
         assert!(p.distance(-DVec3::Z) < EXACT_EPS);
     }
 

@@ -16,16 +16,16 @@
 //!
 //! ```
 //! use tracking::filter::{FilterConfig, PoseFilter};
-//! use tracking::calibration::WorldPose;
+//! use tracking::calibration::DisplayPose;
 //! use glam::{DQuat, DVec3};
 //! let mut f = PoseFilter::new(FilterConfig::default());
-//! let p = |x: f64| WorldPose { position_m: DVec3::new(x, 0.0, 0.0), orientation: DQuat::IDENTITY, tool_m: DVec3::new(x, 0.0, 0.0) };
+//! let p = |x: f64| DisplayPose { position_m: DVec3::new(x, 0.0, 0.0), orientation: DQuat::IDENTITY, tool_m: DVec3::new(x, 0.0, 0.0) };
 //! f.filter(0.0, p(0.0));
 //! let out = f.filter(0.01, p(0.001)); // a 1 mm jitter is mostly smoothed away
 //! assert!(out.position_m.x < 0.0005);
 //! ```
 
-use crate::calibration::WorldPose;
+use crate::calibration::DisplayPose;
 use glam::{DQuat, DVec3};
 use serde::{Deserialize, Serialize};
 
@@ -126,7 +126,7 @@ struct State {
 pub struct PoseFilter {
     config: FilterConfig,
     state: Option<State>,
-    last: Option<WorldPose>,
+    last: Option<DisplayPose>,
 }
 
 impl PoseFilter {
@@ -147,7 +147,7 @@ impl PoseFilter {
 
     /// Filters the pose measured at `t` seconds. The tool point moves rigidly with the
     /// filtered pose (its offset from the marker is kept).
-    pub fn filter(&mut self, t: f64, pose: WorldPose) -> WorldPose {
+    pub fn filter(&mut self, t: f64, pose: DisplayPose) -> DisplayPose {
         if !self.config.enabled {
             return pose;
         }
@@ -210,7 +210,7 @@ impl PoseFilter {
             }
         };
         self.state = Some(next);
-        let out = WorldPose {
+        let out = DisplayPose {
             position_m: next.pos,
             orientation: next.rot,
             tool_m: next.pos + next.rot * tip_in_body,

@@ -44,7 +44,7 @@
 //! assert!((state.pose.unwrap().position_m.y - 1.0).abs() < 1e-12);
 //! ```
 
-use crate::calibration::{Calibration, WorldPose};
+use crate::calibration::{Calibration, DisplayPose};
 use crate::config::TrackingConfig;
 use crate::filter::{FilterConfig, PoseFilter};
 use crate::frame::{DeviceId, Frame, Pose};
@@ -86,7 +86,7 @@ pub struct DeviceState {
     pub status: TrackingStatus,
     /// The filtered pose in the display frame (frozen while not `Tracking`; `None`
     /// until the first tracked pose).
-    pub pose: Option<WorldPose>,
+    pub pose: Option<DisplayPose>,
     /// The last tracked raw pose in tracker units.
     pub raw: Option<Pose>,
     /// Quality of the latest report.
@@ -649,12 +649,12 @@ impl Hub {
             d.state.analog.clone_from(&w.analog);
         }
         match report {
-            PoseReport::Tracked(pose) => match calibration.pose_in_world(device, &pose) {
-                Some(world) => {
+            PoseReport::Tracked(pose) => match calibration.pose_in_display(device, &pose) {
+                Some(in_display) => {
                     if before != TrackingStatus::Tracking {
                         d.filter.reset();
                     }
-                    d.state.pose = Some(d.filter.filter(time.as_secs_f64(), world));
+                    d.state.pose = Some(d.filter.filter(time.as_secs_f64(), in_display));
                     d.state.raw = Some(pose);
                     d.state.quality = quality;
                     d.state.status = TrackingStatus::Tracking;

@@ -65,7 +65,7 @@
 //! assert_eq!(stage.metrics().losses, 1);
 //! ```
 
-use crate::calibration::{Calibration, WorldPose};
+use crate::calibration::{Calibration, DisplayPose};
 use crate::error::{Result, TrackingError};
 use crate::filter::{FilterConfig, PoseFilter};
 pub use crate::frame::{COUNTER_RESET_AFTER, REORDER_WINDOW};
@@ -127,7 +127,7 @@ pub struct WandSample {
     pub tip_m: DVec3,
     /// The marker target's origin, metres in the display frame (filtered).
     pub position_m: DVec3,
-    /// `world_from_wand` (filtered).
+    /// `display_from_wand` (filtered).
     pub orientation: DQuat,
     /// Button mask, bit `i` = DTrack button `i`.
     pub buttons: u64,
@@ -137,7 +137,7 @@ pub struct WandSample {
 
 impl WandSample {
     /// This sample as the interaction's input (`sculpt_core::interaction`): a wand
-    /// event at the stage time, tracked at the tool tip with `world_from_wand` when the
+    /// event at the stage time, tracked at the tool tip with `display_from_wand` when the
     /// stage tracked the wand, lost otherwise. `extra_buttons` (those of a buttons-only
     /// source, such as a serial wand) are merged in; the interaction knows buttons 0
     /// to 31. The display server and `replay` both convert with this.
@@ -158,7 +158,7 @@ pub struct HeadSample {
     /// Stage time, seconds.
     pub t: f64,
     /// The filtered pose.
-    pub pose: WorldPose,
+    pub pose: DisplayPose,
 }
 
 /// The largest tracker time (`ts`, seconds) the stage believes: about 3,000 years, so
@@ -354,7 +354,7 @@ impl FrameStage {
         }
 
         let device = DeviceId::Wand(self.config.wand_id);
-        let world = match frame.wand(self.config.wand_id) {
+        let in_display = match frame.wand(self.config.wand_id) {
             None => {
                 self.metrics.without_wand += 1;
                 None
@@ -362,11 +362,11 @@ impl FrameStage {
             Some(w) => {
                 self.buttons = w.buttons;
                 if w.quality >= 0.0 {
-                    let world = self.calibrate(device, &w.pose);
-                    if world.is_none() {
+                    let in_display = self.calibrate(device, &w.pose);
+                    if in_display.is_none() {
                         self.metrics.invalid_poses += 1;
                     }
-                    world
+                    in_display
                 } else {
                     None
                 }
@@ -374,12 +374,12 @@ impl FrameStage {
         };
         self.last_wand = Some(t);
         self.timed_out = false;
-        let sample = match world {
-            Some(world) => {
+        let sample = match in_display {
+            Some(in_display) => {
                 if !self.wand_tracked {
                     self.wand_filter.reset();
                 }
-                let pose = self.wand_filter.filter(t, world);
+                let pose = self.wand_filter.filter(t, in_display);
                 if let Some(t0) = self.lost_since.take() {
                     self.metrics.lost_s += t - t0;
                 }
@@ -472,17 +472,17 @@ impl FrameStage {
     }
 
     fn push_head(&mut self, head_id: u32, t: f64, frame: &Frame, out: &mut Vec<StageEvent>) {
-        let world = frame
+        let in_display = frame
             .body(head_id)
             .filter(|b| b.quality >= 0.0)
             .and_then(|b| self.calibrate(DeviceId::Body(head_id), &b.pose));
-        match world {
-            Some(world) => {
+        match in_display {
+            Some(in_display) => {
                 if !self.head_tracked {
                     self.head_filter.reset();
                 }
                 self.head_tracked = true;
-                let pose = self.head_filter.filter(t, world);
+                let pose = self.head_filter.filter(t, in_display);
                 self.metrics.head_poses += 1;
                 out.push(StageEvent::Head(HeadSample { t, pose }));
             }
@@ -492,8 +492,8 @@ impl FrameStage {
 
     /// A calibrated pose, or `None` when it is not a usable rigid pose or lands on a
     /// non-finite point.
-    fn calibrate(&self, device: DeviceId, pose: &Pose) -> Option<WorldPose> {
-        let w = self.config.calibration.pose_in_world(device, pose)?;
+    fn calibrate(&self, device: DeviceId, pose: &Pose) -> Option<DisplayPose> {
+        let w = self.config.calibration.pose_in_display(device, pose)?;
         (w.position_m.is_finite() && w.tool_m.is_finite() && w.orientation.is_finite()).then_some(w)
     }
 

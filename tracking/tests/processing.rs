@@ -5,7 +5,7 @@ use proptest::prelude::*;
 use sculpt_core::assert_near;
 use sculpt_core::tolerance::{EXACT_EPS, POINT_EPS};
 use std::time::Duration;
-use tracking::calibration::{Calibration, FitOptions, WorldPose, fit};
+use tracking::calibration::{Calibration, DisplayPose, FitOptions, fit};
 use tracking::config::TrackingConfig;
 use tracking::filter::{FilterConfig, PoseFilter};
 use tracking::hub::{Hub, TrackingEvent, TrackingStatus};
@@ -31,7 +31,7 @@ fn fit_recovers_the_transform_and_reports_noise() {
     let pts: Vec<DVec3> = (0..8)
         .map(|i| DVec3::new((i % 2) as f64, ((i / 2) % 2) as f64, (i / 4) as f64) * 1500.0 - 700.0)
         .collect();
-    // ±0.5 mm of deterministic "measurement noise" on the world side.
+    // ±0.5 mm of deterministic "measurement noise" on the display side.
     let pairs: Vec<_> = pts
         .iter()
         .enumerate()
@@ -41,7 +41,7 @@ fn fit_recovers_the_transform_and_reports_noise() {
                 (i as f64 * 2.3).cos(),
                 (i as f64 * 0.9).sin(),
             ) * 0.0005;
-            (p, t.point_in_world(p) + n)
+            (p, t.point_in_display(p) + n)
         })
         .collect();
     let opts = FitOptions {
@@ -61,8 +61,8 @@ fn fit_recovers_the_transform_and_reports_noise() {
     assert_eq!(f.residuals_m.len(), 8);
     let probe = DVec3::new(100.0, 2000.0, -300.0);
     assert_near!(
-        f.calibration.point_in_world(probe).to_array(),
-        t.point_in_world(probe).to_array(),
+        f.calibration.point_in_display(probe).to_array(),
+        t.point_in_display(probe).to_array(),
         0.002
     );
 }
@@ -79,7 +79,7 @@ fn fit_scale_recovers_centimetres() {
         DVec3::Y * 50.0,
         DVec3::new(10.0, 20.0, 90.0),
     ];
-    let pairs: Vec<_> = pts.iter().map(|&p| (p, t.point_in_world(p))).collect();
+    let pairs: Vec<_> = pts.iter().map(|&p| (p, t.point_in_display(p))).collect();
     let opts = FitOptions {
         base: Calibration {
             axes: t.axes.clone(),
@@ -113,10 +113,10 @@ fn tip_offset_moves_the_tool_point() {
         DVec3::new(0.0, 1000.0, 0.0),
         DQuat::from_rotation_y(std::f64::consts::FRAC_PI_2),
     );
-    let w = c.pose_in_world(DeviceId::Wand(0), &pose).unwrap();
+    let w = c.pose_in_display(DeviceId::Wand(0), &pose).unwrap();
     assert_near!(w.tool_m.to_array(), [-0.15, 1.0, 0.0], EXACT_EPS);
     // Other devices have no tip.
-    let b = c.pose_in_world(DeviceId::Body(0), &pose).unwrap();
+    let b = c.pose_in_display(DeviceId::Body(0), &pose).unwrap();
     assert_near!(b.tool_m.to_array(), b.position_m.to_array(), 0.0);
 }
 
@@ -126,7 +126,7 @@ proptest! {
         prop_assume!(DQuat::from_array(q).length() > 0.1);
         let c = Calibration { rotation: q, translation_m: t, ..Calibration::default() };
         let pts = [DVec3::ZERO, DVec3::X * 900.0, DVec3::Y * 1100.0, DVec3::new(-300.0, 250.0, 1200.0), DVec3::new(500.0, -400.0, 80.0)];
-        let pairs: Vec<_> = pts.iter().map(|&p| (p, c.point_in_world(p))).collect();
+        let pairs: Vec<_> = pts.iter().map(|&p| (p, c.point_in_display(p))).collect();
         let f = fit(&pairs, &FitOptions::default()).unwrap();
         prop_assert!(f.rms_residual_m < POINT_EPS);
     }
@@ -140,15 +140,15 @@ proptest! {
             let q = DQuat::from_array(q);
             let q = if q.length() < QUAT_GEN_MIN_LEN { DQuat::IDENTITY } else { q.normalize() };
             let p = DVec3::from_array(p);
-            let out = f.filter(t, WorldPose { position_m: p, orientation: q, tool_m: p });
+            let out = f.filter(t, DisplayPose { position_m: p, orientation: q, tool_m: p });
             prop_assert!(out.position_m.is_finite() && out.orientation.is_finite() && out.tool_m.is_finite());
             assert_near!(out.orientation.length(), 1.0, NORMALISED_EPS);
         }
     }
 }
 
-fn wp(p: DVec3, q: DQuat) -> WorldPose {
-    WorldPose {
+fn wp(p: DVec3, q: DQuat) -> DisplayPose {
+    DisplayPose {
         position_m: p,
         orientation: q,
         tool_m: p,
@@ -228,7 +228,7 @@ fn hub_follows_a_simulated_session() {
     let wand = hub.watch(DeviceId::Wand(0));
     let mut events = hub.subscribe();
     let truth = script.timeline();
-    let mut frozen: Option<WorldPose> = None;
+    let mut frozen: Option<DisplayPose> = None;
     for f in Simulator::new(&script, SimConfig::exact()).unwrap() {
         let t = f.receive_time.as_secs_f64();
         assert!(hub.apply_frame(src, &f));
@@ -373,7 +373,7 @@ fn readme_config_example_parses() {
     // Z-up tracker, 1 m up -> display y = 1 m (then 2 m back).
     assert_near!(
         cfg.calibration
-            .point_in_world(DVec3::new(0.0, 0.0, 1000.0))
+            .point_in_display(DVec3::new(0.0, 0.0, 1000.0))
             .to_array(),
         [0.0, 1.0, -2.0],
         EXACT_EPS
@@ -411,7 +411,7 @@ fn pivot_calibration_finds_the_tip() {
         .collect();
     let f = fit_tip(&poses).unwrap();
     assert_near!(f.tip_in_body_m.to_array(), tip.to_array(), POINT_EPS);
-    assert_near!(f.pivot_in_world_m.to_array(), pivot.to_array(), POINT_EPS);
+    assert_near!(f.pivot_in_display_m.to_array(), pivot.to_array(), POINT_EPS);
     assert!(f.rms_residual_m < POINT_EPS);
     // One rotation axis only cannot pin the tip down along that axis.
     let flat: Vec<(DVec3, DQuat)> = (0..8)

@@ -407,6 +407,7 @@ fn last_stroke_pieces(doc: &sculpt_core::sculpt::document::Document) -> Option<S
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tolerance::{CURSOR_RING_TOL, CURSOR_RING_Z_TOL};
     use glam::DQuat;
     use sculpt_core::assert_near;
     use sculpt_core::editor::default_surface_point;
@@ -414,9 +415,7 @@ mod tests {
     use sculpt_core::mesh::PatchMesh;
     use sculpt_core::sculpt::document::snap_distance;
     use sculpt_core::sculpt::tessellate::Detail;
-    use sculpt_core::tolerance::{
-        COSINE_EPS, CURSOR_RING_TOL, CURSOR_RING_Z_TOL, POINT_EPS, RAY_HIT_TOL,
-    };
+    use sculpt_core::tolerance::{COSINE_EPS, POINT_EPS, RAY_HIT_TOL};
 
     struct Meshes {
         final_detail: PatchMesh,

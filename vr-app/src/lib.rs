@@ -77,6 +77,7 @@ pub mod session;
 pub mod solid_view;
 pub mod study;
 pub mod thumbstick;
+pub mod tolerance;
 #[cfg(feature = "window")]
 pub mod window;
 pub mod xr;

@@ -57,7 +57,7 @@ pub fn write_stroke_ribbon(
     for (i, p) in pts.iter().enumerate() {
         let tangent = pts[(i + 1).min(pts.len() - 1)] - pts[i.saturating_sub(1)];
         let across = tangent.cross(facing);
-        let across = if across.length_squared() > sculpt_core::tolerance::ZERO_LEN2_EPS {
+        let across = if across.length_squared() > crate::tolerance::ZERO_LEN2_EPS {
             across.normalize()
         } else {
             across_prev

@@ -28,7 +28,7 @@ use glam::{DMat4, DQuat, DVec2, DVec3, DVec4};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ProjectionError, ScreenError, VrError, VrResult};
-use sculpt_core::tolerance::{MIN_EYE_DISTANCE, MIN_SCREEN_EDGE, SQUARE_COS_TOL};
+use crate::tolerance::{MIN_EYE_DISTANCE, MIN_SCREEN_EDGE, SQUARE_COS_TOL};
 
 /// A planar rectangular screen in the display frame (metres).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

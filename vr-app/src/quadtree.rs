@@ -159,9 +159,13 @@ mod tests {
         let offset = |v: &LineVertex| {
             let p = DVec3::from_array(v.position.map(f64::from));
             let pr = surface.closest_point(p);
-            let n = normal_from(surface, pr.uv, &surface.eval(pr.uv));
+            let n = normal_from(surface, pr.uv_in_square, &surface.eval(pr.uv_in_square));
             let above = (p - pr.point).dot(n);
-            assert_near!(above, height(&strokes, pr.uv, pr.point) + lift, F32_EPS);
+            assert_near!(
+                above,
+                height(&strokes, pr.uv_in_square, pr.point) + lift,
+                F32_EPS
+            );
             above
         };
         let interior: Vec<_> = lines.iter().filter(|v| v.color == INTERIOR_COLOR).collect();

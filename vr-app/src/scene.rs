@@ -298,7 +298,7 @@ impl SceneState {
     ) -> Option<(DVec3, DVec3)> {
         let target = doc.target(interaction.target())?;
         let hit = target.target_surface().inverter().closest_point(p);
-        let n = target.surface.normal(hit.uv.x, hit.uv.y);
+        let n = target.surface.normal(hit.uv_in_knots.x, hit.uv_in_knots.y);
         (hit.distance <= FOOTPRINT_REACH && hit.point.is_finite() && n.is_finite())
             .then_some((hit.point, n))
     }
@@ -321,8 +321,7 @@ impl SceneState {
         let (vr, vu, vn) = screen.basis();
         let (centre, e1, e2, lift) = match self.project_on_target(doc, interaction, tip) {
             Some((foot, n)) => {
-                let e1 = if n.cross(vu).length_squared() > sculpt_core::tolerance::PARALLEL_SIN2_EPS
-                {
+                let e1 = if n.cross(vu).length_squared() > crate::tolerance::PARALLEL_SIN2_EPS {
                     vu.cross(n).normalize()
                 } else {
                     vr

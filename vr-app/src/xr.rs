@@ -87,7 +87,7 @@ pub struct XrFov {
 /// The projection for an OpenXR field of view, depth range [0, 1]:
 /// `frustum(n tan(left), n tan(right), n tan(down), n tan(up), n, f)`.
 pub fn projection_from_fov(fov: &XrFov, near: f64, far: f64) -> VrResult<DMat4> {
-    let half_pi = std::f64::consts::FRAC_PI_2 - sculpt_core::tolerance::POLE_ANGLE_MARGIN;
+    let half_pi = std::f64::consts::FRAC_PI_2 - crate::tolerance::POLE_ANGLE_MARGIN;
     let angles = [
         fov.angle_left,
         fov.angle_right,

@@ -530,7 +530,7 @@ fn sawtooth_rims_are_monotone() {
                         // The exact sculpted point at distance r from the centre.
                         let point = |r: f64| {
                             let q = centre + across * (side * r);
-                            let uv: DVec2 = surface.closest_point(q).uv;
+                            let uv: DVec2 = surface.closest_point(q).uv_in_square;
                             let sp = surface.eval(uv);
                             let nrm = normal_from(surface, uv, &sp);
                             sp.p + nrm * height(&strokes, uv, sp.p)

@@ -15,13 +15,13 @@ use std::process::Command;
 
 use sculpt_core::implicit::tape::{Grid, Instr, Tape};
 use sculpt_core::implicit::{Binary, Model, Unary};
-use sculpt_core::tolerance::{
-    GPU_EVAL_ARC_REL, GPU_EVAL_EXACT_ULPS, GPU_EVAL_MODEL_REL, GPU_EVAL_TRANSCENDENTAL_REL,
-    GPU_EVAL_ULPS,
-};
 use vr_app::gpu_eval::wgsl::MAX_GPU_TAPE;
 use vr_app::gpu_eval::{GpuEvalError, GpuTape, Wait, pruned};
 use vr_app::render::Gpu;
+use vr_app::tolerance::{
+    GPU_EVAL_ARC_REL, GPU_EVAL_EXACT_ULPS, GPU_EVAL_MODEL_REL, GPU_EVAL_TRANSCENDENTAL_REL,
+    GPU_EVAL_ULPS,
+};
 
 /// The adapter named by `WANDSCULPT_ADAPTER`, else lavapipe; `None` (the test skips)
 /// only outside CI.

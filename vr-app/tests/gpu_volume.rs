@@ -11,10 +11,10 @@
 use std::path::Path;
 use std::process::Command;
 
-use sculpt_core::tolerance::VOLUME_GPU_REL;
 use sculpt_core::volume::Volume;
 use vr_app::gpu_volume::{GpuVolume, GpuVolumeError};
 use vr_app::render::Gpu;
+use vr_app::tolerance::VOLUME_GPU_REL;
 
 /// The adapter named by `WANDSCULPT_ADAPTER`, else lavapipe; `None` (the test skips)
 /// only outside CI.

@@ -401,19 +401,19 @@ impl Lattice {
         Ok(())
     }
 
-    /// The lattice parameters of `p_in_world`: its place in the box, each in `[0, 1]`
+    /// The lattice parameters of `p_in_display`: its place in the box, each in `[0, 1]`
     /// (points outside the box are clamped onto it).
-    pub fn local(&self, p_in_world: DVec3) -> DVec3 {
-        ((p_in_world - self.box_min) / self.box_size).clamp(DVec3::ZERO, DVec3::ONE)
+    pub fn local(&self, p_in_display: DVec3) -> DVec3 {
+        ((p_in_display - self.box_min) / self.box_size).clamp(DVec3::ZERO, DVec3::ONE)
     }
 
-    /// The displacement `sum_I N_I(s(p)) d_I` at `p_in_world` (eq. 1 of the module
+    /// The displacement `sum_I N_I(s(p)) d_I` at `p_in_display` (eq. 1 of the module
     /// docs); exactly zero at rest.
-    pub fn displacement_at(&self, p_in_world: DVec3) -> DVec3 {
+    pub fn displacement_at(&self, p_in_display: DVec3) -> DVec3 {
         let Some(volume) = &self.volume else {
             return DVec3::ZERO;
         };
-        let s = self.local(p_in_world);
+        let s = self.local(p_in_display);
         let mut out = [0.0; 3];
         // The parameters are clamped into the domain and `out` holds the three
         // attributes, so evaluation cannot fail; zero is the safe fallback.
@@ -424,11 +424,11 @@ impl Lattice {
     }
 
     /// `F(p) = p + displacement_at(p)`: the lattice map (eq. 1 of the module docs).
-    pub fn map_point(&self, p_in_world: DVec3) -> DVec3 {
+    pub fn map_point(&self, p_in_display: DVec3) -> DVec3 {
         if self.volume.is_none() {
-            return p_in_world;
+            return p_in_display;
         }
-        p_in_world + self.displacement_at(p_in_world)
+        p_in_display + self.displacement_at(p_in_display)
     }
 
     /// `surface` deformed: each control point mapped by [`Self::map_point`], weights

@@ -30,7 +30,7 @@
 //!   bounds converge quadratically to `g`.
 //!
 //! Coordinates are taken relative to the patch's centroid, so the cancellation in `g_k`
-//! is of the patch's size, not of the distance from the world origin.
+//! is of the patch's size, not of the distance from the display frame's origin.
 
 // The kernels index nets by their Bernstein indices, as the formulas do.
 #![allow(clippy::needless_range_loop)]

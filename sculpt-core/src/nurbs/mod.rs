@@ -56,11 +56,11 @@
 //! let inv = s.inverter();
 //! let hit = inv.closest_point(DVec3::new(2.0, 0.5, 1.0)); // beyond the u = 1 edge
 //! assert!(hit.converged && hit.on_boundary);
-//! assert!((hit.uv - DVec2::new(1.0, 0.5)).length() < sculpt_core::tolerance::EXACT_EPS);
+//! assert!((hit.uv_in_knots - DVec2::new(1.0, 0.5)).length() < sculpt_core::tolerance::EXACT_EPS);
 //! sculpt_core::assert_near!(hit.distance, 2f64.sqrt(), sculpt_core::tolerance::EXACT_EPS);
 //!
 //! // Points along a stroke: seed each query with the previous answer.
-//! let next = inv.closest_point_from(DVec3::new(0.9, 0.5, 0.1), hit.uv);
+//! let next = inv.closest_point_from(DVec3::new(0.9, 0.5, 0.1), hit.uv_in_knots);
 //! assert!((next.point - DVec3::new(0.9, 0.5, 0.0)).length() < sculpt_core::tolerance::EXACT_EPS);
 //! # Ok::<(), sculpt_core::Error>(())
 //! ```

@@ -355,7 +355,7 @@ mod tests {
         let got = inv.closest_point(p);
         assert!(got.converged && got.distance <= 0.01 + EXACT_EPS, "{got:?}");
         assert_near!(
-            s.point_uv(got.uv).to_array(),
+            s.point_uv(got.uv_in_knots).to_array(),
             got.point.to_array(),
             EXACT_EPS
         );

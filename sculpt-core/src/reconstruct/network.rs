@@ -720,7 +720,7 @@ fn follow_feet(
             if !f.on_boundary && f.distance.is_finite() {
                 return Foot {
                     quad: before.quad,
-                    uv: f.uv,
+                    uv: f.uv_in_knots,
                     distance: f.distance,
                     on_boundary: false,
                 };
@@ -749,7 +749,7 @@ fn grid_foot(network: &PatchNetwork, tree: &RTree<Sample>, p: DVec3) -> Foot {
         if f.distance < best.distance {
             best = Foot {
                 quad,
-                uv: f.uv,
+                uv: f.uv_in_knots,
                 distance: f.distance,
                 on_boundary: f.on_boundary,
             };
@@ -780,7 +780,7 @@ pub fn network_feet(network: &PatchNetwork, points: &[DVec3]) -> Vec<Foot> {
     let tree = sample_tree(network);
     let foot = |quad: usize, p: Projection| Foot {
         quad,
-        uv: p.uv,
+        uv: p.uv_in_knots,
         distance: p.distance,
         on_boundary: p.on_boundary,
     };

@@ -99,8 +99,11 @@ fn nearest(
             continue;
         }
         let pr = t.closest_point(p);
-        if pr.distance <= snap && pr.uv.is_finite() && best.is_none_or(|b| pr.distance < b.0) {
-            best = Some((pr.distance, k, pr.uv));
+        if pr.distance <= snap
+            && pr.uv_in_square.is_finite()
+            && best.is_none_or(|b| pr.distance < b.0)
+        {
+            best = Some((pr.distance, k, pr.uv_in_square));
         }
     }
     best.map(|b| (b.1, b.2))

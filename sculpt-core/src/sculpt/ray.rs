@@ -25,7 +25,7 @@
 //! **What is certain.** Every step is bounded by a certified closest point, so no hit
 //! nearer than the answer is passed over, except within the polish window (below
 //! `RAY_POLISH_WINDOW * RAY_POLISH_REL`, about 64 micrometres on a 1 m target) and where
-//! a projection was left unproven (its [`Projection::certificate`], counted in
+//! a projection was left unproven (its [`TargetProjection::certificate`], counted in
 //! [`RayHit::certified`]). A ray that runs along the surface, closer than the polish
 //! distance and not meeting it, is given up after [`MAX_TRACE_STEPS`] steps and counts
 //! as a miss.
@@ -46,9 +46,8 @@
 
 use glam::{DMat3, DVec2, DVec3};
 
-use crate::nurbs::Projection;
 use crate::sculpt::document::{Document, TargetId};
-use crate::sculpt::surface::{ParamSurface, TargetSurface, normal_at, wrap_uv};
+use crate::sculpt::surface::{ParamSurface, TargetProjection, TargetSurface, normal_at, wrap_uv};
 use crate::tolerance::{POINT_EPS, RAY_POLISH_REL, SINGULAR_REL};
 
 /// Sphere-tracing steps per target before a ray that keeps running along the surface
@@ -150,11 +149,11 @@ pub fn cast(target: &TargetSurface, ray: &Ray) -> Option<RayHit> {
             return None;
         }
         let q = ray.at(t);
-        let pr: Projection = match seed {
+        let pr: TargetProjection = match seed {
             Some(uv) => target.closest_point_from(q, uv),
             None => target.closest_point(q),
         };
-        if !(pr.distance.is_finite() && pr.uv.is_finite()) {
+        if !(pr.distance.is_finite() && pr.uv_in_square.is_finite()) {
             return None;
         }
         certified &= pr.certificate.is_certified();
@@ -168,16 +167,16 @@ pub fn cast(target: &TargetSurface, ray: &Ray) -> Option<RayHit> {
             steps: step + 1,
         };
         if dist <= POINT_EPS {
-            return Some(hit(t, pr.uv, pr.point));
+            return Some(hit(t, pr.uv_in_square, pr.point));
         }
         if dist <= polish_below
-            && let Some((uv, tp, point)) = polish(target, ray, pr.uv, t, closed)
+            && let Some((uv, tp, point)) = polish(target, ray, pr.uv_in_square, t, closed)
             && tp >= t + dist - POINT_EPS
             && tp <= t + RAY_POLISH_WINDOW * dist
         {
             return Some(hit(tp, uv, point));
         }
-        seed = Some(pr.uv);
+        seed = Some(pr.uv_in_square);
         t += dist;
     }
     None

@@ -457,7 +457,7 @@ impl StrokeSurface {
     pub fn target_foot(&self, target: &TargetSurface, st: DVec2) -> DVec2 {
         let uv = self.target_uv(st);
         let w = wrap_uv(uv);
-        let foot = target.closest_point_from(self.point(st), w).uv;
+        let foot = target.closest_point_from(self.point(st), w).uv_in_square;
         let moved = foot - w;
         // Stay in the stroke's frame (a step across the seam comes back as a small one).
         let moved = DVec2::new(

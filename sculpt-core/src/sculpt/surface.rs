@@ -9,7 +9,7 @@
 
 use std::sync::Arc;
 
-use crate::nurbs::{NurbsSurface, Projection, SurfaceInverter};
+use crate::nurbs::{Certificate, NurbsSurface, Projection, SurfaceInverter};
 use crate::tolerance::POINT_EPS;
 use glam::{DVec2, DVec3};
 
@@ -113,6 +113,26 @@ pub fn normal_from(surface: &dyn ParamSurface, uv: DVec2, sp: &SurfacePoint) -> 
     DVec3::Z
 }
 
+/// The closest point of a target ([`TargetSurface`]) to a query point, with its
+/// parameter in the normalised square.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TargetProjection {
+    /// The parameter of the closest point in the **normalised square** `[0, 1]^2`:
+    /// `uv_in_square = (uv_in_knots - lo) / (hi - lo)` per direction, the inverse of the
+    /// map [`ParamSurface::eval`] applies to the kernel's
+    /// [`Projection::uv_in_knots`]. Inside the square except from
+    /// [`TargetSurface::closest_point_near`], which moves it by whole periods across a
+    /// closed target's seam (the unwrapped plane).
+    pub uv_in_square: DVec2,
+    /// `S(uv)`, metres in the display frame.
+    pub point: DVec3,
+    /// `|S(uv) - P|`, metres.
+    pub distance: f64,
+    /// How the kernel obtained the answer: proven global, or which exit left it
+    /// unproven.
+    pub certificate: Certificate,
+}
+
 /// A target as sculpting sees it: its NURBS surface over the normalised square, and
 /// the one cached [`SurfaceInverter`] every projection of sculpting goes through
 /// (stroke samples, rims, footprints, the feet of stroke-surface points).
@@ -121,11 +141,11 @@ pub fn normal_from(surface: &dyn ParamSurface, uv: DVec2, sp: &SurfacePoint) -> 
 /// stroke's view of it copies a pointer. It owns its copy of the surface, so the two
 /// cannot disagree; a changed surface is a new `TargetSurface`.
 ///
-/// Projections are the kernel's [`Projection`] with `uv` in the **normalised square**
-/// `[0, 1]^2` (`uv_in_square = (uv_in_knots - lo) / (hi - lo)` per direction, the
-/// inverse of the map [`ParamSurface::eval`] applies): the closest point proven global
-/// by the Bernstein-net certificate, or, where an exit left it unproven, marked so by
-/// its [`Projection::certificate`].
+/// Projections are [`TargetProjection`]s: the kernel's [`Projection`] (whose parameter
+/// is in the knot domain) with its parameter mapped into the **normalised square**
+/// `[0, 1]^2` here, at the producer: the closest point proven global by the
+/// Bernstein-net certificate, or, where an exit left it unproven, marked so by its
+/// [`TargetProjection::certificate`].
 #[derive(Debug, Clone)]
 pub struct TargetSurface {
     inverter: Arc<SurfaceInverter>,
@@ -173,17 +193,20 @@ impl TargetSurface {
         self.knots_lo + uv_in_square * self.knots_size
     }
 
-    /// A kernel answer with its `uv` mapped into the normalised square.
-    fn in_square(&self, pr: Projection) -> Projection {
-        let uv = (pr.uv - self.knots_lo) / self.knots_size;
-        Projection {
-            uv: clamp_uv(uv),
-            ..pr
+    /// A kernel answer with its parameter mapped from the knot domain into the
+    /// normalised square.
+    fn in_square(&self, pr: Projection) -> TargetProjection {
+        let uv = (pr.uv_in_knots - self.knots_lo) / self.knots_size;
+        TargetProjection {
+            uv_in_square: clamp_uv(uv),
+            point: pr.point,
+            distance: pr.distance,
+            certificate: pr.certificate,
         }
     }
 
     /// The closest point of the target to `p`, global (no seed).
-    pub fn closest_point(&self, p: DVec3) -> Projection {
+    pub fn closest_point(&self, p: DVec3) -> TargetProjection {
         self.in_square(self.inverter.closest_point(p))
     }
 
@@ -191,7 +214,7 @@ impl TargetSurface {
     /// the square by [`wrap_uv`] first): the seed's Newton answer bounds the search, so
     /// a good seed (the previous sample of a stroke) makes the query cheap; the answer
     /// is still the global one.
-    pub fn closest_point_from(&self, p: DVec3, seed_in_square: DVec2) -> Projection {
+    pub fn closest_point_from(&self, p: DVec3, seed_in_square: DVec2) -> TargetProjection {
         let seed = self.to_knots(clamp_uv(wrap_uv(seed_in_square)));
         self.in_square(self.inverter.closest_point_from(p, seed))
     }
@@ -211,11 +234,11 @@ impl TargetSurface {
         closed: [bool; 2],
         about: DVec2,
         seed: DVec2,
-    ) -> Projection {
+    ) -> TargetProjection {
         let pr = self.closest_point_from(p, seed);
-        let uv = unwrap_near(pr.uv, about, closed);
-        Projection {
-            uv: self.settle_on_pole(uv, about, pr.point),
+        let uv = unwrap_near(pr.uv_in_square, about, closed);
+        TargetProjection {
+            uv_in_square: self.settle_on_pole(uv, about, pr.point),
             ..pr
         }
     }
@@ -381,7 +404,7 @@ mod tests {
         // A plane whose knot domain is [0, 1]^2, 2 m across.
         let t = plane(2.0);
         let pr = t.closest_point(DVec3::new(0.5, 1.5, 0.3));
-        assert_near!(pr.uv.to_array(), [0.25, 0.75], POINT_EPS);
+        assert_near!(pr.uv_in_square.to_array(), [0.25, 0.75], POINT_EPS);
         assert_near!(pr.distance, 0.3, POINT_EPS);
         assert_eq!(pr.certificate, Certificate::Certified);
         let sph = sphere(1.0);
@@ -395,11 +418,11 @@ mod tests {
         let after = sph.closest_point_near(
             DVec3::new(-a.cos(), -a.sin(), 0.0),
             [true, false],
-            before.uv,
-            before.uv,
+            before.uv_in_square,
+            before.uv_in_square,
         );
         assert!(
-            after.uv.x > 1.0 && after.uv.x - before.uv.x < 0.01,
+            after.uv_in_square.x > 1.0 && after.uv_in_square.x - before.uv_in_square.x < 0.01,
             "{after:?}"
         );
         assert_near!(after.distance, 0.0, POINT_EPS);

@@ -157,8 +157,7 @@ pub fn run(args: MeshArgs) -> Result<()> {
         .map(|t| t.surface.size())
         .fold(0.0, f64::max);
     let welded = mesh.welded(
-        (size * sculpt_core::tolerance::MESH_WELD_REL).max(sculpt_core::tolerance::MESH_WELD_MIN)
-            as f32,
+        (size * crate::tolerance::MESH_WELD_REL).max(crate::tolerance::MESH_WELD_MIN) as f32,
     );
     let bytes = format.write(&welded).context("writing the mesh")?;
     super::io::write_file(&args.out, &bytes)?;

@@ -30,7 +30,14 @@ pub fn run(args: &Args) -> Result<()> {
     let answers = surface.inverter().closest_points(&queries);
     let mut out = io::open_output(args.out.as_ref())?;
     for a in answers {
-        let row = [a.uv.x, a.uv.y, a.point.x, a.point.y, a.point.z, a.distance];
+        let row = [
+            a.uv_in_knots.x,
+            a.uv_in_knots.y,
+            a.point.x,
+            a.point.y,
+            a.point.z,
+            a.distance,
+        ];
         io::write_row(&mut out, &row).context("cannot write output")?;
     }
     io::finish_output(out, args.out.as_ref())

@@ -332,8 +332,7 @@ fn outputs(
         }
         if let Some(path) = &args.obj {
             let size = r.figures.bbox_diagonal;
-            let tol = (size * sculpt_core::tolerance::MESH_WELD_REL)
-                .max(sculpt_core::tolerance::MESH_WELD_MIN);
+            let tol = (size * crate::tolerance::MESH_WELD_REL).max(crate::tolerance::MESH_WELD_MIN);
             let bytes =
                 obj::write(&doc.mesh(Detail::Final).welded(tol as f32)).context("writing OBJ")?;
             files.push((path.clone(), bytes));

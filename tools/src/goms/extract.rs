@@ -703,7 +703,7 @@ fn fitts(
         Some((_, centre, w)) => {
             let amplitude = centre.distance(start.p);
             let alpha = angle(ray(start.q), centre - start.p);
-            let width_rad = (amplitude > sculpt_core::tolerance::AMPLITUDE_EPS)
+            let width_rad = (amplitude > crate::tolerance::AMPLITUDE_EPS)
                 .then(|| 2.0 * (w / (2.0 * amplitude)).atan());
             Fitts {
                 amplitude,

@@ -274,8 +274,8 @@ impl Comparison {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tolerance::DECIMAL_SUM_EPS;
     use sculpt_core::assert_near;
-    use sculpt_core::tolerance::DECIMAL_SUM_EPS;
 
     /// The tables as printed: each TOTAL is the sum of its row (to the paper's two
     /// decimals).

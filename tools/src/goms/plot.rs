@@ -248,7 +248,7 @@ fn bars<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, a: &Analysis, time: b
             }
         })
         .fold(0.0, f64::max)
-        .max(sculpt_core::tolerance::PLOT_RANGE_MIN)
+        .max(crate::tolerance::PLOT_RANGE_MIN)
         * 1.15;
     let caption = if time {
         "Mean execution time per method (s)"
@@ -295,7 +295,7 @@ fn strips<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, a: &Analysis) -> Re
         .iter()
         .flat_map(|m| m.per_participant.iter().map(|p| p.2))
         .fold(0.0, f64::max)
-        .max(sculpt_core::tolerance::PLOT_RANGE_MIN)
+        .max(crate::tolerance::PLOT_RANGE_MIN)
         * 1.15;
     let mut chart = method_chart(root, a, "Total time per participant (s)", top, "seconds")?;
     for (i, m) in a.methods.iter().enumerate() {
@@ -325,7 +325,7 @@ fn gantt<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, t: &Trial) -> Result
         .filter(|k| t.ops.iter().any(|o| o.op == *k))
         .collect();
     let rows = kinds.len().max(1);
-    let (t0, t1) = (t.t0, t.t1.max(t.t0 + sculpt_core::tolerance::MIN_PLOT_SPAN));
+    let (t0, t1) = (t.t0, t.t1.max(t.t0 + crate::tolerance::MIN_PLOT_SPAN));
     let mut chart = ChartBuilder::on(root)
         .caption(
             format!(
@@ -383,13 +383,13 @@ fn speed<DB: DrawingBackend>(
     cfg: &ExtractConfig,
 ) -> Result<()> {
     root.fill(&WHITE).p()?;
-    let (t0, t1) = (t.t0, t.t1.max(t.t0 + sculpt_core::tolerance::MIN_PLOT_SPAN));
+    let (t0, t1) = (t.t0, t.t1.max(t.t0 + crate::tolerance::MIN_PLOT_SPAN));
     let vmax = t
         .speed
         .iter()
         .map(|s| s.1)
         .fold(cfg.v_on, f64::max)
-        .max(sculpt_core::tolerance::PLOT_SPEED_MIN)
+        .max(crate::tolerance::PLOT_SPEED_MIN)
         * 1.1;
     let mut chart = ChartBuilder::on(root)
         .caption(

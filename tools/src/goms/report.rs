@@ -342,7 +342,7 @@ pub fn comparisons_csv(a: &Analysis) -> String {
 /// Truncates to two decimals, the paper's way of printing percentages
 /// (12.8 / 165.4 = 7.7388 % is printed 7.73 %).
 pub fn truncate2(x: f64) -> f64 {
-    (x * 100.0 + sculpt_core::tolerance::TRUNCATE_EPS).floor() / 100.0
+    (x * 100.0 + crate::tolerance::TRUNCATE_EPS).floor() / 100.0
 }
 
 /// KLM prediction of a method, shown next to the measured time.

@@ -142,8 +142,9 @@ pub fn paired(a: &[f64], b: &[f64]) -> Option<Paired> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tolerance::PRINTED_TABLE_EPS;
     use sculpt_core::assert_near;
-    use sculpt_core::tolerance::{EXACT_EPS, PRINTED_TABLE_EPS};
+    use sculpt_core::tolerance::EXACT_EPS;
 
     #[test]
     fn describe_by_hand() {

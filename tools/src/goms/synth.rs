@@ -76,7 +76,7 @@ impl Script {
 
     fn gauss(&mut self) -> f64 {
         // Box-Muller.
-        let u1 = self.rng.f64().max(sculpt_core::tolerance::LOG_ARG_MIN);
+        let u1 = self.rng.f64().max(crate::tolerance::LOG_ARG_MIN);
         let u2 = self.rng.f64();
         (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
     }

@@ -245,8 +245,8 @@ impl<DB: DrawingBackend> DrawingBackend for Kerned<DB> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tolerance::{GLYPH_ADVANCE_SUM_EPS, GLYPH_INK_PX};
     use plotters::prelude::*;
-    use sculpt_core::tolerance::{GLYPH_ADVANCE_SUM_EPS, GLYPH_INK_PX};
 
     const SIZE: f32 = 40.0;
 

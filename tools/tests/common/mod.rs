@@ -2,6 +2,12 @@
 
 use std::process::{Command, Output};
 
+/// `sculpt-tools`' own tolerances (`src/tolerance.rs`; a binary crate's modules are
+/// not importable, so the file is included here).
+#[allow(dead_code)] // not every test binary compares with each of them
+#[path = "../../src/tolerance.rs"]
+pub mod tolerance;
+
 /// Runs `sculpt-tools ARGS`.
 pub fn tools(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_sculpt-tools"))

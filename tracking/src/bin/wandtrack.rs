@@ -399,7 +399,7 @@ async fn run() -> Result<()> {
                         f.wand(w).filter(|w| w.is_tracked()).map(|w| w.pose)
                     }
                 };
-                if let Some(wp) = pose.and_then(|p| marker_only.pose_in_world(id, &p)) {
+                if let Some(wp) = pose.and_then(|p| marker_only.pose_in_display(id, &p)) {
                     poses.push((wp.position_m, wp.orientation));
                 }
             }
@@ -410,9 +410,9 @@ async fn run() -> Result<()> {
                 poses.len(),
                 f.rms_residual_m * 1e3,
                 f.max_residual_m * 1e3,
-                f.pivot_in_world_m.x,
-                f.pivot_in_world_m.y,
-                f.pivot_in_world_m.z
+                f.pivot_in_display_m.x,
+                f.pivot_in_display_m.y,
+                f.pivot_in_display_m.z
             );
             println!(
                 "[calibration.tips]\n{device} = [{:.6}, {:.6}, {:.6}]",

@@ -11,7 +11,7 @@
 //! rounds to. The output has the layout of `sculpt-tools volume grid --f32`
 //! ([`Volume::eval_grid_f32`]): `k` values per point, the first index fastest. It
 //! agrees with it to f32 rounding (the bound is
-//! [`sculpt_core::tolerance::VOLUME_GPU_REL`]).
+//! [`crate::tolerance::VOLUME_GPU_REL`]).
 //!
 //! Large grids are cut into chunks whose output fits one storage binding and whose
 //! workgroups fit the device's dispatch limits (in two dimensions when one is not

@@ -139,7 +139,7 @@ mod tests {
     use sculpt_core::tolerance::POINT_EPS;
 
     /// The published values below are given to six digits.
-    const SIX_DIGITS: f64 = sculpt_core::tolerance::SIX_DIGITS_EPS;
+    const SIX_DIGITS: f64 = crate::tolerance::SIX_DIGITS_EPS;
 
     #[test]
     fn materials_parse_by_name_and_cycle_through_all() {

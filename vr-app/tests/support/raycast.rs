@@ -87,7 +87,7 @@ pub fn offset_along_normal(doc: &Document, cam: &EyeCamera, hit: &Hit, depth: f6
     let (o, dir) = hit.ray;
     let forward = view_depth(cam, o + dir) - view_depth(cam, o);
     let q = o + dir * (depth / forward);
-    let uv = surface.closest_point_from(q, hit.uv).uv;
+    let uv = surface.closest_point_from(q, hit.uv).uv_in_square;
     let (p, n, h) = sculpted(surface, &strokes, uv);
     (q - p).dot(n) - h
 }
@@ -250,8 +250,8 @@ fn hit(
     let f = |t: f64, uv: &mut DVec2| {
         let q = o + dir * t;
         let pr = surface.closest_point_from(q, *uv);
-        *uv = pr.uv;
-        let (p, n, h) = sculpted(surface, strokes, pr.uv);
+        *uv = pr.uv_in_square;
+        let (p, n, h) = sculpted(surface, strokes, pr.uv_in_square);
         let f = (q - p).dot(n) - h;
         (f, (q - (p + n * h)).length())
     };

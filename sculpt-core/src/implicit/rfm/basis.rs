@@ -94,7 +94,7 @@ impl TensorBasis {
         (self.lo, self.hi)
     }
 
-    /// The knot spans' edges in world coordinates, per axis: the cells on which every
+    /// The knot spans' edges in display-frame coordinates, per axis: the cells on which every
     /// function is one polynomial (the quadrature's starting cells).
     pub fn breaks(&self, axis: usize) -> Vec<f64> {
         let n = self.count[axis] - self.degree;

@@ -62,7 +62,7 @@ impl Leaf {
         self.uv_lo + st * (self.uv_hi - self.uv_lo)
     }
 
-    /// A leaf that excludes nothing: world frame, box `[lo, hi]`.
+    /// A leaf that excludes nothing: display frame, box `[lo, hi]`.
     pub(super) fn whole(uv_lo: DVec2, uv_hi: DVec2, lo: DVec3, hi: DVec3) -> Self {
         // A box of all differences contains zero: the sign test never fires.
         let all = (lo - hi, hi - lo);

@@ -98,8 +98,12 @@ use hierarchy::{LEAF, Leaf, Node, SideBoxes};
 /// The answer to a closest-point query.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Projection {
-    /// The parameter `(u, v)` of the closest point found.
-    pub uv: DVec2,
+    /// The parameter `(u, v)` of the closest point found, in the surface's **knot
+    /// domain** ([`NurbsSurface::domain_u`] x [`NurbsSurface::domain_v`]), the
+    /// parameter [`NurbsSurface::derivatives`] takes. Sculpting's
+    /// [`TargetProjection`](crate::sculpt::surface::TargetProjection) maps it into the
+    /// normalised square.
+    pub uv_in_knots: DVec2,
     /// `S(u, v)`.
     pub point: DVec3,
     /// `|S(u, v) - P|`.
@@ -109,7 +113,7 @@ pub struct Projection {
     /// True when the final Newton run stopped by one of P&T's criteria (rather than by
     /// the iteration cap or a stalled line search).
     pub converged: bool,
-    /// True when `uv` lies on an edge of the domain that is not a seam.
+    /// True when `uv_in_knots` lies on an edge of the domain that is not a seam.
     pub on_boundary: bool,
     /// How the answer was obtained: proven global, or which exit left it unproven.
     pub certificate: Certificate,
@@ -445,7 +449,9 @@ impl SurfaceInverter {
         let mut out: Vec<Projection> = Vec::with_capacity(points.len());
         for &p in points {
             let pr = match out.last() {
-                Some(prev) if prev.distance.is_finite() => self.closest_point_from(p, prev.uv),
+                Some(prev) if prev.distance.is_finite() => {
+                    self.closest_point_from(p, prev.uv_in_knots)
+                }
                 _ => self.closest_point(p),
             };
             out.push(pr);
@@ -456,7 +462,7 @@ impl SurfaceInverter {
     fn invalid_query(&self) -> Projection {
         let uv = self.domain_lo;
         Projection {
-            uv,
+            uv_in_knots: uv,
             point: self.surface.point_uv(uv),
             distance: f64::INFINITY,
             iterations: 0,
@@ -473,7 +479,7 @@ impl SurfaceInverter {
                 && (c.uv[k] <= self.domain_lo[k] + eps[k] || c.uv[k] >= self.domain_hi[k] - eps[k])
         };
         Projection {
-            uv: c.uv,
+            uv_in_knots: c.uv,
             point: c.point,
             distance: c.dist2.sqrt(),
             iterations: c.iters,

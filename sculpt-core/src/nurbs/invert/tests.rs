@@ -204,7 +204,10 @@ fn answers_name_their_certificate() {
     // (the built inverter evaluates through its power form: last bits differ).
     let own = s.newton_closest(p, DVec2::new(0.9, 0.1));
     assert_eq!(own.certificate, Certificate::Local);
-    assert!(own.uv.distance(local.uv) < FIT_EPS, "{own:?} {local:?}");
+    assert!(
+        own.uv_in_knots.distance(local.uv_in_knots) < FIT_EPS,
+        "{own:?} {local:?}"
+    );
     assert!((own.distance - local.distance).abs() < FIT_EPS);
     let bad = inv.closest_point(DVec3::new(f64::NAN, 0.0, 0.0));
     assert_eq!(bad.certificate, Certificate::InvalidQuery);
@@ -243,7 +246,7 @@ fn pruned_search_never_loses_to_the_exhaustive_reference() {
                 "surface {k}, p = {p:?}, seed {seed:?}: {seeded:?} vs {reference:?}"
             );
             // Seeded from the answer itself (a stroke that stands still).
-            let again = inv.closest_point_from(p, got.uv);
+            let again = inv.closest_point_from(p, got.uv_in_knots);
             assert!(within(again.distance - reference.distance, POINT_EPS));
             checked += 1;
         }

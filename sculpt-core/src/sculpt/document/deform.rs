@@ -42,8 +42,8 @@ pub fn carry_stroke(old: &TargetSurface, new: &TargetSurface, input: &StrokeInpu
         .iter()
         .map(|&(t, p)| {
             let uv = match seed {
-                None => old.closest_point(p).uv,
-                Some(s) => old.closest_point_from(p, s).uv,
+                None => old.closest_point(p).uv_in_square,
+                Some(s) => old.closest_point_from(p, s).uv_in_square,
             };
             seed = Some(uv);
             let was = old.eval(uv);

@@ -147,7 +147,7 @@ impl Stroke {
             let seed = centre_uv[i] + uv_step(sp.du, sp.dv, offset);
             target
                 .closest_point_near(centre[i] + offset, closed, centre_uv[i], seed)
-                .uv
+                .uv_in_square
         };
         let mut rims_uv = [Vec::with_capacity(n), Vec::with_capacity(n)];
         for i in 0..n {
@@ -295,14 +295,14 @@ fn project_runs(
             Some((_, uv, _)) => target.closest_point_near(p, closed, uv, uv),
             None => target.closest_point(p),
         };
-        if pr.distance <= snap && pr.point.is_finite() && pr.uv.is_finite() {
-            let foot = (pr.uv, pr.point);
+        if pr.distance <= snap && pr.point.is_finite() && pr.uv_in_square.is_finite() {
+            let foot = (pr.uv_in_square, pr.point);
             if prev
                 .is_some_and(|(q, uv, point)| basin_jump(surface, p.distance(q), (uv, point), foot))
             {
                 runs.push(Vec::new());
             }
-            prev = Some((p, pr.uv, pr.point));
+            prev = Some((p, pr.uv_in_square, pr.point));
             if let Some(r) = runs.last_mut() {
                 r.push(foot);
             }
