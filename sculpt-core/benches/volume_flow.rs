@@ -15,64 +15,23 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use sculpt_core::volume::{FlowField, StreamlineEnd, StreamlineOptions, Volume};
+use sculpt_core::volume::{FlowField, StreamlineEnd};
 
 #[path = "support/cpu_time.rs"]
 mod cpu_time;
+#[path = "support/volume_data.rs"]
+mod volume_data;
+
+use volume_data::{FLOW_STEPS as STEPS, flow_options, flow_seeds, flow_volume};
 
 /// Lines per iteration.
 const LINES: usize = 1000;
-/// Steps per line.
-const STEPS: usize = 1000;
-
-/// The bench volume: a wavy, rational cubic box over `[-1, 1]^3` whose velocity is
-/// `e_z x x`, a rotation at unit rate.
-fn flow_volume() -> Volume {
-    let c: usize = 7;
-    let knots = [0., 0., 0., 0., 0.25, 0.5, 0.75, 1., 1., 1., 1.];
-    let (mut values, mut weights) = (Vec::new(), Vec::new());
-    // The net point by point, the last index fastest (the file's nesting).
-    for flat in 0..c.pow(3) {
-        let idx = [flat / (c * c), flat / c % c, flat % c];
-        let s = idx.map(|a| 2.0 * a as f64 / 6.0 - 1.0);
-        let interior = idx.iter().all(|&a| a > 0 && a < c - 1);
-        let wobble = if interior {
-            0.05 * (5.0 * s[0]).sin() * (4.0 * s[1]).cos()
-        } else {
-            0.0
-        };
-        let (x, y, z) = (s[0] + wobble, s[1] - wobble, s[2] + 0.5 * wobble);
-        values.extend([x, y, z, -y, x, 0.0]);
-        let bump = 0.3 * (1.3 * s[0] - 0.9 * s[1] + 0.7 * s[2]).sin();
-        weights.push(if interior { 1.0 + bump } else { 1.0 });
-    }
-    let k = knots.to_vec();
-    Volume::new(
-        vec![3, 3, 3],
-        vec![k.clone(), k.clone(), k],
-        ["x", "y", "z", "vx", "vy", "vz"].map(String::from).to_vec(),
-        values,
-        Some(weights),
-    )
-    .expect("valid bench volume")
-}
 
 fn streamlines(c: &mut Criterion) {
     let vol = flow_volume();
     let field = FlowField::new(&vol, [3, 4, 5]).expect("a flow");
-    // Seeds on rings of radius 0.1 to 0.8 in parameter space around the axis.
-    let seeds: Vec<[f64; 3]> = (0..LINES)
-        .map(|i| {
-            let a = i as f64 * 2.399_963;
-            let r = 0.05 + 0.35 * (i as f64 / LINES as f64);
-            [0.5 + r * a.cos(), 0.5 + r * a.sin(), (i % 17) as f64 / 16.0]
-        })
-        .collect();
-    let opts = StreamlineOptions {
-        time: 1e9,
-        max_steps: STEPS,
-        ..StreamlineOptions::new(0.0)
-    };
+    let seeds = flow_seeds(LINES);
+    let opts = flow_options();
     // Every line takes its full number of steps.
     for s in &seeds {
         let line = field.trace(*s, &opts).expect("a valid seed");

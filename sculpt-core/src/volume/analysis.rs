@@ -146,8 +146,25 @@ impl Frame {
         point: DVec3,
         covariant: [DVec3; 3],
     ) -> VolumeResult<Frame> {
+        let (jacobian, cross) = Self::jacobian(u, covariant)?;
+        Ok(Frame {
+            point,
+            covariant,
+            jacobian,
+            contravariant: cross.map(|c| c / jacobian),
+        })
+    }
+
+    /// `sqrt(g) = B_u . (B_v x B_w)` (eq. 38) and the cross products `B_v x B_w,
+    /// B_w x B_u, B_u x B_v`, the contravariant base vectors times `sqrt(g)` (eq. 32),
+    /// of the covariant base vectors at `u`; fails where the Jacobian is singular
+    /// (below [`VOLUME_SINGULAR_REL`] of the product of the vectors' lengths, naming
+    /// `u`).
+    #[inline]
+    pub(super) fn jacobian(u: &[f64], covariant: [DVec3; 3]) -> VolumeResult<(f64, [DVec3; 3])> {
         let [bu, bv, bw] = covariant;
-        let jacobian = bu.dot(bv.cross(bw));
+        let cross = [bv.cross(bw), bw.cross(bu), bu.cross(bv)];
+        let jacobian = bu.dot(cross[0]);
         let scale = bu.length() * bv.length() * bw.length();
         if jacobian.abs() <= VOLUME_SINGULAR_REL * scale || scale == 0.0 || !jacobian.is_finite() {
             return Err(VolumeError::SingularJacobian {
@@ -155,17 +172,7 @@ impl Frame {
                 jacobian,
             });
         }
-        let contravariant = [
-            bv.cross(bw) / jacobian,
-            bw.cross(bu) / jacobian,
-            bu.cross(bv) / jacobian,
-        ];
-        Ok(Frame {
-            point,
-            covariant,
-            jacobian,
-            contravariant,
-        })
+        Ok((jacobian, cross))
     }
 }
 

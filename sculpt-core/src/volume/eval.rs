@@ -402,10 +402,12 @@ impl Volume {
     ///
     /// The streamlines' right-hand side ([`FlowField`](super::FlowField), Park 2005
     /// eq. 49) stores the geometry `x, y, z` last and differentiates nothing else:
-    /// for an all-cubic trivariate volume of 4 to 7 attributes the SIMD kernel then
+    /// for an all-cubic trivariate volume of 4 to 7 attributes the AVX2 kernel then
     /// contracts the derivatives in one 4-lane vector (the three attributes and the
-    /// weight) instead of two, 224 vector multiply-adds per point against 384. Other
-    /// volumes and processors take [`Self::eval_d1_into`] and keep the part asked for.
+    /// weight) instead of two, 224 vector multiply-adds per point against 384 (the
+    /// AVX-512 kernel holds a whole point in one vector and differentiates it all, 192).
+    /// Other volumes and processors take [`Self::eval_d1_into`] and keep the part asked
+    /// for.
     pub fn eval_d1_last3_into(&self, u: &[f64], out: &mut [f64]) -> VolumeResult<()> {
         self.check_params(u)?;
         let n = self.directions();

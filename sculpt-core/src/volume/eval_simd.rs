@@ -1,21 +1,25 @@
 //! The all-cubic trivariate evaluator (values and all first derivatives) in explicit
-//! SIMD: AVX2 and FMA, chosen at run time through `pulp` (no `unsafe` here), for
-//! homogeneous points of 4 to 8 values (3 to 7 attributes and the weight).
+//! SIMD, chosen at run time through `pulp` (no `unsafe` here): AVX-512 ([`V4`]) where
+//! the processor has it, else AVX2 and FMA ([`V3`]), for homogeneous points of 4 to 8
+//! values (3 to 7 attributes and the weight).
 //!
 //! The arithmetic is that of the scalar path ([`super::eval`]): the four cubic basis
-//! values and derivatives of each direction once (P&T A2.2 and A2.3 with `n = 1`,
-//! unrolled; here the three directions in the lanes of one vector), then the tensor contracted direction by direction (P&T A3.6 / A4.3):
+//! values and derivatives of each direction once (P&T A2.2 and A2.3 with `n = 1`, here
+//! from the per-span polynomials of [`super::span_poly`]: two Horner schemes and no
+//! division), then the tensor contracted direction by direction (P&T A3.6 / A4.3):
 //! along the last direction (contiguous rows of four points) value and `d/du_3`
 //! together, then the middle one, then the first, and the rational quotient rule last
 //! (P&T eq. 4.8 differentiated). The vectors run over the components of the
-//! homogeneous point, the weight being one more lane: a point of `D` values is held as
-//! two 4-lane vectors, lanes `0..4` and `D - 4..D` (they overlap when `D < 8`, and are
-//! one vector when `D = 4`), so every multiply-add covers the whole point in two
-//! instructions. 384 vector multiply-adds per point for `D` from 5 to 8, against
-//! about 1,150 scalar multiplies and 1,150 adds on the scalar path.
+//! homogeneous point, the weight being one more lane. With AVX-512 a point is one
+//! 8-lane vector: 192 vector multiply-adds per point, and the accumulators and basis
+//! values fit the 32 registers. With AVX2 a point of `D` values is two 4-lane vectors,
+//! lanes `0..4` and `D - 4..D` (they overlap when `D < 8`, and are one vector when
+//! `D = 4`): 384 vector multiply-adds per point for `D` from 5 to 8, against about
+//! 1,150 scalar multiplies and 1,150 adds on the scalar path.
 
-use pulp::x86::V3;
-use pulp::{Simd, WithSimd, f64x4};
+use pulp::x86::{V3, V4};
+use pulp::{Simd, WithSimd, cast, f64x4, f64x8, u64x8};
+use std::arch::x86_64::__m512i;
 
 use super::Volume;
 use super::d1_quotient;
@@ -140,80 +144,33 @@ fn span_of(kv: &KnotVector, t: f64) -> usize {
 const SHORT_INTERIOR: usize = 16;
 
 /// The spans, and the four cubic basis values and derivatives, of the three
-/// directions at `u` at once: lane `d` of each vector is direction `d` (lane 3 repeats
-/// direction 0). The arithmetic of the scalar `cubic_basis` (P&T A2.2, A2.3 with `n = 1`,
-/// unrolled) lane by lane, so its six divisions are done once for all directions.
+/// directions at `u`: per direction the span's polynomials ([`super::span_poly`]) in
+/// two Horner schemes whose lanes are the four functions (P&T A2.2 and A2.3 with
+/// `n = 1`, evaluated from the per-span coefficients: five multiply-adds and no
+/// division per direction).
 #[inline(always)]
 fn cubic_bases3(simd: V3, vol: &Volume, u: &[f64]) -> ([usize; 3], [[f64; 4]; 3], [[f64; 4]; 3]) {
     let mut spans = [0; 3];
-    // kk[i][d] = u_{s_d - 2 + i} of direction d.
-    let mut kk = [[0.0; 4]; 6];
-    let mut t = [0.0; 4];
+    let mut nd = [[0.0; 4]; 3];
+    let mut dnd = [[0.0; 4]; 3];
+    // No `array::map` in here: it is not inlined, and the code it calls runs without
+    // the AVX2 and FMA this function is compiled for.
+    let v = |a: &[f64; 4]| f64x4(a[0], a[1], a[2], a[3]);
     for (d, kv) in vol.knots.iter().take(3).enumerate() {
         let td = kv.clamp(u[d]);
         let s = span_of(kv, td);
         spans[d] = s;
-        t[d] = td;
-        let k: &[f64; 6] = kv.knots()[s - 2..s + 4]
-            .try_into()
-            .expect("a cubic span has two knots on each side");
-        for i in 0..6 {
-            kk[i][d] = k[i];
-        }
-    }
-    t[3] = t[0];
-    for row in &mut kk {
-        row[3] = row[0];
-    }
-    // No `array::map` in here: it is not inlined, and the code it calls runs without
-    // the AVX2 and FMA this function is compiled for.
-    let v = |a: [f64; 4]| f64x4(a[0], a[1], a[2], a[3]);
-    let t = v(t);
-    let k = [v(kk[0]), v(kk[1]), v(kk[2]), v(kk[3]), v(kk[4]), v(kk[5])];
-    let (l1, l2, l3) = (
-        simd.sub_f64x4(t, k[2]),
-        simd.sub_f64x4(t, k[1]),
-        simd.sub_f64x4(t, k[0]),
-    );
-    let (r1, r2, r3) = (
-        simd.sub_f64x4(k[3], t),
-        simd.sub_f64x4(k[4], t),
-        simd.sub_f64x4(k[5], t),
-    );
-    let one = simd.splat_f64x4(1.0);
-    // Degree 1.
-    let tmp = simd.div_f64x4(one, simd.add_f64x4(r1, l1));
-    let (a0, a1) = (simd.mul_f64x4(r1, tmp), simd.mul_f64x4(l1, tmp));
-    // Degree 2.
-    let tmp0 = simd.div_f64x4(a0, simd.add_f64x4(r1, l2));
-    let tmp1 = simd.div_f64x4(a1, simd.add_f64x4(r2, l1));
-    let b0 = simd.mul_f64x4(r1, tmp0);
-    let b1 = simd.mul_add_f64x4(l2, tmp0, simd.mul_f64x4(r2, tmp1));
-    let b2 = simd.mul_f64x4(l1, tmp1);
-    // Degree 3: q_r = N_{s-2+r,2} / (u_{s+1+r} - u_{s-2+r}).
-    let q0 = simd.div_f64x4(b0, simd.add_f64x4(r1, l3));
-    let q1 = simd.div_f64x4(b1, simd.add_f64x4(r2, l2));
-    let q2 = simd.div_f64x4(b2, simd.add_f64x4(r3, l1));
-    let n = [
-        simd.mul_f64x4(r1, q0),
-        simd.mul_add_f64x4(l3, q0, simd.mul_f64x4(r2, q1)),
-        simd.mul_add_f64x4(l2, q1, simd.mul_f64x4(r3, q2)),
-        simd.mul_f64x4(l1, q2),
-    ];
-    let three = simd.splat_f64x4(3.0);
-    let dn = [
-        simd.mul_f64x4(simd.splat_f64x4(-3.0), q0),
-        simd.mul_f64x4(three, simd.sub_f64x4(q0, q1)),
-        simd.mul_f64x4(three, simd.sub_f64x4(q1, q2)),
-        simd.mul_f64x4(three, q2),
-    ];
-    // Transposed: per direction, the four functions.
-    let mut nd = [[0.0; 4]; 3];
-    let mut dnd = [[0.0; 4]; 3];
-    for l in 0..4 {
-        let (f64x4(a, b, c, _), f64x4(da, db, dc, _)) = (n[l], dn[l]);
-        [nd[0][l], nd[1][l], nd[2][l]] = [a, b, c];
-        [dnd[0][l], dnd[1][l], dnd[2][l]] = [da, db, dc];
+        let poly = vol.cubic_spans[d].span(s);
+        let x = simd.splat_f64x4((td - poly.start) * poly.inv_len);
+        let (c, e) = (&poly.value, &poly.slope);
+        let n = simd.mul_add_f64x4(x, v(&c[3]), v(&c[2]));
+        let n = simd.mul_add_f64x4(x, n, v(&c[1]));
+        let n = simd.mul_add_f64x4(x, n, v(&c[0]));
+        let dn = simd.mul_add_f64x4(x, v(&e[2]), v(&e[1]));
+        let dn = simd.mul_add_f64x4(x, dn, v(&e[0]));
+        let (f64x4(a, b, c, dd), f64x4(da, db, dc, ddd)) = (n, dn);
+        nd[d] = [a, b, c, dd];
+        dnd[d] = [da, db, dc, ddd];
     }
     (spans, nd, dnd)
 }
@@ -283,6 +240,113 @@ impl<const D: usize, const ALL: bool> WithSimd for CubicD1<'_, D, ALL> {
     }
 }
 
+/// An 8-lane vector of zeros.
+const ZERO8: f64x8 = f64x8(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+
+/// The eight values `s[0..8]` as one vector.
+#[inline(always)]
+fn load8(s: &[f64]) -> f64x8 {
+    let a: &[f64; 8] = s[..8].try_into().expect("eight values");
+    f64x8(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7])
+}
+
+/// `sum_l w_l p_l` over four points in 8-lane vectors.
+#[inline(always)]
+fn combine8(simd: V4, w: &[f64x8; 4], p: &[f64x8; 4]) -> f64x8 {
+    let acc = simd.mul_f64x8(w[0], p[0]);
+    let acc = simd.mul_add_f64x8(w[1], p[1], acc);
+    let acc = simd.mul_add_f64x8(w[2], p[2], acc);
+    simd.mul_add_f64x8(w[3], p[3], acc)
+}
+
+/// The AVX-512 kernel, run by [`V4::vectorize`]: the arithmetic of [`CubicD1`] with a
+/// homogeneous point of `D` (4 to 8) values in the lanes of one 8-lane vector (lanes
+/// `D..8` carry whatever follows the point in memory and are never read out), so the
+/// contraction is 192 vector multiply-adds per point, and the 32 vector registers hold
+/// its accumulators and basis values without spilling. Every derivative is computed;
+/// `ALL` only chooses the output layout ([`d1_quotient`] or [`d1_quotient_last3`]).
+struct CubicD1x8<'a, const D: usize, const ALL: bool> {
+    simd: V4,
+    vol: &'a Volume,
+    u: &'a [f64],
+    out: &'a mut [f64],
+}
+
+impl<const D: usize, const ALL: bool> WithSimd for CubicD1x8<'_, D, ALL> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: Simd>(self, _: S) {
+        let CubicD1x8 { simd, vol, u, out } = self;
+        let (spans, nb, dnb) = cubic_bases3(*simd, vol, u);
+        let mut n = [[ZERO8; 4]; 3];
+        let mut dn = [[ZERO8; 4]; 3];
+        for d in 0..3 {
+            for l in 0..4 {
+                n[d][l] = simd.splat_f64x8(nb[d][l]);
+                dn[d][l] = simd.splat_f64x8(dnb[d][l]);
+            }
+        }
+        // A row of four points is `4 D >= 16` consecutive values: the first three
+        // points are read from where they start, the last one from the row's last
+        // eight values and moved down `8 - D` lanes, so no read leaves the row.
+        let shift: __m512i = cast(u64x8(
+            (8 - D as u64).min(7),
+            (9 - D as u64).min(7),
+            (10 - D as u64).min(7),
+            (11 - D as u64).min(7),
+            (12 - D as u64).min(7),
+            (13 - D as u64).min(7),
+            (14 - D as u64).min(7),
+            (15 - D as u64).min(7),
+        ));
+        let (st0, st1) = (vol.strides[0], vol.strides[1]);
+        let start = (spans[0] - 3) * st0 + (spans[1] - 3) * st1 + spans[2] - 3;
+        // a[0] = A^w, a[1..4] = d/du_1, d/du_2, d/du_3 of A^w.
+        let mut a = [ZERO8; 4];
+        for i in 0..4 {
+            // b[0] = sum_j N_j c0, b[1] = sum_j N'_j c0, b[2] = sum_j N_j c1.
+            let mut b = [ZERO8; 3];
+            for j in 0..4 {
+                let first = (start + i * st0 + j * st1) * D;
+                let row = &vol.cw[first..first + 4 * D];
+                let last = load8(&row[4 * D - 8..]);
+                let p = [
+                    load8(row),
+                    load8(&row[D..]),
+                    load8(&row[2 * D..]),
+                    if D == 8 {
+                        last
+                    } else {
+                        cast(simd.avx512f._mm512_permutexvar_pd(shift, cast(last)))
+                    },
+                ];
+                // The last direction: c0 = sum_l N_l P_ijl, c1 = sum_l N'_l P_ijl.
+                let c0 = combine8(simd, &n[2], &p);
+                let c1 = combine8(simd, &dn[2], &p);
+                b[0] = simd.mul_add_f64x8(n[1][j], c0, b[0]);
+                b[1] = simd.mul_add_f64x8(dn[1][j], c0, b[1]);
+                b[2] = simd.mul_add_f64x8(n[1][j], c1, b[2]);
+            }
+            a[0] = simd.mul_add_f64x8(n[0][i], b[0], a[0]);
+            a[1] = simd.mul_add_f64x8(dn[0][i], b[0], a[1]);
+            a[2] = simd.mul_add_f64x8(n[0][i], b[1], a[2]);
+            a[3] = simd.mul_add_f64x8(n[0][i], b[2], a[3]);
+        }
+        let store = |v: f64x8| -> [f64; D] {
+            let f64x8(x0, x1, x2, x3, x4, x5, x6, x7) = v;
+            let all = [x0, x1, x2, x3, x4, x5, x6, x7];
+            all[..D].try_into().expect("D <= 8 lanes")
+        };
+        let h: [[f64; D]; 4] = [store(a[0]), store(a[1]), store(a[2]), store(a[3])];
+        if ALL {
+            d1_quotient(&h, out);
+        } else {
+            d1_quotient_last3(&h, out);
+        }
+    }
+}
+
 /// The rational values of all `k = D - 1` attributes and the first derivatives of the
 /// last three, in the layout of [`Volume::eval_d1_last3_into`], from the homogeneous
 /// `a = [A^w, d/du_1 A^w, ..]` of which only the last four components of the
@@ -303,35 +367,40 @@ fn d1_quotient_last3<const D: usize>(a: &[[f64; D]; 4], out: &mut [f64]) {
 }
 
 /// The values and first derivatives of the all-cubic trivariate `vol` (`D = k + 1`
-/// from 4 to 8) at `u` into `out`, as [`Volume::eval_d1_into`] lays them out; false
-/// (and `out` untouched) when the processor lacks AVX2 or FMA or `D` is out of range.
+/// from 4 to 8) at `u` into `out`, as [`Volume::eval_d1_into`] lays them out, with
+/// the AVX-512 kernel ([`CubicD1x8`]) where the processor has it, else the AVX2 one
+/// ([`CubicD1`]); false (and `out` untouched) when it has neither or `D` is out of
+/// range.
 #[inline(always)]
 pub(super) fn d1_cubic<const D: usize>(vol: &Volume, u: &[f64], out: &mut [f64]) -> bool {
-    if !(4..=8).contains(&D) {
-        return false;
-    }
-    let Some(simd) = V3::try_new() else {
-        return false;
-    };
-    <V3 as Simd>::vectorize(simd, CubicD1::<D, true> { simd, vol, u, out });
-    true
+    d1_kernel::<D, true>(vol, u, out)
 }
 
 /// The values of every attribute and the first derivatives of the last three of the
 /// all-cubic trivariate `vol` (`D = k + 1` from 5 to 8) at `u` into `out`, as
-/// [`Volume::eval_d1_last3_into`] lays them out: the derivatives are contracted in the
-/// upper vector alone, 224 vector multiply-adds per point against 384 for every
-/// component. False (and `out` untouched) when the processor lacks AVX2 or FMA or `D`
-/// is out of range.
+/// [`Volume::eval_d1_last3_into`] lays them out: the AVX-512 kernel where the
+/// processor has it, else the AVX2 one contracting the derivatives in the upper
+/// 4-lane vector alone (224 vector multiply-adds per point against 384 for every
+/// component). False (and `out` untouched) when the processor has neither or `D` is
+/// out of range.
 #[inline(always)]
 pub(super) fn d1_cubic_last3<const D: usize>(vol: &Volume, u: &[f64], out: &mut [f64]) -> bool {
-    if !(5..=8).contains(&D) {
+    D >= 5 && d1_kernel::<D, false>(vol, u, out)
+}
+
+/// [`d1_cubic`] (`ALL`) or [`d1_cubic_last3`]: the widest kernel the processor runs.
+#[inline(always)]
+fn d1_kernel<const D: usize, const ALL: bool>(vol: &Volume, u: &[f64], out: &mut [f64]) -> bool {
+    if !(4..=8).contains(&D) {
         return false;
     }
-    let Some(simd) = V3::try_new() else {
+    if let Some(simd) = V4::try_new() {
+        <V4 as Simd>::vectorize(simd, CubicD1x8::<D, ALL> { simd, vol, u, out });
+    } else if let Some(simd) = V3::try_new() {
+        <V3 as Simd>::vectorize(simd, CubicD1::<D, ALL> { simd, vol, u, out });
+    } else {
         return false;
-    };
-    <V3 as Simd>::vectorize(simd, CubicD1::<D, false> { simd, vol, u, out });
+    }
     true
 }
 
@@ -385,12 +454,37 @@ mod tests {
         out
     }
 
-    fn check<const D: usize>() {
+    /// Runs the AVX2 (`wide` false) or the AVX-512 kernel on `u`; false when the
+    /// processor lacks it.
+    fn kernel<const D: usize, const ALL: bool>(
+        wide: bool,
+        vol: &Volume,
+        u: &[f64],
+        out: &mut [f64],
+    ) -> bool {
+        if wide {
+            let Some(simd) = V4::try_new() else {
+                return false;
+            };
+            <V4 as Simd>::vectorize(simd, CubicD1x8::<D, ALL> { simd, vol, u, out });
+        } else {
+            let Some(simd) = V3::try_new() else {
+                return false;
+            };
+            <V3 as Simd>::vectorize(simd, CubicD1::<D, ALL> { simd, vol, u, out });
+        }
+        true
+    }
+
+    fn check<const D: usize>(wide: bool) {
         let vol = wavy(D - 1);
         for u in params(&vol) {
             let mut simd = vec![0.0; 4 * (D - 1)];
             let mut scalar = simd.clone();
-            assert!(d1_cubic::<D>(&vol, &u, &mut simd), "D {D}: path not taken");
+            assert!(
+                kernel::<D, true>(wide, &vol, &u, &mut simd),
+                "D {D}: path not taken"
+            );
             vol.d1_cubic_scalar::<D>(&u, &mut scalar);
             let scale = scalar.iter().fold(1.0_f64, |m, v| m.max(v.abs()));
             assert_near!(simd, scalar, VOLUME_EVAL_REL * scale, "D {D} at {u:?}");
@@ -400,17 +494,22 @@ mod tests {
                 let k = D - 1;
                 let mut part = vec![0.0; k + 9];
                 assert!(
-                    d1_cubic_last3::<D>(&vol, &u, &mut part),
+                    kernel::<D, false>(wide, &vol, &u, &mut part),
                     "D {D}: path not taken"
                 );
-                let mut public = vec![0.0; k + 9];
-                vol.eval_d1_last3_into(&u, &mut public).unwrap();
-                assert_eq!(part, public, "D {D} at {u:?}: the entry takes the kernel");
                 let mut expected = scalar[..k].to_vec();
                 for d in 1..4 {
                     expected.extend_from_slice(&scalar[d * k + k - 3..(d + 1) * k]);
                 }
                 assert_near!(part, expected, VOLUME_EVAL_REL * scale, "D {D} at {u:?}");
+                let mut public = vec![0.0; k + 9];
+                vol.eval_d1_last3_into(&u, &mut public).unwrap();
+                assert_near!(
+                    public,
+                    expected,
+                    VOLUME_EVAL_REL * scale,
+                    "D {D} at {u:?}: the public entry"
+                );
             }
         }
     }
@@ -468,16 +567,23 @@ mod tests {
     }
 
     #[test]
-    fn simd_path_matches_the_scalar_cubic_path_for_every_width() {
-        if V3::try_new().is_none() {
-            eprintln!("no AVX2 and FMA on this processor: the SIMD path is never taken");
-            return;
+    fn simd_paths_match_the_scalar_cubic_path_for_every_width() {
+        for wide in [false, true] {
+            let available = if wide {
+                V4::try_new().is_some()
+            } else {
+                V3::try_new().is_some()
+            };
+            if !available {
+                eprintln!("this processor lacks the kernel (AVX-512: {wide}): not tested");
+                continue;
+            }
+            check::<4>(wide);
+            check::<5>(wide);
+            check::<6>(wide);
+            check::<7>(wide);
+            check::<8>(wide);
         }
-        check::<4>();
-        check::<5>();
-        check::<6>();
-        check::<7>();
-        check::<8>();
         // Outside 4..=8 the SIMD path declines and the caller falls back.
         let mut out = [0.0; 8];
         assert!(!d1_cubic::<3>(&wavy(2), &[0.0; 3], &mut out));

@@ -74,6 +74,7 @@ pub mod isosurface;
 pub mod json;
 pub mod morph;
 pub mod refine;
+mod span_poly;
 pub mod streamline;
 pub mod vtk;
 
@@ -123,6 +124,10 @@ pub struct Volume {
     /// The homogeneous net `(h a_1, .., h a_k, h)` per point.
     cw: Vec<f64>,
     rational: bool,
+    /// The basis of each direction as polynomials per span, for the SIMD evaluator:
+    /// one table per direction when the volume is trivariate and all-cubic, else
+    /// none ([`span_poly`]; derived from `knots`).
+    cubic_spans: Vec<span_poly::CubicSpans>,
 }
 
 /// Advances the multi-index `idx` (last position fastest, `idx[d] < limit(d)`) by one;
@@ -281,6 +286,15 @@ impl Volume {
         }
         let dim = attributes.len() + 1;
         let rational = cw.chunks(dim).any(|p| p[dim - 1] != 1.0);
+        let cubic_spans = if knots.len() == 3 {
+            knots
+                .iter()
+                .map(span_poly::CubicSpans::new)
+                .collect::<Option<Vec<_>>>()
+                .unwrap_or_default()
+        } else {
+            Vec::new()
+        };
         Self {
             knots,
             attributes,
@@ -289,6 +303,7 @@ impl Volume {
             dim,
             cw,
             rational,
+            cubic_spans,
         }
     }
 

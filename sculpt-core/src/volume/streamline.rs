@@ -176,23 +176,28 @@ impl FlowField {
 
     /// The contravariant velocity `du_i/dt = grad u_i . V` (eq. 49) at `u` and the
     /// point `B(u)`; `row` is scratch of [`Self::ROW`] values.
+    ///
+    /// With the cross products `c_i` of the covariant base vectors
+    /// ([`Frame::jacobian`](super::Frame)), `grad u_i = c_i / sqrt(g)` (eq. 32), so
+    /// `du_i/dt = (c_i . V) / sqrt(g)`: one division for the three components.
     pub fn param_velocity(&self, u: &[f64; 3], row: &mut [f64]) -> VolumeResult<Rhs> {
         // The velocity's values, the geometry's, then dB/du_1, dB/du_2, dB/du_3.
         self.vol.eval_d1_last3_into(u, row)?;
         let at = |i: usize| DVec3::new(row[i], row[i + 1], row[i + 2]);
-        let f = super::Frame::from_covariant(u, at(3), [at(6), at(9), at(12)])?;
+        let (jacobian, cross) = super::Frame::jacobian(u, [at(6), at(9), at(12)])?;
         let v = at(0);
+        let inv = 1.0 / jacobian;
         let du = [
-            f.contravariant[0].dot(v),
-            f.contravariant[1].dot(v),
-            f.contravariant[2].dot(v),
+            cross[0].dot(v) * inv,
+            cross[1].dot(v) * inv,
+            cross[2].dot(v) * inv,
         ];
         if du.iter().all(|x| x.is_finite()) {
-            Ok((du, f.point))
+            Ok((du, at(3)))
         } else {
             Err(super::VolumeError::SingularJacobian {
                 params: u.to_vec(),
-                jacobian: f.jacobian,
+                jacobian,
             })
         }
     }
