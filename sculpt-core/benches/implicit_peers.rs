@@ -3,9 +3,11 @@
 //!
 //! - dense evaluation: every cell-centre value of `prospero.vm` (2D, ~7,900 clauses)
 //!   and of `bear.vm` (3D, ~660 clauses; its z = 0 section) on 2048^2 grids on
-//!   [-1, 1]^2 (the issue's "512^3 (3D) or 2048^2 (2D)": the 512^3 bear is left out of
-//!   the default run for its length, `WANDSCULPT_PEERS_3D=1` adds it). Ours is [`Tape::eval_grid`] (tiles pruned by interval arithmetic,
-//!   evaluated in blocks). Fidget has no dense-grid call (its renderers fill pruned
+//!   [-1, 1]^2, and of `bear.vm` on a 512^3 grid on [-1, 1]^3 (the issue's "512^3
+//!   (3D) or 2048^2 (2D)"; the 512^3 run is left out of the default for its length:
+//!   `WANDSCULPT_PEERS_3D=1` adds it, `WANDSCULPT_PEERS_ONLY=dense3d` runs it alone,
+//!   three timed rounds of each side, alternating). Ours is [`Tape::eval_grid`]
+//!   (tiles pruned by interval arithmetic, evaluated in blocks). Fidget has no dense-grid call (its renderers fill pruned
 //!   tiles with inside/outside flags, not values), so its side is its own render
 //!   loop written with its public API: the same slabs on the same rayon pool, its
 //!   JIT's tile sizes (128, 16 in 2D; 64, 16, 8 in 3D), an interval evaluation and
@@ -216,6 +218,53 @@ fn fidget_mesh(shape: &JitShape, depth: u8) -> fidget::mesh::Mesh {
         .walk_dual()
 }
 
+/// The largest difference of two dense results and how many cells differ in sign.
+fn compare(ours: &[f32], theirs: &[f32]) -> (f32, usize) {
+    let worst = ours
+        .iter()
+        .zip(theirs)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
+    let signs = ours
+        .iter()
+        .zip(theirs)
+        .filter(|(a, b)| (**a < 0.0) != (**b < 0.0))
+        .count();
+    (worst, signs)
+}
+
+/// The bear at 512^3 on [-1, 1]^3, dense: each side timed alone, alternating, three
+/// rounds (a criterion run of 134 M values a sample is too long for a shared
+/// machine); the first round's results are compared cell by cell.
+fn dense_3d_timed(bear: &Pair) {
+    let grid = Grid::new([512; 3], [-1.0; 3], [1.0; 3]).expect("grid");
+    let (mut ours_s, mut theirs_s) = (Vec::new(), Vec::new());
+    for round in 0..3 {
+        let t = Instant::now();
+        let ours = bear.tape.eval_grid(&grid);
+        ours_s.push(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        let theirs = fidget_dense(&bear.jit, &grid);
+        theirs_s.push(t.elapsed().as_secs_f64());
+        eprintln!(
+            "implicit_peers: dense bear 512^3, round {round}: ours {:.3} s, Fidget JIT {:.3} s",
+            ours_s[round], theirs_s[round]
+        );
+        if round == 0 {
+            let (worst, signs) = compare(&ours, &theirs);
+            eprintln!(
+                "implicit_peers: bear_512x512x512: largest |ours - Fidget| {worst:e}, \
+                 {signs} of {} cells differ in sign",
+                ours.len()
+            );
+        }
+    }
+    eprintln!(
+        "implicit_peers: dense bear 512^3, three rounds: ours {ours_s:.3?} s, \
+         Fidget JIT {theirs_s:.3?} s"
+    );
+}
+
 fn peers(c: &mut Criterion) {
     let dir = match models_dir() {
         Ok(d) => d,
@@ -232,13 +281,15 @@ fn peers(c: &mut Criterion) {
         ("prospero_2048x2048", &prospero, [2048, 2048, 1]),
         ("bear_z0_2048x2048", &bear, [2048, 2048, 1]),
     ];
-    if std::env::var_os("WANDSCULPT_PEERS_3D").is_some_and(|v| v == "1") {
-        cases.push(("bear_512x512x512", &bear, [512, 512, 512]));
-    }
-    // `WANDSCULPT_PEERS_ONLY=mesh` or `dense` runs one half.
+    // `WANDSCULPT_PEERS_ONLY=mesh`, `dense` or `dense3d` runs one part.
     let only = std::env::var("WANDSCULPT_PEERS_ONLY").ok();
-    if only.as_deref() == Some("mesh") {
+    if matches!(only.as_deref(), Some("mesh" | "dense3d")) {
         cases.clear();
+    }
+    if std::env::var_os("WANDSCULPT_PEERS_3D").is_some_and(|v| v == "1")
+        || only.as_deref() == Some("dense3d")
+    {
+        dense_3d_timed(&bear);
     }
     for (name, pair, n) in cases {
         let lo = [-1.0, -1.0, if n[2] == 1 { -0.5 } else { -1.0 }];
@@ -246,16 +297,7 @@ fn peers(c: &mut Criterion) {
         // A 2D model on one layer at z = 0.
         let grid = Grid::new(n, lo, hi).expect("grid");
         let (ours, theirs) = (pair.tape.eval_grid(&grid), fidget_dense(&pair.jit, &grid));
-        let worst = ours
-            .iter()
-            .zip(&theirs)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0f32, f32::max);
-        let signs = ours
-            .iter()
-            .zip(&theirs)
-            .filter(|(a, b)| (**a < 0.0) != (**b < 0.0))
-            .count();
+        let (worst, signs) = compare(&ours, &theirs);
         eprintln!(
             "implicit_peers: {name}: tape {} clauses, largest |ours - Fidget| {worst:e}, \
              {signs} of {} cells differ in sign",
@@ -269,7 +311,7 @@ fn peers(c: &mut Criterion) {
             b.iter(|| black_box(fidget_dense(&pair.jit, black_box(&grid))))
         });
     }
-    if only.as_deref() == Some("dense") {
+    if matches!(only.as_deref(), Some("dense" | "dense3d")) {
         group.finish();
         return;
     }

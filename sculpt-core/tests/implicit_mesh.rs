@@ -663,3 +663,97 @@ fn octree_box_has_fewer_triangles_and_keeps_its_edges() {
         "the edges lie {surface} from the simplified mesh"
     );
 }
+
+/// The mesh of `json` by each mesher at `res` on [-1, 1]^3: marching tetrahedra, dual
+/// contouring, and dual contouring with the default octree simplification.
+fn three_meshes(json: &str, res: usize) -> [WeldedMesh; 3] {
+    [
+        mesh_of(json, res, -1.0, 1.0).1,
+        dual_of(json, res, -1.0, 1.0).1,
+        octree_of(json, res, -1.0, 1.0).1,
+    ]
+}
+
+/// The default mesher of `sculpt-tools implicit mesh` (octree simplification) has the
+/// fewest triangles of the three on the sphere, the tilted torus and the CSG part
+/// (box, hole and bite), each closed and manifold with its genus (the checks above
+/// hold the distances and the sharp edges).
+#[test]
+fn octree_has_the_fewest_triangles_on_sphere_torus_and_csg_part() {
+    let cases = [
+        (
+            r#"{"solid": {"sphere": {"center": [0.1, 0.0, -0.05], "radius": 0.8}}}"#,
+            24,
+            2,
+        ),
+        (
+            r#"{"solid": {"torus": {"center": [0, 0, 0], "axis": [0.2, 0.1, 1], "major": 0.6, "minor": 0.25}}}"#,
+            32,
+            0,
+        ),
+        (
+            r#"{"solid": {"and": {"solids": [
+        {"box": {"min": [-0.7, -0.5, -0.3], "max": [0.7, 0.5, 0.3]}},
+        {"not": {"solid": {"cylinder": {"base": [0, 0, -1], "axis": [0, 0, 1], "radius": 0.25, "height": 2}}}},
+        {"not": {"solid": {"sphere": {"center": [0.7, 0.5, 0.3], "radius": 0.3}}}}
+    ]}}}"#,
+            40,
+            0,
+        ),
+    ];
+    for (json, res, chi) in cases {
+        let [mt, dc, octree] = three_meshes(json, res);
+        for m in [&mt, &dc, &octree] {
+            assert_closed(m, chi);
+        }
+        let counts = [&mt, &dc, &octree].map(|m| m.triangles.len());
+        eprintln!(
+            "{res}^3 triangles: mt {}, dc {}, octree {}",
+            counts[0], counts[1], counts[2]
+        );
+        assert!(counts[2] < counts[0] && counts[2] < counts[1], "{counts:?}");
+    }
+}
+
+/// Octree nodes grow past the mesher's 8^3 blocks where the QEF error allows: a box
+/// (faces off the grid planes) at 48^3 collapses nodes of 16 cells on its faces, has
+/// fewer triangles than with nodes capped at 8 cells, and stays closed with its
+/// edges kept and every triangle within half a cell of the surface.
+#[test]
+fn octree_nodes_grow_past_eight_cells_on_flat_faces() {
+    let (lo, hi) = ([-0.83, -0.79, -0.81], [0.87, 0.81, 0.77]);
+    let json = format!(r#"{{"solid": {{"box": {{"min": {lo:?}, "max": {hi:?}}}}}}}"#);
+    let res = 48;
+    let cell = 2.0 / res as f64;
+    let model = Model::from_solid_json(&json).unwrap();
+    let tape = model.tape_negative_inside();
+    let mesh_with = |settings: &OctreeSimplify| {
+        dual_contour_simplified(&tape, [res; 3], [-1.0; 3], [1.0; 3], settings).unwrap()
+    };
+    let (deep, report) = mesh_with(&OctreeSimplify::default());
+    let capped = OctreeSimplify {
+        levels: 3,
+        ..OctreeSimplify::default()
+    };
+    let (shallow, shallow_report) = mesh_with(&capped);
+    eprintln!("deep {report:?}\nshallow {shallow_report:?}");
+    assert!(report.widest_node > 8, "{report:?}");
+    assert_eq!(shallow_report.widest_node, 8, "{shallow_report:?}");
+    assert!(
+        deep.triangles.len() < shallow.triangles.len(),
+        "{} vs {}",
+        deep.triangles.len(),
+        shallow.triangles.len()
+    );
+    assert_closed(&deep, 2);
+    let inside = model.tape_positive_inside();
+    for p in triangle_samples(&deep) {
+        let w = f64::from(inside.eval_point(p.map(|c| c as f32)));
+        assert!(w.abs() <= 0.5 * cell, "omega {w} at mesh point {p:?}");
+    }
+    let (surface, _) = edge_error(&deep, lo, hi, cell);
+    assert!(
+        surface <= DUAL_EDGE_CELL_FRAC * cell,
+        "the edges lie {surface} from the mesh"
+    );
+}

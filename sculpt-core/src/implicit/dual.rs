@@ -67,6 +67,9 @@ pub struct DualReport {
     pub node_fans: usize,
     /// Boundary vertices removed between smooth fans ([`dual_contour_simplified`]).
     pub chain_collapses: usize,
+    /// Cells per axis of the widest octree node whose fan is in the mesh
+    /// ([`dual_contour_simplified`]; 0 when none collapsed).
+    pub widest_node: usize,
 }
 
 /// The mesh of the zero set of `tape` (negative inside) on a grid of `n` cells per
@@ -262,6 +265,13 @@ fn dual_contour_with(
         }
     }
     report.node_fans = emitted.len();
+    if let Some(c) = &collapsed {
+        report.widest_node = emitted
+            .iter()
+            .map(|&o| 1usize << c.fans[o as usize].level)
+            .max()
+            .unwrap_or(0);
+    }
     report.flips = flip_feature_edges(&vertices, &mut triangles, &rank);
     if let Some(settings) = simplify
         && settings.chains

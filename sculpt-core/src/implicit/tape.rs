@@ -19,6 +19,7 @@
 //! pruning; Keeter, *Massively Parallel Rendering of Complex Closed-Form Implicit
 //! Surfaces*, 2020, sec. 3).
 
+use std::cell::OnceCell;
 use std::ops::Range;
 
 use super::expr::{Binary, Graph, Node, NodeId, Unary, Var};
@@ -135,7 +136,6 @@ struct TileTarget<'a> {
 /// Buffers reused by the leaves of one thread.
 #[derive(Default)]
 struct LeafScratch {
-    known: Vec<f32>,
     regs: Vec<[f32; LANES]>,
 }
 
@@ -356,8 +356,9 @@ impl Tape {
                 stride,
                 base: bx[axis].start * stride[axis],
             };
+            let prog = OnceCell::new();
             for_each_tile(&bx, tiles[0], |tile| {
-                self.fill_tile(tile, &tiles[1..], &target, chunk, scratch);
+                self.fill_tile(&prog, tile, &tiles[1..], &target, chunk, scratch);
             });
         };
         let slab_len = top * stride[axis];
@@ -389,9 +390,13 @@ impl Tape {
     }
 
     /// Simplifies this tape over the cell centres of `bx` and fills them: through
-    /// the next levels of `tiles`, or (at the last) in blocks.
+    /// the next levels of `tiles`, or (at the last, or once no choice is left to
+    /// decide) in blocks. `prog` is this tape's block program, built on first use
+    /// and shared with every sub-tile whose interval pass decides nothing new (their
+    /// tape is this one: no copy, no second program).
     fn fill_tile(
         &self,
+        prog: &OnceCell<LeafProgram>,
         bx: [Range<usize>; 3],
         tiles: &[usize],
         target: &TileTarget<'_>,
@@ -402,57 +407,39 @@ impl Tape {
             let c = &target.coords[a];
             Interval::new(c[bx[a].start], c[bx[a].end - 1])
         });
-        let (_, tape) = self.simplify(region);
-        match tiles.split_first() {
-            Some((&size, rest)) => for_each_tile(&bx, size, |sub| {
-                tape.fill_tile(sub, rest, target, out, scratch);
-            }),
-            None => tape.fill_leaf(&bx, target, out, scratch),
+        let (_, choices) = self.interval_pass(region);
+        if choices.iter().all(|&c| c == Choice::Both) {
+            return self.fill_pruned(prog, bx, tiles, target, out, scratch);
         }
+        let tape = self.prune(&choices);
+        if tape.instrs.iter().all(|i| !matches!(i, Instr::Var(_))) {
+            // No coordinate left: one value for the whole tile, the bits every
+            // cell's evaluation gives (the same ops on the same constants).
+            let v = tape.eval_point([0.0; 3]);
+            return fill_box(&bx, target, out, v);
+        }
+        tape.fill_pruned(&OnceCell::new(), bx, tiles, target, out, scratch);
     }
 
-    /// Evaluates this tape at every cell centre of `bx`, [`LANES`] at a time.
-    fn fill_leaf(
+    /// [`fill_tile`](Self::fill_tile) after pruning: this tape is already
+    /// simplified for `bx`; sub-tiles follow while it has choices to decide.
+    fn fill_pruned(
         &self,
-        bx: &[Range<usize>; 3],
+        prog: &OnceCell<LeafProgram>,
+        bx: [Range<usize>; 3],
+        tiles: &[usize],
         target: &TileTarget<'_>,
         out: &mut [f32],
         scratch: &mut LeafScratch,
     ) {
-        let prog = self.block_program([true; 3]);
-        scratch.known.resize(self.instrs.len(), 0.0);
-        prog.fill_uniform(&self.instrs, [0.0; 3], &mut scratch.known);
-        scratch.regs.resize(prog.registers, [0.0; LANES]);
-        let mut index = [0usize; LANES];
-        let mut vals = [0.0f32; LANES];
-        let mut lanes = 0;
-        let c = target.coords;
-        let flush = |lanes: usize, index: &[usize; LANES], s: &mut LeafScratch, out: &mut [f32]| {
-            let vals = &mut vals[..lanes];
-            prog.run(&s.known, &mut s.regs, vals);
-            for (&i, &v) in index[..lanes].iter().zip(vals.iter()) {
-                out[i] = v;
+        match tiles.split_first() {
+            Some((&size, rest)) if self.has_choices() => for_each_tile(&bx, size, |sub| {
+                self.fill_tile(prog, sub, rest, target, out, scratch);
+            }),
+            _ => {
+                let prog = prog.get_or_init(|| LeafProgram::new(self));
+                fill_leaf(prog, &bx, target, out, scratch);
             }
-        };
-        let mut flush = flush;
-        for k in bx[2].clone() {
-            for j in bx[1].clone() {
-                let row = j * target.stride[1] + k * target.stride[2] - target.base;
-                for i in bx[0].clone() {
-                    scratch.regs[0][lanes] = c[0][i];
-                    scratch.regs[1][lanes] = c[1][j];
-                    scratch.regs[2][lanes] = c[2][k];
-                    index[lanes] = row + i;
-                    lanes += 1;
-                    if lanes == LANES {
-                        flush(lanes, &index, scratch, out);
-                        lanes = 0;
-                    }
-                }
-            }
-        }
-        if lanes > 0 {
-            flush(lanes, &index, scratch, out);
         }
     }
 
@@ -533,6 +520,12 @@ impl Tape {
     /// sides used).
     pub fn simplify(&self, region: [Interval; 3]) -> (Interval, Tape) {
         let (range, choices) = self.interval_pass(region);
+        (range, self.prune(&choices))
+    }
+
+    /// This tape with the choices an interval pass decided (`choices`, one per
+    /// slot) removed, and what only their losing sides used.
+    fn prune(&self, choices: &[Choice]) -> Tape {
         // alias[i]: the slot whose value slot i takes.
         let mut alias: Vec<u32> = (0..self.instrs.len() as u32).collect();
         for (i, ins) in self.instrs.iter().enumerate() {
@@ -587,7 +580,7 @@ impl Tape {
                 op: b.op,
             })
             .collect();
-        (range, Tape { instrs, bounds })
+        Tape { instrs, bounds }
     }
 
     /// The value and gradient at `p`, by forward-mode automatic differentiation in
@@ -613,6 +606,76 @@ impl Tape {
         }
         let r = v.last().expect("a tape has a root");
         (r.v, r.d)
+    }
+}
+
+/// Evaluates a tape (its leaf program) at every cell centre of `bx`, [`LANES`] at a time.
+fn fill_leaf(
+    leaf: &LeafProgram,
+    bx: &[Range<usize>; 3],
+    target: &TileTarget<'_>,
+    out: &mut [f32],
+    scratch: &mut LeafScratch,
+) {
+    let prog = &leaf.prog;
+    scratch.regs.resize(prog.registers, [0.0; LANES]);
+    let mut index = [0usize; LANES];
+    let mut vals = [0.0f32; LANES];
+    let mut lanes = 0;
+    let c = target.coords;
+    let flush = |lanes: usize, index: &[usize; LANES], s: &mut LeafScratch, out: &mut [f32]| {
+        let vals = &mut vals[..lanes];
+        prog.run(&leaf.known, &mut s.regs, vals);
+        for (&i, &v) in index[..lanes].iter().zip(vals.iter()) {
+            out[i] = v;
+        }
+    };
+    let mut flush = flush;
+    for k in bx[2].clone() {
+        for j in bx[1].clone() {
+            let row = j * target.stride[1] + k * target.stride[2] - target.base;
+            for i in bx[0].clone() {
+                scratch.regs[0][lanes] = c[0][i];
+                scratch.regs[1][lanes] = c[1][j];
+                scratch.regs[2][lanes] = c[2][k];
+                index[lanes] = row + i;
+                lanes += 1;
+                if lanes == LANES {
+                    flush(lanes, &index, scratch, out);
+                    lanes = 0;
+                }
+            }
+        }
+    }
+    if lanes > 0 {
+        flush(lanes, &index, scratch, out);
+    }
+}
+
+/// Writes `v` at every cell of `bx`.
+fn fill_box(bx: &[Range<usize>; 3], target: &TileTarget<'_>, out: &mut [f32], v: f32) {
+    for k in bx[2].clone() {
+        for j in bx[1].clone() {
+            let row = j * target.stride[1] + k * target.stride[2] - target.base;
+            out[row + bx[0].start..row + bx[0].end].fill(v);
+        }
+    }
+}
+
+/// A tape's block program for points varying in x, y and z, with the values of its
+/// uniform slots (its constants), built once and shared by the leaves that
+/// evaluate the same tape.
+struct LeafProgram {
+    prog: BlockProgram,
+    known: Vec<f32>,
+}
+
+impl LeafProgram {
+    fn new(tape: &Tape) -> Self {
+        let prog = tape.block_program([true; 3]);
+        let mut known = vec![0.0f32; tape.instrs.len()];
+        prog.fill_uniform(&tape.instrs, [0.0; 3], &mut known);
+        Self { prog, known }
     }
 }
 

@@ -5,11 +5,13 @@
 //! - `implicit eval MODEL --grid NxM[xK] --bounds LO,HI --out V.f32`: little-endian
 //!   f32 at the cell centres `LO + (i + 0.5) (HI - LO) / N` on every axis, x fastest;
 //!   a 2D grid (`NxM`) samples the plane z = 0.
-//! - `implicit mesh MODEL --res N --bounds LO,HI --out M.{stl,obj,glb} [--method dc]`:
-//!   a closed, manifold, outward-oriented mesh of the solid by marching tetrahedra on
-//!   the corners of an N^3 grid; `--method dc` adds dual contouring vertices on sharp
-//!   edges and corners (`sculpt_core::implicit::dual`); `--method octree` also
-//!   collapses smooth regions into octree nodes (`sculpt_core::implicit::octree`).
+//! - `implicit mesh MODEL --res N --bounds LO,HI --out M.{stl,obj,glb} [--method M]`:
+//!   a closed, manifold, outward-oriented mesh of the solid on an N^3 grid. The
+//!   default (`--method octree`) is dual contouring (sharp edges and corners kept,
+//!   `sculpt_core::implicit::dual`) with smooth regions collapsed into octree nodes
+//!   (`sculpt_core::implicit::octree`), the fewest triangles; `--method dc` is dual
+//!   contouring without the collapse, `--method mt` plain marching tetrahedra on the
+//!   grid's corners.
 //!
 //! MODEL is a `.vm` file (Fidget's SSA text, negative inside) or a solid document
 //! (JSON, omega >= 0 inside, recognised by its leading `{`). Values written are
@@ -90,10 +92,11 @@ pub struct MeshArgs {
     /// Output mesh: `.stl`, `.obj` or `.glb`.
     #[arg(long)]
     pub out: PathBuf,
-    /// `mt`: marching tetrahedra (the default); `dc`: dual contouring vertices on
-    /// sharp edges and corners, in the marching-tetrahedra mesh; `octree`: dual
-    /// contouring with octree simplification of smooth regions (docs/implicit.md).
-    #[arg(long, value_enum, default_value_t = MeshMethod::Mt)]
+    /// `octree` (the default): dual contouring with octree simplification of smooth
+    /// regions (sharp features, fewest triangles); `dc`: dual contouring vertices on
+    /// sharp edges and corners, in the marching-tetrahedra mesh; `mt`: marching
+    /// tetrahedra (docs/implicit.md).
+    #[arg(long, value_enum, default_value_t = MeshMethod::Octree)]
     pub method: MeshMethod,
 }
 
@@ -331,8 +334,8 @@ fn mesh(args: &MeshArgs) -> Result<()> {
             r.flips,
             if args.method == MeshMethod::Octree {
                 format!(
-                    ", \"node_fans\": {}, \"chain_collapses\": {}",
-                    r.node_fans, r.chain_collapses
+                    ", \"node_fans\": {}, \"chain_collapses\": {}, \"widest_node\": {}",
+                    r.node_fans, r.chain_collapses, r.widest_node
                 )
             } else {
                 String::new()

@@ -7,8 +7,8 @@
 //! Warren's *Manifold Dual Contouring* (2007) adds and Fidget's manifold mesher keeps.
 //!
 //! 1. **Octree collapse.** At level `k` (nodes of `2^k` cells per axis, `k = 1 ..
-//!    levels`) the marching-tetrahedra triangles of a node split into connected
-//!    patches. A patch collapses into one fan around one vertex when:
+//!    levels`, by default up to nodes as wide as the grid: [`OCTREE_LEVELS`]) the
+//!    marching-tetrahedra triangles of a node split into connected patches. A patch collapses into one fan around one vertex when:
 //!    - every triangle of it lay in a collapsed patch one level down (Ju et al.'s
 //!      bottom-up rule: a node collapses only where all its children did);
 //!    - it is a disk (Euler characteristic 1, one simple boundary loop): the
@@ -48,9 +48,12 @@ use crate::implicit::tape::Tape;
 use crate::mesh::MeshVertex;
 use crate::tolerance::{DUAL_OCTREE_QEF_CELL_FRAC, DUAL_OCTREE_SAMPLE_CELL_FRAC};
 
-/// Octree levels above the cells that [`OctreeSimplify::default`] collapses (nodes of
-/// up to 8^3 cells, the mesher's evaluation blocks).
-pub const OCTREE_LEVELS: usize = 3;
+/// Octree levels above the cells that [`OctreeSimplify::default`] may collapse: nodes
+/// of up to 2^10 = 1024 cells per axis, more than any grid the tools mesh, so a node
+/// stops growing where its patch fails a check (the QEF error bound first, on curved
+/// parts), not at a fixed size. The collapse stops early at the first level where no
+/// node patch is left alive, or whose nodes cover the grid.
+pub const OCTREE_LEVELS: usize = 10;
 
 /// Passes of boundary-chain collapse at most (each removes about a third of the
 /// vertices of every chain; a chain along an 8-cell node face is gone in about 6).
@@ -90,6 +93,8 @@ pub(crate) struct NodeFan {
     pub(crate) x: [f64; 3],
     /// The QEF's rank (1: collapsed nodes are smooth).
     pub(crate) rank: usize,
+    /// The node's octree level: `2^level` cells per axis.
+    pub(crate) level: usize,
     /// The patch's boundary loop, as directed edges in order.
     pub(crate) boundary: Vec<(u32, u32)>,
 }
@@ -149,6 +154,11 @@ pub(crate) fn collapse_nodes(
     let mut fans: Vec<NodeFan> = Vec::new();
     let ijk = |c: usize| [c % n[0], (c / n[0]) % n[1], c / (n[0] * n[1])];
     for level in 1..=settings.levels {
+        // Nodes wider than the grid on every axis hold the same patches as the level
+        // below; nothing alive, nothing to collapse.
+        if (0..3).all(|a| (1usize << (level - 1)) >= n[a]) || !alive.iter().any(|&a| a) {
+            break;
+        }
         let m = [0, 1, 2].map(|a| (n[a] >> level) + 1);
         let mut keyed: Vec<(usize, usize)> = (0..triangles.len())
             .map(|t| {
@@ -182,11 +192,14 @@ pub(crate) fn collapse_nodes(
                     match node_candidate(
                         triangles, vertices, &patch, node_lo, node_hi, hmin, settings,
                     ) {
-                        Some((fan, samples)) => Outcome::Maybe(Candidate {
-                            tris: patch,
-                            fan,
-                            samples,
-                        }),
+                        Some((mut fan, samples)) => {
+                            fan.level = level;
+                            Outcome::Maybe(Candidate {
+                                tris: patch,
+                                fan,
+                                samples,
+                            })
+                        }
                         None => Outcome::Dead(patch),
                     }
                 })
@@ -261,7 +274,16 @@ fn node_candidate(
         samples.push((((xv + pos(va) + pos(vb)) / 3.0).into(), fn_unit));
         samples.push((((xv + pos(va)) * 0.5).into(), fn_unit));
     }
-    Some((NodeFan { x, rank, boundary }, samples))
+    Some((
+        NodeFan {
+            x,
+            rank,
+            // The caller's level.
+            level: 0,
+            boundary,
+        },
+        samples,
+    ))
 }
 
 /// `v` normalised, or `None` when it has no direction.
