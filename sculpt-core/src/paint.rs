@@ -11,7 +11,10 @@
 //! - An [`AttributeField`] keeps every sample deposited so far (a new sample replaces
 //!   the older ones within [`AttributeField::spacing`] of it, so painting over a spot
 //!   recolours it) and the volume fitted to them. The fit is redone **once per stroke**
-//!   ([`AttributeField::painted`]).
+//!   and **locally** ([`AttributeField::painted`]): only the control points whose
+//!   support meets the brush around the stroke's samples are solved for
+//!   ([`crate::volume::Volume::refit_local`]), the rest keep their values;
+//!   [`AttributeField::painted_whole`] refits the whole volume (the reference).
 //! - The fitted volume's attributes are the value times a **coverage** `a` (1 where
 //!   paint was deposited), and `a` itself: premultiplied, so the background, sampled
 //!   as coverage 0 on the target and on a grid of the box away from the paint, pulls
@@ -45,7 +48,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::sculpt::document::TargetId;
 use crate::sculpt::surface::{ParamSurface, TargetSurface, normal_from};
-use crate::volume::Volume;
+use crate::volume::{FitError, Volume, VolumeError};
 
 /// The name of the colour attribute (three components, linear RGB in `[0, 1]`).
 pub const COLOUR: &str = "colour";
@@ -53,6 +56,9 @@ pub const COLOUR: &str = "colour";
 pub const FIELD_RESOLUTION: usize = 20;
 /// Degree of an attribute volume in each direction.
 pub const FIELD_DEGREE: usize = 2;
+/// Knot spans by which a paint stroke's local refit reaches beyond its brush
+/// ([`AttributeField::painted`]).
+pub const LOCAL_REFIT_RINGS: usize = 2;
 /// Points on each of the brush's two rings around a wand sample's closest point.
 pub const RING_POINTS: usize = 6;
 /// Most wand samples of one paint stroke.
@@ -366,17 +372,96 @@ impl AttributeField {
 
     /// This field with `positions` painted `value` (one stroke) and refitted: the
     /// kept samples within [`Self::spacing`] of a new one are dropped, the new ones
-    /// added, and the volume fitted afresh (Park 2005, sec. 3.1) to them and to the
-    /// background: a sample at every cell centre of a grid of the box (the volume's
-    /// control counts per direction), coverage 0 farther than `radius` from every
-    /// painted sample and the nearest painted value within it, and the target's own
-    /// background points (coverage 0) farther than `radius` from the paint.
+    /// added, and the volume refitted **locally** (Park 2005, sec. 3.1, on the control
+    /// points near the stroke, [`Volume::refit_local`]): the free control points are
+    /// those whose support meets the brush (`radius`) around a new or dropped sample,
+    /// the others keep their values, and the samples are those of
+    /// [`Self::refit_whole`] in the cells that touch a free point: the painted ones,
+    /// a sample at every cell centre of a grid of the box (the volume's control counts
+    /// per direction), coverage 0 farther than `radius` from every painted sample and
+    /// the nearest painted value within it, and the target's own background points
+    /// (coverage 0) farther than `radius` from the paint. The first stroke starts
+    /// from the unpainted field (all zeros: the whole fit of unpainted samples).
     pub fn painted(
         &self,
         positions: &[DVec3],
         value: &[f64],
         radius: f64,
     ) -> Result<Self, PaintError> {
+        self.painted_local(positions, value, radius, LOCAL_REFIT_RINGS)
+    }
+
+    /// [`Self::painted`] with the free control points' region grown by `rings` knot
+    /// spans beyond the brush in every direction.
+    fn painted_local(
+        &self,
+        positions: &[DVec3],
+        value: &[f64],
+        radius: f64,
+        rings: usize,
+    ) -> Result<Self, PaintError> {
+        let (field, removed) = self.with_samples(positions, value)?;
+        let start = match &self.volume {
+            Some(v) => v.clone(),
+            None => self.unpainted()?,
+        };
+        let changed: Vec<f64> = positions
+            .iter()
+            .chain(&removed)
+            .flat_map(|p| self.param(*p).to_array())
+            .collect();
+        let span = DVec3::from_array(self.counts.map(|c| 1.0 / (c - FIELD_DEGREE) as f64));
+        let reach = (DVec3::splat(radius) / self.box_size + rings as f64 * span).to_array();
+        let fit = |e| PaintError::Fit(Box::new(e));
+        let region = start.local_region(&changed, &reach).map_err(fit)?;
+        let (params, values) =
+            field.fit_samples(radius, |s| start.region_takes(&region, &s.to_array()));
+        let volume = start.refit_local(&region, &params, &values).map_err(fit)?;
+        Ok(Self {
+            volume: Some(volume),
+            ..field
+        })
+    }
+
+    /// This field with `positions` painted `value` and the whole volume fitted afresh
+    /// to every sample ([`Volume::fit_scattered`], see [`Self::painted`] for the
+    /// samples): the reference [`Self::painted`]'s local refit is tested against.
+    pub fn painted_whole(
+        &self,
+        positions: &[DVec3],
+        value: &[f64],
+        radius: f64,
+    ) -> Result<Self, PaintError> {
+        let (field, _) = self.with_samples(positions, value)?;
+        field.refit_whole(radius)
+    }
+
+    /// This field with its volume fitted afresh to all its samples (the whole fit of
+    /// [`Self::painted_whole`]; samples as [`Self::painted`] lists them, `radius` the
+    /// brush's).
+    pub fn refit_whole(&self, radius: f64) -> Result<Self, PaintError> {
+        let (params, values) = self.fit_samples(radius, |_| true);
+        let volume = Volume::fit_scattered(
+            &params,
+            &values,
+            self.volume_attributes(),
+            &[FIELD_DEGREE; 3],
+            &self.counts,
+        )
+        .map_err(|e| PaintError::Fit(Box::new(e)))?;
+        Ok(Self {
+            volume: Some(volume),
+            ..self.clone()
+        })
+    }
+
+    /// This field's samples with `positions` painted `value` (the kept ones within
+    /// [`Self::spacing`] of a new one dropped), no volume; and the positions dropped.
+    fn with_samples(
+        &self,
+        positions: &[DVec3],
+        value: &[f64],
+    ) -> Result<(Self, Vec<DVec3>), PaintError> {
         if value.len() != self.components {
             return Err(PaintError::ValueCount {
                 attribute: self.name.clone(),
@@ -386,12 +471,16 @@ impl AttributeField {
         }
         let spacing = self.spacing();
         let grid = SpatialGrid::new(positions, spacing);
-        let mut samples: Vec<(DVec3, Vec<f64>)> = self
-            .samples
-            .iter()
-            .filter(|(p, _)| !grid.any_within(*p, spacing))
-            .cloned()
-            .collect();
+        let mut removed = Vec::new();
+        let mut samples: Vec<(DVec3, Vec<f64>)> =
+            Vec::with_capacity(self.samples.len() + positions.len());
+        for (p, v) in &self.samples {
+            if grid.any_within(*p, spacing) {
+                removed.push(*p);
+            } else {
+                samples.push((*p, v.clone()));
+            }
+        }
         samples.extend(positions.iter().map(|&p| (p, value.to_vec())));
         if samples.len() > MAX_FIELD_SAMPLES {
             return Err(PaintError::FieldFull {
@@ -399,25 +488,71 @@ impl AttributeField {
                 max: MAX_FIELD_SAMPLES,
             });
         }
-        let mut field = Self {
+        let field = Self {
+            name: self.name.clone(),
+            components: self.components,
+            box_min: self.box_min,
+            box_size: self.box_size,
+            counts: self.counts,
             samples,
+            background: self.background.clone(),
             volume: None,
-            ..self.clone()
         };
-        field.volume = Some(field.fit(radius)?);
-        Ok(field)
+        Ok((field, removed))
     }
 
-    fn fit(&self, radius: f64) -> Result<Volume, PaintError> {
+    /// The volume's attribute names: the value's components, then coverage.
+    fn volume_attributes(&self) -> Vec<String> {
+        let mut names: Vec<String> = (0..self.components)
+            .map(|c| format!("{}{c}", self.name))
+            .collect();
+        names.push("coverage".into());
+        names
+    }
+
+    /// The unpainted field's volume: zeros on the knots every fit of the field has
+    /// (uniform and clamped over the unit box parameter: the fit's samples always
+    /// include the box's corners).
+    fn unpainted(&self) -> Result<Volume, PaintError> {
+        let fit = |e| PaintError::Fit(Box::new(e));
+        let knots = self
+            .counts
+            .iter()
+            .enumerate()
+            .map(|(direction, &c)| {
+                crate::nurbs::KnotVector::uniform_clamped(FIELD_DEGREE, c)
+                    .map(|kv| kv.knots().to_vec())
+                    .map_err(|reason| {
+                        fit(FitError::Volume(VolumeError::Knots { direction, reason }))
+                    })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let total: usize = self.counts.iter().product();
+        Volume::new(
+            vec![FIELD_DEGREE; 3],
+            knots,
+            self.volume_attributes(),
+            vec![0.0; total * (self.components + 1)],
+            None,
+        )
+        .map_err(|e| fit(FitError::Volume(e)))
+    }
+
+    /// The fit's samples (see [`Self::painted`]) whose box parameter `take` accepts:
+    /// `(params, values)`, 3 and `components + 1` values a sample.
+    fn fit_samples(&self, radius: f64, take: impl Fn(DVec3) -> bool) -> (Vec<f64>, Vec<f64>) {
         let k = self.components + 1;
         let all: Vec<DVec3> = self.samples.iter().map(|(p, _)| *p).collect();
         let near = SpatialGrid::new(&all, radius.max(self.spacing()));
         let mut params = Vec::with_capacity(3 * (self.samples.len() + 1024));
         let mut values = Vec::with_capacity(k * (self.samples.len() + 1024));
         for (p, v) in &self.samples {
-            params.extend(self.param(*p).to_array());
-            values.extend(v);
-            values.push(1.0);
+            let s = self.param(*p);
+            if take(s) {
+                params.extend(s.to_array());
+                values.extend(v);
+                values.push(1.0);
+            }
         }
         // The background: cell centres of the control grid, away from the paint; the
         // box's corners always (they span the parameter range, so the knots cover the
@@ -431,6 +566,9 @@ impl AttributeField {
                         (j as f64 + 0.5) / ny as f64,
                         (l as f64 + 0.5) / nz as f64,
                     );
+                    if !take(s) {
+                        continue;
+                    }
                     let p = self.box_min + s * self.box_size;
                     // Near the paint, the cell takes the nearest painted value: every
                     // control point then has samples around it, and the normal
@@ -448,8 +586,9 @@ impl AttributeField {
             }
         }
         for p in &self.background {
-            if !near.any_within(*p, radius) {
-                params.extend(self.param(*p).to_array());
+            let s = self.param(*p);
+            if take(s) && !near.any_within(*p, radius) {
+                params.extend(s.to_array());
                 values.extend(std::iter::repeat_n(0.0, k));
             }
         }
@@ -459,15 +598,12 @@ impl AttributeField {
                 f64::from((corner >> 1) & 1),
                 f64::from((corner >> 2) & 1),
             );
-            params.extend(s.to_array());
-            values.extend(std::iter::repeat_n(0.0, k));
+            if take(s) {
+                params.extend(s.to_array());
+                values.extend(std::iter::repeat_n(0.0, k));
+            }
         }
-        let mut names: Vec<String> = (0..self.components)
-            .map(|c| format!("{}{c}", self.name))
-            .collect();
-        names.push("coverage".into());
-        Volume::fit_scattered(&params, &values, names, &[FIELD_DEGREE; 3], &self.counts)
-            .map_err(|e| PaintError::Fit(Box::new(e)))
+        (params, values)
     }
 
     /// The field at `p`: `(value, coverage)`, coverage in `[0, 1]` (0 where nothing

@@ -659,6 +659,22 @@ pub const DUAL_OCTREE_QEF_CELL_FRAC: f64 = 0.25;
 /// margin to the half cell the meshes must keep for the points between the samples.
 pub const DUAL_OCTREE_SAMPLE_CELL_FRAC: f64 = 0.4;
 
+// ---------------------------------------------------------------------------------
+// Local refits of attribute volumes (sculpt_core::volume::fit::local, issue 35 item 2:
+// the paint sample update).
+// ---------------------------------------------------------------------------------
+/// A local refit of a volume to the very samples it was fitted to moves its free
+/// control points by less than this: both solves stop at [`VOLUME_CG_REL`].
+pub const LOCAL_REFIT_SOLVED: f64 = 1e-8;
+/// A local refit of a smooth bump of height 1 (free points two knot spans beyond it)
+/// is the whole refit's to this at the raised samples
+/// (`volume::fit::local::tests`).
+pub const LOCAL_REFIT_BUMP: f64 = 0.01;
+/// A paint stroke's local refit (`AttributeField::painted`) and the whole volume's
+/// refit to the same samples (`painted_whole`) agree to this at the stroke's samples,
+/// in value and coverage (measured 0.0085 to 0.028 on the paint bench's strokes).
+pub const PAINT_LOCAL_REFIT_AGREE: f64 = 0.03;
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -190,3 +190,136 @@ proptest! {
         prop_assert_eq!(ok, expect);
     }
 }
+
+/// Two strokes across the sheet (the paint bench's), each refitted locally, and a
+/// third along x from `x0` to `x1` at y 1.17, refitted locally and whole (the
+/// reference). Returns the field before the third, after it (local), after it
+/// (whole), its deposits and the brush radius.
+fn third_stroke_local_and_whole(
+    x0: f64,
+    x1: f64,
+) -> (
+    AttributeField,
+    AttributeField,
+    AttributeField,
+    Vec<DVec3>,
+    f64,
+) {
+    let (s, t) = sheet();
+    let radius = Brush::default().radius;
+    let sweep = |y: f64, x0: f64, x1: f64| deposit(&t, &path_over(y, x0, x1), radius);
+    let mut field = AttributeField::around(COLOUR, 3, &s, &t).unwrap();
+    for (y, colour) in [(1.1, [0.8, 0.3, 0.15]), (1.24, [0.2, 0.4, 0.9])] {
+        field = field
+            .painted(&sweep(y, -0.35, 0.35), &colour, radius)
+            .unwrap();
+    }
+    let third = sweep(1.17, x0, x1);
+    let value = [0.1, 0.8, 0.2];
+    let local = field.painted(&third, &value, radius).unwrap();
+    let whole = field.painted_whole(&third, &value, radius).unwrap();
+    (field, local, whole, third, radius)
+}
+
+/// The largest difference of value or coverage between two fields at `points`.
+fn worst_difference(a: &AttributeField, b: &AttributeField, points: &[DVec3]) -> f64 {
+    let mut worst: f64 = 0.0;
+    for p in points {
+        let (va, aa) = a.eval(*p);
+        let (vb, ab) = b.eval(*p);
+        worst = worst.max((aa - ab).abs());
+        for (x, y) in va.iter().zip(&vb) {
+            worst = worst.max((x - y).abs());
+        }
+    }
+    worst
+}
+
+#[test]
+fn a_local_refit_agrees_with_the_whole_refit_at_the_samples() {
+    let (s, t) = sheet();
+    let radius = Brush::default().radius;
+    let mut field = AttributeField::around(COLOUR, 3, &s, &t).unwrap();
+    // The paint bench's three strokes, each refitted locally and compared, at its
+    // samples, with the whole refit of the same samples (value and coverage).
+    for (y, colour) in [
+        (1.1, [0.8, 0.3, 0.15]),
+        (1.24, [0.2, 0.4, 0.9]),
+        (1.17, [0.1, 0.8, 0.2]),
+    ] {
+        let d = deposit(&t, &path_over(y, -0.35, 0.35), radius);
+        field = field.painted(&d, &colour, radius).unwrap();
+        let whole = field.refit_whole(radius).unwrap();
+        let worst = worst_difference(&field, &whole, &d);
+        assert!(
+            worst <= crate::tolerance::PAINT_LOCAL_REFIT_AGREE,
+            "stroke at y {y}: local vs whole refit at its samples: {worst}"
+        );
+        // And the painted colour is there.
+        let (v, a) = field.eval(d[d.len() / 2]);
+        assert!(a > 1.0 - PAINT_VALUE_TOL, "coverage {a}");
+        crate::assert_near!(v, colour.to_vec(), PAINT_VALUE_TOL);
+    }
+}
+
+#[test]
+fn a_local_refit_keeps_the_field_far_from_the_stroke() {
+    // A dab at the sheet's left edge.
+    let (before, local, whole, third, radius) = third_stroke_local_and_whole(-0.45, -0.4);
+    let worst = worst_difference(&local, &whole, &third);
+    assert!(
+        worst <= crate::tolerance::PAINT_LOCAL_REFIT_AGREE,
+        "local vs whole refit at the dab's samples: {worst}"
+    );
+    // Beyond the brush, the free region's rings and a control point's support
+    // (degree + 1 knot spans) from every sample the dab added or replaced, the field
+    // is unchanged bit for bit; near it, it changed.
+    let (lo, hi) = before.bounds();
+    let spans = (hi - lo) / DVec3::from_array(before.counts.map(|c| (c - FIELD_DEGREE) as f64));
+    let reach = DVec3::splat(radius) + (LOCAL_REFIT_RINGS + FIELD_DEGREE + 1) as f64 * spans;
+    let changed: Vec<DVec3> = third
+        .iter()
+        .copied()
+        .chain(
+            before
+                .samples
+                .iter()
+                .map(|(p, _)| *p)
+                .filter(|p| third.iter().any(|q| q.distance(*p) < before.spacing())),
+        )
+        .collect();
+    let (mut far, mut moved) = (0, 0);
+    for i in 0..40 {
+        for j in 0..40 {
+            let x = -0.5 + i as f64 / 39.0;
+            let y = 0.87 + 0.6 * j as f64 / 39.0;
+            let p = default_surface_point(x, y);
+            let beyond = changed
+                .iter()
+                .all(|q| ((p - *q).abs() - reach).max_element() > 0.0);
+            let (b, l) = (before.eval(p), local.eval(p));
+            if beyond {
+                far += 1;
+                assert_eq!(b, l, "changed far from the dab at {p}");
+            } else if b != l {
+                moved += 1;
+            }
+        }
+    }
+    assert!(far > 400 && moved > 50, "{far} far points, {moved} moved");
+}
+
+#[test]
+fn the_local_refit_is_deterministic() {
+    let (_, a, _, _, _) = third_stroke_local_and_whole(-0.35, 0.35);
+    let (_, b, _, _, _) = third_stroke_local_and_whole(-0.35, 0.35);
+    let bits = |f: &AttributeField| -> Vec<u64> {
+        f.volume()
+            .unwrap()
+            .homogeneous()
+            .iter()
+            .map(|v| v.to_bits())
+            .collect()
+    };
+    assert_eq!(bits(&a), bits(&b));
+}

@@ -5,6 +5,8 @@
 //!   normal equations `(N^T N) A = N^T P` (eq. 11); with `M < N` the minimum-norm
 //!   (pseudo-inverse) solution `A = N^T (N N^T)^{-1} P` (eqs. 12 to 15), which
 //!   interpolates the samples.
+//! - [`Volume::refit_local`] ([`local`]): the least squares of sec. 3.1 on the
+//!   control points near a change only, the others held, warm-started.
 //! - [`Volume::interpolate_grid`] (sec. 3.2): a curvilinear grid of points with
 //!   attributes; knots per direction by Hartley and Judd's method averaged over all grid
 //!   lines of that direction (eq. 24), parameters at the Greville abscissae of those
@@ -36,6 +38,9 @@ use thiserror::Error;
 use super::vtk::StructuredGrid;
 use super::{MAX_COMPONENTS, MAX_CONTROL_POINTS, MAX_DIRECTIONS, Volume, VolumeError};
 use crate::nurbs::knots::{KnotVector, MAX_DEGREE, MAX_ORDER};
+
+mod local;
+pub use local::LocalRegion;
 
 /// Why a fit or interpolation failed.
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -115,6 +120,10 @@ pub enum FitError {
         /// The degree asked for.
         degree: usize,
     },
+    /// A local refit of a rational volume ([`Volume::refit_local`] fits Cartesian
+    /// values with weights 1).
+    #[error("a local refit needs a non-rational volume (weights 1)")]
+    Rational,
     /// The fitted volume is invalid (values beyond the caps).
     #[error("{0}")]
     Volume(#[from] VolumeError),
@@ -297,10 +306,26 @@ impl Preconditioner for Tensor {
 
 /// Preconditioned conjugate gradients for `A X = B` with `k` columns solved together
 /// (each column has its own step lengths).
-fn pcg(a: &Csr, b: &[f64], k: usize, pre: &dyn Preconditioner) -> Result<Vec<f64>, FitError> {
+///
+/// `x0` starts the iteration (a warm start); zero when `None`.
+fn pcg(
+    a: &Csr,
+    b: &[f64],
+    k: usize,
+    pre: &dyn Preconditioner,
+    x0: Option<Vec<f64>>,
+) -> Result<Vec<f64>, FitError> {
     let n = a.start.len() - 1;
-    let mut x = vec![0.0; n * k];
     let mut r = b.to_vec();
+    let mut x = match x0 {
+        Some(x) => {
+            let mut ax = vec![0.0; n * k];
+            a.mul(&x, &mut ax, k);
+            r.iter_mut().zip(&ax).for_each(|(ri, v)| *ri -= v);
+            x
+        }
+        None => vec![0.0; n * k],
+    };
     let mut z = vec![0.0; n * k];
     pre.apply(&r, &mut z, k);
     let mut p = z.clone();
@@ -470,14 +495,7 @@ impl Volume {
                 });
             }
         }
-        let m = params.len() / n;
-        if params.len() != m * n || values.len() != m * k {
-            return Err(FitError::Shape {
-                what: "values (samples x attributes)",
-                got: values.len(),
-                need: m * k,
-            });
-        }
+        let m = sample_count(params, values, n, k)?;
         let need: usize = degrees.iter().map(|p| p + 1).product();
         if m < need {
             return Err(FitError::TooFewSamples { samples: m, need });
@@ -492,15 +510,7 @@ impl Volume {
                 }));
             }
         };
-        for s in 0..m {
-            if params[s * n..(s + 1) * n]
-                .iter()
-                .chain(&values[s * k..(s + 1) * k])
-                .any(|v| !v.is_finite())
-            {
-                return Err(FitError::NotFinite { sample: s });
-            }
-        }
+        check_finite(params, values, n, k)?;
         // Uniform clamped knots over the parameters' range.
         let mut kvs = Vec::with_capacity(n);
         let mut knots = Vec::with_capacity(n);
@@ -533,7 +543,7 @@ impl Volume {
         for d in (0..n - 1).rev() {
             strides[d] = strides[d + 1] * counts[d + 1];
         }
-        let offsets = local_offsets(degrees, &strides);
+        let layout = Layout::new(degrees, counts, &strides);
         let rows = SampleBases::new(&kvs, &strides, params);
         let stencil: usize = degrees.iter().map(|p| 2 * p + 1).product();
         if m >= total && total.saturating_mul(stencil) > MAX_NORMAL_ENTRIES {
@@ -551,9 +561,9 @@ impl Volume {
             });
         }
         let coeffs = if m >= total {
-            least_squares(&rows, &offsets, values, k, degrees, counts, &strides)?
+            least_squares(&rows, &layout, values, k)?
         } else {
-            minimum_norm(&rows, &offsets, values, total, k, degrees)?
+            minimum_norm(&rows, &layout.offsets, values, total, k, degrees)?
         };
         Ok(Volume::new(
             degrees.to_vec(),
@@ -565,154 +575,288 @@ impl Volume {
     }
 }
 
-/// The normal equations `(N^T N) A = N^T P` (Park 2005, eq. 11), sparse, by PCG.
-///
-/// Assembly goes cell by cell: the samples are bucketed by their knot-span cell
-/// (counting sort on the cell's first control point), each cell's
-/// `prod (p_d + 1)`-square block `sum_s N(s) N(s)^T` is accumulated densely (upper
-/// triangle, contiguous rows), then added once into the rows' stencils. The system
-/// is solved by conjugate gradients with the scaled tensor-product preconditioner
-/// ([`Tensor`]), or Jacobi when a direction's Gram matrix is singular.
-fn least_squares(
-    rows: &SampleBases,
-    offsets: &[usize],
-    values: &[f64],
-    k: usize,
-    degrees: &[usize],
-    counts: &[usize],
-    strides: &[usize],
-) -> Result<Vec<f64>, FitError> {
-    let n = degrees.len();
-    let total: usize = counts.iter().product();
-    let m = rows.len();
-    let nl = offsets.len();
-    // The stencil of a row: every offset vector in prod [-p_d, p_d].
-    let widths: Vec<usize> = degrees.iter().map(|p| 2 * p + 1).collect();
-    let stencil: usize = widths.iter().product();
-    let mut sstrides = vec![1; n];
-    for d in (0..n - 1).rev() {
-        sstrides[d] = sstrides[d + 1] * widths[d + 1];
-    }
-    // local index -> multi-index within the block.
-    let local: Vec<Vec<usize>> = (0..nl)
-        .map(|mut l| {
-            let mut idx = vec![0; n];
-            for d in (0..n).rev() {
-                idx[d] = l % (degrees[d] + 1);
-                l /= degrees[d] + 1;
-            }
-            idx
-        })
-        .collect();
-    // slot[a * nl + b]: where N_a N_b goes in row a's stencil.
-    let sstrides = &sstrides;
-    let slot: Vec<usize> = local
-        .iter()
-        .flat_map(|a| {
-            local.iter().map(move |b| {
-                (0..n)
-                    .map(|d| (b[d] + degrees[d] - a[d]) * sstrides[d])
-                    .sum::<usize>()
-            })
-        })
-        .collect();
-    // Bucket the samples by cell (counting sort on the first control point).
-    let mut bucket = vec![0usize; total + 1];
-    for &st in &rows.start {
-        bucket[st + 1] += 1;
-    }
-    for i in 0..total {
-        bucket[i + 1] += bucket[i];
-    }
-    let mut order = vec![0usize; m];
-    let mut fill = bucket.clone();
-    for (s, &st) in rows.start.iter().enumerate() {
-        order[fill[st]] = s;
-        fill[st] += 1;
-    }
-    let mut ata = vec![0.0; total * stencil];
-    let mut atb = vec![0.0; total * k];
-    // Per-direction Gram matrices of the marginals (for the preconditioner).
-    let mut grams: Vec<Vec<f64>> = counts.iter().map(|&c| vec![0.0; c * c]).collect();
-    let mut block = DMatrix::<f64>::zeros(nl, nl);
-    // The cell's samples' basis products, one column per sample.
-    let mut products: Vec<f64> = Vec::new();
-    let mut coef = Vec::with_capacity(nl);
-    for cell in 0..total {
-        let samples = &order[bucket[cell]..bucket[cell + 1]];
-        if samples.is_empty() {
-            continue;
+/// The index layout of a volume's normal matrix: every row's stencil of
+/// `prod (2 p_d + 1)` columns (the control points within `p_d` indices in every
+/// direction) and where each entry of a cell's block lands in it.
+struct Layout {
+    degrees: Vec<usize>,
+    counts: Vec<usize>,
+    strides: Vec<usize>,
+    /// `2 p_d + 1` per direction.
+    widths: Vec<usize>,
+    /// `prod widths`.
+    stencil: usize,
+    /// The cell's local control points, from its first (odometer order).
+    offsets: Vec<usize>,
+    /// `slot[a * nl + b]`: where `N_a N_b` goes in row `a`'s stencil.
+    slot: Vec<usize>,
+}
+
+impl Layout {
+    fn new(degrees: &[usize], counts: &[usize], strides: &[usize]) -> Self {
+        let n = degrees.len();
+        let offsets = local_offsets(degrees, strides);
+        let nl = offsets.len();
+        let widths: Vec<usize> = degrees.iter().map(|p| 2 * p + 1).collect();
+        let stencil: usize = widths.iter().product();
+        let mut sstrides = vec![1; n];
+        for d in (0..n - 1).rev() {
+            sstrides[d] = sstrides[d + 1] * widths[d + 1];
         }
-        products.clear();
-        for &s in samples {
-            rows.products(s, degrees, &mut coef);
-            products.extend_from_slice(&coef);
-            let val = &values[s * k..(s + 1) * k];
-            for (a, &ca) in coef.iter().enumerate() {
-                let ia = cell + offsets[a];
-                for (t, v) in atb[ia * k..(ia + 1) * k].iter_mut().zip(val) {
-                    *t += ca * v;
+        // local index -> multi-index within the block.
+        let local: Vec<Vec<usize>> = (0..nl)
+            .map(|mut l| {
+                let mut idx = vec![0; n];
+                for d in (0..n).rev() {
+                    idx[d] = l % (degrees[d] + 1);
+                    l /= degrees[d] + 1;
                 }
+                idx
+            })
+            .collect();
+        let sstrides = &sstrides;
+        let slot: Vec<usize> = local
+            .iter()
+            .flat_map(|a| {
+                local.iter().map(move |b| {
+                    (0..n)
+                        .map(|d| (b[d] + degrees[d] - a[d]) * sstrides[d])
+                        .sum::<usize>()
+                })
+            })
+            .collect();
+        Self {
+            degrees: degrees.to_vec(),
+            counts: counts.to_vec(),
+            strides: strides.to_vec(),
+            widths,
+            stencil,
+            offsets,
+            slot,
+        }
+    }
+
+    fn total(&self) -> usize {
+        self.counts.iter().product()
+    }
+
+    /// The multi-index of flat control point `flat`, into `idx`.
+    fn unflatten(&self, mut flat: usize, idx: &mut [usize]) {
+        for d in (0..self.counts.len()).rev() {
+            idx[d] = flat % self.counts[d];
+            flat /= self.counts[d];
+        }
+    }
+
+    /// The flat index of every cell (its first control point) whose block holds a
+    /// point `free` marks: `first_d <= count_d - p_d - 1` in every direction.
+    fn cells_touching(&self, free: &[bool]) -> Vec<bool> {
+        let n = self.counts.len();
+        let mut idx = vec![0usize; n];
+        (0..self.total())
+            .map(|cell| {
+                self.unflatten(cell, &mut idx);
+                (0..n).all(|d| idx[d] + self.degrees[d] < self.counts[d])
+                    && self.offsets.iter().any(|&o| free[cell + o])
+            })
+            .collect()
+    }
+
+    /// Sums the normal equations' rows `N^T N` (stencil-wise) and `N^T P` over the
+    /// cells `cells` marks (all when `None`) into the rows `row_of` gives each control
+    /// point (`FIXED`: not summed), `rows` of them.
+    ///
+    /// Cell by cell: the samples are bucketed by their knot-span cell (counting sort on
+    /// the cell's first control point), each cell's `prod (p_d + 1)`-square block
+    /// `sum_s N(s) N(s)^T` is one dense product, added once into the rows' stencils.
+    /// Also the per-direction Gram matrices of the samples' marginals (for
+    /// [`Tensor`]).
+    fn assemble(
+        &self,
+        samples: &SampleBases,
+        values: &[f64],
+        k: usize,
+        (row_of, rows): (&[usize], usize),
+        cells: Option<&[bool]>,
+    ) -> Normal {
+        let n = self.degrees.len();
+        let (degrees, counts, offsets) = (&self.degrees, &self.counts, &self.offsets);
+        let total = self.total();
+        let (nl, stencil) = (offsets.len(), self.stencil);
+        let m = samples.len();
+        // Bucket the samples by cell (counting sort on the first control point).
+        let mut bucket = vec![0usize; total + 1];
+        for &st in &samples.start {
+            bucket[st + 1] += 1;
+        }
+        for i in 0..total {
+            bucket[i + 1] += bucket[i];
+        }
+        let mut order = vec![0usize; m];
+        let mut fill = bucket.clone();
+        for (s, &st) in samples.start.iter().enumerate() {
+            order[fill[st]] = s;
+            fill[st] += 1;
+        }
+        let mut out = Normal {
+            ata: vec![0.0; rows * stencil],
+            atb: vec![0.0; rows * k],
+            grams: counts.iter().map(|&c| vec![0.0; c * c]).collect(),
+        };
+        let mut block = DMatrix::<f64>::zeros(nl, nl);
+        // The cell's samples' basis products, one column per sample.
+        let mut products: Vec<f64> = Vec::new();
+        let mut coef = Vec::with_capacity(nl);
+        for cell in 0..total {
+            let in_cell = &order[bucket[cell]..bucket[cell + 1]];
+            if in_cell.is_empty() || cells.is_some_and(|c| !c[cell]) {
+                continue;
             }
-            for (d, g) in grams.iter_mut().enumerate() {
-                let (c, p) = (counts[d], degrees[d]);
-                let f = rows.first[s * n + d];
-                let b = &rows.basis[s * n + d];
-                for i in 0..=p {
-                    for j in 0..=p {
-                        g[(f + i) * c + f + j] += b[i] * b[j];
+            products.clear();
+            for &s in in_cell {
+                samples.products(s, degrees, &mut coef);
+                products.extend_from_slice(&coef);
+                let val = &values[s * k..(s + 1) * k];
+                for (a, &ca) in coef.iter().enumerate() {
+                    let ia = row_of[cell + offsets[a]];
+                    if ia == FIXED {
+                        continue;
+                    }
+                    for (t, v) in out.atb[ia * k..(ia + 1) * k].iter_mut().zip(val) {
+                        *t += ca * v;
+                    }
+                }
+                for (d, g) in out.grams.iter_mut().enumerate() {
+                    let (c, p) = (counts[d], degrees[d]);
+                    let f = samples.first[s * n + d];
+                    let b = &samples.basis[s * n + d];
+                    for i in 0..=p {
+                        for j in 0..=p {
+                            g[(f + i) * c + f + j] += b[i] * b[j];
+                        }
                     }
                 }
             }
-        }
-        // block = B^T B with B the samples x nl matrix of products (a BLAS-3 product,
-        // nalgebra's gemm through matrixmultiply): `bt` holds B^T column-major, and
-        // the view reads the same memory as B.
-        let bt = DMatrixView::from_slice(&products, nl, samples.len());
-        let b = DMatrixView::from_slice_with_strides(&products, samples.len(), nl, nl, 1);
-        block.gemm(1.0, &bt, &b, 0.0);
-        for a in 0..nl {
-            let base = (cell + offsets[a]) * stencil;
-            for b in 0..nl {
-                ata[base + slot[a * nl + b]] += block[(a, b)];
+            // block = B^T B with B the samples x nl matrix of products (a BLAS-3
+            // product, nalgebra's gemm through matrixmultiply): `bt` holds B^T
+            // column-major, and the view reads the same memory as B.
+            let bt = DMatrixView::from_slice(&products, nl, in_cell.len());
+            let b = DMatrixView::from_slice_with_strides(&products, in_cell.len(), nl, nl, 1);
+            block.gemm(1.0, &bt, &b, 0.0);
+            for a in 0..nl {
+                let row = row_of[cell + offsets[a]];
+                if row == FIXED {
+                    continue;
+                }
+                let base = row * stencil;
+                for b in 0..nl {
+                    out.ata[base + self.slot[a * nl + b]] += block[(a, b)];
+                }
             }
         }
+        out
     }
+
+    /// Compressed rows of the stencil rows `ata` (row `r` is control point
+    /// `points[r]`): every non-zero entry is offered to `keep(row, column point,
+    /// value)`, which gives its column in the result or `None` to leave it out.
+    fn compress(
+        &self,
+        ata: &[f64],
+        points: &[usize],
+        mut keep: impl FnMut(usize, usize, f64) -> Option<usize>,
+    ) -> Csr {
+        let n = self.degrees.len();
+        let mut csr = Csr {
+            start: Vec::with_capacity(points.len() + 1),
+            col: Vec::new(),
+            val: Vec::new(),
+        };
+        csr.start.push(0);
+        let mut idx = vec![0usize; n];
+        for (r, &point) in points.iter().enumerate() {
+            self.unflatten(point, &mut idx);
+            for sidx in 0..self.stencil {
+                let v = ata[r * self.stencil + sidx];
+                if v == 0.0 {
+                    continue;
+                }
+                let mut col = 0isize;
+                let mut rest = sidx;
+                for d in (0..n).rev() {
+                    let off = (rest % self.widths[d]) as isize - self.degrees[d] as isize;
+                    rest /= self.widths[d];
+                    col += (idx[d] as isize + off) * self.strides[d] as isize;
+                }
+                if let Some(c) = keep(r, col as usize, v) {
+                    csr.col.push(c);
+                    csr.val.push(v);
+                }
+            }
+            csr.start.push(csr.col.len());
+        }
+        csr
+    }
+}
+
+/// `row_of` marks a control point held fixed (not a row of the system).
+const FIXED: usize = usize::MAX;
+
+/// Summed normal equations: stencil rows of `N^T N`, `N^T P` (`k` per row) and the
+/// per-direction Gram matrices of the samples' marginals.
+struct Normal {
+    ata: Vec<f64>,
+    atb: Vec<f64>,
+    grams: Vec<Vec<f64>>,
+}
+
+/// The number of samples of `n` parameters and `k` values each; refused when the
+/// lengths disagree ([`FitError::Shape`]).
+fn sample_count(params: &[f64], values: &[f64], n: usize, k: usize) -> Result<usize, FitError> {
+    let m = params.len() / n;
+    if params.len() != m * n || values.len() != m * k {
+        return Err(FitError::Shape {
+            what: "values (samples x attributes)",
+            got: values.len(),
+            need: m * k,
+        });
+    }
+    Ok(m)
+}
+
+/// The first sample (`n` parameters and `k` values each) with a NaN or infinite
+/// number is refused ([`FitError::NotFinite`]).
+fn check_finite(params: &[f64], values: &[f64], n: usize, k: usize) -> Result<(), FitError> {
+    match params
+        .chunks_exact(n)
+        .zip(values.chunks_exact(k))
+        .position(|(u, v)| u.iter().chain(v).any(|x| !x.is_finite()))
+    {
+        Some(sample) => Err(FitError::NotFinite { sample }),
+        None => Ok(()),
+    }
+}
+
+/// The normal equations `(N^T N) A = N^T P` (Park 2005, eq. 11), sparse, by PCG.
+///
+/// Assembled cell by cell ([`Layout::assemble`]) and solved by conjugate gradients
+/// with the scaled tensor-product preconditioner ([`Tensor`]), or Jacobi when a
+/// direction's Gram matrix is singular.
+fn least_squares(
+    rows: &SampleBases,
+    layout: &Layout,
+    values: &[f64],
+    k: usize,
+) -> Result<Vec<f64>, FitError> {
+    let total = layout.total();
+    let identity: Vec<usize> = (0..total).collect();
+    let normal = layout.assemble(rows, values, k, (&identity, total), None);
     // Compress: keep the non-zero stencil entries, with their column indices.
-    let mut csr = Csr {
-        start: Vec::with_capacity(total + 1),
-        col: Vec::new(),
-        val: Vec::new(),
-    };
-    csr.start.push(0);
-    let mut idx = vec![0usize; n];
-    for r in 0..total {
-        let mut rest = r;
-        for d in (0..n).rev() {
-            idx[d] = rest % counts[d];
-            rest /= counts[d];
-        }
-        for sidx in 0..stencil {
-            let v = ata[r * stencil + sidx];
-            if v == 0.0 {
-                continue;
-            }
-            let mut col = 0isize;
-            let mut rest = sidx;
-            for d in (0..n).rev() {
-                let off = (rest % widths[d]) as isize - degrees[d] as isize;
-                rest /= widths[d];
-                col += (idx[d] as isize + off) * strides[d] as isize;
-            }
-            csr.col.push(col as usize);
-            csr.val.push(v);
-        }
-        csr.start.push(csr.col.len());
-    }
-    drop(ata);
-    match Tensor::new(&csr, &grams, counts) {
-        Some(pre) => pcg(&csr, &atb, k, &pre),
-        None => pcg(&csr, &atb, k, &Jacobi::new(&csr)),
+    let csr = layout.compress(&normal.ata, &identity, |_, col, _| Some(col));
+    drop(normal.ata);
+    match Tensor::new(&csr, &normal.grams, &layout.counts) {
+        Some(pre) => pcg(&csr, &normal.atb, k, &pre, None),
+        None => pcg(&csr, &normal.atb, k, &Jacobi::new(&csr), None),
     }
 }
 

@@ -82,7 +82,7 @@ pub use analysis::{Frame, VectorDerivatives, VolumeInverter};
 pub use critical::{CriticalKind, CriticalPoint};
 pub use error::{NetIndex, VolumeError, VolumeResult};
 pub use eval::Derivatives;
-pub use fit::FitError;
+pub use fit::{FitError, LocalRegion};
 pub use integrate::Integrals;
 pub use streamline::{FlowField, Streamline, StreamlineEnd, StreamlineOptions};
 pub use vtk::{PointArray, StructuredGrid, VtkError};
