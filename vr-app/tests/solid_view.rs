@@ -98,9 +98,19 @@ fn golden_pictures_of_a_carved_solid_final_and_live() {
         "{:?}",
         app.hud_lines()
     );
+    let mut renderer = Renderer::new(&gpu, wgpu::TextureFormat::Rgba8Unorm);
+    // The uncut plate, from an app of its own: the pictures below are of an app that
+    // drew nothing before the stroke.
+    let other = tempfile::tempdir().unwrap();
+    let uncut = render_at(
+        &mut plate_app(other.path()),
+        &mut Renderer::new(&gpu, wgpu::TextureFormat::Rgba8Unorm),
+        Detail::Interactive,
+        GOLDEN_SIZE.0,
+        GOLDEN_SIZE.1,
+    );
     play(&mut app, &stroke_events(false));
     assert!(app.session.interaction.gesture_active(), "a live stroke");
-    let mut renderer = Renderer::new(&gpu, wgpu::TextureFormat::Rgba8Unorm);
     let live = render_at(
         &mut app,
         &mut renderer,
@@ -120,13 +130,19 @@ fn golden_pictures_of_a_carved_solid_final_and_live() {
         GOLDEN_SIZE.1,
     );
     golden_image::compare_or_bless("solid-final.png", &done.composite);
-    let changed = live
-        .composite
-        .pixels()
-        .zip(done.composite.pixels())
-        .filter(|(a, b)| a != b)
-        .count();
-    assert!(changed > 100, "the slot shows: {changed} pixels changed");
+    // The slot shows while the stroke is drawn (the live groove, issue 35 item 3) and
+    // after it: each picture differs from the uncut plate's in the slot's pixels.
+    let changed = |a: &image::RgbaImage, b: &image::RgbaImage| {
+        a.pixels().zip(b.pixels()).filter(|(a, b)| a != b).count()
+    };
+    let (while_drawn, carved) = (
+        changed(&uncut.composite, &live.composite),
+        changed(&uncut.composite, &done.composite),
+    );
+    assert!(
+        while_drawn > 100 && carved > 100,
+        "the slot shows: {while_drawn} pixels changed while drawn, {carved} after"
+    );
 }
 
 /// Whether the ray through pixel `(x, y)` of `cam` (a `w` x `h` image) meets the
