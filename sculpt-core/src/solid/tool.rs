@@ -304,21 +304,21 @@ impl SweptTool {
 
     /// Combines this tool into the corner values `values` of a box of grid corners
     /// (`m` corners per axis, x fastest; `points` their positions): each becomes what
-    /// [`super::combine`] of [`Self::value_among`] over every segment gives, bit for bit
+    /// `combine` of [`Self::value_among`] over every segment gives, bit for bit
     /// up to the sign of a zero, while the tool is evaluated only where it can change
     /// the value. Returns whether any value changed.
     ///
     /// A carve leaves `v` alone where `g <= -v`, an emboss where `g <= v` (the f32
     /// rounding of `g` is monotone and `v` is an f32), so with `tau = -v` (carve) or `v`
-    /// (emboss) a segment matters at a corner only within [`Self::radius_above`]`(tau)`
-    /// of it, and only less than [`Self::along_above`]`(tau)` past its ends along it.
+    /// (emboss) a segment matters at a corner only within `radius_above``(tau)`
+    /// of it, and only less than `along_above``(tau)` past its ends along it.
     /// The box is split into sub-boxes of [`SUB_CORNERS`] corners a side; for each, the
     /// segments whose reach box meets it ([`Self::segments_near`]) are kept when the
     /// sub-box's nearest point may lie within both bounds at its extreme `tau` (the
     /// distances from its centre less its half diagonal), nearest first. A sub-box keeping none is left alone. At each corner of the rest a
     /// segment is skipped when the corner lies outside either bound of
     /// `max(tau, best so far)` (its piece can neither change the value nor raise the
-    /// maximum past `tau`), and the scan stops once that exceeds [`Self::ceiling`]. A
+    /// maximum past `tau`), and the scan stops once that exceeds `ceiling`. A
     /// corner whose value is NaN (the R-functions' "undefined") takes every kept segment.
     pub fn apply(&self, points: &[[f32; 3]], m: [usize; 3], values: &mut [f32]) -> bool {
         let tau = |v: f32| match self.mode {

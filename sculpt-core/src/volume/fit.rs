@@ -5,7 +5,7 @@
 //!   normal equations `(N^T N) A = N^T P` (eq. 11); with `M < N` the minimum-norm
 //!   (pseudo-inverse) solution `A = N^T (N N^T)^{-1} P` (eqs. 12 to 15), which
 //!   interpolates the samples.
-//! - [`Volume::refit_local`] ([`local`]): the least squares of sec. 3.1 on the
+//! - [`Volume::refit_local`] (the `local` module): the least squares of sec. 3.1 on the
 //!   control points near a change only, the others held, warm-started.
 //! - [`Volume::interpolate_grid`] (sec. 3.2): a curvilinear grid of points with
 //!   attributes; knots per direction by Hartley and Judd's method averaged over all grid
