@@ -115,6 +115,8 @@ pub struct GpuVolume {
     components: usize,
     max_binding: u64,
     max_groups: u32,
+    /// How readbacks wait for the GPU ([`Wait::for_adapter`], chosen once).
+    wait: Wait,
     /// Wall time of the upload, shader and pipeline creation.
     pub setup: Duration,
 }
@@ -260,6 +262,7 @@ impl GpuVolume {
             components: vol.components(),
             max_binding,
             max_groups: limits.max_compute_workgroups_per_dimension.max(1),
+            wait: Wait::for_adapter(gpu),
             setup: start.elapsed(),
         })
     }
@@ -401,7 +404,7 @@ impl GpuVolume {
             groups,
         };
         Ok(dispatch
-            .read_back(gpu, out, readback, dst, Wait::for_adapter(gpu))?
+            .read_back(gpu, out, readback, dst, self.wait)?
             .total)
     }
 }
